@@ -1,0 +1,225 @@
+"""Property checks usable outside pytest, each returning a :class:`CheckResult`.
+
+A check is a function of one drawn example that returns ``(ratio, digits)``:
+``ratio`` is the worst error / tolerance (a pass needs ``ratio <= 1``) and
+``digits`` the correct significant digits where that is meaningful. The
+runner :func:`run_property` drives it with Hypothesis (shrinking a failure to
+a minimal example) and records the number of examples, the worst ratio and
+the falsifying example.
+
+Core checks (issue "the core"):
+
+``routes_agree`` (vier9)
+    the reference's closed formulas against inverting the ``2n x 2n`` matrix
+    of omega_L, at 50 digits, tolerance ``1e-40 * max|P|``;
+``fast_matches_reference`` (vier9)
+    the fast implementation against the 30-digit reference, tolerance the
+    fast implementation's own per-point error bound;
+``precision_ladder``
+    the reference at dps 30 and 60 against dps 120, tolerance
+    ``10^-(dps-3) * max|P|``;
+``h2_published`` (zeven1, zeven3)
+    ``dim H^2`` (exact) against :data:`oracles.PUBLISHED_H2`.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import time
+from dataclasses import asdict, dataclass, field
+from typing import Any, Callable
+
+import mpmath
+import numpy as np
+from hypothesis import HealthCheck, given, settings
+from hypothesis import seed as hyp_seed
+from hypothesis import strategies as st
+from hypothesis.errors import Unsatisfiable
+
+from refimpl import CATALOGUE_NAMES, catalogue, cohomology
+from refimpl.fast import implementation as fast
+from refimpl.reference import DegeneratePointError, Reference
+
+from .strategies import REGIMES, cocycles, points, rationals, upsilons
+
+__all__ = ["CheckResult", "run_property", "CORE_CHECKS", "routes_agree", "fast_matches_reference",
+           "precision_ladder", "h2_published"]
+
+
+@dataclass
+class CheckResult:
+    """The verdict of one check: examples run, worst error/tolerance ratio, digits, and why it failed."""
+
+    name: str
+    equations: str
+    examples: int = 0
+    worst_ratio: float = 0.0
+    min_digits: float | None = None
+    passed: bool = True
+    skipped: int = 0
+    detail: str = ""
+    falsifying_example: str = ""
+    seconds: float = 0.0
+    extra: dict = field(default_factory=dict)
+
+    def to_json(self) -> dict:
+        d = asdict(self)
+        for k in ("worst_ratio", "min_digits"):
+            v = d[k]
+            if isinstance(v, float) and not math.isfinite(v):
+                d[k] = str(v)
+        return d
+
+
+def _mp_max_abs_diff(a, b) -> tuple[mpmath.mpf, mpmath.mpf]:
+    with mpmath.workdps(200):
+        A = [mpmath.mpf(v) for v in np.asarray(a, dtype=object).ravel()]
+        B = [mpmath.mpf(v) for v in np.asarray(b, dtype=object).ravel()]
+        diff = max((abs(x - y) for x, y in zip(A, B)), default=mpmath.mpf(0))
+        scale = max([mpmath.mpf(1)] + [abs(y) for y in B])
+        return diff, scale
+
+
+def _digits(diff, scale) -> float:
+    with mpmath.workdps(50):
+        return float("inf") if diff == 0 else float(-mpmath.log10(diff / scale))
+
+
+def _mp_array(m) -> np.ndarray:
+    return np.array([[m[i, j] for j in range(m.cols)] for i in range(m.rows)], dtype=object)
+
+
+def run_property(name: str, equations: str, body: Callable[[Any], tuple[float, float | None]],
+                 strategy: st.SearchStrategy, *, max_examples: int, seed: int | None = 0,
+                 extra: dict | None = None) -> CheckResult:
+    """Run ``body`` over ``strategy`` with Hypothesis; a ratio above 1 is a failure, shrunk to a minimal example.
+
+    ``body`` may return ``None`` to skip an example (e.g. a point exactly on the degenerate set).
+    """
+    res = CheckResult(name=name, equations=equations, extra=dict(extra or {}))
+    t0 = time.perf_counter()
+
+    @settings(max_examples=max_examples, deadline=None, database=None,
+              suppress_health_check=list(HealthCheck), print_blob=False)
+    @given(strategy)
+    def inner(example):
+        out = body(example)
+        if out is None:
+            res.skipped += 1
+            return
+        ratio, digits = out
+        res.examples += 1
+        res.worst_ratio = max(res.worst_ratio, float(ratio))
+        if digits is not None:
+            res.min_digits = digits if res.min_digits is None else min(res.min_digits, digits)
+        assert ratio <= 1.0, f"{name}: error/tolerance ratio {ratio:.3g} > 1"
+
+    if seed is not None:
+        inner = hyp_seed(seed)(inner)
+    buf = io.StringIO()
+    from hypothesis.reporting import with_reporter
+
+    try:
+        with with_reporter(lambda s: buf.write(str(s) + "\n")):
+            inner()
+    except Unsatisfiable as exc:
+        res.passed = res.examples > 0
+        res.detail = f"unsatisfiable: {exc}"
+    except Exception as exc:  # noqa: BLE001 - any failure of the check is its verdict
+        res.passed = False
+        res.detail = f"{type(exc).__name__}: {exc}"[:2000]
+        res.falsifying_example = buf.getvalue()[:4000]
+    res.seconds = time.perf_counter() - t0
+    return res
+
+
+# ------------------------------------------------------------------ strategies
+@st.composite
+def _model_and_point(draw, names=CATALOGUE_NAMES, exact=True, regime="generic"):
+    name = draw(st.sampled_from(list(names)), label="algebra")
+    alg = catalogue(name)
+    n = alg.dim
+    theta = draw(cocycles(alg, exact=exact), label="theta")
+    ups = draw(upsilons(n, exact=exact, zero=False if regime == "near_degenerate" and n > 1 else None), label="upsilon")
+    if exact:
+        vec = st.lists(rationals(denominator=10), min_size=n, max_size=n)
+        return name, theta, ups, draw(vec, label="x"), draw(vec, label="pi")
+    x, pi = draw(points(alg, theta, ups, regime=regime), label="point")
+    return name, theta, ups, x, pi
+
+
+# ---------------------------------------------------------------------- checks
+def routes_agree(example) -> tuple[float, float] | None:
+    name, theta, ups, x, pi = example
+    alg = catalogue(name)
+    ref = Reference(50)
+    try:
+        P1 = ref.poisson_tensor_mp(alg, theta, ups, x, pi, route="closed")
+    except DegeneratePointError:
+        return None
+    P2 = ref.poisson_tensor_mp(alg, theta, ups, x, pi, route="first_principles")
+    diff, scale = _mp_max_abs_diff(_mp_array(P1), _mp_array(P2))
+    return float(diff / (mpmath.mpf(10) ** -40 * scale)), _digits(diff, scale)
+
+
+_REF30 = Reference(30)
+
+
+def fast_matches_reference(example) -> tuple[float, float] | None:
+    name, theta, ups, x, pi = example
+    alg = catalogue(name)
+    res = fast.poisson_batch(alg.f, theta, ups, x, pi)
+    if res.degenerate:
+        return None
+    P_ref = _REF30.poisson_tensor(alg.f, theta, ups, x, pi)
+    err = float(np.max(np.abs(res.P - P_ref)))
+    scale = max(1.0, float(np.max(np.abs(P_ref))))
+    digits = float("inf") if err == 0 else -math.log10(err / scale)
+    return err / float(res.error_bound), digits
+
+
+def precision_ladder(example) -> tuple[float, float] | None:
+    name, theta, ups, x, pi = example
+    alg = catalogue(name)
+    try:
+        Ps = {d: _mp_array(Reference(d).poisson_tensor_mp(alg, theta, ups, x, pi)) for d in (30, 60, 120)}
+    except DegeneratePointError:
+        return None
+    worst, digits = 0.0, float("inf")
+    for d in (30, 60):
+        diff, scale = _mp_max_abs_diff(Ps[d], Ps[120])
+        worst = max(worst, float(diff / (mpmath.mpf(10) ** -(d - 3) * scale)))
+        digits = min(digits, _digits(diff, scale))
+    return worst, digits
+
+
+def h2_published(name) -> tuple[float, float | None]:
+    from oracles import PUBLISHED_H2
+
+    got = cohomology(catalogue(name), exact=True).dim_h2
+    return (0.0 if got == PUBLISHED_H2[name] else float("inf")), None
+
+
+def core_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
+    """The checks of the core issue, at a Hypothesis budget of ``max_examples`` per check."""
+    small = [n for n in CATALOGUE_NAMES if catalogue(n).dim <= 6]
+    out = [
+        run_property("routes_agree", "vier3, vier9", routes_agree, _model_and_point(),
+                     max_examples=max_examples, seed=seed, extra={"tolerance": "1e-40 max|P| at dps 50"}),
+        run_property("precision_ladder", "vier9", precision_ladder, _model_and_point(small),
+                     max_examples=max(3, max_examples // 4), seed=seed,
+                     extra={"tolerance": "10^-(dps-3) max|P|, dps 30/60 vs 120"}),
+        run_property("h2_published", "zeven1, zeven3", h2_published, st.sampled_from(list(CATALOGUE_NAMES)),
+                     max_examples=len(CATALOGUE_NAMES) * 2, seed=seed, extra={"source": "oracles/published.py"}),
+    ]
+    for regime in REGIMES:
+        names = [n for n in CATALOGUE_NAMES if regime != "near_degenerate" or catalogue(n).f.any()]
+        out.append(run_property(f"fast_matches_reference[{regime}]", "vier9", fast_matches_reference,
+                                _model_and_point(names, exact=False, regime=regime),
+                                max_examples=max_examples, seed=seed,
+                                extra={"tolerance": "per-point error_bound of refimpl.fast"}))
+    return out
+
+
+CORE_CHECKS = ("routes_agree", "precision_ladder", "h2_published", "fast_matches_reference")

@@ -1,0 +1,43 @@
+"""refimpl: the system itself -- Lie algebras, cohomology, frames, and the two implementations.
+
+Public API (everything else is private):
+
+Algebras
+    :class:`LieAlgebra` (validated structure constants ``f[m, a, b] = f^m_ab``),
+    the catalogue (:func:`catalogue`, :data:`CATALOGUE_NAMES`, :func:`su2`,
+    :func:`so3_other_basis`, :func:`sl2r`, :func:`abelian`, :func:`heisenberg`,
+    :func:`bianchi`, :func:`aff1`, :func:`se2`, :func:`se3`, :func:`so4`,
+    :func:`su3`, :func:`sl3r`).
+Cohomology (zeven1, zeven3)
+    :func:`delta1`, :func:`delta2`, :func:`cocycle_basis`, :func:`coboundary_basis`,
+    :func:`cohomology`, :func:`h2_dim`, :func:`check_cocycle`, :func:`solve_coboundary`.
+Frames (twee1, twee3)
+    :func:`frames` (float64 or mpmath at any precision).
+Implementations (DESIGN.md protocol)
+    :mod:`refimpl.reference` (``Reference(dps)``, ``implementation`` at 50 digits)
+    and :mod:`refimpl.fast` (``Fast``, ``implementation``); :class:`Implementation`
+    states the protocol.
+"""
+
+from ._algebra import LieAlgebra
+from ._catalogue import (
+    BIANCHI_TYPES, CATALOGUE_NAMES, abelian, aff1, bianchi, catalogue, heisenberg, se2, se3, sl2r, sl3r,
+    so3_other_basis, so4, su2, su3,
+)
+from ._cohomology import (
+    Cohomology, check_cocycle, coboundary_basis, cocycle_basis, cocycle_residual, cohomology, delta1, delta2,
+    h2_dim, solve_coboundary,
+)
+from ._frames import frames
+from ._protocol import Implementation
+from .fast import DegeneratePointError as FastDegeneratePointError
+from .fast import Fast
+from .reference import DegeneratePointError, Reference
+
+__all__ = [
+    "LieAlgebra", "BIANCHI_TYPES", "CATALOGUE_NAMES", "abelian", "aff1", "bianchi", "catalogue", "heisenberg",
+    "se2", "se3", "sl2r", "sl3r", "so3_other_basis", "so4", "su2", "su3",
+    "Cohomology", "check_cocycle", "coboundary_basis", "cocycle_basis", "cocycle_residual", "cohomology",
+    "delta1", "delta2", "h2_dim", "solve_coboundary",
+    "frames", "Implementation", "Fast", "Reference", "DegeneratePointError", "FastDegeneratePointError",
+]

@@ -1,0 +1,620 @@
+"""The fast implementation: numpy float64, batched over any leading axes, with error bounds.
+
+Same mathematics as :mod:`refimpl.reference` (CONVENTIONS.md), computed
+independently:
+
+* **su(2) closed forms** (``f = eps`` exactly): ``L(g,e) = 1 + K/2 + c K^2``
+  with ``K = ad_x = [x]_x``, ``c = (1 - (t/2) cot(t/2)) / t^2``, ``t = |x|``;
+  ``Phi = C1 + tau pi'^T``, ``Psi^-1 = (1 - pi' tau^T)/C1`` with
+  ``C1 = 1 - pi'.tau``, ``pi' = pi + xi`` (section cinq), so that
+  ``P_xp = L Psi^-1``, ``P_pp = [pi']_x / C1`` and
+  ``P_xx = det(L) [phi1(K) tau]_x / C1`` (from ``M [v]_x M^T = det M [M^-T v]_x``).
+  Evaluated components-first in cache-sized chunks.
+* **any algebra**: batched matrices. ``L(g,e) = B(ad_x)`` with
+  ``B(z) = z/(1-e^-z) = 1 + z/2 + sum_k B_2k z^2k/(2k)!`` summed by
+  Paterson-Stockmeyer in ``ad_x^2`` when ``||ad_x||_F < pi`` (no inverse
+  needed; the tail bound ``3.3 r^(2K+2)/(1-r^2)``, ``r = ||ad_x||/2pi``, sets
+  the number of terms), otherwise ``phi1(-ad_x)`` by scaling and squaring and
+  a solve. Then ``P_xp = L Psi^-1``, ``P_pp = -S Psi^-1``,
+  ``P_xx = -P_xp U L^T`` (vier9; ``Psi^-1 U = U Phi^-1``).
+* **work skipped**: with ``Upsilon = 0`` no Phi is formed or solved
+  (``Phi = 1``, ``cond = 1``, ``P_xx = 0``); with ``Theta = 0`` nothing of
+  Theta is touched; with ``potential = None`` no ``Ad(g)`` is computed.
+
+Every batch result carries, per point:
+
+``cond_phi``
+    ``||Phi||_F ||Phi^-1||_F / n`` (1 at Phi = 1; within a factor n of the
+    2-norm condition number).
+``cond_data``
+    ``||Phi^-1||_F (1 + ||S||_F ||Upsilon||_F) / sqrt(n)``: the sensitivity of
+    Phi^-1 to rounding in its data ``S``, ``Upsilon``. It can exceed
+    ``cond_phi`` by any factor: on a 2-dimensional algebra ``Phi = (1 - us) 1``
+    has ``cond_phi = 1`` however close Delta is to 0, while the cancellation
+    in ``1 - us`` costs ``1/|1 - us|`` of relative accuracy.
+``error_bound``
+    a bound on ``max_ij |P_fast - P_exact|``:
+    ``C_P * n * eps * max(cond_phi, cond_data) * frame_cond * scale`` with ``C_P = 16``,
+    ``frame_cond = 1/(1 - |x|/2pi)`` for su(2) (``1/(1-r)`` in general) and
+    ``scale = max_ij |P|``. Tested against the mpmath reference across
+    conditioning regimes.
+``degenerate``
+    ``True`` where Phi is singular to working precision
+    (``cond_phi * n * eps >= 1/16`` or C1 = 0): the point lies on the
+    degenerate set Pi_1 (vier12) to float64 accuracy. ``P`` is NaN there;
+    such points are never dropped. The protocol methods raise
+    :class:`DegeneratePointError` (a ``ValueError``) naming them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from ._protocol import Implementation
+from ._validate import (
+    check_inertia, check_points, check_potential, check_structure_constants, check_theta, check_upsilon,
+)
+
+__all__ = ["Fast", "implementation", "PoissonBatch", "FieldBatch", "DegeneratePointError", "C_P"]
+
+EPS = np.finfo(float).eps
+C_P = 16.0          # constant of the error model, see the module docstring
+CHUNK = 16384       # points per chunk of the su(2) kernel (arrays of 128 KiB stay in cache)
+TWO_PI = 2 * np.pi
+
+
+class DegeneratePointError(ValueError):
+    """Points on the degenerate set Pi_1 (Delta = 0, vier12), where no vector field exists."""
+
+
+@dataclass(frozen=True)
+class PoissonBatch:
+    """Poisson tensors of a batch and their per-point diagnostics (see the module docstring).
+
+    ``P`` has shape ``(..., 2n, 2n)`` for ``layout="points"`` and
+    ``(2n, 2n, ...)`` for ``layout="components"``.
+    """
+
+    P: np.ndarray
+    cond_phi: np.ndarray
+    cond_data: np.ndarray
+    error_bound: np.ndarray
+    degenerate: np.ndarray
+    path: str
+
+
+@dataclass(frozen=True)
+class FieldBatch:
+    xdot: np.ndarray
+    pidot: np.ndarray
+    cond_phi: np.ndarray
+    cond_data: np.ndarray
+    error_bound: np.ndarray
+    degenerate: np.ndarray
+    path: str
+
+
+# ------------------------------------------------------------ model analysis
+@lru_cache(maxsize=1)
+def _eps3() -> np.ndarray:
+    e = np.zeros((3, 3, 3))
+    for a, b, c in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+        e[a, b, c] = 1.0
+        e[a, c, b] = -1.0
+    return e
+
+
+def _is_su2(f: np.ndarray) -> bool:
+    return f.shape == (3, 3, 3) and bool(np.array_equal(f, _eps3()))
+
+
+@lru_cache(maxsize=8)
+def _bernoulli_even(k_max: int) -> np.ndarray:
+    """``b_k = B_2k / (2k)!`` for ``k = 1..k_max`` (exact rationals rounded once)."""
+    import sympy
+
+    return np.array([float(sympy.bernoulli(2 * k) / sympy.factorial(2 * k)) for k in range(1, k_max + 1)])
+
+
+def _series_terms(r: float) -> int:
+    """Smallest K with ``3.3 r^(2K+2) / (1 - r^2) <= eps/8`` (tail of the B series)."""
+    if r <= 0:
+        return 1
+    target = EPS / 8 * (1 - r * r) / 3.3
+    return max(1, int(np.ceil((np.log(target) / np.log(r) - 2) / 2)))
+
+
+# ------------------------------------------------------------- su(2) kernel
+def _su2_frame_coeffs(t2: np.ndarray):
+    """``c(t)``, ``lam = (t/2)/sin(t/2)`` (so det L = lam^2) and ``a2 = (t - sin t)/t^3``."""
+    t = np.sqrt(t2)
+    # Below t = 1/4 the closed forms lose ~1/t^2 digits to cancellation; the
+    # series' first omitted term there is < 1e-18 relative.
+    small = t < 0.25
+    ts = np.where(small, 1.0, t)
+    h = 0.5 * ts
+    s, co = np.sin(h), np.cos(h)
+    lam = h / s
+    c = (1.0 - h * co / s) / (ts * ts)
+    a2 = (ts - 2 * s * co) / (ts * ts * ts)
+    if small.any():
+        w = t2[small]
+        # Taylor series at t = 0 in w = t^2 (sympy's exact coefficients; the
+        # first omitted term is below 1e-18 for t < 1/4):
+        c[small] = 1 / 12 + w * (1 / 720 + w * (1 / 30240 + w * (1 / 1209600 + w * (1 / 47900160 + w * (691 / 1307674368000)))))
+        # lam^2 = ((t/2)/sin(t/2))^2
+        lam[small] = np.sqrt(1 + w * (1 / 12 + w * (1 / 240 + w * (1 / 6048 + w * (1 / 172800 + w * (1 / 5322240))))))
+        # (t - sin t)/t^3
+        a2[small] = 1 / 6 - w * (1 / 120 - w * (1 / 5040 - w * (1 / 362880 - w * (1 / 39916800 - w / 6227020800))))
+    return c, lam, a2, t
+
+
+def _su2_poisson_chunk(x, p, xi, tau, out, cond, sens, bound, degen):
+    """One chunk of the su(2) closed form. ``x``, ``p``: (3, m); ``out``: (6, 6, m)."""
+    x0, x1, x2 = x[0], x[1], x[2]
+    q0 = p[0] + xi[0] if xi is not None else p[0]
+    q1 = p[1] + xi[1] if xi is not None else p[1]
+    q2 = p[2] + xi[2] if xi is not None else p[2]
+    t2 = x0 * x0 + x1 * x1 + x2 * x2
+    c, lam, a2, t = _su2_frame_coeffs(t2)
+    d = 1.0 - c * t2
+    cx0, cx1, cx2 = c * x0, c * x1, c * x2
+    hx0, hx1, hx2 = 0.5 * x0, 0.5 * x1, 0.5 * x2
+    s01, s02, s12 = cx0 * x1, cx0 * x2, cx1 * x2
+    L = (
+        (d + cx0 * x0, s01 - hx2, s02 + hx1),
+        (s01 + hx2, d + cx1 * x1, s12 - hx0),
+        (s02 - hx1, s12 + hx0, d + cx2 * x2),
+    )
+    q = (q0, q1, q2)
+    # frame condition: grows as |x| -> 2 pi (chart boundary)
+    frame = 1.0 / np.maximum(1.0 - t / TWO_PI, EPS)
+    lmax = np.maximum(lam, 1.0)
+    if tau is None:
+        for i in range(3):
+            for j in range(3):
+                np.copyto(out[i, 3 + j], L[i][j])
+                np.negative(L[i][j], out=out[3 + j, i])
+        out[:3, :3] = 0.0
+        out[3, 3] = out[4, 4] = out[5, 5] = 0.0
+        np.copyto(out[3, 4], -q2)
+        np.copyto(out[3, 5], q1)
+        np.copyto(out[4, 5], -q0)
+        np.negative(out[3, 4], out=out[4, 3])
+        np.negative(out[3, 5], out=out[5, 3])
+        np.negative(out[4, 5], out=out[5, 4])
+        cond[...] = 1.0
+        sens[...] = 1.0
+        qn = np.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
+        scale = np.maximum(np.maximum(lmax * lmax, qn), 1.0)
+        np.multiply(frame * scale, C_P * 3 * EPS, out=bound)
+        degen[...] = False
+        return
+    t0, t1, tt2 = tau
+    qt = q0 * t0 + q1 * t1 + q2 * tt2
+    c1 = 1.0 - qt
+    ic = 1.0 / c1
+    # P_xp = (L - (L q) tau^T) / C1
+    for i in range(3):
+        Li = L[i]
+        lq = Li[0] * q0 + Li[1] * q1 + Li[2] * q2
+        for j in range(3):
+            v = out[i, 3 + j]
+            np.multiply(lq, tau[j], out=v)
+            np.subtract(Li[j], v, out=v)
+            v *= ic
+            np.negative(v, out=out[3 + j, i])
+    # P_pp = [q]_x / C1
+    out[3, 3] = out[4, 4] = out[5, 5] = 0.0
+    np.multiply(q2, -ic, out=out[3, 4])
+    np.multiply(q1, ic, out=out[3, 5])
+    np.multiply(q0, -ic, out=out[4, 5])
+    np.negative(out[3, 4], out=out[4, 3])
+    np.negative(out[3, 5], out=out[5, 3])
+    np.negative(out[4, 5], out=out[5, 4])
+    # P_xx = det(L) [phi1(K) tau]_x / C1,  phi1(K) tau = tau + a1 x*tau + a2 x*(x*tau),
+    # a1 = 1/(2 lam^2):  det(L) phi1(K) tau = lam^2 tau + (x*tau)/2 + lam^2 a2 (x (x.tau) - t^2 tau)
+    l2 = lam * lam
+    l2a2 = l2 * a2
+    xt = x0 * t0 + x1 * t1 + x2 * tt2
+    k0 = l2 - l2a2 * t2
+    k1 = l2a2 * xt
+    w0 = (k0 * t0 + k1 * x0 + 0.5 * (x1 * tt2 - x2 * t1)) * ic
+    w1 = (k0 * t1 + k1 * x1 + 0.5 * (x2 * t0 - x0 * tt2)) * ic
+    w2 = (k0 * tt2 + k1 * x2 + 0.5 * (x0 * t1 - x1 * t0)) * ic
+    out[0, 0] = out[1, 1] = out[2, 2] = 0.0
+    np.negative(w2, out=out[0, 1])
+    np.copyto(out[0, 2], w1)
+    np.negative(w0, out=out[1, 2])
+    np.copyto(out[1, 0], w2)
+    np.negative(w1, out=out[2, 0])
+    np.copyto(out[2, 1], w0)
+    # cond_F(Phi)/3 with Phi = C1 + tau q^T:
+    tn2 = t0 * t0 + t1 * t1 + tt2 * tt2
+    qn2 = q0 * q0 + q1 * q1 + q2 * q2
+    tq = tn2 * qn2
+    nf2 = 3 * c1 * c1 + 2 * c1 * qt + tq
+    ni2 = 3 - 2 * qt + tq
+    np.sqrt(nf2 * ni2, out=cond)
+    aic = np.abs(ic)
+    cond *= aic / 3
+    # cond_data = ||Phi^-1||_F (1 + ||S||_F ||U||_F)/sqrt(3), ||[v]_x||_F = sqrt(2)|v|
+    np.sqrt(ni2, out=sens)
+    sens *= aic * (1 + 2 * np.sqrt(qn2 * tn2)) / np.sqrt(3.0)
+    eff = np.maximum(cond, sens)
+    sc = lmax * lmax * (1 + np.sqrt(tn2) * lmax) * aic + lmax * (1 + np.sqrt(qn2 * tn2)) * aic + np.sqrt(qn2) * aic
+    np.multiply(eff * frame * np.maximum(sc, 1.0), C_P * 3 * EPS, out=bound)
+    bad = ~(eff * (3 * C_P * EPS) < 1.0) | (c1 == 0)
+    np.copyto(degen, bad)
+    if bad.any():
+        out[:, :, bad] = np.nan
+        bound[bad] = np.inf
+        cond[bad] = np.inf
+        sens[bad] = np.inf
+
+
+def _su2_theta_to_xi(theta: np.ndarray | None) -> np.ndarray | None:
+    """Theta_ab = -xi_k eps_kab  =>  xi_0 = -Theta_12, xi_1 = -Theta_20, xi_2 = -Theta_01."""
+    if theta is None:
+        return None
+    return np.array([-theta[1, 2], -theta[2, 0], -theta[0, 1]])
+
+
+def _su2_upsilon_to_tau(u: np.ndarray | None):
+    """Upsilon^mn = tau_l eps_lmn  =>  tau_0 = U_12, tau_1 = U_20, tau_2 = U_01."""
+    if u is None:
+        return None
+    return (float(u[1, 2]), float(u[2, 0]), float(u[0, 1]))
+
+
+# ------------------------------------------------------------ generic kernel
+def _ps_poly(W: np.ndarray, coeffs: np.ndarray, eye: np.ndarray) -> np.ndarray:
+    """``sum_k coeffs[k] W^k`` (k = 0..K) by Paterson-Stockmeyer, batched over W's leading axis.
+
+    The powers ``W^0..W^(s-1)`` are combined into all ``K//s + 1`` blocks with
+    one ``tensordot``; Horner in ``W^s`` then costs one matmul per block.
+    """
+    K = len(coeffs) - 1
+    s = max(1, int(np.ceil(np.sqrt(K + 1))))
+    nblocks = K // s + 1
+    pows = np.empty((s,) + W.shape)
+    pows[0] = eye
+    if s > 1:
+        pows[1] = W
+    for i in range(2, s):
+        np.matmul(pows[i - 1], W, out=pows[i])
+    Ws = pows[s - 1] @ W if s > 1 else W
+    cmat = np.zeros((nblocks, s))
+    cmat.reshape(-1)[: K + 1] = coeffs
+    blocks = np.tensordot(cmat, pows, axes=(1, 0))
+    acc = blocks[nblocks - 1]
+    for j in range(nblocks - 2, -1, -1):
+        acc = acc @ Ws
+        acc += blocks[j]
+    return acc
+
+
+def _frame_series(A: np.ndarray, r: float) -> np.ndarray:
+    """``L = B(A)`` by the even Bernoulli series; ``r`` bounds ``||A||_2 / 2 pi`` over the batch."""
+    n = A.shape[-1]
+    eye = np.eye(n)
+    K = _series_terms(r)
+    coeffs = np.concatenate([[1.0], _bernoulli_even(K)])
+    return _ps_poly(A @ A, coeffs, eye) + 0.5 * A
+
+
+def _phi1_scaling_squaring(M: np.ndarray) -> np.ndarray:
+    """``phi1(M)`` by Taylor (degree 16) on ``M / 2^s`` and ``phi1(2X) = phi1(X)(e^X + 1)/2``."""
+    n = M.shape[-1]
+    eye = np.eye(n)
+    norm = float(np.max(np.sqrt(np.sum(M * M, axis=(-2, -1))))) if M.size else 0.0
+    s = max(0, int(np.ceil(np.log2(max(norm, 1e-300) / 0.25))))
+    X = M / 2.0**s
+    coeffs = np.array([1.0 / np.prod(np.arange(2, k + 2, dtype=float)) for k in range(17)])
+    T = _ps_poly(X, coeffs, eye)
+    E = eye + X @ T
+    for i in range(s):
+        T = 0.5 * (T @ (E + eye))
+        if i < s - 1:
+            E = E @ E
+    return T
+
+
+def _frames_generic(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``L(g, e)`` for a batch of ``ad_x`` (N, n, n), and ``r = ||ad_x||_F / 2 pi`` per point."""
+    r = np.sqrt(np.sum(A * A, axis=(-2, -1))) / TWO_PI
+    L = np.empty_like(A)
+    ok = r < 0.5
+    if ok.any():
+        L[ok] = _frame_series(A[ok], float(r[ok].max()))
+    if (~ok).any():
+        phi = _phi1_scaling_squaring(-A[~ok])
+        try:
+            L[~ok] = np.linalg.inv(phi)
+        except np.linalg.LinAlgError:
+            Ls = np.empty_like(phi)
+            for k in range(phi.shape[0]):
+                try:
+                    Ls[k] = np.linalg.inv(phi[k])
+                except np.linalg.LinAlgError:
+                    Ls[k] = np.nan
+            L[~ok] = Ls
+    return L, r
+
+
+def _inv_batch(M: np.ndarray) -> np.ndarray:
+    try:
+        return np.linalg.inv(M)
+    except np.linalg.LinAlgError:
+        out = np.empty_like(M)
+        for k in range(M.shape[0]):
+            try:
+                out[k] = np.linalg.inv(M[k])
+            except np.linalg.LinAlgError:
+                out[k] = np.nan
+        return out
+
+
+def _frob(M: np.ndarray) -> np.ndarray:
+    return np.sqrt(np.sum(M * M, axis=(-2, -1)))
+
+
+GENERIC_CHUNK = 2048  # points per chunk of the generic path: its (chunk, n, n) stacks stay in cache
+
+
+def _generic_poisson(f, theta, upsilon, x, p):
+    """Batch-first generic path. ``x``, ``p``: (N, n). Returns P (N, 2n, 2n), cond, bound, degen."""
+    N, n = x.shape
+    P = np.empty((N, 2 * n, 2 * n))
+    cond, sens, bound, degen = np.empty(N), np.empty(N), np.empty(N), np.empty(N, dtype=bool)
+    for s in range(0, N, GENERIC_CHUNK):
+        e = min(N, s + GENERIC_CHUNK)
+        _generic_poisson_chunk(f, theta, upsilon, x[s:e], p[s:e], P[s:e], cond[s:e], sens[s:e], bound[s:e], degen[s:e])
+    return P, cond, sens, bound, degen
+
+
+def _generic_poisson_chunk(f, theta, upsilon, x, p, P, cond_out, sens_out, bound_out, degen_out):
+    N, n = x.shape
+    A = (x @ f.transpose(1, 0, 2).reshape(n, n * n)).reshape(N, n, n)
+    L, r = _frames_generic(A)
+    S = (p @ f.reshape(n, n * n)).reshape(N, n, n)
+    if theta is not None:
+        S -= theta
+    if upsilon is None:
+        P[:, :n, :n] = 0.0
+        P[:, :n, n:] = L
+        P[:, n:, :n] = -L.transpose(0, 2, 1)
+        P[:, n:, n:] = -S
+        cond = np.ones(N)
+        sens = np.ones(N)
+    else:
+        Psi = np.eye(n) + upsilon @ S
+        Psi_inv = _inv_batch(Psi)
+        with np.errstate(invalid="ignore", over="ignore"):
+            sens = _frob(Psi_inv) * (1 + _frob(S) * np.linalg.norm(upsilon)) / np.sqrt(n)
+        sens = np.where(np.isfinite(sens), sens, np.inf)
+        Pxp = L @ Psi_inv
+        Ppp = -(S @ Psi_inv)
+        Pxx = -(Pxp @ upsilon) @ L.transpose(0, 2, 1)
+        P[:, :n, :n] = 0.5 * (Pxx - Pxx.transpose(0, 2, 1))
+        P[:, :n, n:] = Pxp
+        P[:, n:, :n] = -Pxp.transpose(0, 2, 1)
+        P[:, n:, n:] = 0.5 * (Ppp - Ppp.transpose(0, 2, 1))
+        with np.errstate(invalid="ignore", over="ignore"):
+            cond = _frob(Psi) * _frob(Psi_inv) / n
+    cond = np.where(np.isfinite(cond), cond, np.inf)
+    frame = 1.0 / np.maximum(1.0 - np.minimum(r, 1.0), EPS)
+    with np.errstate(invalid="ignore", over="ignore"):
+        scale = np.maximum(np.max(np.abs(P), axis=(-2, -1)), 1.0)
+        eff = np.maximum(cond, sens)
+        bound = C_P * n * EPS * eff * frame * scale
+    degen = ~(eff * (n * C_P * EPS) < 1.0) | ~np.all(np.isfinite(L), axis=(-2, -1))
+    if degen.any():
+        P[degen] = np.nan
+        bound[degen] = np.inf
+        cond[degen] = np.inf
+        sens[degen] = np.inf
+    cond_out[...] = cond
+    sens_out[...] = sens
+    bound_out[...] = bound
+    degen_out[...] = degen
+
+
+# ----------------------------------------------------------------- the class
+class Fast(Implementation):
+    """The fast float64 implementation (protocol methods ``poisson_tensor``, ``hamiltonian_vector_field``).
+
+    Protocol contract (DESIGN.md): ``batched = True``; outputs carry the
+    leading axes of ``x`` and ``pi``; a degenerate point raises
+    :class:`DegeneratePointError` naming the points. The richer batch API,
+    :meth:`poisson_batch` and :meth:`vector_field_batch`, never raises for
+    degenerate points: it flags them and returns NaN there.
+    """
+
+    name = "tstarg-fast"
+    version = "0.1.0"
+    batched = True
+    precision_digits = 15.9  # float64
+
+    # -------------------------------------------------------- preparation
+    @staticmethod
+    def _model(f, theta, upsilon):
+        f = check_structure_constants(f)
+        n = f.shape[0]
+        th = check_theta(theta, f)
+        up = check_upsilon(upsilon, n)
+        return f, (None if not th.any() else th), (None if not up.any() else up)
+
+    def poisson_batch(self, f, theta, upsilon, x, pi, *, layout: str = "points") -> PoissonBatch:
+        """Poisson tensors of a batch with ``cond_phi``, ``error_bound`` and ``degenerate`` per point.
+
+        ``layout="points"``: ``x``, ``pi`` of shape ``(..., n)``, ``P`` of shape
+        ``(..., 2n, 2n)``. ``layout="components"``: ``x``, ``pi`` of shape
+        ``(n, ...)`` and ``P`` of shape ``(2n, 2n, ...)`` -- the su(2) fast
+        path's native layout, with no transposes.
+        """
+        f, th, up = self._model(f, theta, upsilon)
+        n = f.shape[0]
+        if layout == "components":
+            xa, pa = np.asarray(x, dtype=float), np.asarray(pi, dtype=float)
+            xa_pts, pa_pts = check_points(np.moveaxis(xa, 0, -1), np.moveaxis(pa, 0, -1), n, batched=True)
+            batch_shape = xa.shape[1:]
+        elif layout == "points":
+            xa_pts, pa_pts = check_points(x, pi, n, batched=True)
+            batch_shape = xa_pts.shape[:-1]
+        else:
+            raise ValueError(f"layout must be 'points' or 'components', got {layout!r}")
+        N = int(np.prod(batch_shape, dtype=int))
+        if _is_su2(f):
+            xc = np.ascontiguousarray(xa.reshape(3, N)) if layout == "components" else np.ascontiguousarray(xa_pts.reshape(N, 3).T)
+            pc = np.ascontiguousarray(pa.reshape(3, N)) if layout == "components" else np.ascontiguousarray(pa_pts.reshape(N, 3).T)
+            P = np.empty((6, 6, N))
+            cond, sens, bound, degen = np.empty(N), np.empty(N), np.empty(N), np.empty(N, dtype=bool)
+            xi, tau = _su2_theta_to_xi(th), _su2_upsilon_to_tau(up)
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                for s in range(0, N, CHUNK):
+                    e = min(N, s + CHUNK)
+                    _su2_poisson_chunk(xc[:, s:e], pc[:, s:e], xi, tau, P[:, :, s:e], cond[s:e], sens[s:e], bound[s:e], degen[s:e])
+            if layout == "points":
+                P = np.ascontiguousarray(np.moveaxis(P, -1, 0)).reshape(batch_shape + (6, 6))
+            else:
+                P = P.reshape((6, 6) + batch_shape)
+            path = "su2-closed-form" + ("" if up is not None else ", Upsilon = 0: no Phi")
+        else:
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                P, cond, sens, bound, degen = _generic_poisson(f, th, up, xa_pts.reshape(N, n), pa_pts.reshape(N, n))
+            if layout == "points":
+                P = P.reshape(batch_shape + (2 * n, 2 * n))
+            else:
+                P = np.moveaxis(P, 0, -1).reshape((2 * n, 2 * n) + batch_shape)
+            path = "generic" + ("" if up is not None else ", Upsilon = 0: no Phi")
+        return PoissonBatch(
+            P=P, cond_phi=cond.reshape(batch_shape), cond_data=sens.reshape(batch_shape),
+            error_bound=bound.reshape(batch_shape),
+            degenerate=degen.reshape(batch_shape), path=path,
+        )
+
+    # ------------------------------------------------------ vector field
+    def vector_field_batch(self, f, theta, upsilon, inertia, potential, x, pi) -> FieldBatch:
+        """``(xdot, pidot)`` of vier10/vier11 for a batch, with per-point diagnostics.
+
+        ``Omega = Psi^-1 (dK - U dV)``, ``pidot = Phi^-1 (-dV - S dK)``,
+        ``xdot = L(g, e) Omega``; ``dV_b = -Gamma_m f^m_bc L^c``,
+        ``Gamma = exp(ad_x)^T gamma`` (twee16). Degenerate points are NaN
+        and flagged.
+        """
+        f, th, up = self._model(f, theta, upsilon)
+        n = f.shape[0]
+        inertia = check_inertia(inertia, n)
+        pot = check_potential(potential, n)
+        xa, pa = check_points(x, pi, n, batched=True)
+        batch_shape = xa.shape[:-1]
+        N = int(np.prod(batch_shape, dtype=int))
+        X, Pm = xa.reshape(N, n), pa.reshape(N, n)
+        Iinv = np.linalg.inv(inertia)
+        Iinv = 0.5 * (Iinv + Iinv.T)
+        dK = Pm @ Iinv
+        A = (X @ f.transpose(1, 0, 2).reshape(n, n * n)).reshape(N, n, n)
+        if _is_su2(f):
+            t2 = np.sum(X * X, axis=1)
+            c, lam, a2, t = _su2_frame_coeffs(t2)
+            K = A
+            L = np.eye(n) + 0.5 * K + c[:, None, None] * (K @ K)
+            r = t / TWO_PI
+        else:
+            L, r = _frames_generic(A)
+        S = (Pm @ f.reshape(n, n * n)).reshape(N, n, n)
+        if th is not None:
+            S -= th
+        if pot is None:
+            dV = None
+        else:
+            Ad = _expm_batch(A, su2=_is_su2(f))
+            Gamma = np.einsum("Nmb,m->Nb", Ad, pot["gamma"])
+            dV = -np.einsum("Nm,mbc,c->Nb", Gamma, f, pot["L"])
+        v = dK if dV is None else (dK if up is None else dK - dV @ up.T)
+        u = -np.einsum("Nab,Nb->Na", S, dK)
+        if dV is not None:
+            u = u - dV
+        if up is None:
+            Omega, pidot = v, u
+            cond = np.ones(N)
+            sens = np.ones(N)
+        else:
+            Psi = np.eye(n) + up @ S
+            Psi_inv = _inv_batch(Psi)
+            Omega = np.einsum("Nab,Nb->Na", Psi_inv, v)
+            pidot = np.einsum("Nba,Nb->Na", Psi_inv, u)  # Phi^-1 = Psi^-T
+            with np.errstate(invalid="ignore", over="ignore"):
+                cond = _frob(Psi) * _frob(Psi_inv) / n
+                sens = _frob(Psi_inv) * (1 + _frob(S) * np.linalg.norm(up)) / np.sqrt(n)
+            cond = np.where(np.isfinite(cond), cond, np.inf)
+            sens = np.where(np.isfinite(sens), sens, np.inf)
+        xdot = np.einsum("Nab,Nb->Na", L, Omega)
+        frame = 1.0 / np.maximum(1.0 - np.minimum(r, 1.0), EPS)
+        with np.errstate(invalid="ignore", over="ignore"):
+            scale = np.maximum(np.maximum(np.max(np.abs(xdot), axis=1), np.max(np.abs(pidot), axis=1)), 1.0)
+            scale = scale * np.maximum(1.0, np.max(np.abs(L), axis=(1, 2)))
+            eff = np.maximum(cond, sens)
+            bound = C_P * n * EPS * eff * frame * scale
+        degen = ~(eff * (n * C_P * EPS) < 1.0)
+        if degen.any():
+            xdot[degen] = np.nan
+            pidot[degen] = np.nan
+            bound[degen] = np.inf
+        return FieldBatch(
+            xdot=xdot.reshape(batch_shape + (n,)), pidot=pidot.reshape(batch_shape + (n,)),
+            cond_phi=cond.reshape(batch_shape), cond_data=sens.reshape(batch_shape),
+            error_bound=bound.reshape(batch_shape),
+            degenerate=degen.reshape(batch_shape), path="su2" if _is_su2(f) else "generic",
+        )
+
+    # ---------------------------------------------------------- protocol
+    @staticmethod
+    def _raise_degenerate(degen: np.ndarray, what: str) -> None:
+        if np.any(degen):
+            idx = [tuple(int(i) for i in b) for b in np.argwhere(degen)]
+            shown = ", ".join(str(i) for i in idx[:10]) + (f" and {len(idx) - 10} more" if len(idx) > 10 else "")
+            raise DegeneratePointError(
+                f"{what}: {len(idx)} point(s) on the degenerate set Pi_1 (Delta = det Phi = 0 to float64 "
+                f"accuracy, vier12): batch indices {shown}"
+            )
+
+    def poisson_tensor(self, f, theta, upsilon, x, pi):
+        """Protocol method 1: ``P[..., i, j] = {z_i, z_j}``, ``z = (x, pi)``."""
+        res = self.poisson_batch(f, theta, upsilon, x, pi)
+        self._raise_degenerate(res.degenerate, "poisson_tensor")
+        return res.P
+
+    def hamiltonian_vector_field(self, f, theta, upsilon, inertia, potential, x, pi):
+        """Protocol method 2: ``(xdot, pidot)`` with the leading axes of ``x``."""
+        res = self.vector_field_batch(f, theta, upsilon, inertia, potential, x, pi)
+        self._raise_degenerate(res.degenerate, "hamiltonian_vector_field")
+        return res.xdot, res.pidot
+
+
+def _expm_batch(A: np.ndarray, su2: bool) -> np.ndarray:
+    """``Ad(g) = exp(ad_x)`` for a batch: Rodrigues for su(2), scaling and squaring otherwise."""
+    n = A.shape[-1]
+    if su2:
+        t2 = -0.5 * np.einsum("Nij,Nji->N", A, A)  # tr(K^2) = -2 t^2
+        t = np.sqrt(t2)
+        small = t < 1e-4
+        ts = np.where(small, 1.0, t)
+        s1 = np.where(small, 1 - t2 / 6, np.sin(ts) / ts)
+        s2 = np.where(small, 0.5 - t2 / 24, (1 - np.cos(ts)) / (ts * ts))
+        return np.eye(n) + s1[:, None, None] * A + s2[:, None, None] * (A @ A)
+    norm = float(np.max(_frob(A))) if A.size else 0.0
+    s = max(0, int(np.ceil(np.log2(max(norm, 1e-300) / 0.25))))
+    X = A / 2.0**s
+    coeffs = np.array([1.0 / np.prod(np.arange(1, k + 1, dtype=float)) for k in range(18)])
+    E = _ps_poly(X, coeffs, np.eye(n))
+    for _ in range(s):
+        E = E @ E
+    return E
+
+
+implementation = Fast()

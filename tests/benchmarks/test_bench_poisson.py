@@ -1,0 +1,105 @@
+"""Benchmarks of the fast Poisson tensor (run: ``python -m pytest tests/benchmarks --benchmark-enable -s``).
+
+Each benchmark reports ratios measured in the same run, never bare seconds:
+
+* ``floor``: the time to write the float64 output once, measured as ``np.copyto`` of an
+  array of the same number of bytes (the memory floor);
+* ``loop``: a plain per-point numpy implementation (scipy ``expm`` for the frame, ``inv``
+  for Phi), timed on a subsample and scaled linearly to the full batch.
+
+Targets (issue "the core"): su(2) at 10^6 points within 4x the floor on the fast
+(components-first) path and 10x through the protocol's ``(N, 6, 6)`` output; su(3) at
+10^5 points within 15x. BLAS is pinned to one thread (tests/conftest.py).
+With ``--benchmark-disable`` (the default) each benchmark runs once as a smoke test.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+from refimpl import su2, su3
+from refimpl.fast import implementation as fast
+
+
+def _best(fn, repeat=5):
+    fn()
+    best = float("inf")
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t)
+    return best
+
+
+def _per_point_loop(f, theta, ups, x, pi):
+    """The obvious per-point numpy implementation of vier9 (the 'loop' baseline)."""
+    n = f.shape[0]
+    out = np.empty((len(x), 2 * n, 2 * n))
+    G = f.transpose(1, 0, 2).reshape(n, n * n)
+    for k in range(len(x)):
+        ad = (x[k] @ G).reshape(n, n)
+        big = np.zeros((2 * n, 2 * n))
+        big[:n, :n] = -ad
+        big[:n, n:] = np.eye(n)
+        L = np.linalg.inv(scipy.linalg.expm(big)[:n, n:])
+        S = np.einsum("m,mab->ab", pi[k], f) - theta
+        Psi_inv = np.linalg.inv(np.eye(n) + ups @ S)
+        out[k, :n, :n] = -L @ Psi_inv @ ups @ L.T
+        out[k, :n, n:] = L @ Psi_inv
+        out[k, n:, :n] = -(L @ Psi_inv).T
+        out[k, n:, n:] = -S @ Psi_inv
+    return out
+
+
+CASES = {
+    "su2-1e6": (su2, 10**6),
+    "su3-1e5": (su3, 10**5),
+}
+
+
+def _model(alg, with_upsilon, rng):
+    n = alg.dim
+    if not with_upsilon:
+        return np.zeros((n, n)), np.zeros((n, n))
+    u = rng.normal(size=(n, n)) * 0.1
+    xi = rng.normal(size=n) * 0.3
+    return -np.einsum("k,kab->ab", xi, alg.f), u - u.T
+
+
+@pytest.mark.parametrize("case", list(CASES))
+@pytest.mark.parametrize("model", ["Upsilon=0", "Theta,Upsilon"])
+@pytest.mark.parametrize("layout", ["components", "points"])
+def test_bench_poisson_tensor(benchmark, case, model, layout):
+    make, N = CASES[case]
+    alg = make()
+    n = alg.dim
+    if layout == "components" and n != 3:
+        pytest.skip("the components-first fast path is the su(2) closed form")
+    rng = np.random.default_rng(0)
+    theta, ups = _model(alg, model != "Upsilon=0", rng)
+    x = rng.uniform(-1, 1, (N, n)) * (0.7 if n == 8 else 1.0)
+    pi = rng.normal(size=(N, n))
+    if layout == "components":
+        xc, pc = np.ascontiguousarray(x.T), np.ascontiguousarray(pi.T)
+        run = lambda: fast.poisson_batch(alg.f, theta, ups, xc, pc, layout="components")  # noqa: E731
+    else:
+        run = lambda: fast.poisson_batch(alg.f, theta, ups, x, pi)  # noqa: E731
+    result = benchmark(run)
+    assert np.all(np.isfinite(result.P)) and not result.degenerate.any()
+    if benchmark.disabled:
+        return
+    ours = _best(run, 5)
+    src = np.ones(N * 4 * n * n)
+    dst = np.empty_like(src)
+    floor = _best(lambda: np.copyto(dst, src), 7)
+    sub = 2000
+    loop = _best(lambda: _per_point_loop(alg.f, theta, ups, x[:sub], pi[:sub]), 2) * (N / sub)
+    info = {"points": N, "floor_ratio": ours / floor, "loop_ratio": loop / ours, "loop_vs_floor": loop / floor,
+            "path": result.path, "blas_threads": 1}
+    benchmark.extra_info.update(info)
+    print(f"\n[{case} {model} {layout}] ours/floor = {ours / floor:.2f}x, loop/ours = {loop / ours:.0f}x, "
+          f"loop/floor = {loop / floor:.0f}x ({result.path}; BLAS pinned to 1 thread)")
