@@ -128,18 +128,35 @@ def _series_terms(r: float) -> int:
 
 
 # ------------------------------------------------------------- su(2) kernel
-def _su2_frame_coeffs(t2: np.ndarray):
-    """``c(t)``, ``lam = (t/2)/sin(t/2)`` (so det L = lam^2) and ``a2 = (t - sin t)/t^3``."""
+def _su2_frame_coeffs(t2: np.ndarray, need_k: bool = True):
+    """``c(t)``, ``lam = (t/2)/sin(t/2)`` (so det L = lam^2) and ``k = lam^2 (t - sin t)/t^3``.
+
+    ``k = (t - sin t) / (2 t (1 - cos t))`` is the coefficient that P_xx needs.
+    One transcendental per point: with ``h = t/2`` and ``u = tan(h/2)``,
+    ``sin h = 2u/(1+u^2)``, ``cos h = (1-u^2)/(1+u^2)``, hence
+    ``h cot h = r (1 - u^2)`` and ``lam = r (1 + u^2)`` with ``r = h/(2u)``, and
+    ``k = (t (1+u^2)^2 - 4u(1-u^2)) / (16 t u^2)``.
+    """
     t = np.sqrt(t2)
     # Below t = 1/4 the closed forms lose ~1/t^2 digits to cancellation; the
     # series' first omitted term there is < 1e-18 relative.
     small = t < 0.25
     ts = np.where(small, 1.0, t)
     h = 0.5 * ts
-    s, co = np.sin(h), np.cos(h)
-    lam = h / s
-    c = (1.0 - h * co / s) / (ts * ts)
-    a2 = (ts - 2 * s * co) / (ts * ts * ts)
+    u = np.tan(0.5 * h)
+    u2 = u * u
+    r = h / (u + u)
+    om = 1.0 - u2
+    v = 1.0 + u2
+    c = 1.0 - r * om
+    tts = ts * ts
+    c /= tts
+    lam = r * v
+    k = None
+    if need_k:
+        k = ts * v * v
+        k -= 4.0 * u * om
+        k /= 16.0 * ts * u2
     if small.any():
         w = t2[small]
         # Taylor series at t = 0 in w = t^2 (sympy's exact coefficients; the
@@ -147,107 +164,148 @@ def _su2_frame_coeffs(t2: np.ndarray):
         c[small] = 1 / 12 + w * (1 / 720 + w * (1 / 30240 + w * (1 / 1209600 + w * (1 / 47900160 + w * (691 / 1307674368000)))))
         # lam^2 = ((t/2)/sin(t/2))^2
         lam[small] = np.sqrt(1 + w * (1 / 12 + w * (1 / 240 + w * (1 / 6048 + w * (1 / 172800 + w * (1 / 5322240))))))
-        # (t - sin t)/t^3
-        a2[small] = 1 / 6 - w * (1 / 120 - w * (1 / 5040 - w * (1 / 362880 - w * (1 / 39916800 - w / 6227020800))))
-    return c, lam, a2, t
+        if need_k:
+            # (t - sin t) / (2 t (1 - cos t))
+            k[small] = 1 / 6 + w * (1 / 180 + w * (1 / 5040 + w * (1 / 151200 + w * (1 / 4790016 + w * (691 / 108972864000)))))
+    return c, lam, k, t
 
 
 def _su2_poisson_chunk(x, p, xi, tau, out, cond, sens, bound, degen):
     """One chunk of the su(2) closed form. ``x``, ``p``: (3, m); ``out``: (6, 6, m)."""
     x0, x1, x2 = x[0], x[1], x[2]
-    q0 = p[0] + xi[0] if xi is not None else p[0]
-    q1 = p[1] + xi[1] if xi is not None else p[1]
-    q2 = p[2] + xi[2] if xi is not None else p[2]
-    t2 = x0 * x0 + x1 * x1 + x2 * x2
-    c, lam, a2, t = _su2_frame_coeffs(t2)
+    qv = p + xi[:, None] if xi is not None else p
+    q0, q1, q2 = qv[0], qv[1], qv[2]
+    t2 = x0 * x0
+    t2 += x1 * x1
+    t2 += x2 * x2
+    c, lam, k, t = _su2_frame_coeffs(t2, need_k=tau is not None)
+    # L = d 1 + [x]_x / 2 + c x x^T (d = 1 - c t^2 = (t/2) cot(t/2)), written straight into
+    # the P_xp block; with Upsilon it is scaled by 1/C1 on the way.
     d = 1.0 - c * t2
-    cx0, cx1, cx2 = c * x0, c * x1, c * x2
-    hx0, hx1, hx2 = 0.5 * x0, 0.5 * x1, 0.5 * x2
+    if tau is not None:
+        tv = np.asarray(tau, dtype=float)
+        qt = tv @ qv                                   # q.tau
+        c1 = 1.0 - qt
+        ic = 1.0 / c1
+        dd, cc, hh = d * ic, c * ic, 0.5 * ic
+    else:
+        dd, cc, hh = d, c, 0.5
+    cx0, cx1, cx2 = cc * x0, cc * x1, cc * x2
+    hx0, hx1, hx2 = hh * x0, hh * x1, hh * x2
     s01, s02, s12 = cx0 * x1, cx0 * x2, cx1 * x2
-    L = (
-        (d + cx0 * x0, s01 - hx2, s02 + hx1),
-        (s01 + hx2, d + cx1 * x1, s12 - hx0),
-        (s02 - hx1, s12 + hx0, d + cx2 * x2),
-    )
-    q = (q0, q1, q2)
-    # frame condition: grows as |x| -> 2 pi (chart boundary)
-    frame = 1.0 / np.maximum(1.0 - t / TWO_PI, EPS)
-    lmax = np.maximum(lam, 1.0)
+    np.multiply(cx0, x0, out=out[0, 3])
+    out[0, 3] += dd
+    np.multiply(cx1, x1, out=out[1, 4])
+    out[1, 4] += dd
+    np.multiply(cx2, x2, out=out[2, 5])
+    out[2, 5] += dd
+    np.subtract(s01, hx2, out=out[0, 4])
+    np.add(s01, hx2, out=out[1, 3])
+    np.add(s02, hx1, out=out[0, 5])
+    np.subtract(s02, hx1, out=out[2, 3])
+    np.subtract(s12, hx0, out=out[1, 5])
+    np.add(s12, hx0, out=out[2, 4])
+    # frame condition: grows as |x| -> 2 pi (chart boundary); lam >= 1
+    frame = t * (-1.0 / TWO_PI)
+    frame += 1.0
+    np.maximum(frame, EPS, out=frame)
     if tau is None:
         for i in range(3):
             for j in range(3):
-                np.copyto(out[i, 3 + j], L[i][j])
-                np.negative(L[i][j], out=out[3 + j, i])
+                np.negative(out[i, 3 + j], out=out[3 + j, i])
         out[:3, :3] = 0.0
         out[3, 3] = out[4, 4] = out[5, 5] = 0.0
-        np.copyto(out[3, 4], -q2)
+        np.negative(q2, out=out[3, 4])
         np.copyto(out[3, 5], q1)
-        np.copyto(out[4, 5], -q0)
-        np.negative(out[3, 4], out=out[4, 3])
-        np.negative(out[3, 5], out=out[5, 3])
-        np.negative(out[4, 5], out=out[5, 4])
+        np.negative(q0, out=out[4, 5])
+        np.copyto(out[4, 3], q2)
+        np.negative(q1, out=out[5, 3])
+        np.copyto(out[5, 4], q0)
         cond[...] = 1.0
         sens[...] = 1.0
-        qn = np.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
-        scale = np.maximum(np.maximum(lmax * lmax, qn), 1.0)
-        np.multiply(frame * scale, C_P * 3 * EPS, out=bound)
+        # |P| <= max(||L||_max <= lam^2, |q|_max): bound = 3 C_P eps max(lam^2, |q|, 1) / frame
+        qa = np.abs(q0)
+        np.maximum(qa, np.abs(q1), out=qa)
+        np.maximum(qa, np.abs(q2), out=qa)
+        lam *= lam
+        np.maximum(lam, qa, out=lam)
+        lam *= C_P * 3 * EPS
+        np.divide(lam, frame, out=bound)
         degen[...] = False
         return
-    t0, t1, tt2 = tau
-    qt = q0 * t0 + q1 * t1 + q2 * tt2
-    c1 = 1.0 - qt
-    ic = 1.0 / c1
-    # P_xp = (L - (L q) tau^T) / C1
-    for i in range(3):
-        Li = L[i]
-        lq = Li[0] * q0 + Li[1] * q1 + Li[2] * q2
-        for j in range(3):
-            v = out[i, 3 + j]
-            np.multiply(lq, tau[j], out=v)
-            np.subtract(Li[j], v, out=v)
-            v *= ic
-            np.negative(v, out=out[3 + j, i])
-    # P_pp = [q]_x / C1
-    out[3, 3] = out[4, 4] = out[5, 5] = 0.0
-    np.multiply(q2, -ic, out=out[3, 4])
-    np.multiply(q1, ic, out=out[3, 5])
-    np.multiply(q0, -ic, out=out[4, 5])
-    np.negative(out[3, 4], out=out[4, 3])
-    np.negative(out[3, 5], out=out[5, 3])
-    np.negative(out[4, 5], out=out[5, 4])
-    # P_xx = det(L) [phi1(K) tau]_x / C1,  phi1(K) tau = tau + a1 x*tau + a2 x*(x*tau),
-    # a1 = 1/(2 lam^2):  det(L) phi1(K) tau = lam^2 tau + (x*tau)/2 + lam^2 a2 (x (x.tau) - t^2 tau)
-    l2 = lam * lam
-    l2a2 = l2 * a2
-    xt = x0 * t0 + x1 * t1 + x2 * tt2
-    k0 = l2 - l2a2 * t2
-    k1 = l2a2 * xt
-    w0 = (k0 * t0 + k1 * x0 + 0.5 * (x1 * tt2 - x2 * t1)) * ic
-    w1 = (k0 * t1 + k1 * x1 + 0.5 * (x2 * t0 - x0 * tt2)) * ic
-    w2 = (k0 * tt2 + k1 * x2 + 0.5 * (x0 * t1 - x1 * t0)) * ic
-    out[0, 0] = out[1, 1] = out[2, 2] = 0.0
-    np.negative(w2, out=out[0, 1])
-    np.copyto(out[0, 2], w1)
-    np.negative(w0, out=out[1, 2])
-    np.copyto(out[1, 0], w2)
-    np.negative(w1, out=out[2, 0])
-    np.copyto(out[2, 1], w0)
-    # cond_F(Phi)/3 with Phi = C1 + tau q^T:
-    tn2 = t0 * t0 + t1 * t1 + tt2 * tt2
-    qn2 = q0 * q0 + q1 * q1 + q2 * q2
-    tq = tn2 * qn2
-    nf2 = 3 * c1 * c1 + 2 * c1 * qt + tq
-    ni2 = 3 - 2 * qt + tq
-    np.sqrt(nf2 * ni2, out=cond)
+    # ---- Upsilon = tau.eps: Phi = C1 + tau q^T, Psi^-1 = (1 - q tau^T)/C1 (section cinq)
     aic = np.abs(ic)
-    cond *= aic / 3
-    # cond_data = ||Phi^-1||_F (1 + ||S||_F ||U||_F)/sqrt(3), ||[v]_x||_F = sqrt(2)|v|
+    Lb = out[:3, 3:]                                   # (3, 3, m) view holding L / C1
+    lq = Lb[:, 0] * q0                                 # (L q) / C1
+    lq += Lb[:, 1] * q1
+    lq += Lb[:, 2] * q2
+    # P_xp = (L - (L q) tau^T) / C1 ; P_px = -P_xp^T
+    Lb -= lq[:, None, :] * tv[None, :, None]
+    np.negative(Lb.transpose(1, 0, 2), out=out[3:, :3])
+    # P_pp = [q]_x / C1
+    qi = qv * ic
+    out[3, 3] = out[4, 4] = out[5, 5] = 0.0
+    np.negative(qi[2], out=out[3, 4])
+    np.copyto(out[3, 5], qi[1])
+    np.negative(qi[0], out=out[4, 5])
+    np.copyto(out[4, 3], qi[2])
+    np.negative(qi[1], out=out[5, 3])
+    np.copyto(out[5, 4], qi[0])
+    # P_xx = det(L) [phi1(K) tau]_x / C1 with phi1(K) tau = tau + a1 x*tau + a2 x*(x*tau),
+    # a1 = 1/(2 lam^2), a2 = (t - sin t)/t^3. With det L = lam^2:
+    #   det(L) phi1(K) tau = d tau + k (x.tau) x + (x*tau)/2,
+    # since lam^2 (1 - a2 t^2) = lam^2 sin t / t = (t/2) cot(t/2) = d and k = lam^2 a2.
+    xv = x
+    cross = np.array([[0.0, tv[2], -tv[1]], [-tv[2], 0.0, tv[0]], [tv[1], -tv[0], 0.0]])  # cross @ x = x * tau
+    w = (0.5 * cross) @ xv
+    k *= tv @ xv
+    w += k * xv
+    w += d * tv[:, None]
+    w *= ic
+    out[0, 0] = out[1, 1] = out[2, 2] = 0.0
+    np.negative(w[2], out=out[0, 1])
+    np.copyto(out[0, 2], w[1])
+    np.negative(w[0], out=out[1, 2])
+    np.copyto(out[1, 0], w[2])
+    np.negative(w[1], out=out[2, 0])
+    np.copyto(out[2, 1], w[0])
+    # cond_F(Phi)/3 with Phi = C1 + tau q^T: ||Phi||_F^2 = C1 (3 C1 + 2 q.tau) + |tau|^2 |q|^2,
+    # ||Phi^-1||_F^2 = (3 - 2 q.tau + |tau|^2 |q|^2) / C1^2.
+    tn2 = float(tv @ tv)
+    tn = np.sqrt(tn2)
+    qn2 = np.einsum("im,im->m", qv, qv)
+    tq = qn2 * tn2
+    nf2 = 3.0 * c1
+    nf2 += 2.0 * qt
+    nf2 *= c1
+    nf2 += tq
+    ni2 = tq - 2.0 * qt
+    ni2 += 3.0
+    np.sqrt(nf2 * ni2, out=cond)
+    cond *= aic
+    cond *= 1.0 / 3.0
+    # cond_data = ||Phi^-1||_F (1 + ||S||_F ||U||_F)/sqrt(3), ||[v]_x||_F = sqrt(2)|v|.
+    # It dominates cond_phi here (||Phi||_F <= sqrt(3)|C1| + |tau||q| and |C1| <= 1 + |tau||q|),
+    # so it alone enters the bound.
+    qn = np.sqrt(qn2)
     np.sqrt(ni2, out=sens)
-    sens *= aic * (1 + 2 * np.sqrt(qn2 * tn2)) / np.sqrt(3.0)
-    eff = np.maximum(cond, sens)
-    sc = lmax * lmax * (1 + np.sqrt(tn2) * lmax) * aic + lmax * (1 + np.sqrt(qn2 * tn2)) * aic + np.sqrt(qn2) * aic
-    np.multiply(eff * frame * np.maximum(sc, 1.0), C_P * 3 * EPS, out=bound)
-    bad = ~(eff * (3 * C_P * EPS) < 1.0) | (c1 == 0)
+    g = qn * (2.0 * tn)
+    g += 1.0
+    g *= aic * (1.0 / np.sqrt(3.0))
+    sens *= g
+    # |P| <= (lam^2 (1 + |tau| lam) + lam (1 + |q||tau|) + |q|) / |C1|  (blockwise norms)
+    sc = lam * tn
+    sc += 1.0
+    sc *= lam * lam
+    sc += lam * (1 + qn * tn)
+    sc += qn
+    sc *= aic
+    np.maximum(sc, 1.0, out=sc)
+    sc *= sens
+    sc /= frame
+    np.multiply(sc, C_P * 3 * EPS, out=bound)
+    bad = ~(sens < 1.0 / (3 * C_P * EPS))
+    bad |= c1 == 0
     np.copyto(degen, bad)
     if bad.any():
         out[:, :, bad] = np.nan
@@ -323,25 +381,31 @@ def _phi1_scaling_squaring(M: np.ndarray) -> np.ndarray:
     return T
 
 
+SERIES_BINS = (0.25, 0.45, 0.7)  # bins of r = ||ad_x||_2 / 2pi summed by the Bernoulli series
+
+
 def _frames_generic(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``L(g, e)`` for a batch of ``ad_x`` (N, n, n), and ``r = ||ad_x||_F / 2 pi`` per point."""
-    r = np.sqrt(np.sum(A * A, axis=(-2, -1))) / TWO_PI
+    """``L(g, e)`` for a batch of ``ad_x`` (N, n, n), and ``r >= ||ad_x||_2 / 2 pi`` per point.
+
+    ``||A||_2 <= min(||A||_F, sqrt(||A||_1 ||A||_inf))``. Points with ``r < 0.7`` use the
+    Bernoulli series, grouped in bins of ``r`` so each bin sums only the terms it
+    needs; the rest use scaling and squaring of phi1 and an inverse.
+    """
+    fro = np.sqrt(np.sum(A * A, axis=(-2, -1)))
+    n1 = np.max(np.sum(np.abs(A), axis=-2), axis=-1)
+    ninf = np.max(np.sum(np.abs(A), axis=-1), axis=-1)
+    r = np.minimum(fro, np.sqrt(n1 * ninf)) / TWO_PI
     L = np.empty_like(A)
-    ok = r < 0.5
-    if ok.any():
-        L[ok] = _frame_series(A[ok], float(r[ok].max()))
-    if (~ok).any():
-        phi = _phi1_scaling_squaring(-A[~ok])
-        try:
-            L[~ok] = np.linalg.inv(phi)
-        except np.linalg.LinAlgError:
-            Ls = np.empty_like(phi)
-            for k in range(phi.shape[0]):
-                try:
-                    Ls[k] = np.linalg.inv(phi[k])
-                except np.linalg.LinAlgError:
-                    Ls[k] = np.nan
-            L[~ok] = Ls
+    lo = -1.0
+    for hi in SERIES_BINS:
+        sel = (r > lo) & (r <= hi)
+        if sel.any():
+            L[sel] = _frame_series(A[sel], float(r[sel].max()))
+        lo = hi
+    rest = r > SERIES_BINS[-1]
+    if rest.any():
+        phi = _phi1_scaling_squaring(-A[rest])
+        L[rest] = _inv_batch(phi)
     return L, r
 
 
@@ -365,10 +429,10 @@ def _frob(M: np.ndarray) -> np.ndarray:
 GENERIC_CHUNK = 2048  # points per chunk of the generic path: its (chunk, n, n) stacks stay in cache
 
 
-def _generic_poisson(f, theta, upsilon, x, p):
-    """Batch-first generic path. ``x``, ``p``: (N, n). Returns P (N, 2n, 2n), cond, bound, degen."""
+def _generic_poisson(f, theta, upsilon, x, p, out=None):
+    """Batch-first generic path. ``x``, ``p``: (N, n). Returns P (N, 2n, 2n), cond, sens, bound, degen."""
     N, n = x.shape
-    P = np.empty((N, 2 * n, 2 * n))
+    P = np.empty((N, 2 * n, 2 * n)) if out is None else out
     cond, sens, bound, degen = np.empty(N), np.empty(N), np.empty(N), np.empty(N, dtype=bool)
     for s in range(0, N, GENERIC_CHUNK):
         e = min(N, s + GENERIC_CHUNK)
@@ -448,13 +512,17 @@ class Fast(Implementation):
         up = check_upsilon(upsilon, n)
         return f, (None if not th.any() else th), (None if not up.any() else up)
 
-    def poisson_batch(self, f, theta, upsilon, x, pi, *, layout: str = "points") -> PoissonBatch:
+    def poisson_batch(self, f, theta, upsilon, x, pi, *, layout: str = "points", out: np.ndarray | None = None) -> PoissonBatch:
         """Poisson tensors of a batch with ``cond_phi``, ``error_bound`` and ``degenerate`` per point.
 
         ``layout="points"``: ``x``, ``pi`` of shape ``(..., n)``, ``P`` of shape
         ``(..., 2n, 2n)``. ``layout="components"``: ``x``, ``pi`` of shape
         ``(n, ...)`` and ``P`` of shape ``(2n, 2n, ...)`` -- the su(2) fast
         path's native layout, with no transposes.
+
+        ``out``: an optional float64 C-contiguous array of ``P``'s shape to
+        write into (repeated calls then reuse memory instead of paying the
+        operating system's first-touch cost of a fresh 2n x 2n x N array).
         """
         f, th, up = self._model(f, theta, upsilon)
         n = f.shape[0]
@@ -471,7 +539,10 @@ class Fast(Implementation):
         if _is_su2(f):
             xc = np.ascontiguousarray(xa.reshape(3, N)) if layout == "components" else np.ascontiguousarray(xa_pts.reshape(N, 3).T)
             pc = np.ascontiguousarray(pa.reshape(3, N)) if layout == "components" else np.ascontiguousarray(pa_pts.reshape(N, 3).T)
-            P = np.empty((6, 6, N))
+            if layout == "components" and out is not None:
+                P = self._check_out(out, (6, 6) + batch_shape).reshape(6, 6, N)
+            else:
+                P = np.empty((6, 6, N))
             cond, sens, bound, degen = np.empty(N), np.empty(N), np.empty(N), np.empty(N, dtype=bool)
             xi, tau = _su2_theta_to_xi(th), _su2_upsilon_to_tau(up)
             with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
@@ -479,15 +550,24 @@ class Fast(Implementation):
                     e = min(N, s + CHUNK)
                     _su2_poisson_chunk(xc[:, s:e], pc[:, s:e], xi, tau, P[:, :, s:e], cond[s:e], sens[s:e], bound[s:e], degen[s:e])
             if layout == "points":
-                P = np.ascontiguousarray(np.moveaxis(P, -1, 0)).reshape(batch_shape + (6, 6))
+                Pp = np.empty((N, 6, 6)) if out is None else self._check_out(out, batch_shape + (6, 6)).reshape(N, 6, 6)
+                np.copyto(Pp, np.moveaxis(P, -1, 0))
+                P = Pp.reshape(batch_shape + (6, 6))
             else:
                 P = P.reshape((6, 6) + batch_shape)
             path = "su2-closed-form" + ("" if up is not None else ", Upsilon = 0: no Phi")
         else:
+            buf = None
+            if out is not None and layout == "points":
+                buf = self._check_out(out, batch_shape + (2 * n, 2 * n)).reshape(N, 2 * n, 2 * n)
             with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-                P, cond, sens, bound, degen = _generic_poisson(f, th, up, xa_pts.reshape(N, n), pa_pts.reshape(N, n))
+                P, cond, sens, bound, degen = _generic_poisson(f, th, up, xa_pts.reshape(N, n), pa_pts.reshape(N, n), out=buf)
             if layout == "points":
                 P = P.reshape(batch_shape + (2 * n, 2 * n))
+            elif out is not None:
+                dst = self._check_out(out, (2 * n, 2 * n) + batch_shape)
+                np.copyto(dst.reshape(2 * n, 2 * n, N), np.moveaxis(P, 0, -1))
+                P = dst
             else:
                 P = np.moveaxis(P, 0, -1).reshape((2 * n, 2 * n) + batch_shape)
             path = "generic" + ("" if up is not None else ", Upsilon = 0: no Phi")
@@ -496,6 +576,12 @@ class Fast(Implementation):
             error_bound=bound.reshape(batch_shape),
             degenerate=degen.reshape(batch_shape), path=path,
         )
+
+    @staticmethod
+    def _check_out(out: np.ndarray, shape: tuple) -> np.ndarray:
+        if not isinstance(out, np.ndarray) or out.dtype != np.float64 or out.shape != shape or not out.flags.c_contiguous:
+            raise ValueError(f"out must be a C-contiguous float64 array of shape {shape}")
+        return out
 
     # ------------------------------------------------------ vector field
     def vector_field_batch(self, f, theta, upsilon, inertia, potential, x, pi) -> FieldBatch:
@@ -520,7 +606,7 @@ class Fast(Implementation):
         A = (X @ f.transpose(1, 0, 2).reshape(n, n * n)).reshape(N, n, n)
         if _is_su2(f):
             t2 = np.sum(X * X, axis=1)
-            c, lam, a2, t = _su2_frame_coeffs(t2)
+            c, lam, _, t = _su2_frame_coeffs(t2, need_k=False)
             K = A
             L = np.eye(n) + 0.5 * K + c[:, None, None] * (K @ K)
             r = t / TWO_PI

@@ -1,8 +1,14 @@
 """``tstarg verify``: the main job -- run the checks, print a summary table, write a report.
 
+The checks come from *providers*: ``"module:function"`` names of callables
+``(max_examples, seed) -> list[CheckResult]`` (:data:`PROVIDERS`; ``--provider`` picks
+a subset). A provider whose module does not exist (another issue not merged yet) is
+listed as skipped in the report, not an error; a provider that raises is a failed check.
+
 Writes ``report.json`` (every check with its metrics, the environment, versions,
-seed, profile) and ``report.md`` into the output folder (default
-``reports/latest``). Exit status 1 when any check fails.
+seed, profile, providers) and ``report.md`` into the output folder (default
+``reports/latest``). A progress line per check on stderr-free stdout (a bar on a
+terminal). Exit status 1 when any check fails.
 """
 
 from __future__ import annotations
@@ -12,10 +18,75 @@ import math
 import os
 import platform
 import sys
+import importlib
 import time
+import traceback
 from pathlib import Path
 
 PROFILES = {"dev": 6, "ci": 12, "thorough": 60}
+HELP = "run the verification suite and write a report (the main job)"
+
+PROVIDERS = (
+    "properties.checks:core_checks",
+    "properties.paper_checks:paper_checks",
+    "oracles.checks:verify_checks",
+)
+"""Check providers, in order: ``module:function`` with ``function(max_examples, seed) -> [CheckResult]``."""
+
+
+def add_arguments(v) -> None:
+    v.add_argument("--profile", choices=sorted(PROFILES), default="ci")
+    v.add_argument("--max-examples", type=int, default=None, help="Hypothesis examples per check (overrides the profile)")
+    v.add_argument("--seed", type=int, default=0, help="Hypothesis seed (reproducible runs)")
+    v.add_argument("--out", default="reports/latest", help="output folder for report.json and report.md")
+    v.add_argument("--provider", action="append", default=None, metavar="MODULE:FUNCTION",
+                   help=f"run only these check providers (repeatable; default: {', '.join(PROVIDERS)})")
+    v.add_argument("--quiet", action="store_true", help="no progress output")
+
+
+def _load_provider(spec: str):
+    """``"module:function"`` -> callable, or None when the module does not exist."""
+    if spec.count(":") != 1:
+        raise ValueError(f"provider must be 'module:function', got {spec!r}")
+    mod_name, fn_name = spec.split(":")
+    try:
+        mod = importlib.import_module(mod_name)
+    except ModuleNotFoundError as exc:
+        if exc.name and (mod_name == exc.name or mod_name.startswith(exc.name + ".")):
+            return None
+        raise
+    try:
+        return getattr(mod, fn_name)
+    except AttributeError:
+        raise ValueError(f"provider {spec!r}: module {mod_name} has no {fn_name}") from None
+
+
+class Progress:
+    """A print-based progress display: a bar redrawn in place on a terminal, one line per check otherwise."""
+
+    def __init__(self, stream=None, width: int = 24):
+        self.stream = stream or sys.stdout
+        self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
+        self.width = width
+        self.count = 0
+
+    def __call__(self, event, name, done, total, result=None):
+        if event == "start":
+            self.count += 1
+            if self.tty:
+                self._bar(name, 0, total)
+        elif event == "example" and self.tty:
+            self._bar(name, done, total)
+        elif event == "done":
+            verdict = "PASS" if result is None or result.passed else "FAIL"
+            line = f"[{self.count:3d}] {name[:52]:52s} {done:4d} ex {result.seconds if result else 0:6.1f}s {verdict}"
+            self.stream.write(("\r\033[K" if self.tty else "") + line + "\n")
+            self.stream.flush()
+
+    def _bar(self, name, done, total):
+        k = min(self.width, int(self.width * done / max(total, 1)))
+        self.stream.write(f"\r\033[K[{self.count:3d}] {name[:40]:40s} [{'#' * k}{'.' * (self.width - k)}] {done}/{total}")
+        self.stream.flush()
 
 
 def _env() -> dict:
@@ -45,11 +116,15 @@ def _fmt_digits(d) -> str:
 
 
 def render_table(results) -> str:
-    head = f"{'check':38s} {'equations':16s} {'examples':>8s} {'worst ratio':>12s} {'digits':>7s} {'time':>7s}  verdict"
+    """The summary table: check, equations, examples, worst error/tolerance ratio, digits, time, verdict."""
+    w = max([5] + [len(r.name) for r in results])
+    we = max([9] + [len(r.equations) for r in results])
+    head = (f"{'check':{w}s} {'equations':{we}s} {'examples':>8s} {'skipped':>7s} {'worst ratio':>12s} "
+            f"{'digits':>7s} {'time':>7s}  verdict")
     lines = [head, "-" * len(head)]
     for r in results:
         verdict = "PASS" if r.passed else "FAIL"
-        lines.append(f"{r.name:38s} {r.equations:16s} {r.examples:8d} {_fmt_ratio(r.worst_ratio):>12s} "
+        lines.append(f"{r.name:{w}s} {r.equations:{we}s} {r.examples:8d} {r.skipped:7d} {_fmt_ratio(r.worst_ratio):>12s} "
                      f"{_fmt_digits(r.min_digits):>7s} {r.seconds:6.1f}s  {verdict}")
     return "\n".join(lines)
 
@@ -59,6 +134,7 @@ def render_markdown(report: dict) -> str:
            f"- profile: `{report['profile']}`, max examples per check: {report['max_examples']}, seed: {report['seed']}",
            f"- verdict: **{'PASS' if report['passed'] else 'FAIL'}** ({report['n_failed']} failed of {len(report['checks'])})",
            f"- wall time: {report['seconds']:.1f} s; BLAS pinned to one thread ({report['environment']['blas_threads']})",
+           *[f"- provider `{k}`: {v}" for k, v in report.get("providers", {}).items()],
            "", "| check | equations | examples | skipped | worst error/tolerance | min digits | verdict |",
            "|---|---|---:|---:|---:|---:|---|"]
     for c in report["checks"]:
@@ -73,24 +149,66 @@ def render_markdown(report: dict) -> str:
     return "\n".join(out)
 
 
+def run_providers(specs, max_examples: int, seed, progress=None):
+    """Run each provider; returns ``(results, provider_status)``. A missing module is
+    ``"skipped"``; a provider that raises becomes one failed :class:`CheckResult`."""
+    from properties import checks as _checks
+
+    results, status = [], {}
+    if progress is not None:
+        _checks.PROGRESS.append(progress)
+    try:
+        for spec in specs:
+            fn = _load_provider(spec)
+            if fn is None:
+                status[spec] = "skipped: module not found"
+                continue
+            t0 = time.perf_counter()
+            try:
+                got = list(fn(max_examples, seed))
+            except Exception as exc:  # noqa: BLE001 - a crashing provider is a failed check
+                got = [_checks.CheckResult(name=f"provider[{spec}]", equations="-", passed=False,
+                                           worst_ratio=math.inf,
+                                           detail=f"{type(exc).__name__}: {exc}"[:2000],
+                                           falsifying_example=traceback.format_exc()[-4000:])]
+            bad = [r for r in got if not isinstance(r, _checks.CheckResult)]
+            if bad:
+                raise TypeError(f"provider {spec} returned {type(bad[0]).__name__}, expected CheckResult")
+            for r in got:
+                r.extra.setdefault("provider", spec)
+            results.extend(got)
+            status[spec] = f"ran {len(got)} checks in {time.perf_counter() - t0:.1f} s"
+    finally:
+        if progress is not None:
+            _checks.PROGRESS.remove(progress)
+    return results, status
+
+
 def main(args) -> int:
     from threadpoolctl import threadpool_limits
 
     threadpool_limits(1)
-    from properties.checks import core_checks
-
+    if args.max_examples is not None and args.max_examples < 1:
+        raise ValueError(f"--max-examples must be >= 1, got {args.max_examples}")
     max_examples = args.max_examples or PROFILES[args.profile]
+    specs = tuple(args.provider) if getattr(args, "provider", None) else PROVIDERS
+    for spec in specs:
+        if spec.count(":") != 1:
+            raise ValueError(f"--provider must be 'module:function', got {spec!r}")
     print(f"tstarg verify: profile {args.profile}, {max_examples} examples per check, seed {args.seed}; "
           f"BLAS pinned to 1 thread", flush=True)
     t0 = time.perf_counter()
-    results = core_checks(max_examples=max_examples, seed=args.seed)
+    progress = None if getattr(args, "quiet", False) else Progress()
+    results, status = run_providers(specs, max_examples, args.seed, progress)
     total = time.perf_counter() - t0
+    for spec, st in status.items():
+        print(f"provider {spec}: {st}")
     print(render_table(results))
     failed = [r for r in results if not r.passed]
     report = {
         "tool": "tstarg verify", "profile": args.profile, "max_examples": max_examples, "seed": args.seed,
         "passed": not failed, "n_failed": len(failed), "seconds": total,
-        "checks": [r.to_json() for r in results], "environment": _env(),
+        "providers": status, "checks": [r.to_json() for r in results], "environment": _env(),
         "command": " ".join(["tstarg"] + sys.argv[1:]),
     }
     out = Path(args.out)
