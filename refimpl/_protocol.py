@@ -41,3 +41,7 @@ class Implementation(abc.ABC):
     def hamiltonian_vector_field(self, f, theta, upsilon, inertia, potential, x, pi):
         """Obligation 2 of the module docstring."""
 
+    @abc.abstractmethod
+    def flow(self, f, theta, upsilon, inertia, potential, x0, pi0, t):
+        """Obligation 3 of the module docstring."""
+

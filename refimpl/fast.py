@@ -681,6 +681,14 @@ class Fast(Implementation):
         self._raise_degenerate(res.degenerate, "hamiltonian_vector_field")
         return res.xdot, res.pidot
 
+    flow_tolerance = 1e-10  # the default tolerance of refimpl.flows.fast_flow (worst trajectory)
+
+    def flow(self, f, theta, upsilon, inertia, potential, x0, pi0, t):
+        """Protocol method 3: ``(x, pi)`` at time ``t``, batched (:func:`refimpl.flows.fast_flow`)."""
+        from .flows import fast_flow
+
+        return fast_flow(f, theta, upsilon, inertia, potential, x0, pi0, t, tol=self.flow_tolerance)
+
 
 def _expm_batch(A: np.ndarray, su2: bool) -> np.ndarray:
     """``Ad(g) = exp(ad_x)`` for a batch: Rodrigues for su(2), scaling and squaring otherwise."""

@@ -468,4 +468,12 @@ class Reference(Implementation):
         return self._out(xd, (xd.rows,), exact), self._out(pd, (pd.rows,), exact)
 
 
+    def flow(self, f, theta, upsilon, inertia, potential, x0, pi0, t):
+        """Protocol method 3: ``(x, pi)`` at time ``t`` at this instance's precision
+        (:func:`refimpl.flows.reference_flow`)."""
+        from .flows import reference_flow
+
+        return reference_flow(f, theta, upsilon, inertia, potential, x0, pi0, t, dps=self.dps)
+
+
 implementation = Reference(dps=50)

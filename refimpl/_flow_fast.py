@@ -1,0 +1,701 @@
+"""Fast flows: numpy float64, batched over many initial conditions, structure-aware.
+
+State layout is components-first: ``y`` of shape ``(d, N)`` for ``N``
+trajectories. Systems (same mathematics as :mod:`refimpl._flow_reference`,
+written independently in numpy):
+
+``body``
+    ``(pi)`` when ``V = 0`` (Euler, twee14/drie6) or ``(pi, Gamma)`` with
+    gravity (Euler-Poisson, twee17 sign-corrected, twee18; vier10/vier11 in
+    general): no configuration is integrated.
+``full``
+    ``(x, pi)`` of vier10/vier11 with ``xdot = L(g, e) Omega`` and
+    ``Gamma = (Ad(g_ref) exp(ad_x))^T gamma``; the chart is re-based
+    (``g = g_ref exp(x)``) per trajectory when ``||ad_x||_F > 1``, or after
+    every step for the RKMK variant (Munthe-Kaas: the RK method is applied in
+    the chart centred at the current point).
+
+Methods (each declares ``order``; ``tests/test_flow_orders.py`` fits it):
+
+* ``dop853``: fixed-step explicit RK of order 8 (Dormand-Prince tableau);
+  with ``Upsilon = 0`` the body field is generated straight-line code
+  (code generation section at the end of this module); ``dop853-scalar`` runs the same method as
+  generated scalar Python for single trajectories;
+* ``rk4`` / ``rkmk4``, ``rkmk8``: Lie-group (RKMK) variants re-basing every step;
+* ``midpoint``, ``gauss4``, ``gauss6``: Gauss-Legendre collocation (orders
+  2, 4, 6) for general ``omega_L`` (``Upsilon != 0``);
+* ``splitting2/4/6``: Lie-Poisson splitting for su(2)/so(3) with diagonal
+  inertia, ``Upsilon = 0``, any ``Theta`` and gravity. ``H = sum_i H_i + V``
+  with ``H_i = (pi'_i - xi_i)^2 / 2 I_i`` (``pi' = pi + xi``, drie7, drie10):
+  under ``H_i`` the vectors ``pi'`` and ``Gamma`` rotate about ``e_i`` by
+  ``-Omega_i t`` and ``g -> g exp(t Omega_i e_i)``, exactly; under ``V`` only
+  ``pi`` moves, by ``t L x Gamma``. Strang's symmetric composition (order 2)
+  raised by the triple jump (orders 4, 6). Each sub-flow is a Poisson map, so
+  the Casimirs ``|pi'|^2`` or ``|Gamma|^2``, ``pi.Gamma`` (for ``xi = 0``)
+  are kept to rounding and ``g`` stays on the group (a unit quaternion).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import fast as _fast
+from ._integrators import DOP853, RK4, ExplicitRK, GaussLegendre, triple_jump_weights
+from ._validate import check_inertia, check_potential, check_structure_constants, check_theta, check_upsilon
+
+__all__ = ["NumpyModel", "METHODS", "method", "integrate_fast"]
+
+EPS = np.finfo(float).eps
+
+
+class NumpyModel:
+    """A validated model in float64 with batched body-system formulas."""
+
+    def __init__(self, f, theta, upsilon, inertia, potential):
+        from ._algebra import LieAlgebra
+
+        self.algebra = f if isinstance(f, LieAlgebra) else None
+        f = check_structure_constants(f)
+        n = f.shape[0]
+        self.n = n
+        self.f = f
+        self.theta = check_theta(theta, f)
+        self.upsilon = check_upsilon(upsilon, n)
+        self.theta_zero = not self.theta.any()
+        self.upsilon_zero = not self.upsilon.any()
+        self.inertia = check_inertia(inertia, n)
+        Iinv = np.linalg.inv(self.inertia)
+        self.Iinv = 0.5 * (Iinv + Iinv.T)
+        self.I_diagonal = not np.any(self.inertia - np.diag(np.diag(self.inertia)))
+        pot = check_potential(potential, n)
+        self.gravity = pot is not None
+        self.Lvec = None if pot is None else pot["L"]
+        self.gamma = None if pot is None else pot["gamma"]
+        self.su2 = _fast._is_su2(f)
+        self.f_flat = f.reshape(n, n * n)                      # S_flat = f_flat^T pi
+        self.G_L = None if pot is None else np.einsum("mbc,c->bm", f, self.Lvec)  # (L x .) : dV = -G_L Gamma
+
+    # -------------------------------------------------------------- pieces
+    def S(self, pi):
+        """``S_ab = pi_m f^m_ab - Theta_ab`` for pi of shape (n, N): result (n, n, N)."""
+        n = self.n
+        S = (self.f_flat.T @ pi).reshape(n, n, -1)
+        if not self.theta_zero:
+            S = S - self.theta[:, :, None]
+        return S
+
+    def omega_pidot(self, pi, Gamma):
+        n = self.n
+        dK = self.Iinv @ pi
+        S = self.S(pi)
+        SdK = np.einsum("abN,bN->aN", S, dK)
+        dV = None if Gamma is None else -(self.G_L @ Gamma)
+        if self.upsilon_zero:
+            return dK, (-SdK if dV is None else -dV - SdK)
+        U = self.upsilon
+        Psi = np.eye(n)[None] + np.einsum("ab,bcN->Nac", U, S)
+        rhs_o = dK if dV is None else dK - U @ dV
+        rhs_p = -SdK if dV is None else -dV - SdK
+        Omega = np.linalg.solve(Psi, rhs_o.T[:, :, None])[:, :, 0].T
+        pidot = np.linalg.solve(Psi.transpose(0, 2, 1), rhs_p.T[:, :, None])[:, :, 0].T
+        return Omega, pidot
+
+    def gamma_dot(self, Omega, Gamma):
+        """``dGamma_mu/dt = Omega^b f^a_{b mu} Gamma_a`` (twee17, sign corrected)."""
+        return np.einsum("bN,abm,aN->mN", Omega, self.f, Gamma)
+
+    def delta(self, pi):
+        """``Delta = det(1 + S Upsilon)`` per point (vier7)."""
+        if self.upsilon_zero:
+            return np.ones(pi.shape[1])
+        S = self.S(pi)
+        return np.linalg.det(np.eye(self.n)[None] + np.einsum("abN,bc->Nac", S, self.upsilon))
+
+    # ---------------------------------------------------------- systems
+    def body_rhs(self):
+        n = self.n
+        if self.upsilon_zero:
+            return numpy_rhs(self)  # straight-line polynomial (twee14/drie6, twee17-18), zero terms dropped
+        if self.gravity:
+
+            def F(y):
+                Omega, pidot = self.omega_pidot(y[:n], y[n:])
+                return np.concatenate([pidot, self.gamma_dot(Omega, y[n:])])
+            return F
+
+        def F(y):
+            return self.omega_pidot(y, None)[1]
+        return F
+
+    def _su2_heavy_rhs(self):
+        """su(2) Euler-Poisson with Theta: ``pidot = pi x W + xi x W + L x G``, ``Gdot = G x W`` (components)."""
+        Ii = self.Iinv
+        L0, L1, L2 = self.Lvec
+        xi = _fast._su2_theta_to_xi(None if self.theta_zero else self.theta)
+        diag = self.I_diagonal
+        d0, d1, d2 = np.diag(Ii)
+
+        def F(y):
+            p0, p1, p2, g0, g1, g2 = y
+            if diag:
+                w0, w1, w2 = d0 * p0, d1 * p1, d2 * p2
+            else:
+                w0, w1, w2 = Ii @ y[:3]
+            if xi is not None:
+                q0, q1, q2 = p0 + xi[0], p1 + xi[1], p2 + xi[2]
+            else:
+                q0, q1, q2 = p0, p1, p2
+            out = np.empty_like(y)
+            out[0] = q1 * w2 - q2 * w1 + L1 * g2 - L2 * g1
+            out[1] = q2 * w0 - q0 * w2 + L2 * g0 - L0 * g2
+            out[2] = q0 * w1 - q1 * w0 + L0 * g1 - L1 * g0
+            out[3] = g1 * w2 - g2 * w1
+            out[4] = g2 * w0 - g0 * w2
+            out[5] = g0 * w1 - g1 * w0
+            return out
+        return F
+
+    def full_rhs(self, Ad_ref):
+        """``(x, pi)`` field; ``Ad_ref`` (N, n, n) is read at call time (re-basing updates it in place)."""
+        n = self.n
+
+        def F(y):
+            x, pi = y[:n], y[n:]
+            adx = np.einsum("aN,mab->Nmb", x, self.f)
+            Gamma = None
+            if self.gravity:
+                Ad = Ad_ref @ _fast._expm_batch(adx, su2=self.su2)
+                Gamma = np.einsum("Nmb,m->bN", Ad, self.gamma)
+            Omega, pidot = self.omega_pidot(pi, Gamma)
+            L = _frame_L(adx, self.su2)
+            xdot = np.einsum("Nab,bN->aN", L, Omega)
+            return np.concatenate([xdot, pidot])
+        return F
+
+
+def _frame_L(adx, su2):
+    if su2:
+        t2 = -0.5 * np.einsum("Nij,Nji->N", adx, adx)
+        c, _, _, _ = _fast._su2_frame_coeffs(t2)
+        return np.eye(3)[None] + 0.5 * adx + c[:, None, None] * (adx @ adx)
+    return _fast._frames_generic(adx)[0]
+
+
+# -------------------------------------------------------------- methods
+@dataclass(frozen=True)
+class Method:
+    """A fast flow method. ``order``: the declared global order; ``kind``: rk, gauss or splitting."""
+
+    name: str
+    order: int
+    kind: str
+    rkmk: bool = False
+
+    def applies(self, model: NumpyModel) -> tuple[bool, str]:
+        if self.kind == "splitting":
+            if not model.su2:
+                return False, "Lie-Poisson splitting is written for su(2)/so(3) only"
+            if not model.upsilon_zero:
+                return False, "Lie-Poisson splitting needs Upsilon = 0"
+            if not model.I_diagonal:
+                return False, "Lie-Poisson splitting needs a diagonal inertia (principal axes)"
+        if self.kind == "scalar" and not model.upsilon_zero:
+            return False, "the generated scalar code covers the polynomial body system (Upsilon = 0)"
+        if self.kind == "rk" and not model.upsilon_zero:
+            return True, "explicit RK is not symplectic for omega_L; a Gauss method keeps the structure"
+        return True, ""
+
+
+METHODS = {
+    "dop853": Method("dop853", 8, "rk"),
+    "dop853-scalar": Method("dop853-scalar", 8, "scalar"),
+    "rk4": Method("rk4", 4, "rk"),
+    "rkmk4": Method("rkmk4", 4, "rk", rkmk=True),
+    "rkmk8": Method("rkmk8", 8, "rk", rkmk=True),
+    "midpoint": Method("midpoint", 2, "gauss"),
+    "gauss4": Method("gauss4", 4, "gauss"),
+    "gauss6": Method("gauss6", 6, "gauss"),
+    "splitting2": Method("splitting2", 2, "splitting"),
+    "splitting4": Method("splitting4", 4, "splitting"),
+    "splitting6": Method("splitting6", 6, "splitting"),
+}
+
+_STEPPERS = {"dop853": DOP853, "rk4": RK4, "rkmk4": RK4, "rkmk8": DOP853,
+             "midpoint": GaussLegendre(1), "gauss4": GaussLegendre(2), "gauss6": GaussLegendre(3)}
+
+
+def method(name: str) -> Method:
+    if name not in METHODS:
+        raise ValueError(f"unknown flow method {name!r}; known: {sorted(METHODS)}")
+    return METHODS[name]
+
+
+# ------------------------------------------------------ splitting (su(2))
+def _rot(axis: int, ang, A, B=None):
+    """Rotate the rows (3, N) of A (and B) about e_axis by the angle ``ang`` (N,)."""
+    i, j = (axis + 1) % 3, (axis + 2) % 3
+    c, s = np.cos(ang), np.sin(ang)
+    for M in (A, B):
+        if M is None:
+            continue
+        u, v = M[i].copy(), M[j]
+        M[i] = c * u - s * v
+        M[j] = s * u + c * v
+
+
+def qmul(a, b):
+    """Hamilton product of quaternions (4, N): the product of the su(2) matrices ``q0 - i qv.sigma``."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[0] = a[0] * b[0] - np.sum(a[1:] * b[1:], axis=0)
+    out[1:] = a[0] * b[1:] + b[0] * a[1:] + np.cross(a[1:], b[1:], axis=0)
+    return out
+
+
+def _qmul_axis(q, axis: int, half):
+    """``q <- q * (cos h, sin h e_axis)`` (Hamilton product), q of shape (4, N)."""
+    c, s = np.cos(half), np.sin(half)
+    e = np.zeros(3)
+    e[axis] = 1
+    q0, qv = q[0].copy(), q[1:].copy()
+    q[0] = c * q0 - s * qv[axis]
+    bv = np.zeros_like(qv)
+    bv[axis] = s
+    cross = np.cross(qv, bv, axis=0)
+    q[1:] = q0 * bv + c * qv + cross
+
+
+def _splitting_integrate(model: NumpyModel, pi, Gamma, quat, t, nsteps, order, observe=None):
+    """Strang splitting raised to ``order`` by the triple jump; state modified in place."""
+    d = np.diag(model.Iinv)
+    xi = _fast._su2_theta_to_xi(None if model.theta_zero else model.theta)
+    xi = np.zeros(3) if xi is None else xi
+    q = pi + xi[:, None]  # pi' = pi + xi (drie7): rotated by the H_i flows
+    Lv = model.Lvec
+    weights = triple_jump_weights(order)
+    h = t / nsteps
+
+    def kin(i, tau):  # noqa: E306
+        ang = -d[i] * (q[i] - xi[i]) * tau      # Omega_i = (pi'_i - xi_i)/I_i ; y -> R_i(-Omega_i tau) y
+        if quat is not None:
+            _qmul_axis(quat, i, -ang / 2)       # g -> g exp(tau Omega_i e_i)
+        _rot(i, ang, q, Gamma)
+
+    def pot(tau):
+        if Gamma is not None:
+            q[:] += tau * np.cross(Lv[:, None], Gamma, axis=0)
+
+    for k in range(nsteps):
+        for w in weights:
+            tau = w * h
+            pot(tau / 2)
+            kin(0, tau / 2)
+            kin(1, tau / 2)
+            kin(2, tau)
+            kin(1, tau / 2)
+            kin(0, tau / 2)
+            pot(tau / 2)
+        if observe is not None:
+            observe(k + 1, q - xi[:, None], Gamma, None if quat is None else quat_to_x(quat))
+    pi[:] = q - xi[:, None]
+
+
+def quat_to_x(q):
+    """``x`` with ``exp(x^a E_a) = q0 - i qv.sigma``: ``x = 2 atan2(|qv|, q0) qv/|qv|`` (|x| <= 2 pi)."""
+    s = np.sqrt(np.sum(q[1:] ** 2, axis=0))
+    ang = 2 * np.arctan2(s, q[0])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        fac = np.where(s > 0, ang / np.where(s > 0, s, 1), 2.0)
+    return q[1:] * fac
+
+
+def x_to_quat(x):
+    t = np.sqrt(np.sum(x ** 2, axis=0))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s = np.where(t > 0, np.sin(t / 2) / np.where(t > 0, t, 1), 0.5)
+    return np.concatenate([np.cos(t / 2)[None], s * x])
+
+
+# ------------------------------------------------------------ integrate
+def integrate_fast(model: NumpyModel, meth: Method, x0, pi0, t, nsteps: int, *, system: str,
+                   observe=None):
+    """Integrate ``N`` trajectories (``x0``, ``pi0`` of shape (n, N)) to time ``t`` in ``nsteps`` steps.
+
+    Returns a dict with ``pi``, ``Gamma`` (or None), ``x`` (or None), ``Ad`` (N, n, n, or None),
+    ``quat`` (su(2) splitting only), ``rebases`` (per trajectory).
+    """
+    ok, why = meth.applies(model)
+    if not ok:
+        raise ValueError(f"method {meth.name} does not apply: {why}")
+    n, N = pi0.shape
+    adx0 = np.einsum("aN,mab->Nmb", x0, model.f)
+    Ad0 = _fast._expm_batch(adx0, su2=model.su2)
+    Gamma0 = np.einsum("Nmb,m->bN", Ad0, model.gamma) if model.gravity else None
+    if meth.kind == "scalar":
+        if system != "body":
+            raise ValueError("method dop853-scalar integrates body systems only (no configuration)")
+        run = scalar_rk_integrator(model, (DOP853.A, DOP853.b, DOP853.c))
+        y0 = pi0 if Gamma0 is None else np.concatenate([pi0, Gamma0])
+        res = np.empty_like(y0)
+        hist = np.empty((nsteps, y0.shape[0], N)) if observe is not None else None
+        for j in range(N):
+            rec = None if hist is None else (lambda k, y, j=j: hist.__setitem__((k - 1, slice(None), j), y))
+            res[:, j] = run(list(y0[:, j]), t / nsteps, nsteps, rec)
+        if hist is not None:  # replay the samples in step order, batched like the other methods
+            for k in range(nsteps):
+                observe(k + 1, hist[k, :n], None if Gamma0 is None else hist[k, n:], None)
+        return {"pi": res[:n], "Gamma": None if Gamma0 is None else res[n:], "x": None, "Ad": None,
+                "quat": None, "rebases": np.zeros(N, dtype=int)}
+    if meth.kind == "splitting":
+        pi = pi0.copy()
+        G = None if Gamma0 is None else Gamma0.copy()
+        quat = x_to_quat(x0) if system == "full" else None
+        _splitting_integrate(model, pi, G, quat, t, nsteps, meth.order, observe=observe)
+        out = {"pi": pi, "Gamma": G, "x": None if quat is None else quat_to_x(quat), "quat": quat,
+               "Ad": None, "rebases": np.zeros(N, dtype=int)}
+        return out
+    stepper: ExplicitRK | GaussLegendre = _STEPPERS[meth.name]
+    if system == "body":
+        F = model.body_rhs()
+        y0 = pi0 if Gamma0 is None else np.concatenate([pi0, Gamma0])
+        obs = None if observe is None else (lambda k, y: observe(k, y[:n], None if Gamma0 is None else y[n:], None))
+        if isinstance(stepper, ExplicitRK) and model.upsilon_zero:
+            y = stepper.integrate(F, y0, t, nsteps, observe=obs, F_into=numpy_rhs_inplace(model))
+        else:
+            y = stepper.integrate(F, y0, t, nsteps, observe=obs)
+        return {"pi": y[:n], "Gamma": None if Gamma0 is None else y[n:], "x": None, "Ad": None, "quat": None,
+                "rebases": np.zeros(N, dtype=int)}
+    Ad_ref = np.broadcast_to(np.eye(n), (N, n, n)).copy()
+    rebases = np.zeros(N, dtype=int)
+    q_ref = np.zeros((4, N)) if model.su2 else None
+    if q_ref is not None:
+        q_ref[0] = 1.0
+    rep = _rep_of(model) if q_ref is None else None
+    G_ref = None if rep is None else np.broadcast_to(np.eye(rep.shape[-1], dtype=complex),
+                                                     (N,) + rep.shape[1:]).copy()
+    F = model.full_rhs(Ad_ref)
+
+    def after(y):
+        x = y[:n]
+        adx = np.einsum("aN,mab->Nmb", x, model.f)
+        r = np.sqrt(np.sum(adx * adx, axis=(1, 2)))
+        move = r > (0.0 if meth.rkmk else 1.0)
+        if move.any():
+            Ad_ref[move] = Ad_ref[move] @ _fast._expm_batch(adx[move], su2=model.su2)
+            if q_ref is not None:
+                q_ref[:, move] = qmul(q_ref[:, move], x_to_quat(x[:, move]))
+            if G_ref is not None:
+                G_ref[move] = G_ref[move] @ _rep_exp(rep, x[:, move])
+            y = y.copy()
+            y[:n, move] = 0.0
+            rebases[move] += 1
+        return y
+
+    def obs(k, y):
+        x = y[:n]
+        adx = np.einsum("aN,mab->Nmb", x, model.f)
+        Ad = Ad_ref @ _fast._expm_batch(adx, su2=model.su2)
+        G = np.einsum("Nmb,m->bN", Ad, model.gamma) if model.gravity else None
+        if q_ref is not None:
+            xs = quat_to_x(qmul(q_ref, x_to_quat(x)))
+        else:
+            xs = _x_from_rep(model, rep, G_ref, x, Ad, rebases)
+        observe(k, y[n:], G, xs)
+
+    y0 = np.concatenate([x0, pi0])
+    y = stepper.integrate(F, y0, t, nsteps, after_step=after, observe=obs if observe is not None else None)
+    x = y[:n]
+    adx = np.einsum("aN,mab->Nmb", x, model.f)
+    Ad = Ad_ref @ _fast._expm_batch(adx, su2=model.su2)
+    G = np.einsum("Nmb,m->bN", Ad, model.gamma) if model.gravity else None
+    quat = None if q_ref is None else qmul(q_ref, x_to_quat(x))
+    if quat is not None:
+        xs = np.where(rebases[None] == 0, x, quat_to_x(quat))
+    else:
+        xs = _x_from_rep(model, rep, G_ref, x, Ad, rebases)
+    return {"pi": y[n:], "Gamma": G, "x_local": x, "Ad_ref": Ad_ref, "Ad": Ad, "quat": quat,
+            "x": xs, "rebases": rebases}
+
+
+def _rep_of(model):
+    """The faithful matrix representation ``E_a`` of the model's algebra (catalogue), or None."""
+    alg = model.algebra
+    if alg is None:
+        from ._flow_reference import _catalogue_match
+
+        alg = _catalogue_match(model.f)
+    return None if alg is None or alg.rep is None else np.asarray(alg.rep, dtype=complex)
+
+
+def _rep_exp(rep, x):
+    """``exp(x^a E_a)`` for x of shape (n, M): (M, r, r) complex (scipy.linalg.expm on the stack)."""
+    from scipy.linalg import expm
+
+    return expm(np.einsum("aM,aij->Mij", x, rep))
+
+
+def _x_from_rep(model, rep, G_ref, x, Ad, rebases):
+    """``x`` with ``g = exp(x)`` for re-based trajectories, from the principal logarithm of the
+    representation matrix projected on the basis ``E_a``; NaN when that is not a chart point
+    (projection residual or ``exp(ad_x) != Ad(g)`` beyond ``1e3 eps`` scaled)."""
+    out = np.where(rebases[None] == 0, x, np.nan)
+    if G_ref is None or not np.any(rebases):
+        return out
+    from scipy.linalg import logm
+
+    n = model.n
+    B = np.concatenate([rep.real.reshape(n, -1), rep.imag.reshape(n, -1)], axis=1).T  # (2 r^2, n)
+    for j in np.flatnonzero(rebases):
+        g = G_ref[j] @ _rep_exp(rep, x[:, j:j + 1])[0]
+        try:
+            X = logm(g)
+        except (ValueError, np.linalg.LinAlgError):
+            continue
+        rhs = np.concatenate([X.real.ravel(), X.imag.ravel()])
+        xj, *_ = np.linalg.lstsq(B, rhs, rcond=None)
+        tol = 1e3 * EPS * max(1.0, float(np.max(np.abs(rhs))))   # rounding of logm and the projection
+        if np.max(np.abs(B @ xj - rhs)) > tol * 100:
+            continue
+        adx = np.einsum("a,mab->mb", xj, model.f)
+        Ad_x = _fast._expm_batch(adx[None], su2=False)[0]
+        if np.max(np.abs(Ad_x - Ad[j])) > tol * 100 * max(1.0, np.max(np.abs(Ad[j]))):
+            continue
+        out[:, j] = xj
+    return out
+
+
+# ------------------------------------------------------ code generation
+# Scalar code generation for single trajectories: a polynomial body system and an unrolled RK loop.
+# 
+# For one trajectory numpy's per-call overhead dominates (arrays of 6 numbers),
+# so the reduced body system with ``Upsilon = 0`` -- a quadratic polynomial
+# (twee14/drie6, Euler-Poisson twee17 corrected/twee18) -- is written out as
+# straight-line Python over floats, with the structure constants, ``I^-1``,
+# ``Theta`` and ``L`` as literals (zero terms dropped), and the explicit RK
+# tableau is unrolled around it inside a single loop. Same arithmetic as
+# :class:`refimpl._integrators.ExplicitRK`; rounding differs only in order.
+def _lit(v: float) -> str:
+    return repr(float(v))
+
+
+def _term(sign_coef: float, *names: str) -> str:
+    """``+ c*a*b`` with the factor dropped when ``c = +-1``."""
+    prod = "*".join(names)
+    if sign_coef == 1:
+        return f"+ {prod}"
+    if sign_coef == -1:
+        return f"- {prod}"
+    return f"+ {_lit(sign_coef)}*{prod}" if sign_coef > 0 else f"- {_lit(-sign_coef)}*{prod}"
+
+
+def _rhs_terms(model, ys: list[str]):
+    """The body field as sums of monomials: ``w_a = sum_b Iinv_ab pi_b`` (Omega = dK) and
+    ``out_k = sum coef * prod(factors)``, equal monomials merged, zero coefficients dropped.
+
+    ``pidot_a = -pi_m f^m_ab w_b + Theta_ab w_b + Gamma_m f^m_ac L^c`` (drie6, twee18 with
+    ``-dV_a = Gamma_m f^m_ac L^c``, twee16) and ``Gammadot_mu = w_b f^a_{b mu} Gamma_a``
+    (twee17, sign corrected).
+    """
+    n = model.n
+    pi, G = ys[:n], ys[n:]
+    Ii = model.Iinv
+    wdefs = [[(float(Ii[a, b]), pi[b]) for b in range(n) if Ii[a, b] != 0] for a in range(n)]
+    outs: dict = {k: {} for k in range(2 * n if model.gravity else n)}
+
+    def add(k, coef, *factors):
+        key = tuple(factors)
+        outs[k][key] = outs[k].get(key, 0.0) + float(coef)
+
+    f = model.f
+    for m in range(n):
+        for a in range(n):
+            for b in range(n):
+                if f[m, a, b] != 0:
+                    add(a, -f[m, a, b], pi[m], f"w{b}")
+    if not model.theta_zero:
+        for a in range(n):
+            for b in range(n):
+                if model.theta[a, b] != 0:
+                    add(a, model.theta[a, b], f"w{b}")
+    if model.gravity:
+        Lv = model.Lvec
+        for m in range(n):
+            for b in range(n):
+                for c in range(n):
+                    if f[m, b, c] != 0 and Lv[c] != 0:
+                        add(b, f[m, b, c] * Lv[c], G[m])
+        for a in range(n):
+            for b in range(n):
+                for mu in range(n):
+                    if f[a, b, mu] != 0:
+                        add(n + mu, f[a, b, mu], f"w{b}", G[a])
+    clean = {k: [(c, fac) for fac, c in d.items() if c != 0] for k, d in outs.items()}
+    return wdefs, clean
+
+
+def _sum_expr(terms) -> str:
+    if not terms:
+        return "0.0"
+    parts = [_term(c, *fac) for c, fac in terms]
+    expr = " ".join(parts)
+    return expr[2:] if expr.startswith("+ ") else expr
+
+
+def _rhs_lines(model, pfx: str, ys: list[str]) -> list[str]:
+    """Statements computing the derivative components ``{pfx}0..`` from the names ``ys``."""
+    wdefs, outs = _rhs_terms(model, ys)
+    lines = [f"w{a} = " + _sum_expr([(c, (nm,)) for c, nm in wd]) for a, wd in enumerate(wdefs)]
+    lines += [f"{pfx}{k} = " + _sum_expr(terms) for k, terms in outs.items()]
+    return lines
+
+
+def scalar_rk_integrator(model, tableau):
+    """A function ``run(y0: list, h, nsteps, observe=None) -> list`` for one trajectory (cached by model)."""
+    key = (model.f.tobytes(), model.theta.tobytes(), model.Iinv.tobytes(),
+           None if not model.gravity else model.Lvec.tobytes(), np.asarray(tableau[0]).tobytes())
+    return _build(key, model, tableau)
+
+
+_CACHE: dict = {}
+
+
+def _build(key, model, tableau):
+    if key in _CACHE:
+        return _CACHE[key]
+    A, b, c = tableau
+    s = len(b)
+    d = 2 * model.n if model.gravity else model.n
+    y = [f"y{i}" for i in range(d)]
+    src = ["def run(yinit, h, nsteps, observe=None):", "    " + ", ".join(y) + ", = yinit"]
+    for i in range(s):
+        for j in range(i):
+            if A[i, j] != 0:
+                src.append(f"    a{i}_{j} = h*{_lit(A[i, j])}")
+    for j in range(s):
+        if b[j] != 0:
+            src.append(f"    b{j} = h*{_lit(b[j])}")
+    src.append("    for step in range(nsteps):")
+    ind = "        "
+    for i in range(s):
+        if i == 0:
+            args = y
+        else:
+            args = []
+            for comp in range(d):
+                terms = [f"a{i}_{j}*k{j}_{comp}" for j in range(i) if A[i, j] != 0]
+                src.append(f"{ind}z{comp} = y{comp} + " + (" + ".join(terms) if terms else "0.0"))
+                args.append(f"z{comp}")
+        src += [ind + line for line in _rhs_lines(model, f"k{i}_", args)]
+    for comp in range(d):
+        terms = [f"b{j}*k{j}_{comp}" for j in range(s) if b[j] != 0]
+        src.append(f"{ind}y{comp} = y{comp} + " + " + ".join(terms))
+    src.append(f"{ind}if observe is not None: observe(step + 1, [" + ", ".join(y) + "])")
+    src.append("    return [" + ", ".join(y) + "]")
+    ns: dict = {}
+    exec(compile("\n".join(src), "<tstarg scalar rk>", "exec"), ns)  # noqa: S102 - generated from numbers only
+    _CACHE[key] = ns["run"]
+    return ns["run"]
+
+
+def scalar_rhs(model):
+    """The generated body right-hand side alone, ``rhs(t, y) -> list`` (for baselines such as solve_ivp)."""
+    d = 2 * model.n if model.gravity else model.n
+    y = [f"y{i}" for i in range(d)]
+    src = ["def rhs(t, y):", "    " + ", ".join(y) + ", = y"]
+    src += ["    " + line for line in _rhs_lines(model, "k", y)]
+    src.append("    return [" + ", ".join(f"k{i}" for i in range(d)) + "]")
+    ns: dict = {}
+    exec(compile("\n".join(src), "<tstarg scalar rhs>", "exec"), ns)  # noqa: S102 - generated from numbers only
+    return ns["rhs"]
+
+
+def numpy_rhs(model):
+    """The same straight-line body right-hand side over numpy rows: ``rhs(y) -> array`` of y's shape.
+
+    Used by the batched integrators when ``Upsilon = 0``: zero structure constants, inertia and
+    ``L`` entries cost nothing, and no (n, n, N) intermediate is formed.
+    """
+    import numpy as _np
+
+    d = 2 * model.n if model.gravity else model.n
+    y = [f"y{i}" for i in range(d)]
+    src = ["def rhs(y):", "    " + ", ".join(y) + ", = y", "    out = _np.empty_like(y)"]
+    body = _rhs_lines(model, "k", y)
+    for line in body:
+        name, expr = line.split(" = ", 1)
+        if name.startswith("k") and name[1:].isdigit():
+            src.append(f"    out[{name[1:]}] = {expr}")
+        else:
+            src.append("    " + line)
+    src.append("    return out")
+    ns: dict = {"_np": _np}
+    exec(compile("\n".join(src), "<tstarg numpy rhs>", "exec"), ns)  # noqa: S102 - generated from numbers only
+    return ns["rhs"]
+
+
+def numpy_rhs_inplace(model):
+    """``rhs(y, out)`` writing the body field into ``out`` with ufunc ``out=`` calls only (no temporaries
+    beyond two preallocated rows): the batched integrators' hot path when ``Upsilon = 0``."""
+    import numpy as _np
+
+    d = 2 * model.n if model.gravity else model.n
+    y = [f"y[{i}]" for i in range(d)]
+    wdefs, outs = _rhs_terms(model, y)
+    src = ["def rhs(y, out):", "    t = _buf(y.shape[1:])", "    ws = _wbuf(y.shape[1:])"]
+    for a, wd in enumerate(wdefs):
+        if len(wd) == 1 and wd[0][0] == 1.0:
+            src.append(f"    w{a} = {wd[0][1]}")
+            continue
+        src.append(f"    w{a} = ws[{a}]")
+        for i, (c, nm) in enumerate(wd):
+            if i == 0:
+                src.append(f"    _np.multiply({nm}, {_lit(c)}, out=w{a})")
+            else:
+                src.append(f"    _np.multiply({nm}, {_lit(c)}, out=t)")
+                src.append(f"    w{a} += t")
+    for k, terms in outs.items():
+        o = f"out[{k}]"
+        if not terms:
+            src.append(f"    {o}[...] = 0.0")
+            continue
+        # a positive product first (written straight into out), then one pass per further term:
+        # +-1 coefficients fold into += / -=, linear +-1 terms add the row itself
+        terms = sorted(terms, key=lambda cf: (len(cf[1]) < 2, cf[0] < 0))
+        c0, f0 = terms[0]
+        if len(f0) == 1:
+            src.append(f"    _np.multiply({f0[0]}, {_lit(c0)}, out={o})")
+        else:
+            src.append(f"    _np.multiply({f0[0]}, {f0[1]}, out={o})")
+            if c0 != 1.0:
+                src.append(f"    {o} *= {_lit(c0)}")
+        for c, fac in terms[1:]:
+            op = "+=" if c > 0 else "-="
+            if len(fac) == 1 and abs(c) == 1.0:
+                src.append(f"    {o} {op} {fac[0]}")
+                continue
+            if len(fac) == 1:
+                src.append(f"    _np.multiply({fac[0]}, {_lit(abs(c))}, out=t)")
+            else:
+                src.append(f"    _np.multiply({fac[0]}, {fac[1]}, out=t)")
+                if abs(c) != 1.0:
+                    src.append(f"    t *= {_lit(abs(c))}")
+            src.append(f"    {o} {op} t")
+    src.append("    return out")
+    cache: dict = {}
+
+    def _buf(shape):
+        key = ("t", shape)
+        if key not in cache:
+            cache[key] = _np.empty(shape)
+        return cache[key]
+
+    def _wbuf(shape):
+        key = ("w", shape)
+        if key not in cache:
+            cache[key] = _np.empty((model.n,) + shape)
+        return cache[key]
+
+    ns: dict = {"_np": _np, "_buf": _buf, "_wbuf": _wbuf}
+    exec(compile("\n".join(src), "<tstarg numpy rhs in place>", "exec"), ns)  # noqa: S102 - numbers only
+    return ns["rhs"]

@@ -1,0 +1,504 @@
+"""Reference flows (mpmath, any precision): the full state (x, pi) and the reduced body systems.
+
+Systems (CONVENTIONS.md; the paper's labels)
+
+* Full state, vier10/vier11: ``Omega = Psi^-1 (dK - U dV)``,
+  ``pidot = Phi^-1 (-dV - S dK)``, ``xdot = L(g, e) Omega`` with
+  ``L(g, e) = phi1(-ad_x)^-1`` and ``dV_b = -Gamma_m f^m_bc L^c``,
+  ``Gamma = Ad(g)^T gamma`` (twee16). With ``Upsilon = 0``, ``Theta = 0`` this
+  is twee13/twee14; with ``Theta`` it is drie4/drie6.
+* Reduced body system: ``dV`` depends on ``g`` only through ``Gamma``, which
+  obeys ``dGamma_mu/dt = Omega^b f^a_{b mu} Gamma_a`` (twee17 with the sign
+  corrected, CONVENTIONS.md / tests/test_vector_field.py); so ``(pi, Gamma)``
+  is closed (Euler-Poisson, twee17/twee18), and ``pi`` alone is closed when
+  ``V = 0`` (Euler, twee14, drie6).
+
+Re-basing: the chart ``g = exp(x)`` fails where ``ad_x`` has an eigenvalue
+``2 pi i k``. ``omega_L`` is left-invariant, so with ``g = g_ref exp(x)`` the
+body equations keep their form; only the potential changes, through
+``gamma -> Ad(g_ref)^T gamma``. After every step with ``||ad_x||_1 > REBASE``
+the flow moves ``exp(x)`` into ``g_ref`` (kept as ``Ad(g_ref)`` and as a matrix
+of the algebra's representation) and resets ``x = 0``.
+
+Integrator: Gragg-Bulirsch-Stoer extrapolation (:func:`refimpl._integrators.gbs_mp`)
+at ``dps + GUARD`` digits with local tolerance ``10^-(dps + 5)``. The result is
+certified by a ladder: :func:`reference_trajectory` with ``check=True`` repeats
+the run at ``dps + 15`` digits and a tolerance 10^-10 smaller and reports the
+digits on which both agree (``digits``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import mpmath
+import numpy as np
+
+from ._algebra import LieAlgebra
+from ._validate import check_inertia, check_potential
+from .reference import DegeneratePointError, Reference, _as_float, _to_mpf
+
+__all__ = ["ModelMP", "ReferenceTrajectory", "reference_trajectory", "reference_flow", "euler_top_closed_form"]
+
+GUARD = 15
+REBASE = mpmath.mpf(1)  # ||ad_x||_1 above which the chart is re-based (well inside |eig| < 2 pi)
+
+
+def _catalogue_match(f):
+    """The catalogue algebra with exactly these structure constants (for its representation), or None."""
+    from ._catalogue import CATALOGUE_NAMES, catalogue
+
+    for name in CATALOGUE_NAMES:
+        alg = catalogue(name)
+        if alg.f.shape == f.shape and np.array_equal(alg.f, f) and alg.rep is not None:
+            return alg
+    return None
+
+
+def check_time(t, name: str = "t") -> float:
+    """A time span must be a finite number >= 0."""
+    try:
+        with mpmath.workdps(30):
+            tv = float(_to_mpf(t))  # exact inputs accepted: int, Fraction, "1/2", mpf, sympy
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a finite number >= 0, got {t!r}") from None
+    if not np.isfinite(tv) or tv < 0:
+        raise ValueError(f"{name} must be a finite number >= 0, got {t!r}")
+    return tv
+
+
+class ModelMP:
+    """A model (f, Theta, Upsilon, inertia, potential) converted once to mpmath lists at the current precision."""
+
+    def __init__(self, f, theta, upsilon, inertia, potential):
+        ref = Reference(max(15, mpmath.mp.dps - GUARD))
+        Fm, th, up = ref._model(f, theta, upsilon)
+        n = len(Fm)
+        check_inertia(_as_float(inertia, "inertia"), n)
+        pot = check_potential(None if potential is None else {
+            k: (_as_float(v, f"potential[{k!r}]") if k != "kind" else v) for k, v in potential.items()}, n)
+        self.n = n
+        self.algebra = f if isinstance(f, LieAlgebra) else _catalogue_match(np.asarray(_as_float(f, "f")))
+        self.Fm = Fm
+        self.f = [[[Fm[m][a, b] for b in range(n)] for a in range(n)] for m in range(n)]
+        self.f_nz = [(m, a, b, Fm[m][a, b]) for m in range(n) for a in range(n) for b in range(n) if Fm[m][a, b] != 0]
+        self.theta = th
+        self.theta_zero = all(th[i, j] == 0 for i in range(n) for j in range(n))
+        self.upsilon = up
+        self.upsilon_zero = all(up[i, j] == 0 for i in range(n) for j in range(n))
+        I_mp = Reference._mat(inertia, n, "inertia")
+        self.Iinv = mpmath.inverse(I_mp)
+        self._Iinv_l = [[self.Iinv[a, b] for b in range(n)] for a in range(n)]
+        self._Idiag = all(self.Iinv[a, b] == 0 for a in range(n) for b in range(n) if a != b)
+        if pot is None:
+            self.Lvec = self.gamma = None
+        else:
+            self.Lvec = Reference._vec(potential["L"], n, "potential['L']")
+            self.gamma = Reference._vec(potential["gamma"], n, "potential['gamma']")
+        self.ref = ref
+
+    # -------------------------------------------------------------- pieces
+    def ad(self, x):
+        return Reference.ad(self.Fm, x)
+
+    def S(self, pi):
+        return Reference.S(self.Fm, self.theta, pi)
+
+    def dV(self, Gamma):
+        """``dV_b = -Gamma_m f^m_bc L^c`` (twee16)."""
+        out = mpmath.zeros(self.n, 1)
+        for m, b, c, v in self.f_nz:
+            out[b] -= Gamma[m] * v * self.Lvec[c]
+        return out
+
+    def check_nondegenerate(self, pi):
+        q = self.ref.phi_psi_delta(self.Fm, self.theta, self.upsilon, pi)
+        self.ref._check_nondegenerate(q["Phi"], q["Delta"], pi)
+
+    def omega_pidot(self, pi, Gamma):
+        """``Omega`` (vier10) and ``pidot`` (vier11) from body quantities (mpmath column matrices)."""
+        n = self.n
+        if self.upsilon_zero:
+            o, p = self.omega_pidot_list(list(pi), None if Gamma is None else list(Gamma))
+            return mpmath.matrix(o), mpmath.matrix(p)
+        dK = self.Iinv * pi
+        S = self.S(pi)
+        dV = None if Gamma is None else self.dV(Gamma)
+        Psi = mpmath.eye(n) + self.upsilon * S
+        rhs_o = dK if dV is None else dK - self.upsilon * dV
+        rhs_p = -(S * dK) if dV is None else -dV - S * dK
+        try:
+            Omega = mpmath.lu_solve(Psi, rhs_o)
+            pidot = mpmath.lu_solve(Psi.T, rhs_p)
+        except ZeroDivisionError:
+            raise DegeneratePointError(
+                f"the trajectory reached the degenerate set Pi_1 (Delta = 0, vier12) at pi = "
+                f"{[mpmath.nstr(v, 8) for v in pi]}") from None
+        return Omega, pidot
+
+    def omega_pidot_list(self, pi, Gamma):
+        """The same for ``Upsilon = 0`` on plain lists (no Phi: ``Omega = dK``, ``pidot = -dV - S dK``)."""
+        n = self.n
+        Iinv = self._Iinv_l
+        dK = [mpmath.fsum(Iinv[a][b] * pi[b] for b in range(n)) for a in range(n)] if not self._Idiag \
+            else [Iinv[a][a] * pi[a] for a in range(n)]
+        out = [mpmath.mpf(0)] * n
+        for m, a, b, v in self.f_nz:
+            out[a] -= pi[m] * v * dK[b]
+        if not self.theta_zero:
+            th = self.theta
+            for a in range(n):
+                for b in range(n):
+                    if th[a, b]:
+                        out[a] += th[a, b] * dK[b]
+        if Gamma is not None:
+            Lv = self.Lvec
+            for m, b, c, v in self.f_nz:
+                out[b] += Gamma[m] * v * Lv[c]
+        return dK, out
+
+    def gamma_dot(self, Omega, Gamma):
+        """``dGamma_mu/dt = Omega^b f^a_{b mu} Gamma_a`` (twee17, sign corrected)."""
+        out = [mpmath.mpf(0)] * self.n
+        for a, b, mu, v in self.f_nz:
+            out[mu] += Omega[b] * v * Gamma[a]
+        return mpmath.matrix(out) if isinstance(Omega, mpmath.matrix) else out
+
+    def energy(self, pi, Gamma=None):
+        K = (pi.T * self.Iinv * pi)[0] / 2
+        if Gamma is None or self.gamma is None:
+            return K
+        return K - mpmath.fsum(Gamma[i] * self.Lvec[i] for i in range(self.n))
+
+    def cocycle_term(self, x):
+        """``A(x)^T Theta x`` with ``A = phi1(-ad_x)``: the cocycle correction of the momentum map."""
+        if self.theta_zero:
+            return mpmath.zeros(self.n, 1)
+        A = Reference.phi1_series(-self.ad(x))
+        return A.T * (self.theta * x)
+
+    def frames_series(self, x):
+        """``A = phi1(-ad_x)`` and ``Ad = exp(ad_x)`` from one Taylor loop over the powers of ``M = -ad_x``:
+        ``A = sum M^k/(k+1)!``, ``Ad = sum (-1)^k M^k/k!``, summed until a term's largest entry is below
+        ``eps`` times ``max(1, ||M||)^2`` (plain lists: the hot path of the full-state flow)."""
+        n = self.n
+        ad = self.ad(x)
+        M = [[-ad[i, j] for j in range(n)] for i in range(n)]
+        P = [[mpmath.mpf(1) if i == j else mpmath.mpf(0) for j in range(n)] for i in range(n)]  # M^k
+        A = [row[:] for row in P]
+        Ad = [row[:] for row in P]
+        eps = mpmath.eps
+        k = 0
+        fact = mpmath.mpf(1)   # k!
+        while True:
+            k += 1
+            P = [[mpmath.fdot([(P[i][l], M[l][j]) for l in range(n)]) for j in range(n)] for i in range(n)]
+            fact *= k
+            ca, cd = 1 / (fact * (k + 1)), (1 if k % 2 == 0 else -1) / fact
+            big = mpmath.mpf(0)
+            for i in range(n):
+                for j in range(n):
+                    A[i][j] += ca * P[i][j]
+                    Ad[i][j] += cd * P[i][j]
+                    big = max(big, abs(P[i][j]))
+            if big / fact <= eps and k > 2:
+                break
+        return mpmath.matrix(A), mpmath.matrix(Ad)
+
+    def frame_L(self, x):
+        A = Reference.phi1_series(-self.ad(x))
+        return A, mpmath.inverse(A)
+
+
+@dataclass
+class ReferenceTrajectory:
+    """Samples of a reference trajectory (object arrays of mpf at ``dps + GUARD`` digits).
+
+    ``pi``: (T, n); ``Gamma``: (T, n) or None; ``x``: (T, n) with NaN where
+    the configuration lies outside the chart of exponential coordinates
+    around ``e`` (or None for a body flow); ``J``: (T, n) momentum map of the
+    left action (full flows; see :func:`refimpl.flows.momentum_map`); ``g``: (T, r, r) matrices of the
+    algebra's representation (``rep``; the adjoint representation ``Ad(g)``
+    when the algebra has none) or None; ``Ad``: (T, n, n); ``digits``: correct
+    digits confirmed by the precision/tolerance ladder (None without check).
+    """
+
+    times: np.ndarray
+    pi: np.ndarray
+    Gamma: np.ndarray | None
+    x: np.ndarray | None
+    g: np.ndarray | None
+    Ad: np.ndarray | None
+    rebases: int
+    steps: int
+    dps: int
+    system: str
+    digits: float | None = None
+    J: np.ndarray | None = None
+    notes: list = field(default_factory=list)
+
+
+def _col(v):
+    return mpmath.matrix([mpmath.mpf(e) for e in v])
+
+
+def _rep_exp(model: ModelMP, x):
+    """``exp(x^a E_a)`` in the algebra's representation (mpmath, complex allowed), or None."""
+    alg = model.algebra
+    if alg is None or alg.rep is None:
+        return None
+    r = alg.rep.shape[-1]
+    X = mpmath.zeros(r, r)
+    for a in range(model.n):
+        Ea = alg.rep[a]
+        for i in range(r):
+            for j in range(r):
+                z = complex(Ea[i, j])
+                if z != 0:
+                    X[i, j] += x[a] * (mpmath.mpf(z.real) + 1j * mpmath.mpf(z.imag) if z.imag else mpmath.mpf(z.real))
+    return mpmath.expm(X)
+
+
+def _log_coordinates(model: ModelMP, Ad_total, g_rep):
+    """``x`` with ``g = exp(x)`` if ``g`` is inside the chart, else None.
+
+    From the representation (principal ``logm``, projected on the basis
+    ``E_a`` by least squares, accepted when the residual is at rounding level
+    and ``exp(ad_x)`` reproduces ``Ad(g)``)."""
+    if g_rep is None:
+        return None
+    alg = model.algebra
+    try:
+        Xl = mpmath.logm(g_rep)
+    except (ZeroDivisionError, ValueError):
+        return None
+    r = alg.rep.shape[-1]
+    rows, rhs = [], []
+    for i in range(r):
+        for j in range(r):
+            for part in (0, 1):
+                rows.append([(complex(alg.rep[a][i, j]).real if part == 0 else complex(alg.rep[a][i, j]).imag)
+                             for a in range(model.n)])
+                z = Xl[i, j]
+                rhs.append(mpmath.re(z) if part == 0 else mpmath.im(z))
+    M = mpmath.matrix([[mpmath.mpf(v) for v in row] for row in rows])
+    b = mpmath.matrix(rhs)
+    x = mpmath.lu_solve(M.T * M, M.T * b)
+    resid = mpmath.norm(M * x - b)
+    tol = mpmath.mpf(10) ** (-(mpmath.mp.dps - GUARD // 2))
+    if resid > tol * max(1, mpmath.norm(b)):
+        return None
+    if mpmath.mnorm(mpmath.expm(model.ad(x)) - Ad_total, 1) > tol * max(1, mpmath.mnorm(Ad_total, 1)):
+        return None
+    # inside the chart: phi1(-ad_x) invertible, no eigenvalue of ad_x at 2 pi i k
+    if abs(mpmath.det(Reference.phi1_series(-model.ad(x)))) <= tol:
+        return None
+    return x
+
+
+def _run(model: ModelMP, system: str, x0, pi0, times, tol, k):
+    n = model.n
+    pi0 = _col(pi0)
+    x0 = _col(x0)
+    model.check_nondegenerate(pi0)
+    grav = model.gamma is not None
+    out_pi, out_G, out_x, out_g, out_Ad = [], [], [], [], []
+    state = {"Ad_ref": mpmath.eye(n), "g_ref": None, "rebases": 0, "c": mpmath.zeros(n, 1)}
+    out_J = []
+    if system == "full":
+        g0 = _rep_exp(model, mpmath.zeros(n, 1))
+        state["g_ref"] = g0
+
+        def F(t, y):
+            x, pi = _col(y[:n]), _col(y[n:])
+            A, Ad = model.frames_series(x)
+            Gamma = (state["Ad_ref"] * Ad).T * model.gamma if grav else None
+            Omega, pidot = model.omega_pidot(pi, Gamma)
+            return list(mpmath.lu_solve(A, Omega)) + list(pidot)   # xdot = L(g, e) Omega = A^-1 Omega
+
+        def after(t, y):
+            x = _col(y[:n])
+            if mpmath.mnorm(model.ad(x), 1) > REBASE:
+                state["c"] += mpmath.inverse(state["Ad_ref"]).T * model.cocycle_term(x)
+                state["Ad_ref"] = state["Ad_ref"] * mpmath.expm(model.ad(x))
+                if state["g_ref"] is not None:
+                    state["g_ref"] = state["g_ref"] * _rep_exp(model, x)
+                state["rebases"] += 1
+                return [mpmath.mpf(0)] * n + list(y[n:])
+            return y
+
+        y = list(x0) + list(pi0)
+    else:
+        after = None
+        if grav:
+            Gamma0 = mpmath.expm(model.ad(x0)).T * model.gamma
+
+            if model.upsilon_zero:
+                def F(t, y):
+                    Omega, pidot = model.omega_pidot_list(y[:n], y[n:])
+                    return pidot + model.gamma_dot(Omega, y[n:])
+            else:
+                def F(t, y):
+                    pi, G = _col(y[:n]), _col(y[n:])
+                    Omega, pidot = model.omega_pidot(pi, G)
+                    return list(pidot) + list(model.gamma_dot(Omega, G))
+
+            y = list(pi0) + list(Gamma0)
+        else:
+            if model.upsilon_zero:
+                def F(t, y):
+                    return model.omega_pidot_list(y, None)[1]
+            else:
+                def F(t, y):
+                    return list(model.omega_pidot(_col(y), None)[1])
+
+            y = list(pi0)
+    t_prev = mpmath.mpf(0)
+    steps = 0
+    for tk in times:
+        tk = mpmath.mpf(tk)
+        if tk > t_prev:
+            res = gbs_mp(F, y, tk, tol=tol, k=k, t0=t_prev, after_step=after)
+            y, steps = res.y, steps + res.steps
+        t_prev = tk
+        if system == "full":
+            x, pi = _col(y[:n]), _col(y[n:])
+            Ad = state["Ad_ref"] * mpmath.expm(model.ad(x))
+            g = None if state["g_ref"] is None else state["g_ref"] * _rep_exp(model, x)
+            out_pi.append(list(pi))
+            out_G.append(list(Ad.T * model.gamma) if grav else None)
+            if state["rebases"] == 0:
+                out_x.append(list(x))
+            else:
+                xl = _log_coordinates(model, Ad, g)
+                out_x.append(list(xl) if xl is not None else [mpmath.nan] * n)
+            out_g.append(g if g is not None else Ad)
+            out_Ad.append(Ad)
+            Kx = mpmath.expm(-model.ad(x)).T
+            J = mpmath.inverse(state["Ad_ref"]).T * (Kx * pi - model.cocycle_term(x)) - state["c"]
+            out_J.append(list(J))
+        else:
+            out_pi.append(list(y[:n]))
+            out_G.append(list(y[n:]) if grav else None)
+    T = len(out_pi)
+    mat = lambda ms: np.array([[[m[i, j] for j in range(m.cols)] for i in range(m.rows)] for m in ms], dtype=object)
+    return ReferenceTrajectory(
+        times=np.array([mpmath.mpf(t) for t in times], dtype=object),
+        pi=np.array(out_pi, dtype=object).reshape(T, n),
+        Gamma=np.array(out_G, dtype=object).reshape(T, n) if grav else None,
+        x=np.array(out_x, dtype=object).reshape(T, n) if system == "full" else None,
+        g=mat(out_g) if system == "full" else None,
+        Ad=mat(out_Ad) if system == "full" else None,
+        rebases=state["rebases"], steps=steps, dps=mpmath.mp.dps, system=system,
+        J=np.array(out_J, dtype=object).reshape(T, n) if system == "full" else None,
+    )
+
+
+from ._integrators import gbs_mp  # noqa: E402  (after the helpers it uses)
+
+
+def _order_for(dps: int) -> int:
+    """Extrapolation depth ``k`` (order 2k): about one order per 2.5 digits, between 6 and 18."""
+    return int(min(18, max(6, round(dps / 2.5))))
+
+
+def reference_trajectory(f, theta, upsilon, inertia, potential, x0, pi0, times, *, dps: int = 50,
+                         system: str = "full", check: bool = False) -> ReferenceTrajectory:
+    """The reference trajectory sampled at ``times`` (increasing, >= 0).
+
+    ``system="full"``: the state ``(x, pi)`` of vier10/vier11 with re-basing;
+    ``system="body"``: the reduced body system (Euler or Euler-Poisson).
+    ``check=True`` repeats the run at ``dps + 15`` digits with a 10^-10
+    smaller tolerance and stores the digits of agreement in ``digits``.
+    """
+    if not isinstance(dps, int) or dps < 15:
+        raise ValueError(f"dps must be an int >= 15, got {dps!r}")
+    if system not in ("full", "body"):
+        raise ValueError(f"system must be 'full' or 'body', got {system!r}")
+    tl = [check_time(t, "times") for t in np.atleast_1d(np.asarray(times, dtype=object))]
+    if any(b < a for a, b in zip(tl, tl[1:])):
+        raise ValueError("times must be increasing")
+    times_exact = list(np.atleast_1d(np.asarray(times, dtype=object)))
+
+    def once(d, tol_digits):
+        with mpmath.workdps(d + GUARD):
+            model = ModelMP(f, theta, upsilon, inertia, potential)
+            n = model.n
+            xv = Reference._vec(x0, n, "x0")
+            pv = Reference._vec(pi0, n, "pi0")
+            tms = [_to_mpf(t) for t in times_exact]
+            return _run(model, system, xv, pv, tms, mpmath.mpf(10) ** (-tol_digits), _order_for(d))
+
+    tr = once(dps, dps + 5)
+    if check:
+        tr2 = once(dps + 15, dps + 15)
+        with mpmath.workdps(dps + 30):
+            arrs = [(tr.pi, tr2.pi)] + ([(tr.Gamma, tr2.Gamma)] if tr.Gamma is not None else []) \
+                + ([(tr.Ad, tr2.Ad)] if tr.Ad is not None else [])
+            worst = mpmath.mpf(0)
+            for a, b in arrs:
+                for u, v in zip(a.ravel(), b.ravel()):
+                    worst = max(worst, abs(u - v) / max(1, abs(v)))
+            tr.digits = float("inf") if worst == 0 else float(-mpmath.log10(worst))
+    return tr
+
+
+def reference_flow(f, theta, upsilon, inertia, potential, x0, pi0, t, dps: int = 50):
+    """Protocol method 3 (DESIGN.md): the state ``(x, pi)`` at time ``t`` from ``(x0, pi0)`` at 0.
+
+    Full state of vier10/vier11, integrated at ``dps`` digits (see the module
+    docstring). Returns float64 arrays, or object arrays of mpf when any input
+    is exact (as :class:`refimpl.reference.Reference` does). Raises
+    ``ValueError`` for a negative or non-finite ``t``, a start on the
+    degenerate set, or an end point outside the chart of exponential
+    coordinates (then ``x`` does not exist; use :func:`reference_trajectory`
+    for the group element).
+    """
+    check_time(t)
+    exact = Reference._wants_exact(f, theta, upsilon, inertia, potential, x0, pi0, t)
+    tr = reference_trajectory(f, theta, upsilon, inertia, potential, x0, pi0, [t], dps=dps, system="full")
+    x, pi = tr.x[-1], tr.pi[-1]
+    if any(mpmath.isnan(v) for v in x):
+        raise ValueError(
+            f"the flow left the chart of exponential coordinates around e (re-based {tr.rebases} times) and "
+            f"g(t) at t = {t} has no coordinates x with g = exp(x); the group element is available from "
+            "reference_trajectory(...).g")
+    if exact:
+        return np.array(list(x), dtype=object), np.array(list(pi), dtype=object)
+    return np.array([float(v) for v in x]), np.array([float(v) for v in pi])
+
+
+def euler_top_closed_form(I, pi0, t):
+    """The free rigid body ``dpi/dt = pi x Omega``, ``Omega = pi / I`` (twee14, V = 0), in closed form.
+
+    For ``I1 < I2 < I3`` and ``M^2 = |pi|^2 > 2 E I2`` (rotation about the
+    ``I3`` axis), Euler's equations ``I1 W1' = (I2 - I3) W2 W3`` (cyclic) are
+    solved by ``W = (A cn u, s B sn u, s C dn u)``, ``u = u0 + w t``, with
+    ``A^2 = (2E I3 - M^2)/(I1 (I3 - I1))``, ``B^2 = (2E I3 - M^2)/(I2 (I3 - I2))``,
+    ``C^2 = (M^2 - 2E I1)/(I3 (I3 - I1))``, ``w^2 = (I3 - I2)(M^2 - 2E I1)/(I1 I2 I3)``,
+    modulus ``m = k^2 = (I2 - I1)(2E I3 - M^2)/((I3 - I2)(M^2 - 2E I1))``.
+    (Check: ``cn' = -sn dn``, so ``A w I1 = (I3 - I2) B C``, which the
+    amplitudes satisfy.) ``s = sign W3(0)``: the equations are invariant under
+    ``(W2, W3) -> (-W2, -W3)``. ``u0`` is the incomplete elliptic integral
+    ``F(phi0 | m)`` with ``phi0 = atan2(s W2(0)/B, W1(0)/A)`` (the amplitude).
+    Computed at the current mpmath precision with ``mpmath.ellipfun``.
+    """
+    I1, I2, I3 = (mpmath.mpf(v) for v in I)
+    if not (I1 < I2 < I3):
+        raise ValueError("the closed form needs I1 < I2 < I3")
+    p = [mpmath.mpf(v) for v in pi0]
+    M2 = mpmath.fsum(v * v for v in p)
+    E2 = p[0] ** 2 / I1 + p[1] ** 2 / I2 + p[2] ** 2 / I3  # 2E
+    if not M2 > E2 * I2:
+        raise ValueError("the closed form here covers M^2 > 2 E I2 (rotation about the I3 axis)")
+    A = mpmath.sqrt((E2 * I3 - M2) / (I1 * (I3 - I1)))
+    B = mpmath.sqrt((E2 * I3 - M2) / (I2 * (I3 - I2)))
+    C = mpmath.sqrt((M2 - E2 * I1) / (I3 * (I3 - I1)))
+    w = mpmath.sqrt((I3 - I2) * (M2 - E2 * I1) / (I1 * I2 * I3))
+    m = (I2 - I1) * (E2 * I3 - M2) / ((I3 - I2) * (M2 - E2 * I1))
+    W0 = [p[0] / I1, p[1] / I2, p[2] / I3]
+    s = 1 if W0[2] > 0 else -1
+    phi0 = mpmath.atan2(s * W0[1] / B, W0[0] / A)
+    u = mpmath.ellipf(phi0, m) + w * mpmath.mpf(t)
+    sn, cn, dn = (mpmath.ellipfun(kind, u, m=m) for kind in ("sn", "cn", "dn"))
+    return [I1 * A * cn, I2 * s * B * sn, I3 * s * C * dn]

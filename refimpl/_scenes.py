@@ -1,0 +1,282 @@
+"""Scenes: one problem in a TOML file, and the planner that picks the cheapest computation.
+
+A scene (read with ``tomllib``) has these keys; anything else is rejected by name.
+
+``name`` (str), ``algebra`` (catalogue name) or ``f`` ((n, n, n) list);
+``theta`` ((n, n)) or ``xi`` ((n,), Theta = -xi.f, zeven3); ``upsilon``
+((n, n)) or ``tau`` ((3,), su(2) only, Upsilon^mn = tau_l eps_lmn);
+``inertia`` ((n, n)) or ``inertia_diagonal`` ((n,)); optional table
+``[potential]`` with ``L`` and ``gamma`` ((n,) each, gravity twee15);
+``x0``, ``pi0`` ((n,) or (N, n)); ``t_end`` (> 0); ``samples`` (>= 2);
+``tol`` (> 0); optional ``method`` (a key of ``METHODS``);
+``outputs`` (subset of ``pi``, ``x``, ``Gamma``, ``energy``, ``casimirs``,
+``momentum_map``).
+
+The planner (:func:`plan`) states each choice and what it skipped:
+
+* no configuration integration unless ``x`` or ``momentum_map`` is asked for:
+  the body system is closed when ``V = 0`` (Euler) and, with gravity, the
+  reduced Euler-Poisson system ``(pi, Gamma)`` replaces ``g``;
+* no Phi solve when ``Upsilon = 0`` (``Phi = 1``);
+* the method: Gauss-Legendre order 6 when ``Upsilon != 0`` (symplectic for
+  omega_L), else the Lie-Poisson splitting for su(2) with diagonal inertia at
+  loose tolerances (``tol >= 1e-6``), else fixed-step DOP853 (as generated
+  scalar code for a single trajectory of a body system); the step count
+  comes from a pilot run on ``[0, min(t_end, 1)]`` with doubling until the
+  Richardson estimate meets ``tol * h_pilot / t_end``, so that the global
+  error over ``t_end`` stays near ``tol`` when errors grow linearly.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ._catalogue import catalogue
+from ._flow_fast import METHODS, NumpyModel, integrate_fast
+
+__all__ = ["Scene", "Plan", "load_scene", "parse_scene", "plan", "run_scene", "OUTPUTS"]
+
+OUTPUTS = ("pi", "x", "Gamma", "energy", "casimirs", "momentum_map")
+KEYS = {"name", "algebra", "f", "theta", "xi", "upsilon", "tau", "inertia", "inertia_diagonal", "potential",
+        "x0", "pi0", "t_end", "samples", "tol", "method", "outputs"}
+
+
+@dataclass
+class Scene:
+    name: str
+    f: np.ndarray
+    algebra: object
+    theta: np.ndarray
+    upsilon: np.ndarray
+    inertia: np.ndarray
+    potential: dict | None
+    x0: np.ndarray
+    pi0: np.ndarray
+    t_end: float
+    samples: int
+    tol: float
+    method: str | None
+    outputs: tuple
+
+
+@dataclass
+class Plan:
+    system: str
+    method: str
+    steps_per_sample: int
+    phi_solve: bool
+    skipped: list = field(default_factory=list)
+    reasons: list = field(default_factory=list)
+
+    def describe(self) -> str:
+        lines = [f"system: {self.system}", f"method: {self.method} ({self.steps_per_sample} steps per sample)"]
+        lines += [f"chose: {r}" for r in self.reasons]
+        lines += [f"skipped: {s}" for s in self.skipped]
+        return "\n".join(lines)
+
+
+def _arr(d, key, shape, *, allow_batch=False):
+    try:
+        a = np.asarray(d[key], dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"scene key {key!r} must be a numeric array of shape {shape}") from None
+    ok = a.shape == shape or (allow_batch and a.ndim == 2 and a.shape[1:] == shape)
+    if not ok:
+        exp = f"{shape} or (N, {shape[0]})" if allow_batch else f"{shape}"
+        raise ValueError(f"scene key {key!r} must have shape {exp}, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"scene key {key!r} contains NaN or infinity")
+    return a
+
+
+def parse_scene(d: dict) -> Scene:
+    """Validate a scene dictionary (from TOML); every error names the key and the expected shape."""
+    unknown = sorted(set(d) - KEYS)
+    if unknown:
+        raise ValueError(f"unknown scene key(s) {unknown}; allowed: {sorted(KEYS)}")
+    if ("algebra" in d) == ("f" in d):
+        raise ValueError("a scene needs exactly one of 'algebra' (catalogue name) or 'f' (structure constants)")
+    if "algebra" in d:
+        try:
+            alg = catalogue(d["algebra"])
+        except (KeyError, ValueError) as exc:
+            raise ValueError(f"scene key 'algebra': {exc}") from None
+        f = alg.f
+    else:
+        f = np.asarray(d["f"], dtype=float)
+        if f.ndim != 3 or len(set(f.shape)) != 1:
+            raise ValueError(f"scene key 'f' must have shape (n, n, n), got {f.shape}")
+        alg = None
+    n = f.shape[0]
+    if "theta" in d and "xi" in d:
+        raise ValueError("give 'theta' or 'xi', not both")
+    theta = _arr(d, "theta", (n, n)) if "theta" in d else (
+        -np.einsum("k,kab->ab", _arr(d, "xi", (n,)), f) if "xi" in d else np.zeros((n, n)))
+    if "upsilon" in d and "tau" in d:
+        raise ValueError("give 'upsilon' or 'tau', not both")
+    if "tau" in d:
+        if n != 3:
+            raise ValueError("scene key 'tau' is for 3-dimensional algebras (su(2)); give 'upsilon' of shape (n, n)")
+        eps = np.zeros((3, 3, 3))
+        for a, b, c in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+            eps[a, b, c], eps[a, c, b] = 1.0, -1.0
+        upsilon = np.einsum("l,lmn->mn", _arr(d, "tau", (3,)), eps)
+    else:
+        upsilon = _arr(d, "upsilon", (n, n)) if "upsilon" in d else np.zeros((n, n))
+    if ("inertia" in d) == ("inertia_diagonal" in d):
+        raise ValueError("a scene needs exactly one of 'inertia' ((n, n)) or 'inertia_diagonal' ((n,))")
+    inertia = _arr(d, "inertia", (n, n)) if "inertia" in d else np.diag(_arr(d, "inertia_diagonal", (n,)))
+    pot = None
+    if "potential" in d:
+        p = d["potential"]
+        if not isinstance(p, dict):
+            raise ValueError("scene key 'potential' must be a table with 'L' and 'gamma'")
+        extra = sorted(set(p) - {"L", "gamma"})
+        if extra:
+            raise ValueError(f"unknown key(s) {extra} in scene table 'potential' (allowed: L, gamma)")
+        for k in ("L", "gamma"):
+            if k not in p:
+                raise ValueError(f"scene table 'potential' needs {k!r} of shape ({n},)")
+        pot = {"kind": "gravity", "L": _arr(p, "L", (n,)), "gamma": _arr(p, "gamma", (n,))}
+    for k in ("x0", "pi0", "t_end"):
+        if k not in d:
+            raise ValueError(f"scene key {k!r} is required")
+    x0 = _arr(d, "x0", (n,), allow_batch=True)
+    pi0 = _arr(d, "pi0", (n,), allow_batch=True)
+    x0, pi0 = np.atleast_2d(x0), np.atleast_2d(pi0)
+    if x0.shape[0] != pi0.shape[0]:
+        if x0.shape[0] == 1:
+            x0 = np.repeat(x0, pi0.shape[0], axis=0)
+        else:
+            raise ValueError(f"scene keys 'x0' and 'pi0' must have the same number of points, "
+                             f"got {x0.shape} and {pi0.shape}")
+    from ._flow_reference import check_time
+    from .flows import check_tolerance
+
+    t_end = check_time(d["t_end"], "t_end")
+    if t_end == 0:
+        raise ValueError("scene key 't_end' must be > 0")
+    samples = d.get("samples", 101)
+    if not isinstance(samples, int) or samples < 2:
+        raise ValueError(f"scene key 'samples' must be an int >= 2, got {samples!r}")
+    tol = check_tolerance(d.get("tol", 1e-9))
+    method = d.get("method")
+    if method is not None and method not in METHODS:
+        raise ValueError(f"scene key 'method' must be one of {sorted(METHODS)}, got {method!r}")
+    outputs = tuple(d.get("outputs", ["pi", "energy"]))
+    bad = [o for o in outputs if o not in OUTPUTS]
+    if bad:
+        raise ValueError(f"scene key 'outputs' has unknown entries {bad}; allowed: {list(OUTPUTS)}")
+    return Scene(str(d.get("name", "scene")), f, alg, theta, upsilon, inertia, pot, x0, pi0, t_end, samples, tol,
+                 method, outputs)
+
+
+def load_scene(path) -> Scene:
+    with open(path, "rb") as fh:
+        try:
+            d = tomllib.load(fh)
+        except tomllib.TOMLDecodeError as exc:
+            raise ValueError(f"{path}: not valid TOML: {exc}") from None
+    return parse_scene(d)
+
+
+def _model(scene: Scene) -> NumpyModel:
+    return NumpyModel(scene.algebra if scene.algebra is not None else scene.f, scene.theta, scene.upsilon,
+                      scene.inertia, scene.potential)
+
+
+def plan(scene: Scene) -> Plan:
+    """Choose system, method and step count; record what is skipped and why (module docstring)."""
+    model = _model(scene)
+    skipped, reasons = [], []
+    needs_config = any(o in scene.outputs for o in ("x", "momentum_map"))
+    if needs_config:
+        system = "full"
+        reasons.append("configuration integrated: outputs ask for " +
+                       ", ".join(o for o in ("x", "momentum_map") if o in scene.outputs))
+    else:
+        system = "body"
+        if model.gravity:
+            skipped.append("configuration integration: gravity enters only through Gamma = Ad(g)^T gamma, "
+                           "so the reduced Euler-Poisson system (pi, Gamma) is integrated (twee17, twee18)")
+        else:
+            skipped.append("configuration integration: V = 0, the body equations for pi are closed (twee14/drie6)")
+    phi = not model.upsilon_zero
+    if not phi:
+        skipped.append("Phi solve: Upsilon = 0 gives Phi = 1 (vier6), Omega = dK/dpi")
+    if scene.method is not None:
+        name = scene.method
+        ok, why = METHODS[name].applies(model)
+        if not ok:
+            raise ValueError(f"scene method {name!r} does not apply: {why}")
+        reasons.append(f"method {name} requested by the scene")
+    elif phi:
+        name = "gauss6"
+        reasons.append("Upsilon != 0: Gauss-Legendre (order 6) keeps omega_L's structure")
+    elif METHODS["splitting4"].applies(model)[0] and scene.tol >= 1e-6:
+        name = "splitting4"
+        reasons.append("su(2), Upsilon = 0, principal axes, loose tolerance: Lie-Poisson splitting (exact "
+                       "Casimirs, cheapest steps)")
+    elif system == "body" and scene.pi0.shape[0] == 1:
+        name = "dop853-scalar"
+        reasons.append("one trajectory of a polynomial body system: DOP853 as generated straight-line scalar "
+                       "code (numpy's per-call overhead would dominate arrays of 6 numbers)")
+    else:
+        name = "dop853"
+        reasons.append("explicit 8th-order RK (DOP853 tableau), batched over the trajectories")
+    steps = _pilot_steps(model, METHODS[name], scene, system)
+    return Plan(system, name, steps, phi, skipped, reasons)
+
+
+def _pilot_steps(model, meth, scene, system) -> int:
+    dt_sample = scene.t_end / (scene.samples - 1)
+    tp = min(scene.t_end, 1.0)
+    X, P = scene.x0.T.copy(), scene.pi0.T.copy()
+    N = 2
+    prev = integrate_fast(model, meth, X, P, tp, N, system=system)
+    for _ in range(16):
+        cur = integrate_fast(model, meth, X, P, tp, 2 * N, system=system)
+        est = float(np.max(np.abs(cur["pi"] - prev["pi"]))) / (2 ** meth.order - 1)
+        if est <= scene.tol * tp / scene.t_end:
+            break
+        prev, N = cur, 2 * N
+    h = tp / (2 * N)
+    return max(1, int(np.ceil(dt_sample / h)))
+
+
+def run_scene(scene: Scene, the_plan: Plan | None = None, progress=None) -> dict:
+    """Execute the plan; returns times and the requested outputs (arrays over (T, N, ...))."""
+    from .flows import casimirs, energy, fast_trajectory, momentum_map
+
+    p = the_plan or plan(scene)
+    f_in = scene.algebra if scene.algebra is not None else scene.f
+    tr = fast_trajectory(f_in, scene.theta, scene.upsilon, scene.inertia, scene.potential, scene.x0,
+                         scene.pi0, scene.t_end, scene.samples, p.steps_per_sample, method_name=p.method,
+                         system=p.system, progress=progress)
+    out = {"times": tr["times"], "pi": tr["pi"]}
+    if tr["Gamma"] is not None:
+        out["Gamma"] = tr["Gamma"]
+    if tr["x"] is not None:
+        out["x"] = tr["x"]
+    if "energy" in scene.outputs:
+        out["energy"] = energy(scene.inertia, scene.potential, tr["pi"], tr["Gamma"])
+    if "casimirs" in scene.outputs:
+        try:
+            for k, v in casimirs(scene.f, scene.theta, tr["pi"], tr["Gamma"]).items():
+                out["casimir " + k] = v
+        except ValueError as exc:
+            out["note casimirs"] = str(exc)
+    if "momentum_map" in scene.outputs:
+        if scene.potential is not None:
+            out["note momentum_map"] = "the momentum map is conserved only for V = 0; reported anyway"
+        T, N, n = tr["pi"].shape
+        J = np.full((T, N, n), np.nan)
+        for i in range(T):
+            for j in range(N):
+                if np.all(np.isfinite(tr["x"][i, j])):
+                    J[i, j] = momentum_map(f_in, scene.theta, tr["x"][i, j], tr["pi"][i, j])
+        out["momentum_map"] = J
+    return out

@@ -1,0 +1,119 @@
+"""``tstarg run SCENE``: plan a scene, integrate it, write npz + CSV + a PNG, say what was skipped."""
+
+from __future__ import annotations
+
+import csv
+import sys
+from pathlib import Path
+
+HELP = "integrate a scene (TOML): prints the plan and what it skipped, writes npz, CSV and a plot"
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("scene", help="scene TOML file (see refimpl/scenes/)")
+    parser.add_argument("--out", default=None, help="output folder (default: reports/runs/<scene stem>)")
+    parser.add_argument("--no-plot", action="store_true", help="skip the PNG")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+class _Progress:
+    """A one-line progress bar on stderr, shown for runs with many samples."""
+
+    def __init__(self, enabled: bool):
+        self.enabled = enabled
+
+    def __call__(self, k: int, total: int) -> None:
+        if not self.enabled or total <= 0:
+            return
+        width = 40
+        done = int(width * k / total)
+        sys.stderr.write(f"\r[{'#' * done}{'.' * (width - done)}] {k}/{total}")
+        if k == total:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+
+
+def _plot(out: dict, path: Path, title: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    t = out["times"]
+    fig, axes = plt.subplots(2, 1, figsize=(8, 7), constrained_layout=True)
+    pi = out["pi"][:, 0, :]
+    for a in range(pi.shape[1]):
+        axes[0].plot(t, pi[:, a], label=f"pi_{a}")
+    axes[0].set_xlabel("t")
+    axes[0].set_ylabel("body momenta (trajectory 0)")
+    axes[0].legend(loc="upper right")
+    axes[0].set_title(title)
+    drawn = False
+    for key, v in out.items():
+        if key == "energy" or key.startswith("casimir") or key == "momentum_map":
+            arr = np.asarray(v)
+            d = np.abs(arr - arr[0])
+            d = d.reshape(d.shape[0], -1)
+            worst = np.max(np.where(np.isfinite(d), d, -np.inf), axis=1)  # NaN rows: outside the chart
+            worst = np.where(np.isfinite(worst), worst, np.nan)
+            axes[1].semilogy(t, np.maximum(worst, 1e-17), label=key)
+            drawn = True
+    axes[1].set_xlabel("t")
+    axes[1].set_ylabel("|I(t) - I(0)| (worst trajectory)")
+    if drawn:
+        axes[1].legend(loc="lower right")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(args) -> int:
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(1)
+    import numpy as np
+
+    from refimpl.flows import load_scene, plan, run_scene
+
+    try:
+        scene = load_scene(args.scene)
+        the_plan = plan(scene)
+    except (ValueError, OSError) as exc:
+        print(f"tstarg run: {exc}", file=sys.stderr)
+        return 2
+    print(f"scene: {scene.name}")
+    print(the_plan.describe())
+    long_run = scene.samples * the_plan.steps_per_sample * scene.x0.shape[0] > 20000
+    out = run_scene(scene, the_plan, progress=_Progress(long_run and not args.quiet))
+    folder = Path(args.out) if args.out else Path("reports") / "runs" / Path(args.scene).stem
+    folder.mkdir(parents=True, exist_ok=True)
+    arrays = {k: np.asarray(v) for k, v in out.items() if not k.startswith("note")}
+    np.savez(folder / "trajectory.npz", **{k.replace(" ", "_"): v for k, v in arrays.items()})
+    with open(folder / "trajectory.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        cols, header = [], ["t"]
+        for k, v in arrays.items():
+            if k == "times":
+                continue
+            v0 = v[:, 0] if v.ndim >= 2 else v
+            if v0.ndim == 1:
+                cols.append(v0)
+                header.append(k.replace(" ", "_"))
+            else:
+                for a in range(v0.shape[1]):
+                    cols.append(v0[:, a])
+                    header.append(f"{k}_{a}")
+        w.writerow(header)
+        for i, t in enumerate(out["times"]):
+            w.writerow([repr(float(t))] + [repr(float(c[i])) for c in cols])
+    for k, v in out.items():
+        if k.startswith("note"):
+            print(f"note: {v}")
+    for k in arrays:
+        if k == "energy" or k.startswith("casimir") or k == "momentum_map":
+            d = np.abs(arrays[k] - arrays[k][0])
+            print(f"drift of {k} (worst trajectory): {np.nanmax(d):.3g}")
+    if not args.no_plot:
+        _plot(out, folder / "trajectory.png", scene.name)
+    print(f"wrote {folder}/trajectory.npz, trajectory.csv" + ("" if args.no_plot else ", trajectory.png"))
+    return 0
