@@ -99,6 +99,7 @@ def run_property(name: str, equations: str, body: Callable[[Any], tuple[float, f
     """
     res = CheckResult(name=name, equations=equations, extra=dict(extra or {}))
     t0 = time.perf_counter()
+    _report("start", name, 0, max_examples)
 
     @settings(max_examples=max_examples, deadline=None, database=None,
               suppress_health_check=list(HealthCheck), print_blob=False)
@@ -110,6 +111,7 @@ def run_property(name: str, equations: str, body: Callable[[Any], tuple[float, f
             return
         ratio, digits = out
         res.examples += 1
+        _report("example", name, res.examples, max_examples)
         res.worst_ratio = max(res.worst_ratio, float(ratio))
         if digits is not None:
             res.min_digits = digits if res.min_digits is None else min(res.min_digits, digits)
@@ -131,7 +133,18 @@ def run_property(name: str, equations: str, body: Callable[[Any], tuple[float, f
         res.detail = f"{type(exc).__name__}: {exc}"[:2000]
         res.falsifying_example = buf.getvalue()[:4000]
     res.seconds = time.perf_counter() - t0
+    _report("done", name, res.examples, max_examples, res)
     return res
+
+
+PROGRESS: list = []
+"""Progress listeners: callables ``(event, name, done, total, result=None)`` with ``event`` in
+``"start"``, ``"example"``, ``"done"``. ``tstarg verify`` registers its progress bar here."""
+
+
+def _report(event, name, done, total, result=None) -> None:
+    for listener in list(PROGRESS):
+        listener(event, name, done, total, result)
 
 
 # ------------------------------------------------------------------ strategies
