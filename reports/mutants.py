@@ -1,0 +1,215 @@
+"""Deliberately broken implementations: each one a plausible mistake (mutation testing).
+
+Used by the meta-tests (tests/meta/) and by :func:`kill_rate`, which ``tstarg verify``
+reports: the fraction of mutants the certification battery rejects.
+
+:class:`Plain` is a straightforward per-point numpy implementation of the protocol,
+written from CONVENTIONS.md independently of refimpl.fast; with ``mutation=None`` it is
+correct, and each name in :data:`MUTATIONS` switches on exactly one mistake.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg
+
+MUTATIONS = {
+    "f_sign": "the sign of the structure constants flipped (f -> -f)",
+    "theta_sign": "Theta added with the wrong sign in S (S = pi.f + Theta)",
+    "upsilon_sign": "the sign of Upsilon flipped",
+    "phi_psi_swapped": "Phi and Psi swapped (Phi^-1 where Psi^-1 belongs and vice versa)",
+    "psi_not_transposed": "Psi computed as 1 + S U (= Phi) instead of 1 + U S",
+    "frame_inverted": "the frame L(g,e) replaced by its inverse phi1(-ad_x)",
+    "frame_identity": "the frame L(g,e) replaced by the identity",
+    "frame_half_missing": "a missing factor 1/2: L = 1 + ad_x + ... instead of 1 + ad_x/2 + ...",
+    "theta_in_pp_block": "Theta added to {pi, pi} after the solve instead of inside S",
+    "kinetic_factor": "a missing factor 1/2 in K: dK/dpi = 2 I^-1 pi",
+    "gravity_frame": "the gravity force in the wrong frame: Gamma = Ad(g) gamma instead of Ad(g)^T gamma",
+    "so3_only": "su(2) closed forms used for every 3-dimensional algebra (right only for so(3)-like ones)",
+    "near_degenerate_1e6": "a result 1e-6 off (relative) only where cond(Phi) > 1e6",
+    "xx_sign": "{x, x} block with the wrong sign",
+    "pidot_s_sign": "pidot = Phi^-1 (-dV + S dK): wrong sign of the S term",
+    "xdot_no_frame": "xdot = Omega: the frame L(g,e) forgotten in the vector field",
+    "batch_first_point": "a batched call reuses the first point's Phi for every point",
+    "degenerate_garbage": "points on the degenerate set return finite numbers (pinv) instead of an error",
+    "flow_wrong_stage": "a flow whose RK4 uses a wrong weight in one stage",
+}
+
+
+def _phi1(M):
+    n = M.shape[0]
+    big = np.zeros((2 * n, 2 * n))
+    big[:n, :n] = M
+    big[:n, n:] = np.eye(n)
+    return scipy.linalg.expm(big)[:n, n:]
+
+
+def _eps3():
+    e = np.zeros((3, 3, 3))
+    for a, b, c in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+        e[a, b, c], e[a, c, b] = 1.0, -1.0
+    return e
+
+
+class Plain:
+    """A per-point numpy implementation (correct unless ``mutation`` is set)."""
+
+    precision_digits = 15.0
+
+    def __init__(self, mutation: str | None = None):
+        if mutation is not None and mutation not in MUTATIONS:
+            raise ValueError(f"unknown mutation {mutation!r}")
+        self.mutation = mutation
+        self.name = f"plain[{mutation or 'correct'}]"
+        self.version = "test"
+        self.batched = mutation == "batch_first_point" or mutation is None
+
+    # -------------------------------------------------------------- pieces
+    def _frame(self, f, x):
+        ad = np.einsum("a,mab->mb", x, f)
+        m = self.mutation
+        if m == "so3_only" and f.shape[0] == 3:
+            ad = np.einsum("a,mab->mb", x, _eps3())
+        A = _phi1(-ad)
+        if m == "frame_inverted":
+            return A
+        if m == "frame_identity":
+            return np.eye(len(x))
+        L = np.linalg.inv(A)
+        if m == "frame_half_missing":
+            L = L + 0.5 * ad
+        return L
+
+    def _S(self, f, theta, pi):
+        if self.mutation == "so3_only" and f.shape[0] == 3:
+            f = _eps3()
+        S = np.einsum("m,mab->ab", pi, f)
+        return S + theta if self.mutation == "theta_sign" else S - theta
+
+    def _prep(self, f, theta, upsilon):
+        f = np.asarray(f, dtype=float)
+        if self.mutation == "f_sign":
+            f = -f
+        theta = np.asarray(theta, dtype=float)
+        U = np.asarray(upsilon, dtype=float)
+        if self.mutation == "upsilon_sign":
+            U = -U
+        if self.mutation == "theta_in_pp_block":
+            return f, np.zeros_like(theta), U, theta
+        return f, theta, U, None
+
+    def _inverses(self, S, U):
+        n = S.shape[0]
+        Phi = np.eye(n) + S @ U
+        Psi = Phi.copy() if self.mutation == "psi_not_transposed" else np.eye(n) + U @ S
+        if abs(np.linalg.det(Phi)) < 1e-300 or np.linalg.cond(Phi) > 1e15:
+            if self.mutation == "degenerate_garbage":
+                return np.linalg.pinv(Phi), np.linalg.pinv(Psi), Phi
+            raise ValueError("degenerate point: Delta = det Phi = 0")
+        Phi_inv, Psi_inv = np.linalg.inv(Phi), np.linalg.inv(Psi)
+        if self.mutation == "phi_psi_swapped":
+            Phi_inv, Psi_inv = Psi_inv, Phi_inv
+        return Phi_inv, Psi_inv, Phi
+
+    # ------------------------------------------------------------ protocol
+    def _tensor(self, f, theta, upsilon, x, pi, Phi_override=None):
+        f, theta, U, theta_pp = self._prep(f, theta, upsilon)
+        n = f.shape[0]
+        L = self._frame(f, np.asarray(x, dtype=float))
+        S = self._S(f, theta, np.asarray(pi, dtype=float))
+        Phi_inv, Psi_inv, Phi = self._inverses(S, U) if Phi_override is None else Phi_override
+        P = np.empty((2 * n, 2 * n))
+        P[:n, :n] = -L @ U @ Phi_inv @ L.T
+        if self.mutation == "xx_sign":
+            P[:n, :n] *= -1
+        P[:n, n:] = L @ Psi_inv
+        P[n:, :n] = -Phi_inv @ L.T
+        P[n:, n:] = -S @ Psi_inv
+        if theta_pp is not None:
+            P[n:, n:] += theta_pp
+        if self.mutation == "near_degenerate_1e6" and np.linalg.cond(Phi) > 1e6:
+            P *= 1 + 1e-6
+        return P
+
+    def poisson_tensor(self, f, theta, upsilon, x, pi):
+        x, pi = np.asarray(x, dtype=float), np.asarray(pi, dtype=float)
+        if x.ndim == 1:
+            return self._tensor(f, theta, upsilon, x, pi)
+        if not self.batched:
+            raise ValueError("not batched")
+        X, Pm = x.reshape(-1, x.shape[-1]), pi.reshape(-1, pi.shape[-1])
+        first = None
+        out = []
+        for k in range(len(X)):
+            if self.mutation == "batch_first_point":
+                if first is None:
+                    ff, th, U, _ = self._prep(f, theta, upsilon)
+                    first = self._inverses(self._S(ff, th, Pm[0]), U)
+                out.append(self._tensor(f, theta, upsilon, X[k], Pm[k], Phi_override=first))
+            else:
+                out.append(self._tensor(f, theta, upsilon, X[k], Pm[k]))
+        n = X.shape[1]
+        return np.array(out).reshape(x.shape[:-1] + (2 * n, 2 * n))
+
+    def hamiltonian_vector_field(self, f, theta, upsilon, inertia, potential, x, pi):
+        f, theta, U, theta_pp = self._prep(f, theta, upsilon)
+        x, pi = np.asarray(x, dtype=float), np.asarray(pi, dtype=float)
+        n = f.shape[0]
+        dK = np.linalg.solve(np.asarray(inertia, dtype=float), pi)
+        if self.mutation == "kinetic_factor":
+            dK = 2 * dK
+        dV = np.zeros(n)
+        if potential is not None:
+            Ad = scipy.linalg.expm(np.einsum("a,mab->mb", x, f))
+            gamma = np.asarray(potential["gamma"], dtype=float)
+            Gamma = Ad @ gamma if self.mutation == "gravity_frame" else Ad.T @ gamma
+            dV = -np.einsum("m,mbc,c->b", Gamma, f, np.asarray(potential["L"], dtype=float))
+        L = self._frame(f, x)
+        S = self._S(f, theta, pi)
+        Phi_inv, Psi_inv, _ = self._inverses(S, U)
+        Omega = Psi_inv @ (dK - U @ dV)
+        pidot = Phi_inv @ (-dV + S @ dK) if self.mutation == "pidot_s_sign" else Phi_inv @ (-dV - S @ dK)
+        if theta_pp is not None:
+            pidot = pidot + theta_pp @ dK
+        xdot = Omega if self.mutation == "xdot_no_frame" else L @ Omega
+        return xdot, pidot
+
+    def flow(self, f, theta, upsilon, inertia, potential, x0, pi0, t):
+        """Classical RK4 with 400 steps per unit time (error ~1e-11 for these short flows)."""
+        z = np.concatenate([np.asarray(x0, dtype=float), np.asarray(pi0, dtype=float)])
+        n = len(z) // 2
+        steps = max(1, int(np.ceil(400 * abs(t))))
+        h = t / steps
+
+        def F(zz):
+            a, b = self.hamiltonian_vector_field(f, theta, upsilon, inertia, potential, zz[:n], zz[n:])
+            return np.concatenate([a, b])
+
+        w2 = 1.0 / 3 if self.mutation != "flow_wrong_stage" else 0.3
+        for _ in range(steps):
+            k1 = F(z)
+            k2 = F(z + 0.5 * h * k1)
+            k3 = F(z + 0.5 * h * k2)
+            k4 = F(z + h * k3)
+            z = z + h * (k1 / 6 + w2 * k2 + k3 / 3 + k4 / 6)
+        return z[:n], z[n:]
+
+    flow_tolerance = 1e-8
+
+
+def kill_rate(*, max_examples: int = 8, seed: int | None = 0) -> dict:
+    """Certify every mutant (stopping at its first failed check) and the correct ``Plain``.
+
+    Returns ``{"killed": [...], "survived": [...], "rate": float, "correct_passes": bool}``.
+    """
+    from .certification import certify
+
+    killed, survived = [], []
+    for name in MUTATIONS:
+        checks = ["flow.reference"] if name == "flow_wrong_stage" else None
+        cert = certify(Plain(name), max_examples=max_examples, seed=seed, checks=checks, shrink=False,
+                       stop_on_failure=True)
+        (survived if cert.passed else killed).append(name)
+    correct = certify(Plain(None), max_examples=max_examples, seed=seed, shrink=False)
+    return {"killed": killed, "survived": survived, "rate": len(killed) / len(MUTATIONS),
+            "correct_passes": correct.passed, "mutants": dict(MUTATIONS)}

@@ -1,0 +1,49 @@
+"""pytest plugin: certify an implementation inside any test suite.
+
+Name the target with ``--tstarg-impl module:object`` (or the environment variable
+``TSTARG_IMPL``). The session fixture ``tstarg_certificate`` runs the battery on it once
+(``--tstarg-examples``, ``--tstarg-seed``) and an author writes::
+
+    def test_certified(tstarg_certificate):
+        assert tstarg_certificate.passed, tstarg_certificate.summary()
+
+Without a target the fixture certifies ``refimpl.fast:implementation``. The target and
+its version are printed in the report header.
+"""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+
+def pytest_addoption(parser):
+    g = parser.getgroup("tstarg")
+    g.addoption("--tstarg-impl", default=os.environ.get("TSTARG_IMPL"), help="module:object to certify")
+    g.addoption("--tstarg-examples", type=int, default=10, help="examples per certification check")
+    g.addoption("--tstarg-seed", type=int, default=0)
+
+
+def _target(config) -> str:
+    return config.getoption("--tstarg-impl") or "refimpl.fast:implementation"
+
+
+def pytest_report_header(config):
+    from reports.certification import load_target
+
+    spec = _target(config)
+    try:
+        obj = load_target(spec)
+        return f"tstarg certification target: {spec} ({getattr(obj, 'name', '?')} {getattr(obj, 'version', '?')})"
+    except Exception as exc:  # noqa: BLE001 - only a header
+        return f"tstarg certification target: {spec} (cannot load: {exc})"
+
+
+@pytest.fixture(scope="session")
+def tstarg_certificate(pytestconfig):
+    from reports.certification import certify, load_target
+
+    spec = _target(pytestconfig)
+    return certify(load_target(spec), max_examples=pytestconfig.getoption("--tstarg-examples"),
+                   seed=pytestconfig.getoption("--tstarg-seed"), target=spec)

@@ -1,0 +1,62 @@
+"""A protocol implementation over JSON lines (for tests of ``tstarg certify --cmd``).
+
+Usage: ``python jsonl_program.py [--hang-on K] [--crash-on K] [--state FILE] [--only METHOD ...]``:
+answers with refimpl.fast, but sleeps forever on the K-th request (a hang) or exits on
+the K-th request (a crash); methods not in ``--only`` are answered "unknown method".
+With ``--state FILE`` the request count survives restarts (the harness restarts a hung or
+crashed program), so each incident happens once.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+
+import numpy as np
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--hang-on", type=int, default=-1)
+    ap.add_argument("--crash-on", type=int, default=-1)
+    ap.add_argument("--only", nargs="*", default=None)
+    ap.add_argument("--state", default=None)
+    a = ap.parse_args()
+    from refimpl.fast import implementation as fast
+
+    import os
+
+    count = int(open(a.state).read() or 0) if a.state and os.path.exists(a.state) else 0
+    for line in sys.stdin:
+        count += 1
+        if a.state:
+            with open(a.state, "w") as fh:
+                fh.write(str(count))
+        req = json.loads(line)
+        rid, method, args = req["id"], req["method"], req["args"]
+        if count == a.hang_on:
+            time.sleep(3600)
+        if count == a.crash_on:
+            sys.exit(3)
+        if (a.only is not None and method not in a.only) or method not in ("poisson_tensor", "hamiltonian_vector_field"):
+            reply = {"id": rid, "error": f"unknown method {method}"}
+        else:
+            try:
+                arr = {k: (np.asarray(v, dtype=float) if v is not None and k != "potential" else v) for k, v in args.items()}
+                if method == "poisson_tensor":
+                    res = fast.poisson_tensor(arr["f"], arr["theta"], arr["upsilon"], arr["x"], arr["pi"]).tolist()
+                else:
+                    xd, pd = fast.hamiltonian_vector_field(arr["f"], arr["theta"], arr["upsilon"], arr["inertia"],
+                                                           arr["potential"], arr["x"], arr["pi"])
+                    res = [xd.tolist(), pd.tolist()]
+                reply = {"id": rid, "result": res}
+            except ValueError as exc:
+                reply = {"id": rid, "error": f"ValueError: {exc}"}
+        sys.stdout.write(json.dumps(reply) + "\n")
+        sys.stdout.flush()
+
+
+if __name__ == "__main__":
+    main()
