@@ -169,12 +169,25 @@ def bianchi(kind: str, h: object = None) -> LieAlgebra:
     else:
         tags.append("solvable")
     alg = LieAlgebra.from_structure_constants(f, name=label, tags=tags)
-    # A faithful representation: the adjoint one when the centre is trivial.
+    # A faithful representation: the adjoint one when the centre is trivial; for the types
+    # with a centre (I, II, III) explicit matrices, checked against f by the constructor.
     adj = np.array([alg.ad(np.eye(3)[i]) for i in range(3)])
     if np.linalg.matrix_rank(adj.reshape(3, -1)) == 3:
-        adj_exact = [sympy.Matrix(3, 3, lambda m, b, i=i: f[m, i, b]) for i in range(3)]
-        alg = LieAlgebra.from_structure_constants(f, name=label, rep=adj, rep_exact=adj_exact, tags=tags)
-    return alg
+        mats = [sympy.Matrix(3, 3, lambda m, b, i=i: f[m, i, b]) for i in range(3)]
+    else:
+        def E(i, j, d):
+            m = sympy.zeros(d, d)
+            m[i, j] = 1
+            return m
+
+        if kind == "I":      # translations of R^3
+            mats = [E(0, 3, 4), E(1, 3, 4), E(2, 3, 4)]
+        elif kind == "II":   # Heisenberg: [e2, e3] = e1 with e2 = E01, e3 = E12, e1 = E02
+            mats = [E(0, 2, 3), E(0, 1, 3), E(1, 2, 3)]
+        else:                # III = R |x R^2: ad_e1 on (e2, e3) is [[1, -1], [-1, 1]]; affine matrices
+            mats = [sympy.Matrix([[1, -1, 0], [-1, 1, 0], [0, 0, 0]]), E(0, 2, 3), E(1, 2, 3)]
+    rep = np.array([np.array(m.tolist(), dtype=float) for m in mats])
+    return LieAlgebra.from_structure_constants(f, name=label, rep=rep, rep_exact=mats, tags=tags)
 
 
 @lru_cache(maxsize=None)
