@@ -24,10 +24,14 @@ Model: ``f = eps``, ``Theta = -xi.f``, ``Upsilon^mn = t eps_3mn`` (``tau = (0, 0
   tangency then fixes both multipliers: **determined**.
 * heavy asymmetric top ``I = diag(1, 2, 3)``, ``L = (1, 0, 0)``, ``xi = 0``, ``t = 2`` :
   ``<dV|e^L_1> = 0``, ``<dV|e^L_2> = Gamma_3``, so ``C21 = -pi_2/12``, ``C22 = pi_1/3 - Gamma_3``:
-  ``pi_2 = 0``, ``pi_1 = 3 Gamma_3`` by hand; the tertiary stage (recorded from the tool, confirmed by
-  ``verify_result`` and the paper's constraints) adds ``Gamma_2 = 0``, ``Gamma_1 = 18 Gamma_3^2`` with
-  multipliers determined; a second branch ``Gamma_1 = -72 Gamma_3^2 - 1/24`` of the tertiary
-  constraint ends inconsistent.
+  ``pi_2 = 0``, ``pi_1 = 3 Gamma_3``. By hand, with vijf15 (``X^1 = zeta_1 + K_1``,
+  ``X^2 = zeta_2 + K_2``, ``X_1 = -zeta_2/t``, ``X_2 = zeta_1/t``) and dGamma/dt = Gamma x Omega
+  (twee17 corrected): tangency to C21 gives ``zeta_1 = 0``; ``X_3 = 0`` gives ``Gamma_2 + zeta_2 pi_1 = 0``;
+  tangency to C22 gives ``zeta_2 (1/6 + Gamma_1) = Gamma_2 pi_1``. Together: the tertiary constraint
+  ``Gamma_2 (6 Gamma_1 + 54 Gamma_3^2 + 1) = 0``. Branch ``Gamma_2 = 0``: tangency of ``Gamma_2``,
+  ``dGamma_2/dt = Gamma_3 pi_1 - Gamma_1/6 = 0``, adds ``Gamma_1 = 18 Gamma_3^2``; **determined**.
+  Branch ``Gamma_1 = -1/6 - 9 Gamma_3^2``: ends in ``9 Gamma_3^2/2 + 1/36 = 0``, no real point:
+  **inconsistent**.
 """
 
 from __future__ import annotations
