@@ -24,6 +24,11 @@ Methods (each declares ``order``; ``tests/test_flow_orders.py`` fits it):
 * ``rk4`` / ``rkmk4``, ``rkmk8``: Lie-group (RKMK) variants re-basing every step;
 * ``midpoint``, ``gauss4``, ``gauss6``: Gauss-Legendre collocation (orders
   2, 4, 6) for general ``omega_L`` (``Upsilon != 0``);
+* ``taylor12/16/20/24``: Taylor series of order 12-24 for the polynomial body
+  systems (``Upsilon = 0``): Cauchy-product recurrences for the Taylor
+  coefficients of the quadratic field (:mod:`refimpl._taylor`), generated
+  scalar code for up to :data:`TAYLOR_SCALAR_MAX` trajectories, batched numpy
+  ``einsum`` kernels beyond;
 * ``splitting2/4/6``: Lie-Poisson splitting for su(2)/so(3) with diagonal
   inertia, ``Upsilon = 0``, any ``Theta`` and gravity. ``H = sum_i H_i + V``
   with ``H_i = (pi'_i - xi_i)^2 / 2 I_i`` (``pi' = pi + xi``, drie7, drie10):
@@ -45,9 +50,11 @@ from . import fast as _fast
 from ._integrators import DOP853, RK4, ExplicitRK, GaussLegendre, triple_jump_weights
 from ._validate import check_inertia, check_potential, check_structure_constants, check_theta, check_upsilon
 
-__all__ = ["NumpyModel", "METHODS", "method", "integrate_fast"]
+__all__ = ["METHODS", "TAYLOR_SCALAR_MAX", "NumpyModel", "integrate_fast", "method"]
 
 EPS = np.finfo(float).eps
+TAYLOR_SCALAR_MAX = 16  # up to this many trajectories the Taylor methods run generated scalar code: the numpy
+# kernel's fixed cost per step (~20 calls per order) matched the scalar code's between 16 and 32 heavy tops
 
 
 class NumpyModel:
@@ -203,6 +210,8 @@ class Method:
                 return False, "Lie-Poisson splitting needs a diagonal inertia (principal axes)"
         if self.kind == "scalar" and not model.upsilon_zero:
             return False, "the generated scalar code covers the polynomial body system (Upsilon = 0)"
+        if self.kind == "taylor" and not model.upsilon_zero:
+            return False, "the Taylor recurrences need the quadratic polynomial body system (Upsilon = 0)"
         if self.kind == "rk" and not model.upsilon_zero:
             return True, "explicit RK is not symplectic for omega_L; a Gauss method keeps the structure"
         return True, ""
@@ -217,6 +226,10 @@ METHODS = {
     "midpoint": Method("midpoint", 2, "gauss"),
     "gauss4": Method("gauss4", 4, "gauss"),
     "gauss6": Method("gauss6", 6, "gauss"),
+    "taylor12": Method("taylor12", 12, "taylor"),
+    "taylor16": Method("taylor16", 16, "taylor"),
+    "taylor20": Method("taylor20", 20, "taylor"),
+    "taylor24": Method("taylor24", 24, "taylor"),
     "splitting2": Method("splitting2", 2, "splitting"),
     "splitting4": Method("splitting4", 4, "splitting"),
     "splitting6": Method("splitting6", 6, "splitting"),
@@ -332,19 +345,32 @@ def integrate_fast(model: NumpyModel, meth: Method, x0, pi0, t, nsteps: int, *, 
     adx0 = np.einsum("aN,mab->Nmb", x0, model.f)
     Ad0 = _fast._expm_batch(adx0, su2=model.su2)
     Gamma0 = np.einsum("Nmb,m->bN", Ad0, model.gamma) if model.gravity else None
-    if meth.kind == "scalar":
+    if meth.kind in ("scalar", "taylor"):
         if system != "body":
-            raise ValueError("method dop853-scalar integrates body systems only (no configuration)")
-        run = scalar_rk_integrator(model, (DOP853.A, DOP853.b, DOP853.c))
+            raise ValueError(f"method {meth.name} integrates body systems only (no configuration)")
         y0 = pi0 if Gamma0 is None else np.concatenate([pi0, Gamma0])
-        res = np.empty_like(y0)
-        hist = np.empty((nsteps, y0.shape[0], N)) if observe is not None else None
-        for j in range(N):
-            rec = None if hist is None else (lambda k, y, j=j: hist.__setitem__((k - 1, slice(None), j), y))
-            res[:, j] = run(list(y0[:, j]), t / nsteps, nsteps, rec)
-        if hist is not None:  # replay the samples in step order, batched like the other methods
-            for k in range(nsteps):
-                observe(k + 1, hist[k, :n], None if Gamma0 is None else hist[k, n:], None)
+        h = t / nsteps
+        if meth.kind == "taylor" and N > TAYLOR_SCALAR_MAX:
+            from ._taylor import numpy_taylor_integrator
+
+            obs = None if observe is None else (
+                lambda k, y: observe(k, y[:n], None if Gamma0 is None else y[n:], None))
+            res = numpy_taylor_integrator(model, meth.order)(y0, h, nsteps, observe=obs)
+        else:
+            if meth.kind == "taylor":
+                from ._taylor import scalar_taylor_integrator
+
+                run = scalar_taylor_integrator(model, meth.order)
+            else:
+                run = scalar_rk_integrator(model, (DOP853.A, DOP853.b, DOP853.c))
+            res = np.empty_like(y0)
+            hist = np.empty((nsteps, y0.shape[0], N)) if observe is not None else None
+            for j in range(N):
+                rec = None if hist is None else (lambda k, y, j=j: hist.__setitem__((k - 1, slice(None), j), y))
+                res[:, j] = run(y0[:, j].tolist(), h, nsteps, rec)   # Python floats: no numpy scalars
+            if hist is not None:  # replay the samples in step order, batched like the other methods
+                for k in range(nsteps):
+                    observe(k + 1, hist[k, :n], None if Gamma0 is None else hist[k, n:], None)
         return {"pi": res[:n], "Gamma": None if Gamma0 is None else res[n:], "x": None, "Ad": None,
                 "quat": None, "rebases": np.zeros(N, dtype=int)}
     if meth.kind == "splitting":
@@ -471,10 +497,13 @@ def _x_from_rep(model, rep, G_ref, x, Ad, rebases):
 # For one trajectory numpy's per-call overhead dominates (arrays of 6 numbers),
 # so the reduced body system with ``Upsilon = 0`` -- a quadratic polynomial
 # (twee14/drie6, Euler-Poisson twee17 corrected/twee18) -- is written out as
-# straight-line Python over floats, with the structure constants, ``I^-1``,
-# ``Theta`` and ``L`` as literals (zero terms dropped), and the explicit RK
-# tableau is unrolled around it inside a single loop. Same arithmetic as
-# :class:`refimpl._integrators.ExplicitRK`; rounding differs only in order.
+# straight-line Python over floats: the polynomial of
+# :func:`refimpl._taylor.quadratic_field` (``w = I^-1 pi`` eliminated, equal
+# monomials merged, zero terms dropped) with its coefficients as literals, and
+# the explicit RK tableau is unrolled around it inside a single loop. Same
+# method as :class:`refimpl._integrators.ExplicitRK`; rounding differs only in
+# order. The numpy versions (:func:`numpy_rhs`, :func:`numpy_rhs_inplace`) and
+# the scipy baseline's :func:`scalar_rhs` are generated from the same polynomial.
 def _lit(v: float) -> str:
     return repr(float(v))
 
@@ -489,64 +518,25 @@ def _term(sign_coef: float, *names: str) -> str:
     return f"+ {_lit(sign_coef)}*{prod}" if sign_coef > 0 else f"- {_lit(-sign_coef)}*{prod}"
 
 
-def _rhs_terms(model, ys: list[str]):
-    """The body field as sums of monomials: ``w_a = sum_b Iinv_ab pi_b`` (Omega = dK) and
-    ``out_k = sum coef * prod(factors)``, equal monomials merged, zero coefficients dropped.
-
-    ``pidot_a = -pi_m f^m_ab w_b + Theta_ab w_b + Gamma_m f^m_ac L^c`` (drie6, twee18 with
-    ``-dV_a = Gamma_m f^m_ac L^c``, twee16) and ``Gammadot_mu = w_b f^a_{b mu} Gamma_a``
-    (twee17, sign corrected).
-    """
-    n = model.n
-    pi, G = ys[:n], ys[n:]
-    Ii = model.Iinv
-    wdefs = [[(float(Ii[a, b]), pi[b]) for b in range(n) if Ii[a, b] != 0] for a in range(n)]
-    outs: dict = {k: {} for k in range(2 * n if model.gravity else n)}
-
-    def add(k, coef, *factors):
-        key = tuple(factors)
-        outs[k][key] = outs[k].get(key, 0.0) + float(coef)
-
-    f = model.f
-    for m in range(n):
-        for a in range(n):
-            for b in range(n):
-                if f[m, a, b] != 0:
-                    add(a, -f[m, a, b], pi[m], f"w{b}")
-    if not model.theta_zero:
-        for a in range(n):
-            for b in range(n):
-                if model.theta[a, b] != 0:
-                    add(a, model.theta[a, b], f"w{b}")
-    if model.gravity:
-        Lv = model.Lvec
-        for m in range(n):
-            for b in range(n):
-                for c in range(n):
-                    if f[m, b, c] != 0 and Lv[c] != 0:
-                        add(b, f[m, b, c] * Lv[c], G[m])
-        for a in range(n):
-            for b in range(n):
-                for mu in range(n):
-                    if f[a, b, mu] != 0:
-                        add(n + mu, f[a, b, mu], f"w{b}", G[a])
-    clean = {k: [(c, fac) for fac, c in d.items() if c != 0] for k, d in outs.items()}
-    return wdefs, clean
-
-
 def _sum_expr(terms) -> str:
     if not terms:
         return "0.0"
     parts = [_term(c, *fac) for c, fac in terms]
-    expr = " ".join(parts)
-    return expr[2:] if expr.startswith("+ ") else expr
+    return " ".join(parts).removeprefix("+ ")
 
 
-def _rhs_lines(model, pfx: str, ys: list[str]) -> list[str]:
-    """Statements computing the derivative components ``{pfx}0..`` from the names ``ys``."""
-    wdefs, outs = _rhs_terms(model, ys)
-    lines = [f"w{a} = " + _sum_expr([(c, (nm,)) for c, nm in wd]) for a, wd in enumerate(wdefs)]
-    lines += [f"{pfx}{k} = " + _sum_expr(terms) for k, terms in outs.items()]
+def _field_lines(model, pfx: str, ys: list[str]) -> list[str]:
+    """Statements ``{pfx}c = ...`` for the body field as a quadratic polynomial in the names ``ys``
+    (:func:`refimpl._taylor.quadratic_field`: ``w = I^-1 pi`` eliminated, equal monomials merged --
+    e.g. ``2 p1 p2 - p2 p1 = p1 p2`` for a symmetric top -- zero coefficients dropped)."""
+    from ._taylor import quadratic_field
+
+    F = quadratic_field(model)
+    lines = []
+    for c in range(F.d):
+        terms = [(q, (ys[i], ys[j])) for (i, j), q in F.quad[c].items()]
+        terms += [(q, (ys[i],)) for i, q in F.lin[c].items()]
+        lines.append(f"{pfx}{c} = " + _sum_expr(terms))
     return lines
 
 
@@ -586,7 +576,7 @@ def _build(key, model, tableau):
                 terms = [f"a{i}_{j}*k{j}_{comp}" for j in range(i) if A[i, j] != 0]
                 src.append(f"{ind}z{comp} = y{comp} + " + (" + ".join(terms) if terms else "0.0"))
                 args.append(f"z{comp}")
-        src += [ind + line for line in _rhs_lines(model, f"k{i}_", args)]
+        src += [ind + line for line in _field_lines(model, f"k{i}_", args)]
     for comp in range(d):
         terms = [f"b{j}*k{j}_{comp}" for j in range(s) if b[j] != 0]
         src.append(f"{ind}y{comp} = y{comp} + " + " + ".join(terms))
@@ -599,11 +589,14 @@ def _build(key, model, tableau):
 
 
 def scalar_rhs(model):
-    """The generated body right-hand side alone, ``rhs(t, y) -> list`` (for baselines such as solve_ivp)."""
+    """The generated body right-hand side alone, ``rhs(t, y) -> list`` (for baselines such as solve_ivp).
+
+    An ndarray ``y`` is converted to Python floats first (``tolist``): arithmetic on numpy scalars
+    costs several times that on floats."""
     d = 2 * model.n if model.gravity else model.n
     y = [f"y{i}" for i in range(d)]
-    src = ["def rhs(t, y):", "    " + ", ".join(y) + ", = y"]
-    src += ["    " + line for line in _rhs_lines(model, "k", y)]
+    src = ["def rhs(t, y):", "    if type(y) is not list: y = y.tolist()", "    " + ", ".join(y) + ", = y"]
+    src += ["    " + line for line in _field_lines(model, "k", y)]
     src.append("    return [" + ", ".join(f"k{i}" for i in range(d)) + "]")
     ns: dict = {}
     exec(compile("\n".join(src), "<tstarg scalar rhs>", "exec"), ns)  # noqa: S102 - generated from numbers only
@@ -621,13 +614,9 @@ def numpy_rhs(model):
     d = 2 * model.n if model.gravity else model.n
     y = [f"y{i}" for i in range(d)]
     src = ["def rhs(y):", "    " + ", ".join(y) + ", = y", "    out = _np.empty_like(y)"]
-    body = _rhs_lines(model, "k", y)
-    for line in body:
+    for line in _field_lines(model, "k", y):
         name, expr = line.split(" = ", 1)
-        if name.startswith("k") and name[1:].isdigit():
-            src.append(f"    out[{name[1:]}] = {expr}")
-        else:
-            src.append("    " + line)
+        src.append(f"    out[{name[1:]}] = {expr}")
     src.append("    return out")
     ns: dict = {"_np": _np}
     exec(compile("\n".join(src), "<tstarg numpy rhs>", "exec"), ns)  # noqa: S102 - generated from numbers only
@@ -641,19 +630,12 @@ def numpy_rhs_inplace(model):
 
     d = 2 * model.n if model.gravity else model.n
     y = [f"y[{i}]" for i in range(d)]
-    wdefs, outs = _rhs_terms(model, y)
-    src = ["def rhs(y, out):", "    t = _buf(y.shape[1:])", "    ws = _wbuf(y.shape[1:])"]
-    for a, wd in enumerate(wdefs):
-        if len(wd) == 1 and wd[0][0] == 1.0:
-            src.append(f"    w{a} = {wd[0][1]}")
-            continue
-        src.append(f"    w{a} = ws[{a}]")
-        for i, (c, nm) in enumerate(wd):
-            if i == 0:
-                src.append(f"    _np.multiply({nm}, {_lit(c)}, out=w{a})")
-            else:
-                src.append(f"    _np.multiply({nm}, {_lit(c)}, out=t)")
-                src.append(f"    w{a} += t")
+    from ._taylor import quadratic_field
+
+    F = quadratic_field(model)   # w = I^-1 pi eliminated, equal monomials merged
+    outs = {c: [(q, (y[i], y[j])) for (i, j), q in F.quad[c].items()] + [(q, (y[i],)) for i, q in F.lin[c].items()]
+            for c in range(d)}
+    src = ["def rhs(y, out):", "    t = _buf(y.shape[1:])"]
     for k, terms in outs.items():
         o = f"out[{k}]"
         if not terms:
@@ -690,12 +672,6 @@ def numpy_rhs_inplace(model):
             cache[key] = _np.empty(shape)
         return cache[key]
 
-    def _wbuf(shape):
-        key = ("w", shape)
-        if key not in cache:
-            cache[key] = _np.empty((model.n,) + shape)
-        return cache[key]
-
-    ns: dict = {"_np": _np, "_buf": _buf, "_wbuf": _wbuf}
+    ns: dict = {"_np": _np, "_buf": _buf}
     exec(compile("\n".join(src), "<tstarg numpy rhs in place>", "exec"), ns)  # noqa: S102 - numbers only
     return ns["rhs"]

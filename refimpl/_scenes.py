@@ -220,6 +220,11 @@ def plan(scene: Scene) -> Plan:
         name = "splitting4"
         reasons.append("su(2), Upsilon = 0, principal axes, loose tolerance: Lie-Poisson splitting (exact "
                        "Casimirs, cheapest steps)")
+    elif system == "body" and scene.pi0.shape[0] <= 16 and METHODS["taylor20"].applies(model)[0]:
+        name = "taylor20"
+        reasons.append("few trajectories of a quadratic body system (Upsilon = 0): Taylor series of order 20 "
+                       "from exact Cauchy-product recurrences, generated straight-line scalar code (fewest "
+                       "operations per digit; numpy's per-call overhead would dominate arrays of 6 numbers)")
     elif system == "body" and scene.pi0.shape[0] == 1:
         name = "dop853-scalar"
         reasons.append("one trajectory of a polynomial body system: DOP853 as generated straight-line scalar "

@@ -13,6 +13,14 @@ Protocol method 3 (DESIGN.md), with the signature
   the number of steps is doubled until two runs agree to ``tol`` on every
   trajectory (worst trajectory, not an average).
 
+Body systems only (no configuration; ``integrate_fast(..., system="body")``
+or ``fast_trajectory(..., system="body")``): ``dop853-scalar`` and the
+Taylor-series methods ``taylor12/16/20/24`` (:mod:`refimpl._taylor`: Cauchy-
+product recurrences for the quadratic field of ``Upsilon = 0``): the fastest
+fixed-step methods here for one trajectory; for batches on par with the batched
+``dop853`` on an asymmetric top and several times faster when a component is
+constant (a symmetric top's ``pi_3``), see tests/benchmarks/test_bench_flows.py.
+
 Scenes (:func:`load_scene`, :func:`plan`, :func:`run_scene`): see :mod:`refimpl._scenes`.
 
 Invariants (:func:`energy`, :func:`casimirs`, :func:`momentum_map`):

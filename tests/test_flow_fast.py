@@ -118,3 +118,18 @@ def test_rebased_x_recovered_through_representation_non_compact():
     scale = max(1.0, float(np.max(np.abs(xr))))
     # error model: tol (x10) on O(1) state, times |x| for the log map, + 1000 eps * scale rounding
     assert np.max(np.abs(x - xr)) <= 10 * 1e-10 * scale + 1000 * EPS * scale
+
+
+def test_scalar_rhs_list_and_array_equal_numpy_rhs():
+    """The generated scalar rhs (for scipy baselines) gives the same field for a list and for an ndarray
+    argument (converted to Python floats), equal to the numpy rows version (error model 8 eps * scale^2)."""
+    from refimpl._flow_fast import numpy_rhs, scalar_rhs
+
+    model = NumpyModel(F, THETA, np.zeros((3, 3)), I, POT)
+    y = np.random.default_rng(8).normal(size=6)
+    a = scalar_rhs(model)(0.0, y)
+    b = scalar_rhs(model)(0.0, y.tolist())
+    assert all(type(v) is float for v in a)
+    assert a == b
+    scale = np.max(np.abs(y)) ** 2 + 1
+    assert np.max(np.abs(np.array(a) - numpy_rhs(model)(y[:, None])[:, 0])) <= 8 * EPS * scale
