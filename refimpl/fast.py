@@ -36,8 +36,15 @@ Every batch result carries, per point:
     a bound on ``max_ij |P_fast - P_exact|``:
     ``C_P * n * eps * max(cond_phi, cond_data) * frame_cond * scale`` with ``C_P = 16``,
     ``frame_cond = 1/(1 - |x|/2pi)`` for su(2) (``1/(1-r)`` in general) and
-    ``scale = max_ij |P|``. Tested against the mpmath reference across
-    conditioning regimes.
+    ``scale = max_ij |P|``. The generic path adds the rounding of *forming* the
+    data, ``C_P n eps frame_cond (d_S + ||sum_a |x^a||f_a| ||_F max|P|)``, with
+    ``d_S = ||sum_m |pi_m||f^m| + |Theta| ||_F`` propagated to first order through
+    vier9 (``dP = G dS G^T``, ``G = -[[L U Phi^-1], [Phi^-1]]``); these summand
+    magnitudes exceed ``||S||``, ``||ad_x||`` by any factor when the sums cancel
+    (an ill-conditioned basis, found by ``tstarg stress``: the error there was up
+    to 1.3e7 times the bound without these terms). The vector field adds, in the
+    same way, ``cond(I)`` of forming ``I^-1 pi``. Tested against the mpmath
+    reference across conditioning regimes and by ``tstarg stress``.
 ``degenerate``
     ``True`` where Phi is singular to working precision
     (``cond_phi * n * eps >= 1/16`` or C1 = 0): the point lies on the
@@ -426,6 +433,22 @@ def _frob(M: np.ndarray) -> np.ndarray:
     return np.sqrt(np.sum(M * M, axis=(-2, -1)))
 
 
+def _summand_norms(f, theta, x, p):
+    """``||sum_m |pi_m| |f^m| + |Theta| ||_F`` and ``||sum_a |x^a| |f_a| ||_F`` per point.
+
+    Forming ``S = pi.f - Theta`` (vier3) and ``ad_x = x.f`` in float64 rounds each entry by up to
+    ``n eps`` times the magnitudes of its summands; under cancellation (an ill-conditioned basis,
+    ``LieAlgebra.change_basis``) these exceed ``||S||``, ``||ad_x||`` by any factor.
+    """
+    N, n = x.shape
+    absf = np.abs(f)
+    Sabs = (np.abs(p) @ absf.reshape(n, n * n)).reshape(N, n, n)
+    if theta is not None:
+        Sabs += np.abs(theta)
+    Aabs = (np.abs(x) @ absf.transpose(1, 0, 2).reshape(n, n * n)).reshape(N, n, n)
+    return _frob(Sabs), _frob(Aabs)
+
+
 GENERIC_CHUNK = 2048  # points per chunk of the generic path: its (chunk, n, n) stacks stay in cache
 
 
@@ -447,6 +470,7 @@ def _generic_poisson_chunk(f, theta, upsilon, x, p, P, cond_out, sens_out, bound
     S = (p @ f.reshape(n, n * n)).reshape(N, n, n)
     if theta is not None:
         S -= theta
+    Sabs, Aabs = _summand_norms(f, theta, x, p)
     if upsilon is None:
         P[:, :n, :n] = 0.0
         P[:, :n, n:] = L
@@ -474,9 +498,16 @@ def _generic_poisson_chunk(f, theta, upsilon, x, p, P, cond_out, sens_out, bound
     cond = np.where(np.isfinite(cond), cond, np.inf)
     frame = 1.0 / np.maximum(1.0 - np.minimum(r, 1.0), EPS)
     with np.errstate(invalid="ignore", over="ignore"):
-        scale = np.maximum(np.max(np.abs(P), axis=(-2, -1)), 1.0)
+        pmax = np.max(np.abs(P), axis=(-2, -1))
+        scale = np.maximum(pmax, 1.0)
         eff = np.maximum(cond, sens)
-        bound = C_P * n * EPS * eff * frame * scale
+        if upsilon is None:
+            data = n * Sabs                                # G = [[0], [1]]: P_pp = -S
+        else:
+            # first order in dS: dP = G dS G^T, G = T (-W^-1)[:, :n] = -[[L U Phi^-1], [Phi^-1]] (vier9)
+            Phi_inv = Psi_inv.transpose(0, 2, 1)
+            data = Sabs * (_frob(L @ (upsilon @ Phi_inv)) ** 2 + _frob(Phi_inv) ** 2)
+        bound = C_P * n * EPS * frame * (eff * scale + data + Aabs * pmax)
     degen = ~(eff * (n * C_P * EPS) < 1.0) | ~np.all(np.isfinite(L), axis=(-2, -1))
     if degen.any():
         P[degen] = np.nan
@@ -643,11 +674,25 @@ class Fast(Implementation):
             sens = np.where(np.isfinite(sens), sens, np.inf)
         xdot = np.einsum("Nab,Nb->Na", L, Omega)
         frame = 1.0 / np.maximum(1.0 - np.minimum(r, 1.0), EPS)
+        # rounding in forming dK = I^-1 pi (cond(I)), S and ad_x (summand magnitudes), to first order
+        Sabs, Aabs = _summand_norms(f, th, X, Pm)
+        kappa_I = float(np.linalg.norm(inertia) * np.linalg.norm(Iinv))
+        with np.errstate(invalid="ignore", over="ignore"):
+            nd = np.linalg.norm(dK, axis=1)
+            if up is None:
+                d_pidot = Sabs * nd + _frob(S) * kappa_I * nd
+                d_omega = kappa_I * nd
+            else:
+                pn, un, Sn = _frob(Psi_inv), float(np.linalg.norm(up)), _frob(S)
+                d_pidot = pn * (Sabs * nd + Sn * kappa_I * nd) + pn ** 2 * un * Sabs * (Sn * nd + 1)
+                d_omega = pn * kappa_I * nd + pn ** 2 * un * Sabs * nd
+            d_xdot = _frob(L) * d_omega + Aabs * np.linalg.norm(Omega, axis=1)
+            extra = C_P * n * EPS * frame * (d_pidot + d_xdot)
         with np.errstate(invalid="ignore", over="ignore"):
             scale = np.maximum(np.maximum(np.max(np.abs(xdot), axis=1), np.max(np.abs(pidot), axis=1)), 1.0)
             scale = scale * np.maximum(1.0, np.max(np.abs(L), axis=(1, 2)))
             eff = np.maximum(cond, sens)
-            bound = C_P * n * EPS * eff * frame * scale
+            bound = C_P * n * EPS * eff * frame * scale + extra
         degen = ~(eff * (n * C_P * EPS) < 1.0)
         if degen.any():
             xdot[degen] = np.nan

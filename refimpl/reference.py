@@ -253,7 +253,11 @@ class Reference(Implementation):
         S = self.S(F, theta, pi)
         Phi = mpmath.eye(n) + S * upsilon
         Psi = mpmath.eye(n) + upsilon * S
-        return {"S": S, "Phi": Phi, "Psi": Psi, "Delta": mpmath.det(Phi)}
+        try:
+            delta = mpmath.det(Phi)
+        except TypeError:  # mpmath 1.3 (#542): its LU meets an exactly zero pivot column, Phi is singular
+            delta = mpmath.mpf(0)
+        return {"S": S, "Phi": Phi, "Psi": Psi, "Delta": delta}
 
     def _check_nondegenerate(self, Phi: mpmath.matrix, Delta, pi) -> None:
         """Degenerate means Delta is zero to working precision: below the rounding noise
