@@ -54,7 +54,7 @@ from properties.strategies import REGIMES, catalogue_algebras, cocycles, points,
 from refimpl import CATALOGUE_NAMES, catalogue, su2
 from refimpl.reference import DegeneratePointError, Reference
 
-__all__ = ["CHECKS", "Certificate", "certify", "load_target", "C_CERT"]
+__all__ = ["CHECKS", "Certificate", "certify", "certify_parallel", "load_target", "C_CERT"]
 
 C_CERT = 8.0
 EPS64 = float(np.finfo(float).eps)
@@ -462,6 +462,59 @@ def _certify(impl, *, max_examples, seed, skips, xfails, target, checks, stop_on
             raise AssertionError(cid)
         cert.checks.append(res)
     cert.incidents = list(getattr(impl, "incidents", []) or [])
+    cert.seconds = time.perf_counter() - t0
+    return cert
+
+
+def _materialize(spec):
+    """A certification target from its picklable description: ``"module:object"`` or
+    ``{"cmd": "PROGRAM ARGS", "timeout": seconds}`` (a fresh program per worker)."""
+    if isinstance(spec, str):
+        return load_target(spec)
+    if isinstance(spec, dict) and "cmd" in spec:
+        from .jsonl import CommandImplementation
+
+        return CommandImplementation(spec["cmd"], timeout=float(spec.get("timeout", 10.0)))
+    raise ValueError(f"certification target must be 'module:object' or {{'cmd': ...}}, got {spec!r}")
+
+
+def _certify_unit(item) -> Certificate:
+    """Worker of :func:`certify_parallel`: one check id (all its regimes) on a freshly loaded target."""
+    spec, cid, kwargs = item
+    impl = _materialize(spec)
+    try:
+        return certify(impl, checks=[cid], **kwargs)
+    finally:
+        if hasattr(impl, "close"):
+            impl.close()
+
+
+def certify_parallel(spec, *, workers: int | None = None, scheduler=None, max_examples: int = 20,
+                     seed: int | None = 0, skips: dict | None = None, xfails: dict | None = None,
+                     target: str = "", shrink: bool = True, checks: list[str] | None = None) -> Certificate:
+    """:func:`certify` with the check ids spread over worker processes or a Dask cluster.
+
+    ``spec`` names the target so that each worker can load it (``"module:object"``, or
+    ``{"cmd": ..., "timeout": ...}`` for a JSON-lines program: one program per worker).
+    Each check id runs exactly as it would serially (same seed, same examples); the
+    partial certificates are merged in :data:`CHECKS` order, so the result equals the serial
+    one except for timings (``tests/test_parallel.py``). ``workers=1`` without a scheduler
+    runs in this process.
+    """
+    from ._parallel import map_tasks
+
+    t0 = time.perf_counter()
+    ids = [c for c in CHECKS if checks is None or c in checks]
+    kwargs = {"max_examples": max_examples, "seed": seed, "skips": skips, "xfails": xfails, "target": target,
+              "shrink": shrink}
+    parts = map_tasks(_certify_unit, [(spec, cid, kwargs) for cid in ids], workers=workers, scheduler=scheduler)
+    first = parts[0] if parts else _certify_unit((spec, None, kwargs))
+    cert = Certificate(implementation=first.implementation, version=first.version, target=first.target,
+                       seed=seed, max_examples=max_examples, xfailed=dict(xfails or {}), command=first.command)
+    for part in parts:
+        cert.checks.extend(part.checks)
+        cert.skipped.update(part.skipped)
+        cert.incidents.extend(part.incidents)
     cert.seconds = time.perf_counter() - t0
     return cert
 

@@ -197,27 +197,38 @@ class Plain:
     flow_tolerance = 1e-8
 
 
-def kill_rate(*, max_examples: int = 8, seed: int | None = 0) -> dict:
-    """Certify every mutant (stopping at its first failed check) and the correct ``Plain``.
-
-    Returns ``{"killed": [...], "survived": [...], "rate": float, "correct_passes": bool}``.
-    """
+def _certify_mutant(item) -> bool:
+    """Worker of :func:`kill_rate`: does the mutant ``name`` (``None``: the correct ``Plain``) pass?"""
     from properties import checks as _checks
 
     from .certification import certify
 
-    # The mutants' own checks fail by design: keep them out of the caller's progress display.
+    name, max_examples, seed = item
+    # The mutants' own checks fail by design: keep them out of any progress display.
     listeners = list(_checks.PROGRESS)
     _checks.PROGRESS.clear()
     try:
-        killed, survived = [], []
-        for name in MUTATIONS:
-            checks = ["flow.reference"] if name == "flow_wrong_stage" else None
-            cert = certify(Plain(name), max_examples=max_examples, seed=seed, checks=checks, shrink=False,
-                           stop_on_failure=True)
-            (survived if cert.passed else killed).append(name)
-        correct = certify(Plain(None), max_examples=max_examples, seed=seed, shrink=False)
+        checks = ["flow.reference"] if name == "flow_wrong_stage" else None
+        cert = certify(Plain(name), max_examples=max_examples, seed=seed, checks=checks, shrink=False,
+                       stop_on_failure=name is not None)
+        return cert.passed
     finally:
         _checks.PROGRESS[:] = listeners
+
+
+def kill_rate(*, max_examples: int = 8, seed: int | None = 0, workers: int | None = None, scheduler=None) -> dict:
+    """Certify every mutant (stopping at its first failed check) and the correct ``Plain``.
+
+    The mutants are independent tasks of :func:`reports._parallel.map_tasks` (local processes
+    by default, ``workers=1`` in this process, or a Dask ``scheduler``).
+    Returns ``{"killed": [...], "survived": [...], "rate": float, "correct_passes": bool}``.
+    """
+    from ._parallel import map_tasks
+
+    names = list(MUTATIONS) + [None]
+    passed = map_tasks(_certify_mutant, [(n, max_examples, seed) for n in names], workers=workers, scheduler=scheduler)
+    verdict = dict(zip(names, passed))
+    killed = [n for n in MUTATIONS if not verdict[n]]
+    survived = [n for n in MUTATIONS if verdict[n]]
     return {"killed": killed, "survived": survived, "rate": len(killed) / len(MUTATIONS),
-            "correct_passes": correct.passed, "mutants": dict(MUTATIONS)}
+            "correct_passes": verdict[None], "mutants": dict(MUTATIONS)}
