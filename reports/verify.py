@@ -8,7 +8,15 @@ raises, is a failed check.
 
 Writes ``report.json`` (every check with its metrics, the environment, versions,
 seed, profile, providers) and ``report.md`` into the output folder (default
-``reports/latest``). Progress on stdout: a bar redrawn per example on a terminal, one
+``reports/latest``).
+
+Regression check: the run is compared with the committed baseline
+(``reports/baseline/report.json``, or ``--baseline PATH``; ``--no-baseline`` skips it) by
+:mod:`reports.regression`. Two more rows, ``regression.accuracy`` (digits lost beyond
+``--digits-slack``) and ``regression.speed`` (a speed-up of :mod:`reports.speed_checks`
+fallen by more than ``--speed-factor``), fail the run like any other check; the comparison
+table and its figure go into ``compare.md`` and ``figures/compare.png`` and are linked
+from ``report.md``. ``--write-baseline`` stores this run as the new baseline. Progress on stdout: a bar redrawn per example on a terminal, one
 line per finished check otherwise (``--quiet`` silences it). Exit status 1 when any
 check fails. Profiles set the Hypothesis budget per check (:data:`PROFILES`); providers
 give the mpmath-driven checks a fraction of it.
@@ -33,6 +41,7 @@ PROVIDERS = (
     "properties.paper_checks:paper_checks",
     "oracles.checks:verify_checks",
     "reports.certification:verify_checks",
+    "reports.speed_checks:verify_checks",
 )
 """Check providers, in order: ``module:function`` with ``function(max_examples, seed) -> [CheckResult]``."""
 
@@ -45,6 +54,12 @@ def add_arguments(v) -> None:
     v.add_argument("--provider", action="append", default=None, metavar="MODULE:FUNCTION",
                    help=f"run only these check providers (repeatable; default: {', '.join(PROVIDERS)})")
     v.add_argument("--quiet", action="store_true", help="no progress output")
+    v.add_argument("--baseline", default=None, metavar="REPORT",
+                   help="baseline report.json (or run folder) to compare with (default: reports/baseline/report.json)")
+    v.add_argument("--no-baseline", action="store_true", help="do not compare with a baseline")
+    v.add_argument("--digits-slack", type=float, default=None, help="digits a check may lose before it is a regression (default 2)")
+    v.add_argument("--speed-factor", type=float, default=None, help="slowdown factor of a speed-up that is a regression (default 2)")
+    v.add_argument("--write-baseline", action="store_true", help="also store this run as the committed baseline")
 
 
 def _load_provider(spec: str):
@@ -145,6 +160,18 @@ def render_markdown(report: dict) -> str:
         digits = None if c["min_digits"] is None else float(c["min_digits"])
         out.append(f"| {c['name']} | {c['equations']} | {c['examples']} | {c['skipped']} | {_fmt_ratio(ratio)} | "
                    f"{_fmt_digits(digits)} | {'PASS' if c['passed'] else 'FAIL'} |")
+    cmp = report.get("comparison")
+    if cmp:
+        out += ["", "## Against the baseline", "",
+                f"Baseline `{cmp['base']}`: {'**REGRESSED**' if cmp['regressed'] else 'no regression'} "
+                f"(accuracy slack {cmp['digits_slack']:g} digits, speed factor {cmp['speed_factor']:g}x"
+                + ("" if cmp["same_sampling"] else "; different samples, digits not enforced") + "). "
+                "Full table: [compare.md](compare.md).", "", "![base vs this run](figures/compare.png)", ""]
+        changed = [r for r in cmp["rows"] if r["status"]]
+        if changed:
+            out += ["| check | status |", "|---|---|"] + [f"| {r['name']} | {'; '.join(r['status'])} |" for r in changed]
+    elif report.get("baseline_note"):
+        out += ["", f"Baseline: {report['baseline_note']}"]
     fails = [c for c in report["checks"] if not c["passed"]]
     if fails:
         out += ["", "## Failures", ""]
@@ -211,19 +238,59 @@ def main(args) -> int:
     total = time.perf_counter() - t0
     for spec, st in status.items():
         print(f"provider {spec}: {st}")
-    print(render_table(results))
-    failed = [r for r in results if not r.passed]
     report = {
         "tool": "tstarg verify", "profile": args.profile, "max_examples": max_examples, "seed": args.seed,
-        "passed": not failed, "n_failed": len(failed), "seconds": total,
-        "providers": status, "checks": [r.to_json() for r in results], "environment": _env(),
+        "seconds": total, "providers": status, "checks": [r.to_json() for r in results], "environment": _env(),
         "command": " ".join(["tstarg"] + sys.argv[1:]),
     }
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    _compare_with_baseline(args, report, results, out)
+    failed = [r for r in results if not r.passed]
+    report.update(passed=not failed, n_failed=len(failed))
+    print(render_table(results))
     (out / "report.json").write_text(json.dumps(report, indent=2))
     (out / "report.md").write_text(render_markdown(report))
+    if getattr(args, "write_baseline", False):
+        from .regression import BASELINE
+
+        BASELINE.parent.mkdir(parents=True, exist_ok=True)
+        kept = dict(report, checks=[c for c in report["checks"] if not c["name"].startswith("regression.")])
+        kept.pop("comparison", None)
+        kept.pop("baseline_note", None)
+        BASELINE.write_text(json.dumps(kept, indent=2))
+        print(f"baseline written: {BASELINE}")
     print(f"\n{len(results) - len(failed)} passed, {len(failed)} failed in {total:.1f} s; report: {out / 'report.md'}")
     for r in failed:
         print(f"\nFAILED {r.name}: {r.detail}\n{r.falsifying_example}")
     return 1 if failed else 0
+
+
+def _compare_with_baseline(args, report: dict, results: list, out: Path) -> None:
+    """Compare with the baseline (unless ``--no-baseline``): add the two regression rows to
+    ``results`` and ``report``, write ``compare.md`` and ``figures/compare.png``."""
+    from . import regression
+
+    if getattr(args, "no_baseline", False):
+        report["baseline_note"] = "not compared (--no-baseline)"
+        return
+    path = getattr(args, "baseline", None) or regression.BASELINE
+    if getattr(args, "baseline", None) is None and not Path(path).exists():
+        report["baseline_note"] = f"no baseline at {path}: not compared"
+        print(f"no baseline at {path}: not compared")
+        return
+    slack = getattr(args, "digits_slack", None)
+    slack = regression.DIGITS_SLACK if slack is None else slack
+    factor = getattr(args, "speed_factor", None)
+    factor = regression.SPEED_FACTOR if factor is None else factor
+    base = regression.load_report(path)
+    cmp = regression.compare(base, dict(report, _path=str(out / "report.json")), digits_slack=slack,
+                             speed_factor=factor)
+    rows = regression.regression_checks(cmp)
+    results.extend(rows)
+    report["checks"].extend(r.to_json() for r in rows)
+    report["comparison"] = cmp
+    regression.plot(cmp, out / "figures" / "compare.png")
+    (out / "compare.md").write_text(regression.render_markdown(cmp, figure="figures/compare.png"))
+    print(f"against baseline {path}: {'REGRESSED' if cmp['regressed'] else 'no regression'}"
+          + (f" (accuracy: {cmp['accuracy_regressions']}; speed: {cmp['speed_regressions']})" if cmp["regressed"] else ""))

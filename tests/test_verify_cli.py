@@ -32,7 +32,7 @@ def crashing_provider(max_examples, seed):
 
 
 def _run(tmp_path, *providers, extra=()):
-    argv = ["verify", "--max-examples", "5", "--seed", "3", "--out", str(tmp_path), "--quiet"]
+    argv = ["verify", "--max-examples", "5", "--seed", "3", "--out", str(tmp_path), "--quiet", "--no-baseline"]
     for p in providers:
         argv += ["--provider", p]
     return cli.main(argv + list(extra))

@@ -1,0 +1,246 @@
+"""Regression reports: compare a ``tstarg verify`` run with a baseline run.
+
+Two kinds of regression are flagged, check by check (rows matched by name):
+
+**accuracy**: digits lost since the baseline,
+``lost = max(d_base - d_new, log10(r_new / r_base))`` with ``d`` the check's minimum
+correct digits and ``r`` its worst error/tolerance ratio (a check that was exact and no
+longer is has lost ``inf`` digits). A loss above ``digits_slack`` (default 2) is a
+regression. Digits are compared only between runs drawing the same examples (same profile,
+examples per check and seed); runs drawing different examples are compared for
+information and the accuracy verdict does not fail on them (a minimum over a different
+sample is a different statistic).
+
+**speed**: every row carrying ``extra["speedup"]`` (a ratio ``t_baseline / t_ours`` timed in
+one run, :mod:`reports.speed_checks`; never bare seconds) regresses when
+``speedup_new < speedup_base / speed_factor`` (default factor 2: the noise of ratios
+measured alternately on a loaded 2-core machine stays well inside it).
+
+Also flagged: a check that passed in the baseline and fails now. A check missing from
+the new run (e.g. ``--provider`` ran a subset) is listed, not failed.
+
+:func:`compare` returns a plain dict (JSON-ready); :func:`render_markdown` and
+:func:`plot` present it; :func:`regression_checks` turns it into two
+:class:`~properties.checks.CheckResult` rows for ``tstarg verify``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+__all__ = ["BASELINE", "DIGITS_SLACK", "SPEED_FACTOR", "load_report", "compare", "render_markdown", "plot",
+           "regression_checks"]
+
+BASELINE = Path(__file__).resolve().parent / "baseline" / "report.json"
+"""The committed baseline: ``tstarg verify --profile ci --seed 0`` on the reference machine."""
+DIGITS_SLACK = 2.0
+SPEED_FACTOR = 2.0
+
+
+def load_report(path) -> dict:
+    """A ``report.json`` (or a run folder holding one) as a dict; clear errors for anything else."""
+    p = Path(path)
+    if p.is_dir():
+        p = p / "report.json"
+    if not p.is_file():
+        raise FileNotFoundError(f"no report at {path} (expected a report.json or a folder holding one)")
+    try:
+        rep = json.loads(p.read_text())
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{p}: not valid JSON ({exc})") from None
+    if not isinstance(rep, dict) or not isinstance(rep.get("checks"), list):
+        raise ValueError(f"{p}: not a tstarg verify report (no 'checks' list)")
+    rep["_path"] = str(p)
+    return rep
+
+
+def _num(v):
+    """JSON values to floats: None stays None, "inf" strings to inf."""
+    if v is None:
+        return None
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return None
+
+
+def _digits_lost(b: dict, n: dict) -> float | None:
+    losses = []
+    db, dn = _num(b.get("min_digits")), _num(n.get("min_digits"))
+    if db is not None and dn is not None:
+        if math.isinf(db) and math.isinf(dn):
+            losses.append(0.0)
+        elif math.isinf(db):
+            losses.append(math.inf)
+        elif not math.isinf(dn):
+            losses.append(db - dn)
+        else:
+            losses.append(-math.inf)
+    rb, rn = _num(b.get("worst_ratio")), _num(n.get("worst_ratio"))
+    if rb is not None and rn is not None and rb > 0 and rn > 0 and math.isfinite(rb) and math.isfinite(rn):
+        losses.append(math.log10(rn / rb))
+    elif rb is not None and rn is not None and math.isfinite(rb) and math.isinf(rn):
+        losses.append(math.inf)
+    return max(losses) if losses else None
+
+
+def _sampling(rep: dict) -> tuple:
+    return rep.get("profile"), rep.get("max_examples"), rep.get("seed")
+
+
+def compare(base: dict, new: dict, *, digits_slack: float = DIGITS_SLACK, speed_factor: float = SPEED_FACTOR) -> dict:
+    """Row-by-row comparison of two verify reports (dicts from :func:`load_report`)."""
+    if not (digits_slack >= 0 and math.isfinite(digits_slack)):
+        raise ValueError(f"digits_slack must be a finite number >= 0, got {digits_slack}")
+    if not (speed_factor >= 1 and math.isfinite(speed_factor)):
+        raise ValueError(f"speed_factor must be a finite number >= 1, got {speed_factor}")
+    same = _sampling(base) == _sampling(new)
+    # the regression rows of either run are verdicts about some other pair of runs: not compared
+    bmap = {c["name"]: c for c in base["checks"] if not c["name"].startswith("regression.")}
+    nmap = {c["name"]: c for c in new["checks"] if not c["name"].startswith("regression.")}
+    rows = []
+    for name in list(bmap) + [k for k in nmap if k not in bmap]:
+        b, n = bmap.get(name), nmap.get(name)
+        row = {"name": name, "status": [], "digits_base": None, "digits_new": None, "digits_lost": None,
+               "speedup_base": None, "speedup_new": None, "speed_factor": None}
+        if n is None:
+            row["status"].append("missing in new run")
+            rows.append(row)
+            continue
+        if b is None:
+            row["status"].append("new check")
+            row["digits_new"] = _num(n.get("min_digits"))
+            row["speedup_new"] = _num((n.get("extra") or {}).get("speedup"))
+            rows.append(row)
+            continue
+        row["digits_base"], row["digits_new"] = _num(b.get("min_digits")), _num(n.get("min_digits"))
+        lost = _digits_lost(b, n)
+        row["digits_lost"] = lost
+        if b.get("passed") and not n.get("passed"):
+            row["status"].append("verdict regression (PASS -> FAIL)")
+        if lost is not None and lost > digits_slack:
+            row["status"].append("accuracy regression" if same else "accuracy change (different samples)")
+        sb, sn = _num((b.get("extra") or {}).get("speedup")), _num((n.get("extra") or {}).get("speedup"))
+        if sb is not None and sn is not None and sb > 0 and sn > 0:
+            row["speedup_base"], row["speedup_new"] = sb, sn
+            row["speed_factor"] = sb / sn
+            if sn < sb / speed_factor:
+                row["status"].append("speed regression")
+        rows.append(row)
+    acc = [r["name"] for r in rows if "accuracy regression" in r["status"]
+           or "verdict regression (PASS -> FAIL)" in r["status"]]
+    spd = [r["name"] for r in rows if "speed regression" in r["status"]]
+    return {
+        "base": base.get("_path", "base"), "new": new.get("_path", "new"),
+        "same_sampling": same, "sampling_base": list(_sampling(base)), "sampling_new": list(_sampling(new)),
+        "digits_slack": digits_slack, "speed_factor": speed_factor, "rows": rows,
+        "accuracy_regressions": acc, "speed_regressions": spd, "regressed": bool(acc or spd),
+    }
+
+
+def _f(v, fmt="{:.1f}") -> str:
+    if v is None:
+        return "-"
+    if isinstance(v, float) and math.isinf(v):
+        return "exact" if v > 0 else "-inf"
+    return fmt.format(v)
+
+
+def render_markdown(cmp: dict, figure: str | None = None) -> str:
+    """The comparison as Markdown, readable on its own."""
+    out = ["# tstarg: comparison of two verification runs", "",
+           f"- base: `{cmp['base']}` (profile, examples per check, seed = {cmp['sampling_base']})",
+           f"- new: `{cmp['new']}` (profile, examples per check, seed = {cmp['sampling_new']})",
+           f"- accuracy regression: more than {cmp['digits_slack']:g} digits lost "
+           f"(max of the drop in minimum digits and log10 of the growth of the worst error/tolerance ratio)"
+           + ("" if cmp["same_sampling"] else "; **the runs drew different examples, so digit changes are "
+              "shown for information and do not fail**"),
+           f"- speed regression: a speed-up (ratio to a baseline computation timed in the same run) "
+           f"fell by more than {cmp['speed_factor']:g}x",
+           f"- verdict: **{'REGRESSED' if cmp['regressed'] else 'no regression'}**"
+           + (f" (accuracy: {', '.join(cmp['accuracy_regressions']) or 'none'}; "
+              f"speed: {', '.join(cmp['speed_regressions']) or 'none'})" if cmp["regressed"] else ""),
+           ""]
+    if figure:
+        out += [f"![digits and speed-ups, base vs new]({figure})", ""]
+    out += ["| check | digits base | digits new | digits lost | speed-up base | speed-up new | slowdown | status |",
+            "|---|---:|---:|---:|---:|---:|---:|---|"]
+    for r in cmp["rows"]:
+        out.append(f"| {r['name']} | {_f(r['digits_base'])} | {_f(r['digits_new'])} | {_f(r['digits_lost'])} | "
+                   f"{_f(r['speedup_base'], '{:.3g}')} | {_f(r['speedup_new'], '{:.3g}')} | "
+                   f"{_f(r['speed_factor'], '{:.2f}x')} | {'; '.join(r['status']) or 'ok'} |")
+    return "\n".join(out) + "\n"
+
+
+def plot(cmp: dict, path) -> Path:
+    """Two panels: minimum digits per check (base vs new) and speed-ups (base vs new), PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = [r for r in cmp["rows"] if r["digits_base"] is not None or r["digits_new"] is not None]
+    spd = [r for r in cmp["rows"] if r["speedup_base"] is not None or r["speedup_new"] is not None]
+
+    def cap(v):  # exact (inf) digits drawn at 70, missing as nan
+        return float("nan") if v is None else (70.0 if math.isinf(v) else v)
+
+    fig, axes = plt.subplots(1, 2, figsize=(13, max(3.0, 0.28 * len(rows) + 1.5)),
+                             gridspec_kw={"width_ratios": [3, 2]})
+    ax = axes[0]
+    y = list(range(len(rows)))
+    ax.barh([v - 0.2 for v in y], [cap(r["digits_base"]) for r in rows], height=0.4, label="base", color="0.7")
+    ax.barh([v + 0.2 for v in y], [cap(r["digits_new"]) for r in rows], height=0.4, label="new",
+            color=["tab:red" if ("accuracy regression" in r["status"]) else "tab:blue" for r in rows])
+    ax.set_yticks(y, [r["name"][:42] for r in rows], fontsize=7)
+    ax.invert_yaxis()
+    ax.set_xlabel("minimum correct digits (exact drawn at 70)")
+    ax.legend(loc="lower right", fontsize=8)
+    ax = axes[1]
+    y = list(range(len(spd)))
+    ax.barh([v - 0.2 for v in y], [r["speedup_base"] or float("nan") for r in spd], height=0.4, color="0.7", label="base")
+    ax.barh([v + 0.2 for v in y], [r["speedup_new"] or float("nan") for r in spd], height=0.4, label="new",
+            color=["tab:red" if "speed regression" in r["status"] else "tab:green" for r in spd])
+    ax.set_yticks(y, [r["name"] for r in spd], fontsize=8)
+    ax.invert_yaxis()
+    ax.set_xscale("log")
+    ax.set_xlabel("speed-up vs baseline computation (same run)")
+    ax.legend(loc="lower right", fontsize=8)
+    fig.suptitle("base (grey) vs new; red = regression", fontsize=10)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def regression_checks(cmp: dict):
+    """Two verify rows: ``regression.accuracy`` and ``regression.speed``. Their worst ratio is
+    (digits lost / slack) and (slowdown / factor): above 1 fails, like every other row."""
+    from properties.checks import CheckResult
+
+    acc_rows = [r for r in cmp["rows"] if r["digits_lost"] is not None]
+    spd_rows = [r for r in cmp["rows"] if r["speed_factor"] is not None]
+    lost = max((r["digits_lost"] for r in acc_rows), default=0.0)
+    slack = cmp["digits_slack"] or 1e-300
+    acc_ratio = max(0.0, lost) / slack if cmp["same_sampling"] else 0.0
+    if cmp["accuracy_regressions"] and not acc_ratio > 1:
+        acc_ratio = math.inf  # a PASS -> FAIL verdict change
+    slow = max((r["speed_factor"] for r in spd_rows), default=0.0)
+    note = "" if cmp["same_sampling"] else " (different samples: digits shown, not enforced)"
+    acc = CheckResult(
+        name="regression.accuracy", equations="(meta)", examples=len(acc_rows), worst_ratio=acc_ratio,
+        passed=not cmp["accuracy_regressions"],
+        detail=(f"accuracy regressions against {cmp['base']}: {', '.join(cmp['accuracy_regressions'])}"
+                if cmp["accuracy_regressions"] else f"max digits lost {lost:.2f} (slack {cmp['digits_slack']:g}){note}"),
+        extra={"baseline": cmp["base"], "digits_slack": cmp["digits_slack"], "same_sampling": cmp["same_sampling"]})
+    spd = CheckResult(
+        name="regression.speed", equations="(meta)", examples=len(spd_rows), worst_ratio=slow / cmp["speed_factor"],
+        passed=not cmp["speed_regressions"],
+        detail=(f"speed regressions against {cmp['base']}: {', '.join(cmp['speed_regressions'])}"
+                if cmp["speed_regressions"] else f"worst slowdown {slow:.2f}x (allowed {cmp['speed_factor']:g}x)"),
+        extra={"baseline": cmp["base"], "speed_factor": cmp["speed_factor"]})
+    return [acc, spd]
