@@ -1,0 +1,241 @@
+"""``tstarg bench``: the quick run writes sane reports; the Pareto front and the curve interpolation
+agree with their definitions; a recorded error is recomputed by an independent route."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from reports import _workprecision as wp
+from reports import cli
+
+EPS = np.finfo(float).eps
+PNG = b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture(scope="module")
+def quick_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("bench")
+    rc = cli.main(["bench", "--quick", "--out", str(out), "--workers", "1"])
+    return rc, out, json.loads((out / "report.json").read_text())
+
+
+def _dominated_brute(t, e):
+    """Definition: i is dominated when some j has t_j <= t_i and e_j <= e_i with one strict."""
+    n = len(t)
+    return [any(t[j] <= t[i] and e[j] <= e[i] and (t[j] < t[i] or e[j] < e[i]) for j in range(n)) for i in range(n)]
+
+
+def test_quick_run_writes_reports(quick_run, capsys):
+    """The --quick CLI run exits 0 and writes report.json, report.md and every PNG it links."""
+    rc, out, rep = quick_run
+    assert rc == 0
+    md = (out / "report.md").read_text()
+    figures = [f["figure"] for f in rep["flows"].values()] + rep["brackets"]["figures"] + [rep["batch"]["figure"]]
+    for fig in figures:
+        assert (out / fig).read_bytes()[:8] == PNG, fig
+        assert f"]({fig})" in md, f"{fig} not linked relatively from report.md"
+    assert "heavy_top_wp.png" in figures and "free_top_wp.png" in figures
+    assert "ratio tstarg / DOP853" in md and "Pareto" in md
+    assert "serially in the main process" in md and "BLAS pinned to 1 thread" in md
+    assert rep["environment"]["blas_threads"] and all(n == 1 for _, n in rep["environment"]["blas_threads"])
+    assert rep["command"].startswith("tstarg bench")
+
+
+def test_quick_run_points_are_sane(quick_run):
+    """Every flow point has a positive time and an error >= 0; the tstarg methods are those of METHODS
+    that apply (minus RKMK on body systems); the scipy solvers are all there; on-front flags equal the
+    brute-force definition over the recorded points; three error targets carry a ratio or a reason."""
+    from refimpl.flows import METHODS
+
+    _, _, rep = quick_run
+    for name, f in rep["flows"].items():
+        pts = f["points"]
+        model = wp.flow_problem(name, True).model()
+        expected = {m for m, meth in METHODS.items() if meth.applies(model)[0] and not meth.rkmk}
+        assert {p["method"] for p in pts if p["family"] == "tstarg"} == expected
+        assert {p["method"] for p in pts if p["family"] == "scipy"} == {f"scipy {s}" for s in wp.SCIPY_SOLVERS}
+        for p in pts:
+            assert math.isfinite(p["time"]) and p["time"] > 0 and p["repeats"] >= 1
+            assert p["error"] is None or p["error"] >= 0  # None: the run diverged (strict JSON has no inf)
+        t = [p["time"] for p in pts]
+        e = [math.inf if p["error"] is None else p["error"] for p in pts]
+        brute = _dominated_brute(t, e)
+        assert [p["on_front"] for p in pts] == [not d and math.isfinite(x) for d, x in zip(brute, e)]
+        assert [r["target"] for r in f["ratios"]][:3] == list(wp.ERROR_TARGETS)
+        dop = [p["error"] for p in pts if p["method"] == "scipy DOP853"]
+        assert f["ratios"][3]["target"] == min(dop)  # the extra row: at DOP853's finest error
+        for r in f["ratios"]:
+            assert (r["ratio_best_over_dop853"] is not None) != bool(r["note"])
+            if r["ratio_best_over_dop853"] is not None:
+                assert r["ratio_best_over_dop853"] == pytest.approx(r["t_best"] / r["t_dop853"], rel=4 * EPS)
+    for row in rep["brackets"]["summary"]:
+        assert row["time_per_point"] > 0 and math.isfinite(row["error"])
+    for row in rep["batch"]["rows"]:
+        assert row["ratio"] == pytest.approx(row["ours_per_traj"] / row["scipy_per_traj"], rel=4 * EPS)
+
+
+def test_recorded_fast_error_matches_closed_form(quick_run):
+    """Free top: the recorded error of tstarg's dop853 at its finest rung equals the error recomputed
+    here against Jacobi's elliptic-function solution evaluated by this test (mpmath at 30 digits)."""
+    import mpmath
+
+    from refimpl.flows import euler_top_closed_form
+
+    _, _, rep = quick_run
+    p = wp.flow_problem("free_top", True)
+    pt = max((q for q in rep["flows"]["free_top"]["points"] if q["method"] == "dop853"), key=lambda q: q["setting"])
+    y = wp.run_fast(p, p.model(), "dop853", pt["setting"])[:, 0]
+    with mpmath.workdps(30):
+        exact = euler_top_closed_form([1, 2, 3], [mpmath.mpf(v) for v in p.pi0], p.T)
+        err = float(max(abs(mpmath.mpf(float(a)) - b) for a, b in zip(y, exact)))
+    # error model: the benchmark rounded the reference to float64 (<= eps/2 * |pi|, |pi| <= 3) and the
+    # fixed-step run is deterministic, so the two errors differ by at most eps * max|pi|
+    assert abs(err - pt["error"]) <= EPS * 3, (err, pt["error"])
+
+
+def test_recorded_scipy_error_recomputed_independently(quick_run):
+    """Heavy top: one recorded scipy DOP853 error equals the error of a solve_ivp run with a right-hand
+    side written here from the Euler-Poisson equations (dpi/dt = pi x Omega + L x Gamma,
+    dGamma/dt = Gamma x Omega, twee17 corrected, twee18), Gamma0 = R(x0)^T gamma from scipy's rotation
+    vectors, judged against a fresh mpmath reference at 25 digits."""
+    from scipy.integrate import solve_ivp
+    from scipy.spatial.transform import Rotation
+
+    from refimpl import su2
+    from refimpl.flows import reference_trajectory
+
+    _, _, rep = quick_run
+    p = wp.flow_problem("heavy_top", True)
+    pts = [q for q in rep["flows"]["heavy_top"]["points"] if q["method"] == "scipy DOP853"]
+    pt = sorted(pts, key=lambda q: q["setting"])[len(pts) // 2]
+    Iinv = 1 / np.diag(p.inertia)
+    L = np.array(p.potential["L"])
+
+    def rhs(t, y):
+        pi, G = y[:3], y[3:]
+        W = Iinv * pi
+        return np.concatenate([np.cross(pi, W) + np.cross(L, G), np.cross(G, W)])
+
+    G0 = Rotation.from_rotvec(p.x0).as_matrix().T @ np.array(p.potential["gamma"])
+    sol = solve_ivp(rhs, (0, p.T), np.concatenate([p.pi0, G0]), method="DOP853", rtol=pt["setting"],
+                    atol=pt["setting"])
+    inertia = np.array(p.inertia)
+    pot = {k: (np.array(v) if k != "kind" else v) for k, v in p.potential.items()}
+    tr = reference_trajectory(su2(), np.zeros((3, 3)), np.zeros((3, 3)), inertia, pot, p.x0, p.pi0, [0, p.T],
+                              dps=25, system="body")
+    ref = np.array([float(v) for v in list(tr.pi[-1]) + list(tr.Gamma[-1])])
+    err = float(np.max(np.abs(sol.y[:, -1] - ref)))
+    # error model: the two right-hand sides agree to ~4 eps |y|^2 per evaluation; with the same accepted
+    # steps the end states differ by at most c * eps * nfev * growth; growth <= 1e2 over t = 10 for this
+    # regular (non-chaotic) top; the references' roundings (eps |y|) are far below that
+    tol = 4 * EPS * sol.nfev * 1e2
+    assert sol.nfev == pt["nfev"], "a different accepted-step sequence: the comparison would be meaningless"
+    assert abs(err - pt["error"]) <= tol, (err, pt["error"], tol)
+
+
+def test_reference_values_are_confirmed(quick_run):
+    """The heavy top's stored reference end state agrees with a 25-digit reference computed here."""
+    _, _, rep = quick_run
+    vals = np.array([float(v) for v in rep["flows"]["heavy_top"]["reference"]["values"]])
+    ref2 = wp.reference_task(("heavy_top", True, 25, False))
+    other = np.array([float(v) for v in ref2["values"]])
+    # error model: the 16-digit GBS reference is good to ~1e-16 relative (its tolerance 1e-21 per step
+    # plus 15 guard digits), |y| <= 3: both roundings to float64 included, 8 eps * 3
+    assert np.max(np.abs(vals - other)) <= 8 * EPS * 3
+
+
+@given(st.lists(st.tuples(st.integers(1, 6), st.integers(1, 6)), min_size=1, max_size=25))
+def test_pareto_front_matches_definition(pairs):
+    """pareto_front marks exactly the points no other point dominates (ties in time or error included)."""
+    t = [float(a) for a, _ in pairs]
+    e = [10.0 ** -b for _, b in pairs]
+    got = wp.pareto_front(t, e).tolist()
+    assert got == [not d for d in _dominated_brute(t, e)]
+
+
+def test_pareto_front_examples():
+    """A worse-in-both point is off the front; an equal duplicate pair is on it; NaN never is."""
+    assert wp.pareto_front([1, 2], [1e-3, 1e-2]).tolist() == [True, False]
+    assert wp.pareto_front([1, 1], [1e-3, 1e-3]).tolist() == [True, True]
+    assert wp.pareto_front([1, 2, 3], [1e-3, math.nan, 1e-5]).tolist() == [True, False, True]
+    with pytest.raises(ValueError, match="same length"):
+        wp.pareto_front([1, 2], [1.0])
+
+
+def test_time_at_error_is_exact_on_power_laws():
+    """On a power law t = a e^-b (a straight line in log-log) the interpolated time is the law itself;
+    below the finest point it is 'not reached' (NaN); above the cheapest it is the cheapest time."""
+    a, b = 3e-4, 1 / 8
+    e = np.array([1e-2, 1e-5, 1e-8, 1e-11])
+    t = a * e ** -b
+    for tgt in (1e-6, 1e-9, 3e-3):
+        # error model: log/exp round-off, a few eps relative
+        assert wp.time_at_error(t, e, tgt) == pytest.approx(a * tgt ** -b, rel=16 * EPS)
+    assert math.isnan(wp.time_at_error(t, e, 1e-12))
+    assert wp.time_at_error(t, e, 0.5) == t[0]
+    # a dominated point (slower and less accurate) does not bend the curve
+    t2, e2 = np.append(t, 1.0), np.append(e, 1e-3)
+    assert wp.time_at_error(t2, e2, 1e-6) == pytest.approx(a * 1e-6 ** -b, rel=16 * EPS)
+
+
+@pytest.mark.parametrize("argv, msg", [(["--problems", "spinning_plate"], "unknown flow problem"),
+                                       (["--ref-dps", "5"], "--ref-dps must be >= 15"),
+                                       (["--batch-method", "euler"], "unknown flow method")])
+def test_bad_arguments_exit_2(tmp_path, capsys, argv, msg):
+    """Unknown problems or a too small reference precision are refused with exit code 2 and a message."""
+    rc = cli.main(["bench", "--quick", "--out", str(tmp_path)] + argv)
+    assert rc == 2
+    assert msg in capsys.readouterr().err
+
+
+def test_error_ladders_do_not_depend_on_where_they_run():
+    """The error ladders (deterministic tasks) are identical serially and over two local processes."""
+    from reports._parallel import map_tasks
+
+    ref = wp.reference_task(("free_top", True, 20, False))["values"]
+    items = [("free_top", True, "fast", "dop853", wp.step_ladder(8, 13, 52), ref, 1e-11, 20000, 1e-3),
+             ("free_top", True, "scipy", "DOP853", [1e-4, 1e-7], ref, 1e-11, 20000, 1e-3)]
+    serial = map_tasks(wp.ladder_task, items, workers=1)
+    assert serial == map_tasks(wp.ladder_task, items, workers=2)
+    assert [len(r["points"]) for r in serial] == [3, 2]
+
+
+def test_time_points_counts_warmups_and_separates_clocks():
+    """One untimed warm-up per group, then the stated repeats; a sleeping call costs wall time but
+    (almost) no CPU time, so the two clocks are really different clocks."""
+    import time as _time
+
+    counts = [0, 0, 0]
+
+    def make(i, pause):
+        def fn():
+            counts[i] += 1
+            _time.sleep(pause)
+        return fn
+
+    res = wp.time_points([make(0, 0.0), make(1, 0.0), make(2, 0.02)], groups=["a", "a", "b"], max_rounds=3)
+    assert counts == [1 + 3, 3, 1 + 3]  # the group's first call is its warm-up
+    assert [r["repeats"] for r in res] == [3, 3, 3]
+    assert res[2]["wall"] >= 0.02 and res[2]["time"] < 0.01  # sleeping takes no CPU (generous 10 ms margin)
+
+
+def test_modified_structure_problem_uses_general_methods():
+    """With Upsilon != 0 (vier10/vier11 need Phi solves) the methods restricted to Upsilon = 0 are skipped
+    with their reasons, scipy gets the numpy body field, and a DOP853 ladder reaches rtol-level error."""
+    p = wp.flow_problem("modified_top", True)
+    model = p.model()
+    names, skipped = wp.fast_methods(model)
+    assert "gauss6" in names and "dop853" in names
+    assert "splitting4" in skipped and "Upsilon" in skipped["splitting4"]
+    assert "numpy body field" in wp.scipy_rhs(model)[1]
+    ref = wp.reference_task(("modified_top", True, 16, False))["values"]
+    res = wp.ladder_task(("modified_top", True, "scipy", "DOP853", [1e-4, 1e-8], ref, 1e-11, 20000, 1e-3))
+    e4, e8 = (q["error"] for q in res["points"])
+    # DOP853's local error control: the global error over t = 10 follows rtol within a modest factor
+    assert e8 < e4 and e8 <= 1e3 * 1e-8 and e4 <= 1e3 * 1e-4
