@@ -41,9 +41,10 @@ EPS = float(np.finfo(float).eps)
 SPEED_ROWS = ("speed.poisson[su2]", "speed.poisson[su3]", "speed.flow[heavy_top]")
 
 
-def race(*fns, repeat: int = 5) -> list[float]:
-    """Best-of-``repeat`` wall times of several functions, measured alternately after one warm-up each."""
-    for fn in fns:
+def race(*fns, repeat: int = 5, warmup: bool = True) -> list[float]:
+    """Best-of-``repeat`` wall times of several functions, measured alternately (load from other
+    processes hits every side alike), after one untimed warm-up run each unless ``warmup=False``."""
+    for fn in fns if warmup else ():
         fn()
     best = [math.inf] * len(fns)
     for _ in range(repeat):

@@ -24,6 +24,7 @@ from scipy.linalg import expm
 from refimpl import su2
 from refimpl._flow_fast import scalar_rhs
 from refimpl.flows import METHODS, NumpyModel, integrate_fast, reference_trajectory
+from reports.speed_checks import race
 
 pytestmark = pytest.mark.slow
 
@@ -119,15 +120,8 @@ def _timed(fn, repeat=3):
 
 
 def _race(*fns, repeat=5):
-    """Best-of-``repeat`` times of several functions, measured alternately so that load from other
-    processes on the machine hits every side alike."""
-    best = [np.inf] * len(fns)
-    for _ in range(repeat):
-        for i, fn in enumerate(fns):
-            t0 = time.perf_counter()
-            fn()
-            best[i] = min(best[i], time.perf_counter() - t0)
-    return best
+    """Best-of-``repeat`` times, measured alternately (no warm-up: the searches above ran each already)."""
+    return race(*fns, repeat=repeat, warmup=False)
 
 
 @pytest.mark.parametrize("problem,target", [("issue", 1e-6), ("issue", 1e-9), ("issue", 1e-12),
