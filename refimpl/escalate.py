@@ -92,16 +92,9 @@ DEFAULT_MAX_DPS = 400   # the ladder gives up (flags the point) beyond this prec
 
 
 @dataclass(frozen=True)
-class PoissonWithin:
-    """Poisson tensors within ``allowed`` or flagged (module docstring).
+class _Within:
+    """What both results share: per-point bounds, tolerances, states, and the fast result."""
 
-    ``P``: ``(..., 2n, 2n)``; ``error_bound``, ``allowed``: ``(...)``;
-    ``flagged``, ``escalated``: boolean ``(...)``; ``dps``: the precision of the
-    accepted rung (0 where not escalated); ``reason``: object array of short
-    texts ("" for ok points); ``fast``: the fast implementation's batch result.
-    """
-
-    P: np.ndarray
     error_bound: np.ndarray
     allowed: np.ndarray
     flagged: np.ndarray
@@ -114,20 +107,24 @@ class PoissonWithin:
 
 
 @dataclass(frozen=True)
-class FieldWithin:
+class PoissonWithin(_Within):
+    """Poisson tensors within ``allowed`` or flagged (module docstring).
+
+    ``P``: ``(..., 2n, 2n)``; ``error_bound``, ``allowed``: ``(...)``;
+    ``flagged``, ``escalated``: boolean ``(...)``; ``dps``: the precision of the
+    accepted rung (0 where not escalated); ``reason``: object array of short
+    texts ("" for ok points); ``fast``: the fast implementation's batch result.
+    """
+
+    P: np.ndarray
+
+
+@dataclass(frozen=True)
+class FieldWithin(_Within):
     """Hamiltonian vector fields within ``allowed`` or flagged (see :class:`PoissonWithin`)."""
 
     xdot: np.ndarray
     pidot: np.ndarray
-    error_bound: np.ndarray
-    allowed: np.ndarray
-    flagged: np.ndarray
-    escalated: np.ndarray
-    dps: np.ndarray
-    reason: np.ndarray
-    fast: Any
-    tol: float
-    relative: bool
 
 
 # ------------------------------------------------------------------ helpers
