@@ -209,33 +209,26 @@ def _gamma_rate(Omega):
 _OMEGA = ("0.7", "0.2", "-0.4")
 
 
-def twee17_printed() -> Outcome:
-    """Printed: ``dGamma_mu/dt = Gamma_a f^a_{mu b} Omega^b`` along ``dg/dt = g Omega``."""
+def _twee17(index, label: str) -> Outcome:
+    """``dGamma_mu/dt`` along ``dg/dt = g Omega`` against ``sum_ab Gamma_a Omega^b eps(index(a, b, mu))``."""
     with mpmath.workdps(DPS + 15):
         Om = [mpmath.mpf(v) for v in _OMEGA]
         dG, G = _gamma_rate(Om)
-        pr = [
-            sum(G[a] * _eps(a, mu, b) * Om[b] for a in range(3) for b in range(3))
-            for mu in range(3)
-        ]
-        err = max(abs(u - v) for u, v in zip(dG, pr))
+        form = [sum(G[a] * Om[b] * _eps(*index(a, b, mu)) for a in range(3) for b in range(3)) for mu in range(3)]
+        err = max(abs(u - v) for u, v in zip(dG, form))
         tol = _tol(max(abs(v) for v in dG))
-    return Outcome(bool(err <= tol), float(err), float(tol), "printed sign")
+    return Outcome(bool(err <= tol), float(err), float(tol), label)
+
+
+def twee17_printed() -> Outcome:
+    """Printed: ``dGamma_mu/dt = Gamma_a f^a_{mu b} Omega^b`` along ``dg/dt = g Omega``."""
+    return _twee17(lambda a, b, mu: (a, mu, b), "printed sign")
 
 
 def twee17_corrected() -> Outcome:
     """Corrected: ``dGamma_mu/dt = Omega^b f^a_{b mu} Gamma_a = (ad_Omega^T Gamma)_mu``
     (for so(3): ``dGamma/dt = Gamma x Omega``)."""
-    with mpmath.workdps(DPS + 15):
-        Om = [mpmath.mpf(v) for v in _OMEGA]
-        dG, G = _gamma_rate(Om)
-        co = [
-            sum(Om[b] * _eps(a, b, mu) * G[a] for a in range(3) for b in range(3))
-            for mu in range(3)
-        ]
-        err = max(abs(u - v) for u, v in zip(dG, co))
-        tol = _tol(max(abs(v) for v in dG))
-    return Outcome(bool(err <= tol), float(err), float(tol), "corrected sign")
+    return _twee17(lambda a, b, mu: (a, b, mu), "corrected sign")
 
 
 def _ref_field(theta, ups, pot, x, pi, inertia=((2, 0, 0), (0, 3, 0), (0, 0, 5))):

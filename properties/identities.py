@@ -572,19 +572,9 @@ def darboux_map_jacobian(f, xi, x, pi, *, dps: int = 30) -> mpmath.matrix:
 
         J = mpmath.zeros(2 * n, 2 * n)
         A = frame_A(F, xv)
-        for l in range(n):
-            cache: dict = {}
-
-            def g(t, l=l, cache=cache):
-                key = t._mpf_ if isinstance(t, mpmath.mpf) else t
-                if key not in cache:
-                    xx = list(xv)
-                    xx[l] = xx[l] + t
-                    cache[key] = pprime(xx)
-                return cache[key]
-
+        for l, D in enumerate(_derivatives(pprime, xv)):
             for i in range(n):
-                J[n + i, l] = mpmath.diff(lambda t, i=i: g(t)[i], 0)
+                J[n + i, l] = D[i, 0]
         for i in range(n):
             J[i, i] = 1
             for j in range(n):

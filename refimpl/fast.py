@@ -177,6 +177,17 @@ def _su2_frame_coeffs(t2: np.ndarray, need_k: bool = True):
     return c, lam, k, t
 
 
+def _write_hat(dst, v) -> None:
+    """``dst[:3, :3] = [v]_x`` (``[v]_x w = v x w``) for components-first ``v`` of shape ``(3, N)``."""
+    dst[0, 0] = dst[1, 1] = dst[2, 2] = 0.0
+    np.negative(v[2], out=dst[0, 1])
+    np.copyto(dst[0, 2], v[1])
+    np.negative(v[0], out=dst[1, 2])
+    np.copyto(dst[1, 0], v[2])
+    np.negative(v[1], out=dst[2, 0])
+    np.copyto(dst[2, 1], v[0])
+
+
 def _su2_poisson_chunk(x, p, xi, tau, out, cond, sens, bound, degen):
     """One chunk of the su(2) closed form. ``x``, ``p``: (3, m); ``out``: (6, 6, m)."""
     x0, x1, x2 = x[0], x[1], x[2]
@@ -251,13 +262,7 @@ def _su2_poisson_chunk(x, p, xi, tau, out, cond, sens, bound, degen):
     np.negative(Lb.transpose(1, 0, 2), out=out[3:, :3])
     # P_pp = [q]_x / C1
     qi = qv * ic
-    out[3, 3] = out[4, 4] = out[5, 5] = 0.0
-    np.negative(qi[2], out=out[3, 4])
-    np.copyto(out[3, 5], qi[1])
-    np.negative(qi[0], out=out[4, 5])
-    np.copyto(out[4, 3], qi[2])
-    np.negative(qi[1], out=out[5, 3])
-    np.copyto(out[5, 4], qi[0])
+    _write_hat(out[3:, 3:], qi)
     # P_xx = det(L) [phi1(K) tau]_x / C1 with phi1(K) tau = tau + a1 x*tau + a2 x*(x*tau),
     # a1 = 1/(2 lam^2), a2 = (t - sin t)/t^3. With det L = lam^2:
     #   det(L) phi1(K) tau = d tau + k (x.tau) x + (x*tau)/2,
@@ -269,13 +274,7 @@ def _su2_poisson_chunk(x, p, xi, tau, out, cond, sens, bound, degen):
     w += k * xv
     w += d * tv[:, None]
     w *= ic
-    out[0, 0] = out[1, 1] = out[2, 2] = 0.0
-    np.negative(w[2], out=out[0, 1])
-    np.copyto(out[0, 2], w[1])
-    np.negative(w[0], out=out[1, 2])
-    np.copyto(out[1, 0], w[2])
-    np.negative(w[1], out=out[2, 0])
-    np.copyto(out[2, 1], w[0])
+    _write_hat(out[:3, :3], w)
     # cond_F(Phi)/3 with Phi = C1 + tau q^T: ||Phi||_F^2 = C1 (3 C1 + 2 q.tau) + |tau|^2 |q|^2,
     # ||Phi^-1||_F^2 = (3 - 2 q.tau + |tau|^2 |q|^2) / C1^2.
     tn2 = float(tv @ tv)
