@@ -32,7 +32,7 @@ import mpmath
 import numpy as np
 from hypothesis import strategies as st
 
-from properties.checks import CheckResult, run_property
+from tstarg.properties.checks import CheckResult, run_property
 
 __all__ = ["verify_checks"]
 
@@ -109,8 +109,8 @@ DPS_CF = 40
 
 def _rigid_body(example):
     """ratio = |d/dt pi_closed - reference pidot| / (10^-(DPS_CF-10) |pidot|)."""
-    from refimpl import su2
-    from refimpl.reference import Reference
+    from tstarg.refimpl import su2
+    from tstarg.refimpl.reference import Reference
 
     from .closed_forms import rigid_body_solution
 
@@ -164,8 +164,8 @@ def _heavy(example):
     name, x, pi = example
     if name == "goryachev_chaplygin":
         # project pi onto pi.Gamma = 0 (the level on which the integral holds)
-        from refimpl import su2
-        from refimpl.reference import Reference
+        from tstarg.refimpl import su2
+        from tstarg.refimpl.reference import Reference
 
         ref = Reference(60)
         with ref._prec():
@@ -242,7 +242,7 @@ def _qutip_attitude():
 
 
 def _b1():
-    from refimpl import CATALOGUE_NAMES, catalogue
+    from tstarg.refimpl import CATALOGUE_NAMES, catalogue
 
     from .published import PUBLISHED_B1
 
@@ -260,7 +260,7 @@ def _b1():
 
 def verify_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
     """The oracle checks at a Hypothesis budget of ``max_examples`` per randomized check."""
-    from refimpl import CATALOGUE_NAMES, catalogue
+    from tstarg.refimpl import CATALOGUE_NAMES, catalogue
 
     small = [n for n in CATALOGUE_NAMES if catalogue(n).dim <= 4]
     n_ex = max(3, max_examples // 2)

@@ -229,8 +229,8 @@ def integral_rates(name: str, x, pi, *, dps: int = 50) -> dict:
     Returns ``{integral: (rate, scale)}`` with ``scale = |grad I| |zdot|`` (the size a wrong
     integral's rate would have).
     """
-    from refimpl import su2
-    from refimpl.reference import Reference
+    from tstarg.refimpl import su2
+    from tstarg.refimpl.reference import Reference
 
     if name not in HEAVY_TOPS:
         raise ValueError(f"unknown heavy top {name!r}; known: {sorted(HEAVY_TOPS)}")

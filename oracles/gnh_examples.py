@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-from refimpl.gnh import gnh, lie_poisson_model, verify_result
+from tstarg.refimpl.gnh import gnh, lie_poisson_model, verify_result
 
 __all__ = ["EXAMPLES", "check_example", "paper_zetas", "run_example", "su2_model"]
 

@@ -37,9 +37,9 @@ from hypothesis import seed as hyp_seed
 from hypothesis import strategies as st
 from hypothesis.errors import Unsatisfiable
 
-from refimpl import CATALOGUE_NAMES, catalogue, cohomology
-from refimpl.fast import implementation as fast
-from refimpl.reference import DegeneratePointError, Reference
+from tstarg.refimpl import CATALOGUE_NAMES, catalogue, cohomology
+from tstarg.refimpl.fast import implementation as fast
+from tstarg.refimpl.reference import DegeneratePointError, Reference
 
 from .strategies import REGIMES, cocycles, points, rationals, upsilons
 
@@ -208,7 +208,7 @@ def precision_ladder(example) -> tuple[float, float] | None:
 
 
 def h2_published(name) -> tuple[float, float | None]:
-    from oracles import PUBLISHED_H2
+    from tstarg.oracles import PUBLISHED_H2
 
     got = cohomology(catalogue(name), exact=True).dim_h2
     return (0.0 if got == PUBLISHED_H2[name] else float("inf")), None

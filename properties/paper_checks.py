@@ -22,9 +22,9 @@ import numpy as np
 from hypothesis import assume
 from hypothesis import strategies as st
 
-from refimpl import LieAlgebra, bianchi, catalogue
-from refimpl.fast import implementation as fast
-from refimpl.reference import DegeneratePointError, Reference
+from tstarg.refimpl import LieAlgebra, bianchi, catalogue
+from tstarg.refimpl.fast import implementation as fast
+from tstarg.refimpl.reference import DegeneratePointError, Reference
 
 from . import identities as idn
 from .checks import CheckResult, run_property
@@ -96,7 +96,7 @@ def h2_examples(draw):
     * a class B Bianchi algebra with random rational ``a``: ``b2 = b1 - 1`` (de Azcarraga &
       Izquierdo, ch. 6; see oracles/published.py), ``b1 = 3 - dim [g, g]``.
     """
-    from oracles.published import PUBLISHED_H2
+    from tstarg.oracles.published import PUBLISHED_H2
 
     kind = draw(st.sampled_from(["basis", "sum", "class B"]), label="h2 oracle")
     rational = [nm for nm in PUBLISHED_H2 if catalogue(nm).is_rational and catalogue(nm).dim <= 6]
@@ -279,7 +279,7 @@ def _darboux_flow_wrong_shift(ex):
 def _flows_available() -> bool:
     import importlib.util
 
-    return importlib.util.find_spec("refimpl.flows") is not None
+    return importlib.util.find_spec("tstarg.refimpl.flows") is not None
 
 
 def whitehead_example(alg):
@@ -307,7 +307,7 @@ def _expect_failure(measure):
 
 @st.composite
 def _broken_jacobi_models(draw):
-    from refimpl._algebra import jacobi_residual
+    from tstarg.refimpl._algebra import jacobi_residual
 
     f = draw(jacobi_breaking_constants(n=3), label="f breaking Jacobi")
     ups = draw(upsilons(3), label="upsilon")
@@ -337,7 +337,7 @@ def _broken_jacobi_jacobi(ex):
 
 @st.composite
 def _non_cocycle_models(draw):
-    from refimpl import cocycle_basis
+    from tstarg.refimpl import cocycle_basis
 
     alg = draw(lie_algebras(max_dim=4).filter(
         lambda a: a.is_rational and len(cocycle_basis(a)) < a.dim * (a.dim - 1) // 2), label="algebra (rational)")

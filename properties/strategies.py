@@ -22,7 +22,7 @@ import sympy
 from hypothesis import assume
 from hypothesis import strategies as st
 
-from refimpl import (
+from tstarg.refimpl import (
     CATALOGUE_NAMES, LieAlgebra, abelian, bianchi, catalogue, coboundary_basis, cocycle_basis,
 )
 
@@ -685,7 +685,7 @@ def jacobi_breaking_constants(*, n: int = 3):
 
 @st.composite
 def _jacobi_breaking(draw, n):
-    from refimpl._algebra import jacobi_residual
+    from tstarg.refimpl._algebra import jacobi_residual
 
     k = n * n * (n - 1) // 2
     vals = draw(st.lists(st.integers(-2, 2), min_size=k, max_size=k), label="structure constants")
@@ -713,7 +713,7 @@ def non_cocycles(algebra: LieAlgebra):
 
 @st.composite
 def _non_cocycles(draw, algebra):
-    from refimpl import delta2
+    from tstarg.refimpl import delta2
 
     n = algebra.dim
     vals = draw(st.lists(rationals(), min_size=n * (n - 1) // 2, max_size=n * (n - 1) // 2), label="theta entries")

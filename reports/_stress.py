@@ -59,11 +59,13 @@ from dataclasses import dataclass, field
 import mpmath
 import numpy as np
 
+from ._imports import resolve
+
 EPS = float(np.finfo(float).eps)
 D64 = -math.log10(EPS / 2)      # digits float64 can give: 15.95
 JUDGE_MIN_DIGITS = 25           # the judge's two rungs must agree to this many digits
 OUTCOMES = ("ok", "escalated", "flagged", "SILENT FAILURE")
-DEFAULT_IMPLEMENTATION = "refimpl.fast:implementation"
+DEFAULT_IMPLEMENTATION = "tstarg.refimpl.fast:implementation"
 
 
 @dataclass
@@ -105,7 +107,7 @@ HEAVY_TOP = {"inertia": np.diag([1.0, 2.0, 3.0]), "potential": {"kind": "gravity
 
 def _su2_degenerate_points(ks) -> list[dict]:
     """``pi' = pi + xi`` with ``pi'.tau = 1 - delta`` plus a part orthogonal to tau; ``Delta = C1^2``."""
-    from refimpl import su2
+    from tstarg.refimpl import su2
 
     f = su2().f
     d = SU2_TAU / (SU2_TAU @ SU2_TAU)
@@ -146,7 +148,7 @@ def _singular_direction(alg, seed: int):
 
 
 def _generic_degenerate_points(name: str, ks, seed: int = 0) -> list[dict]:
-    from refimpl import catalogue
+    from tstarg.refimpl import catalogue
 
     alg = catalogue(name)
     n = alg.dim
@@ -163,7 +165,7 @@ def _generic_degenerate_points(name: str, ks, seed: int = 0) -> list[dict]:
 
 
 def _momenta_points(name: str, ks) -> list[dict]:
-    from refimpl import catalogue
+    from tstarg.refimpl import catalogue
 
     alg = catalogue(name)
     n = alg.dim
@@ -179,7 +181,7 @@ def _momenta_points(name: str, ks) -> list[dict]:
 
 
 def _upsilon_points(name: str, ks) -> list[dict]:
-    from refimpl import catalogue
+    from tstarg.refimpl import catalogue
 
     alg = catalogue(name)
     n = alg.dim
@@ -197,7 +199,7 @@ def _basis_points(ks, upsilon: bool = True, kind: str = "poisson") -> list[dict]
     """su(2) in an ill-conditioned exact rational basis (det C = 2 eps); Upsilon = 0 when not ``upsilon``."""
     import sympy
 
-    from refimpl import su2
+    from tstarg.refimpl import su2
 
     base = su2()
     theta0, U0 = _xi_theta(SU2_XI), _tau_matrix(SU2_TAU)
@@ -288,16 +290,12 @@ def load_implementation(spec: str):
     """``module:object`` -> the object (it must provide ``poisson_batch`` / ``vector_field_batch``)."""
     if not isinstance(spec, str) or ":" not in spec:
         raise ValueError(f"implementation must be given as 'module:object', got {spec!r}")
-    mod, _, obj = spec.partition(":")
-    target = importlib.import_module(mod)
-    for part in obj.split("."):
-        target = getattr(target, part)
-    return target
+    return resolve(spec, what="implementation")
 
 
 def _judge(item: dict, dps: int):
     """The reference values (flat list of mpf) at ``dps`` digits, or None on the degenerate set / off chart."""
-    from refimpl.reference import DegeneratePointError, Reference
+    from tstarg.refimpl.reference import DegeneratePointError, Reference
 
     ref = Reference(dps)
     try:
@@ -361,7 +359,7 @@ def _lost(err: float, scale: float) -> float:
 
 def point_task(item: dict) -> dict:
     """Run one sweep point: escalate.py at the requested tolerance, then judge it. Deterministic in ``item``."""
-    from refimpl.escalate import poisson_within, vector_field_within
+    from tstarg.refimpl.escalate import poisson_within, vector_field_within
 
     t0 = time.perf_counter()
     impl = load_implementation(item["implementation"])
@@ -442,7 +440,7 @@ def _judge_agreement(a, b, dps: int) -> tuple[float, float]:
 # ------------------------------------------------------------ Brouwer's law
 def brouwer_model():
     """The free rigid body on su(2) (Upsilon = 0, Theta = 0, I = diag(1, 2, 3)): energy is conserved."""
-    from refimpl import su2
+    from tstarg.refimpl import su2
 
     return su2().f, np.zeros((3, 3)), np.zeros((3, 3)), np.diag([1.0, 2.0, 3.0])
 
@@ -457,7 +455,7 @@ def _energy_exact(pi: np.ndarray, inertia: np.ndarray, dps: int = 40) -> list:
 
 def brouwer_task(item: dict) -> dict:
     """One chunk of trajectories: energy errors at the sample steps (exact evaluation of the float states)."""
-    from refimpl.flows import METHODS, NumpyModel, integrate_fast
+    from tstarg.refimpl.flows import METHODS, NumpyModel, integrate_fast
 
     f, th, up, inertia = brouwer_model()
     model = NumpyModel(f, th, up, inertia, None)

@@ -122,7 +122,7 @@ class FlowProblem:
     notes: list = field(default_factory=list)
 
     def arrays(self):
-        from refimpl import catalogue
+        from tstarg.refimpl import catalogue
 
         alg = catalogue(self.algebra)
         n = alg.f.shape[0]
@@ -134,7 +134,7 @@ class FlowProblem:
         return alg, theta, up, np.array(self.inertia, dtype=float), pot
 
     def model(self):
-        from refimpl.flows import NumpyModel
+        from tstarg.refimpl.flows import NumpyModel
 
         alg, th, up, inertia, pot = self.arrays()
         return NumpyModel(alg, th, up, inertia, pot)
@@ -189,7 +189,7 @@ def reference_task(item) -> dict:
     on which a second run at ``dps + 15`` digits agrees (``check``)."""
     import mpmath
 
-    from refimpl.flows import euler_top_closed_form, reference_trajectory
+    from tstarg.refimpl.flows import euler_top_closed_form, reference_trajectory
 
     name, quick, dps, check = item
     p = flow_problem(name, quick)
@@ -218,7 +218,7 @@ def fast_methods(model) -> tuple[list[str], dict[str, str]]:
     Picked up dynamically: a method whose ``applies(model)`` is False is skipped with its reason;
     an RKMK variant is skipped on the body system because there it is the same computation as its
     base Runge-Kutta method (the Munthe-Kaas re-basing acts on the configuration only)."""
-    from refimpl.flows import METHODS
+    from tstarg.refimpl.flows import METHODS
 
     names, skipped = [], {}
     for name, meth in METHODS.items():
@@ -245,7 +245,7 @@ def step_ladder(order: int | None, N0: int, N_max: int) -> list[int]:
 
 def run_fast(problem: FlowProblem, model, name: str, nsteps: int, y0=None) -> np.ndarray:
     """End state(s) ``(d, N)`` of the fast method ``name`` with ``nsteps`` fixed steps."""
-    from refimpl.flows import METHODS, integrate_fast
+    from tstarg.refimpl.flows import METHODS, integrate_fast
 
     n = model.n
     if y0 is None:
@@ -262,7 +262,7 @@ def scipy_rhs(model):
     """The right-hand side handed to scipy: the generated scalar body field (``Upsilon = 0``), else the
     numpy body field."""
     if model.upsilon_zero:
-        from refimpl._flow_fast import scalar_rhs
+        from tstarg.refimpl._flow_fast import scalar_rhs
 
         return scalar_rhs(model), "generated scalar Python body field (refimpl._flow_fast.scalar_rhs)"
     F = model.body_rhs()
@@ -299,7 +299,7 @@ def ladder_task(item) -> dict:
     ``nfev_cap``, and for fast methods when the declared order predicts that even the last rung
     cannot reach ``target_cap`` (``e_N (N / N_max)^order > target_cap``).
     """
-    from refimpl.flows import METHODS
+    from tstarg.refimpl.flows import METHODS
 
     name, quick, kind, meth, ladder, ref, floor, nfev_cap, target_cap = item
     p = flow_problem(name, quick)
@@ -392,8 +392,8 @@ def bracket_cases(quick: bool = False) -> list[dict]:
     """Poisson-tensor problems: su(2) and se(3) with a coboundary Theta = -xi.f (zeven3), a random
     antisymmetric Upsilon and random points away from the degenerate set (cond(Phi) < 1e3).
     Deterministic (``default_rng`` with fixed seeds)."""
-    from refimpl import catalogue
-    from refimpl.fast import Fast
+    from tstarg.refimpl import catalogue
+    from tstarg.refimpl.fast import Fast
 
     out = []
     for seed, name in enumerate(("su(2)", "se(3)")):
@@ -418,7 +418,7 @@ def bracket_cases(quick: bool = False) -> list[dict]:
 
 
 def _ref_P(alg, th, U, x, pi, dps, route):
-    from refimpl.reference import Reference
+    from tstarg.refimpl.reference import Reference
 
     R = Reference(dps)
     P = R.poisson_tensor_mp(alg.f, th, U, x, pi, route=route)
@@ -431,8 +431,8 @@ def bracket_error_task(item) -> float:
     ``item = (case index, quick, point index, kind, dps, route, high)``; kind ``"fast"`` or ``"reference"``."""
     import mpmath
 
-    from refimpl import catalogue
-    from refimpl.fast import Fast
+    from tstarg.refimpl import catalogue
+    from tstarg.refimpl.fast import Fast
 
     ci, quick, pj, kind, dps, route, high = item
     case = bracket_cases(quick)[ci]
@@ -451,9 +451,9 @@ def bracket_error_task(item) -> float:
 
 def bracket_call(case: dict, kind: str, dps: int | None, route: str):
     """A zero-argument callable evaluating the Poisson tensor at every point of ``case`` (for timing)."""
-    from refimpl import catalogue
-    from refimpl.fast import Fast
-    from refimpl.reference import Reference
+    from tstarg.refimpl import catalogue
+    from tstarg.refimpl.fast import Fast
+    from tstarg.refimpl.reference import Reference
 
     alg = catalogue(case["algebra"])
     th, U, X, Pi = case["theta"], case["upsilon"], case["x"], case["pi"]
@@ -490,7 +490,7 @@ def batch_error_task(item) -> dict:
     Worst trajectory of the batch against a run with 4x the steps (its own error is ``4^-order``
     times smaller: Richardson), trajectory 0 against the mpmath reference, and scipy DOP853 at
     ``rtol`` on the first ``sub`` trajectories against the same fine run."""
-    from refimpl.flows import METHODS
+    from tstarg.refimpl.flows import METHODS
 
     name, quick, meth, steps, M, seed, ref, rtol, sub = item
     p = flow_problem(name, quick)

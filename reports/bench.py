@@ -123,7 +123,7 @@ def main(args) -> int:
         problems = args.problems.split(",") if args.problems else list(wp.FLOW_PROBLEMS)
         for name in problems:
             wp.flow_problem(name)
-        from refimpl.flows import method
+        from tstarg.refimpl.flows import method
 
         method(args.batch_method)
     except ValueError as exc:
@@ -146,7 +146,7 @@ def main(args) -> int:
 
     # ---- 1. flows: references, error ladders (parallel), timings (serial)
     refs = map_tasks(wp.reference_task, [(n, args.quick, S["ref_dps"], S["ref_check"]) for n in problems], **opts)
-    from refimpl.flows import METHODS
+    from tstarg.refimpl.flows import METHODS
 
     items, skipped = [], {}
     for name, ref in zip(problems, refs):

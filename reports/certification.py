@@ -46,13 +46,15 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from ._imports import resolve
 from hypothesis import strategies as st
 from hypothesis import target as hyp_target
 
-from properties.checks import CheckResult, run_property
-from properties.strategies import REGIMES, catalogue_algebras, cocycles, points, upsilons
-from refimpl import CATALOGUE_NAMES, catalogue, su2
-from refimpl.reference import DegeneratePointError, Reference
+from tstarg.properties.checks import CheckResult, run_property
+from tstarg.properties.strategies import REGIMES, catalogue_algebras, cocycles, points, upsilons
+from tstarg.refimpl import CATALOGUE_NAMES, catalogue, su2
+from tstarg.refimpl.reference import DegeneratePointError, Reference
 
 __all__ = ["CHECKS", "Certificate", "certify", "certify_parallel", "load_target", "C_CERT"]
 
@@ -73,13 +75,7 @@ CHECKS = {
 # ------------------------------------------------------------------ helpers
 def load_target(spec: str):
     """``"package.module:object"`` (object may be dotted) to the object."""
-    if ":" not in spec:
-        raise ValueError(f"target must look like 'module:object', got {spec!r}")
-    mod_name, obj_name = spec.split(":", 1)
-    obj = importlib.import_module(mod_name)
-    for part in obj_name.split("."):
-        obj = getattr(obj, part)
-    return obj
+    return resolve(spec)
 
 
 def _eps_impl(impl) -> float:
@@ -267,7 +263,7 @@ def _phi1(M: np.ndarray) -> np.ndarray:
 
 def _flow_reference(impl):
     try:
-        from refimpl.flows import reference_flow
+        from tstarg.refimpl.flows import reference_flow
     except ImportError:
         return None
 
@@ -531,13 +527,13 @@ def verify_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
     """``tstarg verify`` provider: the certificate of the fast implementation (dogfood) and the
     mutation kill rate (every mutant of :mod:`reports.mutants` must be rejected, the correct
     ``Plain`` accepted). Both at a budget of ``max(4, max_examples // 3)`` examples per check."""
-    from refimpl.fast import implementation as fast
+    from tstarg.refimpl.fast import implementation as fast
 
     from .mutants import kill_rate
 
     k = max(4, max_examples // 3)
     t0 = time.perf_counter()
-    cert = certify(fast, max_examples=k, seed=seed, target="refimpl.fast:implementation")
+    cert = certify(fast, max_examples=k, seed=seed, target="tstarg.refimpl.fast:implementation")
     digits = [c.min_digits for c in cert.checks if c.min_digits is not None]
     res_cert = CheckResult(
         name="certificate[refimpl.fast]", equations="vier9, vier10, vier11", examples=sum(c.examples for c in cert.checks),

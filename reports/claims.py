@@ -28,7 +28,7 @@ def add_arguments(p) -> None:
 def _quantum_section(fig_dir: Path) -> list[str]:
     import numpy as np
 
-    from oracles.qutip_spin import (
+    from tstarg.oracles.qutip_spin import (
         adjoint_from_spin_half,
         attitude_classical,
         attitude_propagator,
@@ -92,7 +92,7 @@ def _quantum_section(fig_dir: Path) -> list[str]:
 
 
 def _gnh_section() -> list[str]:
-    from oracles.gnh_examples import EXAMPLES, check_example
+    from tstarg.oracles.gnh_examples import EXAMPLES, check_example
 
     lines = ["", "## Gotay-Nester-Hinds worked examples (refimpl.gnh, SU(2), tau = (0, 0, t))", ""]
     for k, ex in EXAMPLES.items():
@@ -113,7 +113,7 @@ def main(args) -> int:
     from threadpoolctl import threadpool_limits
 
     threadpool_limits(1)
-    from oracles.claims import evaluate, render_markdown
+    from tstarg.oracles.claims import evaluate, render_markdown
 
     obs = evaluate()
     width = max(len(o.claim.label) for o in obs)

@@ -26,11 +26,11 @@ def pytest_addoption(parser):
 
 
 def _target(config) -> str:
-    return config.getoption("--tstarg-impl") or "refimpl.fast:implementation"
+    return config.getoption("--tstarg-impl") or "tstarg.refimpl.fast:implementation"
 
 
 def pytest_report_header(config):
-    from reports.certification import load_target
+    from tstarg.reports.certification import load_target
 
     spec = _target(config)
     try:
@@ -42,7 +42,7 @@ def pytest_report_header(config):
 
 @pytest.fixture(scope="session")
 def tstarg_certificate(pytestconfig):
-    from reports.certification import certify, load_target
+    from tstarg.reports.certification import certify, load_target
 
     spec = _target(pytestconfig)
     return certify(load_target(spec), max_examples=pytestconfig.getoption("--tstarg-examples"),

@@ -220,7 +220,7 @@ def plot(cmp: dict, path) -> Path:
 def regression_checks(cmp: dict):
     """Two verify rows: ``regression.accuracy`` and ``regression.speed``. Their worst ratio is
     (digits lost / slack) and (slowdown / factor): above 1 fails, like every other row."""
-    from properties.checks import CheckResult
+    from tstarg.properties.checks import CheckResult
 
     acc_rows = [r for r in cmp["rows"] if r["digits_lost"] is not None]
     spd_rows = [r for r in cmp["rows"] if r["speed_factor"] is not None]

@@ -73,7 +73,7 @@ def main(args) -> int:
     threadpool_limits(1)
     import numpy as np
 
-    from refimpl.flows import load_scene, plan, run_scene
+    from tstarg.refimpl.flows import load_scene, plan, run_scene
 
     try:
         scene = load_scene(args.scene)

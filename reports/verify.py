@@ -33,15 +33,17 @@ import time
 import traceback
 from pathlib import Path
 
+from ._imports import import_module
+
 PROFILES = {"dev": 6, "ci": 20, "thorough": 60}
 HELP = "run the verification suite and write a report (the main job)"
 
 PROVIDERS = (
-    "properties.checks:core_checks",
-    "properties.paper_checks:paper_checks",
-    "oracles.checks:verify_checks",
-    "reports.certification:verify_checks",
-    "reports.speed_checks:verify_checks",
+    "tstarg.properties.checks:core_checks",
+    "tstarg.properties.paper_checks:paper_checks",
+    "tstarg.oracles.checks:verify_checks",
+    "tstarg.reports.certification:verify_checks",
+    "tstarg.reports.speed_checks:verify_checks",
 )
 """Check providers, in order: ``module:function`` with ``function(max_examples, seed) -> [CheckResult]``."""
 
@@ -68,7 +70,7 @@ def _load_provider(spec: str):
         raise ValueError(f"provider must be 'module:function', got {spec!r}")
     mod_name, fn_name = spec.split(":")
     try:
-        mod = importlib.import_module(mod_name)
+        mod = import_module(mod_name)
     except ModuleNotFoundError as exc:
         if exc.name and (mod_name == exc.name or mod_name.startswith(exc.name + ".")):
             return None
@@ -185,7 +187,7 @@ def run_providers(specs, max_examples: int, seed, progress=None, optional=PROVID
     """Run each provider; returns ``(results, provider_status)``. A missing module of an
     ``optional`` provider (the defaults: other issues may not be merged yet) is ``"skipped"``;
     a missing requested provider, or one that raises, becomes a failed :class:`CheckResult`."""
-    from properties import checks as _checks
+    from tstarg.properties import checks as _checks
 
     results, status = [], {}
     if progress is not None:

@@ -49,7 +49,7 @@ def assert_within_bound(observed: np.ndarray, expected: np.ndarray, bound: np.nd
 def regime_cases(regimes):
     """(algebra name, regime) pairs; ``near_degenerate`` is left out for abelian algebras, whose
     Delta = det(1 + S Upsilon) does not depend on pi (S = -Theta): no degenerate set to approach."""
-    from refimpl import CATALOGUE_NAMES, catalogue
+    from tstarg.refimpl import CATALOGUE_NAMES, catalogue
 
     return [(n, r) for n in CATALOGUE_NAMES for r in regimes
             if not (r == "near_degenerate" and not catalogue(n).f.any())]

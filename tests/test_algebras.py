@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 import sympy
 
-from refimpl import (
+from tstarg.refimpl import (
     CATALOGUE_NAMES, LieAlgebra, abelian, bianchi, catalogue, heisenberg, se3, so3_other_basis, su2, su3,
 )
-from refimpl._algebra import jacobi_residual
+from tstarg.refimpl._algebra import jacobi_residual
 
 SEMISIMPLE = {"su(2)", "so(3)[other basis]", "sl(2,R)", "Bianchi VIII", "Bianchi IX", "so(4)", "su(3)", "sl(3,R)"}
 

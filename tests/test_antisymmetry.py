@@ -11,13 +11,13 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from properties import identities as idn
-from properties.paper_checks import (
+from tstarg.properties import identities as idn
+from tstarg.properties.paper_checks import (
     IMPLEMENTATIONS, _nonsymmetric_upsilon_models, _perturbed_blocks, model_points,
 )
-from properties.strategies import FAMILIES, REGIMES, cocycles, rationals, upsilons
-from refimpl import catalogue
-from refimpl.reference import DegeneratePointError
+from tstarg.properties.strategies import FAMILIES, REGIMES, cocycles, rationals, upsilons
+from tstarg.refimpl import catalogue
+from tstarg.refimpl.reference import DegeneratePointError
 from tests.conftest import ref_examples
 
 

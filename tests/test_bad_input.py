@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from refimpl import bianchi, su2
-from refimpl.fast import implementation as fast
-from refimpl.reference import Reference
+from tstarg.refimpl import bianchi, su2
+from tstarg.refimpl.fast import implementation as fast
+from tstarg.refimpl.reference import Reference
 
 REF = Reference(30)
 IMPLS = [pytest.param(fast, id="fast"), pytest.param(REF, id="reference")]

@@ -11,8 +11,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from reports import _workprecision as wp
-from reports import cli
+from tstarg.reports import _workprecision as wp
+from tstarg.reports import cli
 
 EPS = np.finfo(float).eps
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -51,7 +51,7 @@ def test_quick_run_points_are_sane(quick_run):
     """Every flow point has a positive time and an error >= 0; the tstarg methods are those of METHODS
     that apply (minus RKMK on body systems); the scipy solvers are all there; on-front flags equal the
     brute-force definition over the recorded points; three error targets carry a ratio or a reason."""
-    from refimpl.flows import METHODS
+    from tstarg.refimpl.flows import METHODS
 
     _, _, rep = quick_run
     for name, f in rep["flows"].items():
@@ -85,7 +85,7 @@ def test_recorded_fast_error_matches_closed_form(quick_run):
     here against Jacobi's elliptic-function solution evaluated by this test (mpmath at 30 digits)."""
     import mpmath
 
-    from refimpl.flows import euler_top_closed_form
+    from tstarg.refimpl.flows import euler_top_closed_form
 
     _, _, rep = quick_run
     p = wp.flow_problem("free_top", True)
@@ -107,8 +107,8 @@ def test_recorded_scipy_error_recomputed_independently(quick_run):
     from scipy.integrate import solve_ivp
     from scipy.spatial.transform import Rotation
 
-    from refimpl import su2
-    from refimpl.flows import reference_trajectory
+    from tstarg.refimpl import su2
+    from tstarg.refimpl.flows import reference_trajectory
 
     _, _, rep = quick_run
     p = wp.flow_problem("heavy_top", True)
@@ -196,7 +196,7 @@ def test_bad_arguments_exit_2(tmp_path, capsys, argv, msg):
 
 def test_error_ladders_do_not_depend_on_where_they_run():
     """The error ladders (deterministic tasks) are identical serially and over two local processes."""
-    from reports._parallel import map_tasks
+    from tstarg.reports._parallel import map_tasks
 
     ref = wp.reference_task(("free_top", True, 20, False))["values"]
     items = [("free_top", True, "fast", "dop853", wp.step_ladder(8, 13, 52), ref, 1e-11, 20000, 1e-3),

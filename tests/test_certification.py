@@ -7,7 +7,7 @@ import warnings
 
 import pytest
 
-from reports.certification import CHECKS, _read_ids, certify
+from tstarg.reports.certification import CHECKS, _read_ids, certify
 
 
 def test_certified(tstarg_certificate):
@@ -26,7 +26,7 @@ def test_skips_and_xfails_files(tmp_path):
         name, version = "only-tensor", "1"
 
         def poisson_tensor(self, f, theta, upsilon, x, pi):
-            from refimpl.fast import implementation
+            from tstarg.refimpl.fast import implementation
 
             return implementation.poisson_tensor(f, theta, upsilon, x, pi)
 
@@ -39,7 +39,7 @@ def test_skips_and_xfails_files(tmp_path):
 
 
 def test_xfail_keeps_the_verdict_green():
-    from reports.mutants import Plain
+    from tstarg.reports.mutants import Plain
 
     cert = certify(Plain("xx_sign"), max_examples=5, seed=0, checks=["poisson_tensor.reference"],
                    xfails={"poisson_tensor.reference": "known sign bug"}, shrink=False)

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from oracles import paper_checks as pc
-from oracles.claims import CLAIMS, ERRATA, LABELS, evaluate
+from tstarg.oracles import paper_checks as pc
+from tstarg.oracles.claims import CLAIMS, ERRATA, LABELS, evaluate
 
 
 def _paper_labels_renamed():
@@ -103,7 +103,7 @@ def test_quatre_identities(alg, seed):
 )
 def test_zeven1_is_jacobi(alg):
     """zeven1 and the Jacobi identity of drie3 cut out the same space, of dimension dim Z^2 (refimpl)."""
-    from refimpl import catalogue, cocycle_basis
+    from tstarg.refimpl import catalogue, cocycle_basis
 
     o = pc.zeven1_jacobi(alg)
     assert o.ok, o.detail
@@ -121,7 +121,7 @@ def test_claims_command_writes_markdown(tmp_path):
     """`tstarg claims` writes a table with a row for every label and the errata section."""
     from argparse import Namespace
 
-    from reports import claims
+    from tstarg.reports import claims
 
     out = tmp_path / "claims.md"
     rc = claims.main(Namespace(out=str(out), figures=str(tmp_path / "fig"), no_quantum=True))
@@ -134,8 +134,8 @@ def test_claims_command_writes_markdown(tmp_path):
 
 def test_verify_checks_all_pass():
     """oracles.checks.verify_checks (used by `tstarg verify`) returns passing CheckResults with tolerances stated."""
-    from oracles.checks import verify_checks
-    from properties.checks import CheckResult
+    from tstarg.oracles.checks import verify_checks
+    from tstarg.properties.checks import CheckResult
 
     results = verify_checks(2, 0)
     assert all(isinstance(r, CheckResult) for r in results)

@@ -10,9 +10,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from oracles import closed_forms as cf
-from refimpl import su2
-from refimpl.reference import Reference
+from tstarg.oracles import closed_forms as cf
+from tstarg.refimpl import su2
+from tstarg.refimpl.reference import Reference
 from tests.conftest import ref_examples
 
 ZERO = [[0] * 3 for _ in range(3)]
@@ -181,11 +181,11 @@ def test_heavy_top_negative_controls():
 
 @pytest.mark.slow
 @pytest.mark.skipif(
-    importlib.util.find_spec("refimpl.flows") is None, reason="refimpl.flows not available"
+    importlib.util.find_spec("tstarg.refimpl.flows") is None, reason="refimpl.flows not available"
 )
 def test_reference_flow_matches_elliptic_closed_form():
     """The reference flow (refimpl.flows) of the free rigid body agrees with the Jacobi-elliptic closed form."""
-    from refimpl.flows import reference_flow
+    from tstarg.refimpl.flows import reference_flow
 
     I, pi0, T = [1, 2, 3], ["0.3", "0.9", "-0.5"], 2
     _x, pi = reference_flow(
@@ -199,14 +199,14 @@ def test_reference_flow_matches_elliptic_closed_form():
 
 @pytest.mark.slow
 @pytest.mark.skipif(
-    importlib.util.find_spec("refimpl.flows") is None, reason="refimpl.flows not available"
+    importlib.util.find_spec("tstarg.refimpl.flows") is None, reason="refimpl.flows not available"
 )
 @pytest.mark.parametrize("top", list(cf.HEAVY_TOPS))
 def test_heavy_top_integrals_along_reference_flow(top):
     """Each integral of the top takes the same value at t = 0 and t = 1 along refimpl.flows.reference_flow."""
     import sympy as sp
 
-    from refimpl.flows import reference_flow
+    from tstarg.refimpl.flows import reference_flow
 
     spec = cf.HEAVY_TOPS[top]
     x0, pi0 = STATES[0]
@@ -237,8 +237,8 @@ def test_heavy_top_integrals_along_reference_flow(top):
 def test_published_betti_numbers():
     """b1 = dim g - dim [g, g] (refimpl) equals the published table; with the published b2, class A
     3-dimensional algebras satisfy b2 = b1 and class B b2 = b1 - 1 (Poincare duality / Euler characteristic)."""
-    from oracles.published import PUBLISHED_B1, PUBLISHED_H2
-    from refimpl import CATALOGUE_NAMES, catalogue
+    from tstarg.oracles.published import PUBLISHED_B1, PUBLISHED_H2
+    from tstarg.refimpl import CATALOGUE_NAMES, catalogue
 
     assert set(PUBLISHED_B1) == set(CATALOGUE_NAMES)
     for name in CATALOGUE_NAMES:

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 
-from properties import identities as idn
-from properties.paper_checks import _broken_jacobi_models, _non_cocycle_models, model_points
-from properties.strategies import FAMILIES, lie_algebras, models
-from refimpl import CATALOGUE_NAMES, catalogue
+from tstarg.properties import identities as idn
+from tstarg.properties.paper_checks import _broken_jacobi_models, _non_cocycle_models, model_points
+from tstarg.properties.strategies import FAMILIES, lie_algebras, models
+from tstarg.refimpl import CATALOGUE_NAMES, catalogue
 from tests.conftest import ref_examples
 
 
@@ -32,7 +32,7 @@ def test_closed_exact_per_family(family):
 def test_closed_exact_catalogue(name):
     """d omega_L = 0 exactly for each catalogue algebra (irrational constants included) with a fixed
     non-zero Upsilon and the sum of its cocycle basis as Theta."""
-    from refimpl import cocycle_basis
+    from tstarg.refimpl import cocycle_basis
 
     alg = catalogue(name)
     n = alg.dim

@@ -9,13 +9,13 @@ import sympy
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from properties import catalogue_algebras, rationals
-from refimpl import (
+from tstarg.properties import catalogue_algebras, rationals
+from tstarg.refimpl import (
     CATALOGUE_NAMES, abelian, bianchi, catalogue, check_cocycle, cocycle_basis, cohomology, delta1, delta2,
     heisenberg, solve_coboundary,
 )
 
-from oracles import PUBLISHED_H2  # noqa: E402  (sources in oracles/published.py)
+from tstarg.oracles import PUBLISHED_H2  # noqa: E402  (sources in oracles/published.py)
 
 
 def test_published_table_covers_catalogue():

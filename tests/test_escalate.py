@@ -1,4 +1,4 @@
-"""refimpl.escalate: every point is within the requested tolerance, or flagged; none is dropped.
+"""tstarg.refimpl.escalate: every point is within the requested tolerance, or flagged; none is dropped.
 
 Expected values come from the mpmath reference at 80 digits (the escalation itself runs a
 ladder of at most ~75 digits and stops at the first agreement), from the su(2) closed form
@@ -14,10 +14,10 @@ import mpmath
 import numpy as np
 import pytest
 
-from refimpl import catalogue, su2
-from refimpl.escalate import delta_exact, poisson_within, vector_field_within
-from refimpl.fast import implementation as fast
-from refimpl.reference import Reference
+from tstarg.refimpl import catalogue, su2
+from tstarg.refimpl.escalate import delta_exact, poisson_within, vector_field_within
+from tstarg.refimpl.fast import implementation as fast
+from tstarg.refimpl.reference import Reference
 
 JUDGE = Reference(80)
 TAU = np.array([0.25, -0.5, 0.5])    # dyadic: C1 = 1 - pi'.tau = 0 is reachable exactly
@@ -190,7 +190,8 @@ class _LooseBound:
 
 def test_replaced_implementation_is_honoured(monkeypatch):
     """fast=None looks refimpl.fast.implementation up at call time; a looser bound escalates more points."""
-    import refimpl.fast
+    import tstarg.refimpl.fast
+    from tstarg import refimpl
 
     alg = su2()
     pi = _su2_near_degenerate([1])

@@ -9,10 +9,10 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from properties import REGIMES, cocycles, points, upsilons
-from refimpl import CATALOGUE_NAMES, catalogue, su2
-from refimpl.fast import implementation as fast
-from refimpl.reference import DegeneratePointError, Reference
+from tstarg.properties import REGIMES, cocycles, points, upsilons
+from tstarg.refimpl import CATALOGUE_NAMES, catalogue, su2
+from tstarg.refimpl.fast import implementation as fast
+from tstarg.refimpl.reference import DegeneratePointError, Reference
 from tests._helpers import assert_within_bound, regime_cases
 from tests.conftest import ref_examples
 
@@ -57,7 +57,7 @@ def test_poisson_tensor_within_error_model(name, regime, data):
 @given(data=st.data())
 def test_su2_closed_form_matches_generic_path(tau_scale, data):
     """su(2): the closed-form kernel and the generic matrix kernel agree within the sum of their bounds."""
-    from refimpl.fast import _generic_poisson
+    from tstarg.refimpl.fast import _generic_poisson
 
     alg = su2()
     theta = data.draw(cocycles(alg, exact=False))

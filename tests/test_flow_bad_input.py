@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from refimpl import catalogue, su2
-from refimpl.flows import fast_flow, reference_flow, reference_trajectory
+from tstarg.refimpl import catalogue, su2
+from tstarg.refimpl.flows import fast_flow, reference_flow, reference_trajectory
 
 F = su2().f
 Z = np.zeros((3, 3))
@@ -51,7 +51,7 @@ def test_chart_exit_without_representation_is_a_value_error():
     (the group element is still available from reference_trajectory)."""
     # Bianchi III in the basis e'_a = 2 e_a (f' = 2 f): isomorphic, but no representation is known
     # for these constants (the catalogue's Bianchi III carries one)
-    from refimpl import LieAlgebra
+    from tstarg.refimpl import LieAlgebra
 
     alg = LieAlgebra.from_structure_constants(2 * catalogue("Bianchi III").f, name="Bianchi III (scaled)")
     assert alg.rep is None

@@ -7,8 +7,8 @@ from __future__ import annotations
 import mpmath
 import numpy as np
 
-from refimpl import su2
-from refimpl.flows import DOP853, METHODS, NumpyModel, gbs_mp, integrate_fast, reference_trajectory
+from tstarg.refimpl import su2
+from tstarg.refimpl.flows import DOP853, METHODS, NumpyModel, gbs_mp, integrate_fast, reference_trajectory
 from tests._helpers import mp_digits
 
 XI = ["3/10", "-1/5", "1/2"]

@@ -12,8 +12,8 @@ import mpmath
 import numpy as np
 import pytest
 
-from refimpl import catalogue, cocycle_basis, coboundary_basis, su2
-from refimpl.flows import METHODS, NumpyModel, casimirs, energy, integrate_fast, momentum_map, reference_trajectory
+from tstarg.refimpl import catalogue, cocycle_basis, coboundary_basis, su2
+from tstarg.refimpl.flows import METHODS, NumpyModel, casimirs, energy, integrate_fast, momentum_map, reference_trajectory
 from tests._helpers import mp_digits
 
 EPS = np.finfo(float).eps
@@ -61,7 +61,7 @@ def test_momentum_map_coboundary_form():
     alg = su2()
     xi = np.array([0.3, -0.2, 0.5])
     theta = -np.einsum("k,kab->ab", xi, alg.f)
-    from refimpl import frames
+    from tstarg.refimpl import frames
 
     x, pi = np.array([1.1, -0.7, 0.4]), np.array([0.2, -0.9, 1.3])
     J = momentum_map(alg, theta, x, pi)

@@ -19,8 +19,8 @@ import mpmath
 import numpy as np
 import pytest
 
-from refimpl import su2
-from refimpl.flows import METHODS, NumpyModel, integrate_fast, reference_trajectory
+from tstarg.refimpl import su2
+from tstarg.refimpl.flows import METHODS, NumpyModel, integrate_fast, reference_trajectory
 
 ALG = su2()
 I = np.diag([1.0, 1.3, 0.5])
@@ -132,7 +132,7 @@ def exact_references():
 def test_fitted_order_taylor_high_precision(name, label, exact_references):
     """Taylor methods: the generated step run in 100-digit arithmetic; slope of log error vs log h equals the
     declared order within 0.3 (errors 1e-18..1e-52, far above the 90-digit reference's own error)."""
-    from refimpl._taylor import scalar_taylor_integrator
+    from tstarg.refimpl._taylor import scalar_taylor_integrator
 
     meth = METHODS[name]
     model, y0, y1 = exact_references[label]

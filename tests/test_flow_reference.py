@@ -11,8 +11,8 @@ import mpmath
 import numpy as np
 import pytest
 
-from refimpl import su2
-from refimpl.flows import euler_top_closed_form, reference_flow, reference_trajectory
+from tstarg.refimpl import su2
+from tstarg.refimpl.flows import euler_top_closed_form, reference_flow, reference_trajectory
 from tests._helpers import mp_digits
 
 Z = np.zeros((3, 3), dtype=object)

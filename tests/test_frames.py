@@ -14,7 +14,7 @@ import sympy
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from refimpl import CATALOGUE_NAMES, catalogue, frames
+from tstarg.refimpl import CATALOGUE_NAMES, catalogue, frames
 from tests._helpers import mp_digits
 
 REP_ALGEBRAS = [n for n in CATALOGUE_NAMES if catalogue(n).rep_exact is not None]
@@ -155,7 +155,7 @@ def test_su2_frame_matches_rodrigues_closed_form():
         K = mpmath.matrix([[0, -x[2], x[1]], [x[2], 0, -x[0]], [-x[1], x[0], 0]])
         L = mpmath.eye(3) + K / 2 + (1 - (t / 2) * mpmath.cot(t / 2)) / t**2 * K * K
         L_np = np.array(L.tolist(), dtype=object)
-    from refimpl import su2
+    from tstarg.refimpl import su2
 
     got = frames(su2(), ["0.3", "-1.1", "2.0"], dps=50)["L"]
     assert mp_digits(got, L_np) >= 48

@@ -1,12 +1,12 @@
-"""refimpl.gnh: the Gotay-Nester-Hinds algorithm reproduces the hand-derived outcomes of section cinq."""
+"""tstarg.refimpl.gnh: the Gotay-Nester-Hinds algorithm reproduces the hand-derived outcomes of section cinq."""
 
 from __future__ import annotations
 
 import pytest
 import sympy as sp
 
-from oracles.gnh_examples import EXAMPLES, check_example, run_example, su2_model
-from refimpl.gnh import gnh, lie_poisson_model, verify_result
+from tstarg.oracles.gnh_examples import EXAMPLES, check_example, run_example, su2_model
+from tstarg.refimpl.gnh import gnh, lie_poisson_model, verify_result
 
 
 @pytest.mark.parametrize("name", [k for k, v in EXAMPLES.items() if not v.get("slow")])
@@ -83,7 +83,7 @@ def test_bad_input():
 @pytest.mark.parametrize("name", ["sl(2,R)", "Bianchi III", "h(3)"])
 def test_other_algebras(name):
     """Beyond su(2): on each consistent final set Delta = 0, the field solves i_X omega = dH and is tangent."""
-    from refimpl import catalogue
+    from tstarg.refimpl import catalogue
 
     alg = catalogue(name)
     n = alg.dim

@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 from hypothesis import assume, given, settings
 
-from properties import identities as idn
-from properties.paper_checks import (
+from tstarg.properties import identities as idn
+from tstarg.properties.paper_checks import (
     BATCHES, _broken_jacobi_models, _non_cocycle_models, _scaled_pp_jacobi, model_points,
 )
-from properties.strategies import FAMILIES, REGIMES
-from refimpl.reference import DegeneratePointError
+from tstarg.properties.strategies import FAMILIES, REGIMES
+from tstarg.refimpl.reference import DegeneratePointError
 from tests.conftest import ref_examples
 
 

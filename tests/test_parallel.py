@@ -8,15 +8,15 @@ import math
 import numpy as np
 import pytest
 
-from reports._parallel import TaskError, map_tasks
+from tstarg.reports._parallel import TaskError, map_tasks
 
 
 def _sweep_point(seed: int) -> tuple[float, float, bool]:
     """One deterministic sweep task: the fast su(2) bracket with Upsilon near a random point,
     its error against the 30-digit reference and whether the error model holds."""
-    from refimpl import su2
-    from refimpl.fast import implementation as fast
-    from refimpl.reference import Reference
+    from tstarg.refimpl import su2
+    from tstarg.refimpl.fast import implementation as fast
+    from tstarg.refimpl.reference import Reference
 
     rng = np.random.default_rng(seed)
     alg = su2()
@@ -54,15 +54,15 @@ def test_certificate_on_dask_equals_serial():
     pytest.importorskip("distributed")
     from distributed import Client, LocalCluster
 
-    from refimpl.fast import implementation as fast
-    from reports.certification import certify, certify_parallel
+    from tstarg.refimpl.fast import implementation as fast
+    from tstarg.reports.certification import certify, certify_parallel
 
     checks = ["poisson_tensor.antisymmetry", "poisson_tensor.degenerate", "hamiltonian_vector_field.reference"]
-    kw = dict(max_examples=3, seed=1, checks=checks, target="refimpl.fast:implementation")
+    kw = dict(max_examples=3, seed=1, checks=checks, target="tstarg.refimpl.fast:implementation")
     one = certify(fast, **kw)
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
             Client(cluster) as client:
-        par = certify_parallel("refimpl.fast:implementation", scheduler=client, **kw)
+        par = certify_parallel("tstarg.refimpl.fast:implementation", scheduler=client, **kw)
 
     def strip(c):
         return [(r.name, r.examples, r.skipped, r.passed) for r in c.checks]

@@ -10,9 +10,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from properties import cocycles, rationals, upsilons
-from refimpl import CATALOGUE_NAMES, catalogue, frames
-from refimpl.reference import DegeneratePointError, Reference
+from tstarg.properties import cocycles, rationals, upsilons
+from tstarg.refimpl import CATALOGUE_NAMES, catalogue, frames
+from tstarg.refimpl.reference import DegeneratePointError, Reference
 from tests._helpers import mp_digits, mp_matrix_to_array
 from tests.conftest import ref_examples
 
@@ -51,7 +51,7 @@ def test_upsilon_zero_reduces_to_twee9_drie3(name):
     Expected blocks are assembled here from the Van Loan frame and the structure constants."""
     alg = catalogue(name)
     n = alg.dim
-    from refimpl import cocycle_basis
+    from tstarg.refimpl import cocycle_basis
 
     basis = cocycle_basis(alg)
     theta = sum((b * (k + 1) for k, b in enumerate(basis)), np.zeros((n, n), dtype=object))
@@ -81,7 +81,7 @@ def test_precision_ladder(name):
     """The reference agrees with itself across dps 30, 60, 120 (to ~dps - 3 digits)."""
     alg = catalogue(name)
     n = alg.dim
-    from refimpl import cocycle_basis
+    from tstarg.refimpl import cocycle_basis
 
     basis = cocycle_basis(alg)
     theta = sum((b * (k + 2) for k, b in enumerate(basis)), np.zeros((n, n), dtype=object))
@@ -120,7 +120,7 @@ def test_tensor_inverts_omega(name):
 
 def test_degenerate_point_raises():
     """su(2) with Upsilon = tau.eps: at pi'.tau = 1 (the plane Pi_1, vier12) there is no tensor."""
-    from refimpl import su2
+    from tstarg.refimpl import su2
 
     ups = [[0, "1/2", 0], ["-1/2", 0, 0], [0, 0, 0]]  # tau = (0, 0, 1/2)
     with pytest.raises(DegeneratePointError, match="degenerate set Pi_1"):

@@ -9,9 +9,10 @@ import mpmath
 import numpy as np
 import pytest
 
-import refimpl.fast
-import refimpl.reference
-from refimpl import Implementation, catalogue, su2
+import tstarg.refimpl.fast
+import tstarg.refimpl.reference
+from tstarg import refimpl
+from tstarg.refimpl import Implementation, catalogue, su2
 
 def test_fixed_import_names():
     assert refimpl.fast.implementation.batched is True

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from oracles import qutip_spin as qs
+from tstarg.oracles import qutip_spin as qs
 
 EPS = np.finfo(float).eps
 JS = [0.5, 1, 1.5, 2, 3, 5, 10]
@@ -90,7 +90,7 @@ def test_spatial_momentum_conserved_by_quantum_attitude():
     """pi^R = Ad(g^-1)^T pi (twee3) is constant along the free motion, with g from qutip's spin-1/2 propagator."""
     import mpmath
 
-    from oracles.closed_forms import rigid_body_solution
+    from tstarg.oracles.closed_forms import rigid_body_solution
 
     I, pi0 = (1.0, 2.0, 3.0), (0.3, 0.9, -0.5)
     with mpmath.workdps(30):

@@ -10,10 +10,10 @@ import math
 import numpy as np
 import pytest
 
-from reports import regression
-from reports.cli import main
+from tstarg.reports import regression
+from tstarg.reports.cli import main
 
-PROVIDERS = ["--provider", "properties.checks:core_checks", "--provider", "reports.speed_checks:verify_checks"]
+PROVIDERS = ["--provider", "tstarg.properties.checks:core_checks", "--provider", "tstarg.reports.speed_checks:verify_checks"]
 
 
 def _rep(checks, profile="ci", n=20, seed=0):
@@ -86,7 +86,7 @@ def base_run(tmp_path_factory):
 def test_planted_degraded_run_fails(base_run, tmp_path, monkeypatch):
     """A fast implementation made 10x slower and ~100x less accurate -- still inside its own error
     bound, so every accuracy check alone passes -- is caught by the comparison with the baseline run."""
-    from refimpl.fast import Fast
+    from tstarg.refimpl.fast import Fast
 
     original = Fast.poisson_batch
 
@@ -138,7 +138,7 @@ def test_clean_rerun_has_no_accuracy_regression(base_run, tmp_path):
 
 def test_committed_baseline_is_a_full_ci_run():
     """The committed baseline is a passing ``--profile ci --seed 0`` run of every default provider."""
-    from reports.verify import PROFILES, PROVIDERS as DEFAULT
+    from tstarg.reports.verify import PROFILES, PROVIDERS as DEFAULT
 
     base = regression.load_report(regression.BASELINE)
     assert (base["profile"], base["max_examples"], base["seed"]) == ("ci", PROFILES["ci"], 0)

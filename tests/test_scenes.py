@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import refimpl._flow_fast as flow_fast
-from refimpl.flows import load_scene, parse_scene, plan, run_scene
+import tstarg.refimpl._flow_fast as flow_fast
+from tstarg.refimpl.flows import load_scene, parse_scene, plan, run_scene
 
 SCENES = sorted((Path(__file__).resolve().parent.parent / "refimpl" / "scenes").glob("*.toml"))
 BASE = {"algebra": "su(2)", "inertia_diagonal": [1.0, 2.0, 3.0], "x0": [0.1, 0.0, 0.0],
@@ -110,7 +110,7 @@ def test_bad_scenes_are_rejected_naming_key_and_shape(patch, needle):
 
 def test_run_command_writes_outputs(tmp_path):
     """`tstarg run SCENE` writes npz, CSV and PNG, and prints the plan."""
-    from reports.cli import main
+    from tstarg.reports.cli import main
 
     scene = tmp_path / "s.toml"
     scene.write_text('algebra = "su(2)"\ninertia_diagonal = [1.0, 2.0, 3.0]\nx0 = [0.0, 0.0, 0.0]\n'
@@ -124,7 +124,7 @@ def test_run_command_writes_outputs(tmp_path):
 
 def test_run_command_rejects_bad_scene(tmp_path, capsys):
     """`tstarg run` on a scene with an unknown key exits with status 2 and names the key."""
-    from reports.cli import main
+    from tstarg.reports.cli import main
 
     scene = tmp_path / "bad.toml"
     scene.write_text('algebra = "su(2)"\ninertia_diagonal = [1.0, 2.0, 3.0]\nx0 = [0.0, 0.0, 0.0]\n'

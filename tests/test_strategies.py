@@ -14,9 +14,9 @@ import sympy
 from hypothesis import HealthCheck, given, seed, settings
 from hypothesis import strategies as st
 
-from properties import strategies as S
-from refimpl import LieAlgebra, check_cocycle, solve_coboundary
-from refimpl._algebra import jacobi_residual
+from tstarg.properties import strategies as S
+from tstarg.refimpl import LieAlgebra, check_cocycle, solve_coboundary
+from tstarg.refimpl._algebra import jacobi_residual
 
 EPS = float(np.finfo(float).eps)
 
@@ -140,7 +140,7 @@ def _toml_value_ok(v) -> bool:
 def test_scenes_are_toml_describable(scene):
     """A scene is a plain dict of TOML types (no None, finite floats) that the scene loader accepts,
     with the drawn data intact (cocycle Theta, antisymmetric Upsilon, SPD inertia)."""
-    parse_scene = pytest.importorskip("refimpl.flows").parse_scene
+    parse_scene = pytest.importorskip("tstarg.refimpl.flows").parse_scene
     assert _toml_value_ok(scene)
     sc = parse_scene(scene)
     n = sc.f.shape[0]

@@ -10,9 +10,9 @@ import json
 import numpy as np
 import pytest
 
-from refimpl.fast import implementation as _fast
-from reports import _stress
-from reports.cli import build_parser
+from tstarg.refimpl.fast import implementation as _fast
+from tstarg.reports import _stress
+from tstarg.reports.cli import build_parser
 
 def _run(argv):
     args = build_parser().parse_args(["stress", *argv])
@@ -159,7 +159,7 @@ def test_real_long_integration_follows_brouwer(quick_run):
 
 def test_sweep_results_do_not_depend_on_where_they_ran():
     """The same sweep over 2 local processes gives exactly the serial rows (tasks deterministic in their item)."""
-    from reports.stress import run
+    from tstarg.reports.stress import run
 
     kw = {"quick": True, "tol": 1e-10, "escalate": True, "judge_dps": 50,
           "implementation": _stress.DEFAULT_IMPLEMENTATION, "sweeps": ["degenerate-su2", "brouwer"],

@@ -5,9 +5,9 @@ from __future__ import annotations
 import mpmath
 import sympy as sp
 
-from oracles import su2_symbolic as su
-from refimpl import su2
-from refimpl.reference import Reference
+from tstarg.oracles import su2_symbolic as su
+from tstarg.refimpl import su2
+from tstarg.refimpl.reference import Reference
 
 
 def test_nondegenerate_identities():

@@ -11,9 +11,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from refimpl import catalogue, su2
-from refimpl._taylor import numpy_taylor_integrator, quadratic_field, scalar_taylor_integrator
-from refimpl.flows import METHODS, NumpyModel, integrate_fast
+from tstarg.refimpl import catalogue, su2
+from tstarg.refimpl._taylor import numpy_taylor_integrator, quadratic_field, scalar_taylor_integrator
+from tstarg.refimpl.flows import METHODS, NumpyModel, integrate_fast
 
 EPS = np.finfo(float).eps
 SU2 = su2()
@@ -93,7 +93,7 @@ def test_integrate_fast_dispatch_and_observer():
     """integrate_fast with a Taylor method: one trajectory (scalar code) and the same trajectory inside a
     batch larger than TAYLOR_SCALAR_MAX (numpy kernel) agree to rounding (64 eps per step), observers see
     every step."""
-    from refimpl._flow_fast import TAYLOR_SCALAR_MAX
+    from tstarg.refimpl._flow_fast import TAYLOR_SCALAR_MAX
 
     model = MODELS["su2 gyrostat heavy, off-diagonal I"]()
     meth = METHODS["taylor16"]

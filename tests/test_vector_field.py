@@ -13,10 +13,10 @@ import sympy
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from properties import cocycles, points, rationals, upsilons
-from refimpl import CATALOGUE_NAMES, catalogue, frames, su2
-from refimpl.fast import implementation as fast
-from refimpl.reference import DegeneratePointError, Reference
+from tstarg.properties import cocycles, points, rationals, upsilons
+from tstarg.refimpl import CATALOGUE_NAMES, catalogue, frames, su2
+from tstarg.refimpl.fast import implementation as fast
+from tstarg.refimpl.reference import DegeneratePointError, Reference
 from tests._helpers import assert_within_bound, mp_digits, regime_cases
 from tests.conftest import ref_examples
 
@@ -70,7 +70,7 @@ def test_reduces_to_twee12_and_drie5(name):
     twee12 when Theta = 0), with <dV|e_b> = -Gamma_m f^m_bc L^c, Gamma = Ad(g)^T gamma (twee16)."""
     alg = catalogue(name)
     n = alg.dim
-    from refimpl import cocycle_basis
+    from tstarg.refimpl import cocycle_basis
 
     theta = sum((b * (k + 1) for k, b in enumerate(cocycle_basis(alg))), np.zeros((n, n), dtype=object))
     ups = np.zeros((n, n), dtype=int)
@@ -103,7 +103,7 @@ def test_energy_is_conserved(name):
     """dH/dt = grad H . zdot = {H, H} = 0, with grad H formed independently (mpmath.diff of H)."""
     alg = catalogue(name)
     n = alg.dim
-    from refimpl import cocycle_basis
+    from tstarg.refimpl import cocycle_basis
 
     theta = sum((b * (k + 1) for k, b in enumerate(cocycle_basis(alg))), np.zeros((n, n), dtype=object))
     ups = np.zeros((n, n), dtype=object)

@@ -7,8 +7,8 @@ import json
 
 import pytest
 
-from properties.checks import CheckResult, run_property
-from reports import cli, verify
+from tstarg.properties.checks import CheckResult, run_property
+from tstarg.reports import cli, verify
 
 
 def passing_provider(max_examples, seed):
@@ -101,13 +101,13 @@ def test_progress_lines(capsys):
 
 def test_default_providers_include_the_paper_checks():
     """The default provider list runs the core checks, the paper's identities and (when present) the oracles."""
-    assert verify.PROVIDERS[:2] == ("properties.checks:core_checks", "properties.paper_checks:paper_checks")
-    assert "oracles.checks:verify_checks" in verify.PROVIDERS
+    assert verify.PROVIDERS[:2] == ("tstarg.properties.checks:core_checks", "tstarg.properties.paper_checks:paper_checks")
+    assert "tstarg.oracles.checks:verify_checks" in verify.PROVIDERS
 
 
 def test_paper_checks_all_pass_small_budget():
     """Every paper identity passes and every negative control bites, at a budget of 2 examples."""
-    from properties.paper_checks import paper_checks
+    from tstarg.properties.paper_checks import paper_checks
 
     results = paper_checks(2, seed=0)
     failed = [(r.name, r.detail) for r in results if not r.passed]

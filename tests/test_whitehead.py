@@ -8,11 +8,11 @@ from __future__ import annotations
 import pytest
 from hypothesis import given, settings
 
-from oracles.published import PUBLISHED_H2
-from properties import identities as idn
-from properties.paper_checks import h2_example, h2_examples
-from properties.strategies import lie_algebras
-from refimpl import CATALOGUE_NAMES, catalogue
+from tstarg.oracles.published import PUBLISHED_H2
+from tstarg.properties import identities as idn
+from tstarg.properties.paper_checks import h2_example, h2_examples
+from tstarg.properties.strategies import lie_algebras
+from tstarg.refimpl import CATALOGUE_NAMES, catalogue
 from tests.conftest import ref_examples
 
 SEMISIMPLE = [n for n in CATALOGUE_NAMES if PUBLISHED_H2[n] == 0 and catalogue(n).is_semisimple()]

@@ -21,10 +21,10 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
-from refimpl import su2
-from refimpl._flow_fast import scalar_rhs
-from refimpl.flows import METHODS, NumpyModel, integrate_fast, reference_trajectory
-from reports.speed_checks import race
+from tstarg.refimpl import su2
+from tstarg.refimpl._flow_fast import scalar_rhs
+from tstarg.refimpl.flows import METHODS, NumpyModel, integrate_fast, reference_trajectory
+from tstarg.reports.speed_checks import race
 
 pytestmark = pytest.mark.slow
 

@@ -24,8 +24,8 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from refimpl import su2, su3
-from refimpl.fast import implementation as fast
+from tstarg.refimpl import su2, su3
+from tstarg.refimpl.fast import implementation as fast
 
 
 def _best(fn, repeat=5):

@@ -24,7 +24,7 @@ def main() -> None:
     ap.add_argument("--only", nargs="*", default=None)
     ap.add_argument("--state", default=None)
     a = ap.parse_args()
-    from refimpl.fast import implementation as fast
+    from tstarg.refimpl.fast import implementation as fast
 
     import os
 

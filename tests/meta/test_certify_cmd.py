@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from reports.certification import certify
-from reports.jsonl import CommandImplementation, ProgramFailure
+from tstarg.reports.certification import certify
+from tstarg.reports.jsonl import CommandImplementation, ProgramFailure
 
 PROGRAM = f"{sys.executable} {Path(__file__).with_name('jsonl_program.py')}"
 
@@ -38,7 +38,7 @@ def test_hang_and_crash_are_reported_and_harness_finishes(tmp_path):
 
 
 def test_cli_reports_incidents(tmp_path, capsys):
-    from reports.cli import main
+    from tstarg.reports.cli import main
 
     rc = main(["certify", "--cmd", f"{PROGRAM} --hang-on 6 --crash-on 9 --state {tmp_path / 'count'}", "--timeout", "2",
                "--max-examples", "4", "--out", str(tmp_path), "--workers", "1"])  # one program: the count is global

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from reports.certification import certify
-from reports.mutants import MUTATIONS, Plain
+from tstarg.reports.certification import certify
+from tstarg.reports.mutants import MUTATIONS, Plain
 
 SEED = 0
 EXAMPLES = 10
@@ -17,7 +17,7 @@ def test_certify_rejects_mutant(mutation):
     impl = Plain(mutation)
     checks = None
     if mutation == "flow_wrong_stage":
-        pytest.importorskip("refimpl.flows", reason="the flow mutant needs the reference flow")
+        pytest.importorskip("tstarg.refimpl.flows", reason="the flow mutant needs the reference flow")
         checks = ["flow.reference"]
     cert = certify(impl, max_examples=EXAMPLES, seed=SEED, target=f"tests.meta.mutants:Plain({mutation!r})", checks=checks, stop_on_failure=True,
                    shrink=False)
@@ -26,8 +26,8 @@ def test_certify_rejects_mutant(mutation):
 
 @pytest.mark.parametrize("target", ["plain", "fast", "reference"])
 def test_certify_accepts_correct_implementations(target):
-    from refimpl.fast import implementation as fast
-    from refimpl.reference import Reference
+    from tstarg.refimpl.fast import implementation as fast
+    from tstarg.refimpl.reference import Reference
 
     impl = {"plain": Plain(None), "fast": fast, "reference": Reference(30)}[target]
     cert = certify(impl, max_examples=EXAMPLES, seed=SEED, target=target, shrink=False)
