@@ -4,13 +4,13 @@ Public API:
 
 * :data:`PUBLISHED_H2` (second Betti numbers of the catalogue, with sources; oracles.published);
 * the paper's claims registry: :data:`CLAIMS`, :data:`LABELS`, :data:`ERRATA`, :func:`evaluate_claims`
-  (oracles.claims) and the checks it runs, :data:`PAPER_CHECKS` (oracles.paper_checks);
+  (oracles.claims) and the checks it runs, :data:`PAPER_CHECKS` (oracles.claim_checks);
 * section cinq symbolically: :func:`su2_nondegenerate_residuals`, :func:`su2_degenerate_residuals`
   (oracles.su2_symbolic); GNH worked examples: :data:`GNH_EXAMPLES`, :func:`check_gnh_example`;
 * closed forms: :func:`rigid_body_solution`, :func:`detest_b5`, :func:`detest_b5_exact`,
   :func:`heavy_top_integrals`, :func:`integral_rates`, :data:`HEAVY_TOPS` (oracles.closed_forms);
 * qutip's spin picture: module :mod:`oracles.qutip_spin` (imported lazily: qutip is heavy);
-* :func:`verify_checks` for ``tstarg verify`` (oracles.checks, imported lazily).
+* :func:`oracle_checks` for ``tstarg verify`` (oracles.oracle_checks, imported lazily).
 """
 
 from .claims import CLAIMS, ERRATA, LABELS
@@ -25,7 +25,7 @@ from .closed_forms import (
 )
 from .gnh_examples import EXAMPLES as GNH_EXAMPLES
 from .gnh_examples import check_example as check_gnh_example
-from .paper_checks import PAPER_CHECKS
+from .claim_checks import PAPER_CHECKS
 from .published import PUBLISHED_B1, PUBLISHED_H2
 from .su2_symbolic import residuals_degenerate as su2_degenerate_residuals
 from .su2_symbolic import residuals_nondegenerate as su2_nondegenerate_residuals
@@ -48,13 +48,13 @@ __all__ = [
     "rigid_body_solution",
     "su2_degenerate_residuals",
     "su2_nondegenerate_residuals",
-    "verify_checks",
+    "oracle_checks",
 ]
 
 
 def __getattr__(name):
-    if name == "verify_checks":
-        from .checks import verify_checks
+    if name == "oracle_checks":
+        from .oracle_checks import oracle_checks
 
-        return verify_checks
+        return oracle_checks
     raise AttributeError(name)

@@ -2,7 +2,7 @@
 
 Each :class:`Claim` names the equation (the paper's ``\\label``; the second ``drie5`` is called
 ``drie12``), states what it claims, how it is checked (``symbolic``, ``numeric``, ``both``, or
-``-``), where (oracle checks in :data:`oracles.paper_checks.PAPER_CHECKS`, run by
+``-``), where (oracle checks in :data:`oracles.claim_checks.PAPER_CHECKS`, run by
 ``tstarg claims``, and pytest tests), and a status:
 
 ``verified``
@@ -638,7 +638,7 @@ def evaluate(claims=CLAIMS, *, cache: dict | None = None) -> list[Observation]:
     and all ``literal`` checks fail -> ``erratum confirmed`` else ``CONTRADICTED``; not checkable ->
     ``not checkable``.
     """
-    from .paper_checks import run_paper_check
+    from .claim_checks import run_paper_check
 
     cache = {} if cache is None else cache
     out = []
@@ -650,7 +650,7 @@ def evaluate(claims=CLAIMS, *, cache: dict | None = None) -> list[Observation]:
                 try:
                     cache[name] = run_paper_check(name)
                 except Exception as exc:  # noqa: BLE001 - a crashing check is a failed check
-                    from .paper_checks import Outcome
+                    from .claim_checks import Outcome
 
                     cache[name] = Outcome(False, None, None, f"{type(exc).__name__}: {exc}")
             res[name] = cache[name]
@@ -682,7 +682,7 @@ def render_markdown(obs: list[Observation]) -> str:
         (
             "One row per numbered equation (the paper's `\\label`; the second `drie5` is `drie12`). "
             "Status: `verified`, `erratum` (printed form fails its check, corrected form passes), "
-            "`not checkable` (definitions). Checks are in `oracles/paper_checks.py` "
+            "`not checkable` (definitions). Checks are in `oracles/claim_checks.py` "
             "(run by `tstarg claims`); error/tolerance shown where numeric."
         ),
         "",

@@ -11,8 +11,8 @@ Public API:
 * :mod:`properties.identities` -- the identities as plain functions returning a
   :class:`~properties.identities.Measurement` (closedness, vier6/vier7, Jacobi, Darboux,
   Whitehead);
-* :mod:`properties.checks` -- ``CheckResult``, ``run_property``, ``core_checks``;
-* :mod:`properties.paper_checks` -- ``paper_checks``, the ``tstarg verify`` provider of the
+* :mod:`properties.core_checks` -- ``CheckResult``, ``run_property``, ``core_checks``;
+* :mod:`properties.identity_checks` -- ``identity_checks``, the ``tstarg verify`` provider of the
   identities and their negative controls.
 """
 

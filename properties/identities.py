@@ -57,7 +57,7 @@ EPS = float(np.finfo(float).eps)
 class Measurement:
     """Worst ``error`` against its ``tolerance``: ``ratio = error / tolerance`` (a pass is ``<= 1``).
 
-    Iterating gives ``(ratio, digits)``, the shape :func:`properties.checks.run_property` expects.
+    Iterating gives ``(ratio, digits)``, the shape :func:`properties.runner.run_property` expects.
     """
 
     __slots__ = ("error", "tolerance", "digits", "where")

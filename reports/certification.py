@@ -51,7 +51,7 @@ from ._imports import resolve
 from hypothesis import strategies as st
 from hypothesis import target as hyp_target
 
-from tstarg.properties.checks import CheckResult, run_property
+from tstarg.properties.runner import CheckResult, run_property
 from tstarg.properties.strategies import REGIMES, catalogue_algebras, cocycles, points, upsilons
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue, su2
 from tstarg.refimpl.reference import DegeneratePointError, Reference
@@ -523,7 +523,7 @@ def write_certificate(cert: Certificate, out: str | Path) -> Path:
     return out
 
 
-def verify_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
+def certificate_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
     """``tstarg verify`` provider: the certificate of the fast implementation (dogfood) and the
     mutation kill rate (every mutant of :mod:`reports.mutants` must be rejected, the correct
     ``Plain`` accepted). Both at a budget of ``max(4, max_examples // 3)`` examples per check."""

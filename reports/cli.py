@@ -21,9 +21,9 @@ SUBCOMMANDS = ("verify", "run", "claims", "certify", "bench", "stress", "report"
 def _modules():
     for name in SUBCOMMANDS:
         try:
-            yield name, importlib.import_module(f"tstarg.reports.{name}")
+            yield name, importlib.import_module(f"tstarg.reports.cmd_{name}")
         except ModuleNotFoundError as exc:
-            if exc.name != f"tstarg.reports.{name}":
+            if exc.name != f"tstarg.reports.cmd_{name}":
                 raise
 
 

@@ -199,7 +199,7 @@ class Plain:
 
 def _certify_mutant(item) -> bool:
     """Worker of :func:`kill_rate`: does the mutant ``name`` (``None``: the correct ``Plain``) pass?"""
-    from tstarg.properties import checks as _checks
+    from tstarg.properties import runner as _checks
 
     from .certification import certify
 

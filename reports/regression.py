@@ -21,7 +21,7 @@ the new run (e.g. ``--provider`` ran a subset) is listed, not failed.
 
 :func:`compare` returns a plain dict (JSON-ready); :func:`render_markdown` and
 :func:`plot` present it; :func:`regression_checks` turns it into two
-:class:`~properties.checks.CheckResult` rows for ``tstarg verify``.
+:class:`~properties.core_checks.CheckResult` rows for ``tstarg verify``.
 """
 
 from __future__ import annotations
@@ -220,7 +220,7 @@ def plot(cmp: dict, path) -> Path:
 def regression_checks(cmp: dict):
     """Two verify rows: ``regression.accuracy`` and ``regression.speed``. Their worst ratio is
     (digits lost / slack) and (slowdown / factor): above 1 fails, like every other row."""
-    from tstarg.properties.checks import CheckResult
+    from tstarg.properties.runner import CheckResult
 
     acc_rows = [r for r in cmp["rows"] if r["digits_lost"] is not None]
     spd_rows = [r for r in cmp["rows"] if r["speed_factor"] is not None]

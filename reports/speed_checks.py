@@ -33,9 +33,9 @@ import time
 
 import numpy as np
 
-from tstarg.properties.checks import CheckResult
+from tstarg.properties.runner import CheckResult
 
-__all__ = ["verify_checks", "race", "SPEED_ROWS"]
+__all__ = ["speed_checks", "race", "SPEED_ROWS"]
 
 EPS = float(np.finfo(float).eps)
 SPEED_ROWS = ("speed.poisson[su2]", "speed.poisson[su3]", "speed.flow[heavy_top]")
@@ -143,7 +143,7 @@ def _flow_row(seed: int) -> CheckResult:
                "timing": "min of 3 alternating repeats after warm-up"})
 
 
-def verify_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
+def speed_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
     """``tstarg verify`` provider: the speed rows (fixed workloads; ``max_examples`` is not used)."""
     from tstarg.refimpl import su2, su3
 

@@ -12,7 +12,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from tstarg.properties import identities as idn
-from tstarg.properties.paper_checks import (
+from tstarg.properties.identity_checks import (
     IMPLEMENTATIONS, _nonsymmetric_upsilon_models, _perturbed_blocks, model_points,
 )
 from tstarg.properties.strategies import FAMILIES, REGIMES, cocycles, rationals, upsilons

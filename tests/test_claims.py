@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from tstarg.oracles import paper_checks as pc
+from tstarg.oracles import claim_checks as pc
 from tstarg.oracles.claims import CLAIMS, ERRATA, LABELS, evaluate
 
 
@@ -121,7 +121,7 @@ def test_claims_command_writes_markdown(tmp_path):
     """`tstarg claims` writes a table with a row for every label and the errata section."""
     from argparse import Namespace
 
-    from tstarg.reports import claims
+    from tstarg.reports import cmd_claims as claims
 
     out = tmp_path / "claims.md"
     rc = claims.main(Namespace(out=str(out), figures=str(tmp_path / "fig"), no_quantum=True))
@@ -132,12 +132,12 @@ def test_claims_command_writes_markdown(tmp_path):
     assert "## Errata" in text and "twee17" in text.split("## Errata")[1]
 
 
-def test_verify_checks_all_pass():
-    """oracles.checks.verify_checks (used by `tstarg verify`) returns passing CheckResults with tolerances stated."""
-    from tstarg.oracles.checks import verify_checks
-    from tstarg.properties.checks import CheckResult
+def test_oracle_checks_all_pass():
+    """oracles.oracle_checks.oracle_checks (used by `tstarg verify`) returns passing CheckResults with tolerances stated."""
+    from tstarg.oracles.oracle_checks import oracle_checks
+    from tstarg.properties.runner import CheckResult
 
-    results = verify_checks(2, 0)
+    results = oracle_checks(2, 0)
     assert all(isinstance(r, CheckResult) for r in results)
     assert len({r.name for r in results}) == len(results) >= 10
     failed = {r.name: r.detail for r in results if not r.passed}

@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 
 from tstarg.properties import identities as idn
-from tstarg.properties.paper_checks import _broken_jacobi_models, _non_cocycle_models, model_points
+from tstarg.properties.identity_checks import _broken_jacobi_models, _non_cocycle_models, model_points
 from tstarg.properties.strategies import FAMILIES, lie_algebras, models
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue
 from tests.conftest import ref_examples

@@ -13,7 +13,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from tstarg.properties import identities as idn
-from tstarg.properties.paper_checks import _nontrivial_darboux, _nontrivial_darboux_body, darboux_example, darboux_examples
+from tstarg.properties.identity_checks import _nontrivial_darboux, _nontrivial_darboux_body, darboux_example, darboux_examples
 from tstarg.properties.strategies import _coboundary_from, lie_algebras, rationals, upsilons
 from tstarg.refimpl.reference import DegeneratePointError, Reference
 from tests.conftest import ref_examples
@@ -78,7 +78,7 @@ def test_negative_control_upsilon_or_sign(ex, data):
 
 @pytest.mark.slow
 @settings(max_examples=2, deadline=None)
-@given(__import__("tstarg.properties.paper_checks", fromlist=["x"]).darboux_flow_examples())
+@given(__import__("tstarg.properties.identity_checks", fromlist=["x"]).darboux_flow_examples())
 def test_darboux_flow_equivalence(ex):
     """drie10-drie12: the Darboux system (integrated by mpmath.odefun) reproduces the reference flow
     of drie4/drie5 with pi = pi' - xi; with xi -> -xi in the Darboux system it does not (negative control)."""

@@ -13,7 +13,7 @@ import pytest
 from hypothesis import assume, given, settings
 
 from tstarg.properties import identities as idn
-from tstarg.properties.paper_checks import (
+from tstarg.properties.identity_checks import (
     BATCHES, _broken_jacobi_models, _non_cocycle_models, _scaled_pp_jacobi, model_points,
 )
 from tstarg.properties.strategies import FAMILIES, REGIMES

@@ -13,7 +13,7 @@ import pytest
 from tstarg.reports import regression
 from tstarg.reports.cli import main
 
-PROVIDERS = ["--provider", "tstarg.properties.checks:core_checks", "--provider", "tstarg.reports.speed_checks:verify_checks"]
+PROVIDERS = ["--provider", "tstarg.properties.core_checks:core_checks", "--provider", "tstarg.reports.speed_checks:speed_checks"]
 
 
 def _rep(checks, profile="ci", n=20, seed=0):
@@ -138,7 +138,7 @@ def test_clean_rerun_has_no_accuracy_regression(base_run, tmp_path):
 
 def test_committed_baseline_is_a_full_ci_run():
     """The committed baseline is a passing ``--profile ci --seed 0`` run of every default provider."""
-    from tstarg.reports.verify import PROFILES, PROVIDERS as DEFAULT
+    from tstarg.reports.cmd_verify import PROFILES, PROVIDERS as DEFAULT
 
     base = regression.load_report(regression.BASELINE)
     assert (base["profile"], base["max_examples"], base["seed"]) == ("ci", PROFILES["ci"], 0)

@@ -159,7 +159,7 @@ def test_real_long_integration_follows_brouwer(quick_run):
 
 def test_sweep_results_do_not_depend_on_where_they_ran():
     """The same sweep over 2 local processes gives exactly the serial rows (tasks deterministic in their item)."""
-    from tstarg.reports.stress import run
+    from tstarg.reports.cmd_stress import run
 
     kw = {"quick": True, "tol": 1e-10, "escalate": True, "judge_dps": 50,
           "implementation": _stress.DEFAULT_IMPLEMENTATION, "sweeps": ["degenerate-su2", "brouwer"],

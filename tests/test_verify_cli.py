@@ -7,8 +7,9 @@ import json
 
 import pytest
 
-from tstarg.properties.checks import CheckResult, run_property
-from tstarg.reports import cli, verify
+from tstarg.properties.runner import CheckResult, run_property
+from tstarg.reports import cli
+from tstarg.reports import cmd_verify as verify
 
 
 def passing_provider(max_examples, seed):
@@ -101,15 +102,15 @@ def test_progress_lines(capsys):
 
 def test_default_providers_include_the_paper_checks():
     """The default provider list runs the core checks, the paper's identities and (when present) the oracles."""
-    assert verify.PROVIDERS[:2] == ("tstarg.properties.checks:core_checks", "tstarg.properties.paper_checks:paper_checks")
-    assert "tstarg.oracles.checks:verify_checks" in verify.PROVIDERS
+    assert verify.PROVIDERS[:2] == ("tstarg.properties.core_checks:core_checks", "tstarg.properties.identity_checks:identity_checks")
+    assert "tstarg.oracles.oracle_checks:oracle_checks" in verify.PROVIDERS
 
 
 def test_paper_checks_all_pass_small_budget():
     """Every paper identity passes and every negative control bites, at a budget of 2 examples."""
-    from tstarg.properties.paper_checks import paper_checks
+    from tstarg.properties.identity_checks import identity_checks
 
-    results = paper_checks(2, seed=0)
+    results = identity_checks(2, seed=0)
     failed = [(r.name, r.detail) for r in results if not r.passed]
     assert not failed, failed
     names = {r.name for r in results}

@@ -10,7 +10,7 @@ from hypothesis import given, settings
 
 from tstarg.oracles.published import PUBLISHED_H2
 from tstarg.properties import identities as idn
-from tstarg.properties.paper_checks import h2_example, h2_examples
+from tstarg.properties.identity_checks import h2_example, h2_examples
 from tstarg.properties.strategies import lie_algebras
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue
 from tests.conftest import ref_examples

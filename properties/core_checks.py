@@ -1,4 +1,4 @@
-"""Property checks usable outside pytest, each returning a :class:`CheckResult`.
+"""The core checks of ``tstarg verify`` (run by :func:`properties.runner.run_property`).
 
 A check is a function of one drawn example that returns ``(ratio, digits)``:
 ``ratio`` is the worst error / tolerance (a pass needs ``ratio <= 1``) and
@@ -24,127 +24,20 @@ Core checks (issue "the core"):
 
 from __future__ import annotations
 
-import io
 import math
-import time
-from dataclasses import asdict, dataclass, field
-from typing import Any, Callable
 
 import mpmath
 import numpy as np
-from hypothesis import HealthCheck, given, settings
-from hypothesis import seed as hyp_seed
 from hypothesis import strategies as st
-from hypothesis.errors import Unsatisfiable
 
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue, cohomology
 from tstarg.refimpl.fast import implementation as fast
 from tstarg.refimpl.reference import DegeneratePointError, Reference
 
+from .runner import CheckResult, _digits, _mp_array, _mp_max_abs_diff, run_property
 from .strategies import REGIMES, cocycles, points, rationals, upsilons
 
-__all__ = ["CheckResult", "run_property", "CORE_CHECKS", "routes_agree", "fast_matches_reference",
-           "precision_ladder", "h2_published"]
-
-
-@dataclass
-class CheckResult:
-    """The verdict of one check: examples run, worst error/tolerance ratio, digits, and why it failed."""
-
-    name: str
-    equations: str
-    examples: int = 0
-    worst_ratio: float = 0.0
-    min_digits: float | None = None
-    passed: bool = True
-    skipped: int = 0
-    detail: str = ""
-    falsifying_example: str = ""
-    seconds: float = 0.0
-    extra: dict = field(default_factory=dict)
-
-    def to_json(self) -> dict:
-        d = asdict(self)
-        for k in ("worst_ratio", "min_digits"):
-            v = d[k]
-            if isinstance(v, float) and not math.isfinite(v):
-                d[k] = str(v)
-        return d
-
-
-def _mp_max_abs_diff(a, b) -> tuple[mpmath.mpf, mpmath.mpf]:
-    with mpmath.workdps(200):
-        A = [mpmath.mpf(v) for v in np.asarray(a, dtype=object).ravel()]
-        B = [mpmath.mpf(v) for v in np.asarray(b, dtype=object).ravel()]
-        diff = max((abs(x - y) for x, y in zip(A, B)), default=mpmath.mpf(0))
-        scale = max([mpmath.mpf(1)] + [abs(y) for y in B])
-        return diff, scale
-
-
-def _digits(diff, scale) -> float:
-    with mpmath.workdps(50):
-        return float("inf") if diff == 0 else float(-mpmath.log10(diff / scale))
-
-
-def _mp_array(m) -> np.ndarray:
-    return np.array([[m[i, j] for j in range(m.cols)] for i in range(m.rows)], dtype=object)
-
-
-def run_property(name: str, equations: str, body: Callable[[Any], tuple[float, float | None]],
-                 strategy: st.SearchStrategy, *, max_examples: int, seed: int | None = 0,
-                 extra: dict | None = None) -> CheckResult:
-    """Run ``body`` over ``strategy`` with Hypothesis; a ratio above 1 is a failure, shrunk to a minimal example.
-
-    ``body`` may return ``None`` to skip an example (e.g. a point exactly on the degenerate set).
-    """
-    res = CheckResult(name=name, equations=equations, extra=dict(extra or {}))
-    t0 = time.perf_counter()
-    _report("start", name, 0, max_examples)
-
-    @settings(max_examples=max_examples, deadline=None, database=None,
-              suppress_health_check=list(HealthCheck), print_blob=False)
-    @given(strategy)
-    def inner(example):
-        out = body(example)
-        if out is None:
-            res.skipped += 1
-            return
-        ratio, digits = out
-        res.examples += 1
-        _report("example", name, res.examples, max_examples)
-        res.worst_ratio = max(res.worst_ratio, float(ratio))
-        if digits is not None:
-            res.min_digits = digits if res.min_digits is None else min(res.min_digits, digits)
-        assert ratio <= 1.0, f"{name}: error/tolerance ratio {ratio:.3g} > 1"
-
-    if seed is not None:
-        inner = hyp_seed(seed)(inner)
-    buf = io.StringIO()
-    from hypothesis.reporting import with_reporter
-
-    try:
-        with with_reporter(lambda s: buf.write(str(s) + "\n")):
-            inner()
-    except Unsatisfiable as exc:
-        res.passed = res.examples > 0
-        res.detail = f"unsatisfiable: {exc}"
-    except Exception as exc:  # noqa: BLE001 - any failure of the check is its verdict
-        res.passed = False
-        res.detail = f"{type(exc).__name__}: {exc}"[:2000]
-        res.falsifying_example = buf.getvalue()[:4000]
-    res.seconds = time.perf_counter() - t0
-    _report("done", name, res.examples, max_examples, res)
-    return res
-
-
-PROGRESS: list = []
-"""Progress listeners: callables ``(event, name, done, total, result=None)`` with ``event`` in
-``"start"``, ``"example"``, ``"done"``. ``tstarg verify`` registers its progress bar here."""
-
-
-def _report(event, name, done, total, result=None) -> None:
-    for listener in list(PROGRESS):
-        listener(event, name, done, total, result)
+__all__ = ["CORE_CHECKS", "core_checks", "routes_agree", "fast_matches_reference", "precision_ladder", "h2_published"]
 
 
 # ------------------------------------------------------------------ strategies

@@ -1,6 +1,6 @@
 """The paper's identities as property checks over the strategies, with their negative controls.
 
-:func:`paper_checks` is a ``tstarg verify`` provider: ``(max_examples, seed) -> [CheckResult]``.
+:func:`identity_checks` is a ``tstarg verify`` provider: ``(max_examples, seed) -> [CheckResult]``.
 Each check draws its examples from :mod:`properties.strategies` (random Lie algebras of every
 family, so class B Bianchi, solvable, nilpotent and basis-changed algebras are exercised, not
 only so(3) look-alikes), evaluates one identity of :mod:`properties.identities` and records
@@ -27,13 +27,13 @@ from tstarg.refimpl.fast import implementation as fast
 from tstarg.refimpl.reference import DegeneratePointError, Reference
 
 from . import identities as idn
-from .checks import CheckResult, run_property
+from .runner import CheckResult, run_property
 from .strategies import (
     _coboundary_from, basis_changes, cocycles, jacobi_breaking_constants, lie_algebras, models, non_cocycles,
     points, rationals, upsilons,
 )
 
-__all__ = ["paper_checks", "IMPLEMENTATIONS", "model_points", "darboux_examples", "h2_examples"]
+__all__ = ["identity_checks", "IMPLEMENTATIONS", "model_points", "darboux_examples", "h2_examples"]
 
 EPS = idn.EPS
 
@@ -436,7 +436,7 @@ def _h2_nonzero_algebras(draw):
 
 
 # -------------------------------------------------------------------- provider
-def paper_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
+def identity_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
     """Every identity of :mod:`properties.identities` over the strategies, plus negative controls.
 
     Budget: ``max_examples`` for cheap exact/float checks, a third of it (>= 3) for the

@@ -27,7 +27,7 @@ def add_arguments(p) -> None:
 
 def main(args) -> int:
     from . import regression
-    from .verify import render_markdown
+    from .cmd_verify import render_markdown
 
     if bool(args.run) == bool(args.compare):
         print("tstarg report: give a run folder, or --compare A B", file=sys.stderr)

@@ -1,4 +1,4 @@
-"""The oracles as ``tstarg verify`` checks: :func:`verify_checks` returns ``properties.checks.CheckResult`` objects.
+"""The oracles as ``tstarg verify`` checks: :func:`oracle_checks` returns ``properties.runner.CheckResult`` objects.
 
 Checks (each states its tolerance model in ``extra["tolerance"]``):
 
@@ -32,9 +32,9 @@ import mpmath
 import numpy as np
 from hypothesis import strategies as st
 
-from tstarg.properties.checks import CheckResult, run_property
+from tstarg.properties.runner import CheckResult, run_property
 
-__all__ = ["verify_checks"]
+__all__ = ["oracle_checks"]
 
 EPS = float(np.finfo(float).eps)
 
@@ -74,7 +74,7 @@ def _paper_claims():
 
 
 def _quatre(example):
-    from .paper_checks import quatre_identities
+    from .claim_checks import quatre_identities
 
     name, seed = example
     o = quatre_identities(name, seed)
@@ -258,7 +258,7 @@ def _b1():
     )
 
 
-def verify_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
+def oracle_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
     """The oracle checks at a Hypothesis budget of ``max_examples`` per randomized check."""
     from tstarg.refimpl import CATALOGUE_NAMES, catalogue
 

@@ -39,11 +39,11 @@ PROFILES = {"dev": 6, "ci": 20, "thorough": 60}
 HELP = "run the verification suite and write a report (the main job)"
 
 PROVIDERS = (
-    "tstarg.properties.checks:core_checks",
-    "tstarg.properties.paper_checks:paper_checks",
-    "tstarg.oracles.checks:verify_checks",
-    "tstarg.reports.certification:verify_checks",
-    "tstarg.reports.speed_checks:verify_checks",
+    "tstarg.properties.core_checks:core_checks",
+    "tstarg.properties.identity_checks:identity_checks",
+    "tstarg.oracles.oracle_checks:oracle_checks",
+    "tstarg.reports.certification:certificate_checks",
+    "tstarg.reports.speed_checks:speed_checks",
 )
 """Check providers, in order: ``module:function`` with ``function(max_examples, seed) -> [CheckResult]``."""
 
@@ -187,7 +187,7 @@ def run_providers(specs, max_examples: int, seed, progress=None, optional=PROVID
     """Run each provider; returns ``(results, provider_status)``. A missing module of an
     ``optional`` provider (the defaults: other issues may not be merged yet) is ``"skipped"``;
     a missing requested provider, or one that raises, becomes a failed :class:`CheckResult`."""
-    from tstarg.properties import checks as _checks
+    from tstarg.properties import runner as _checks
 
     results, status = [], {}
     if progress is not None:
