@@ -30,14 +30,16 @@ from ._cohomology import (
 )
 from ._frames import frames
 from ._protocol import Implementation
-from .fast import DegeneratePointError as FastDegeneratePointError
+from ._errors import ChartError, DegeneratePointError
 from .fast import Fast
-from .reference import DegeneratePointError, Reference
+from .reference import Reference
+from .scenes import Plan, Scene, load_scene, plan, run_scene
 
 __all__ = [
     "LieAlgebra", "BIANCHI_TYPES", "CATALOGUE_NAMES", "abelian", "aff1", "bianchi", "catalogue", "heisenberg",
     "se2", "se3", "sl2r", "sl3r", "so3_other_basis", "so4", "su2", "su3",
     "Cohomology", "check_cocycle", "coboundary_basis", "cocycle_basis", "cocycle_residual", "cohomology",
     "delta1", "delta2", "h2_dim", "solve_coboundary",
-    "frames", "Implementation", "Fast", "Reference", "DegeneratePointError", "FastDegeneratePointError",
+    "frames", "Implementation", "Fast", "Reference", "DegeneratePointError", "ChartError",
+    "Scene", "Plan", "load_scene", "plan", "run_scene",
 ]

@@ -46,9 +46,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import fast as _fast
+from . import _fast_kernels as _fast
+from ._algebra import LieAlgebra
+from ._flow_reference import check_time
 from ._integrators import DOP853, RK4, ExplicitRK, GaussLegendre, triple_jump_weights
-from ._validate import check_inertia, check_potential, check_structure_constants, check_theta, check_upsilon
+from ._representation import catalogue_match
+from ._taylor import numpy_taylor_integrator, quadratic_field, scalar_taylor_integrator
+from ._validate import (
+    check_inertia, check_points, check_potential, check_structure_constants, check_theta, check_upsilon,
+)
 
 __all__ = ["METHODS", "TAYLOR_SCALAR_MAX", "NumpyModel", "integrate_fast", "method"]
 
@@ -61,8 +67,6 @@ class NumpyModel:
     """A validated model in float64 with batched body-system formulas."""
 
     def __init__(self, f, theta, upsilon, inertia, potential):
-        from ._algebra import LieAlgebra
-
         self.algebra = f if isinstance(f, LieAlgebra) else None
         f = check_structure_constants(f)
         n = f.shape[0]
@@ -351,15 +355,11 @@ def integrate_fast(model: NumpyModel, meth: Method, x0, pi0, t, nsteps: int, *, 
         y0 = pi0 if Gamma0 is None else np.concatenate([pi0, Gamma0])
         h = t / nsteps
         if meth.kind == "taylor" and N > TAYLOR_SCALAR_MAX:
-            from ._taylor import numpy_taylor_integrator
-
             obs = None if observe is None else (
                 lambda k, y: observe(k, y[:n], None if Gamma0 is None else y[n:], None))
             res = numpy_taylor_integrator(model, meth.order)(y0, h, nsteps, observe=obs)
         else:
             if meth.kind == "taylor":
-                from ._taylor import scalar_taylor_integrator
-
                 run = scalar_taylor_integrator(model, meth.order)
             else:
                 run = scalar_rk_integrator(model, (DOP853.A, DOP853.b, DOP853.c))
@@ -448,9 +448,7 @@ def _rep_of(model):
     """The faithful matrix representation ``E_a`` of the model's algebra (catalogue), or None."""
     alg = model.algebra
     if alg is None:
-        from ._flow_reference import _catalogue_match
-
-        alg = _catalogue_match(model.f)
+        alg = catalogue_match(model.f)
     return None if alg is None or alg.rep is None else np.asarray(alg.rep, dtype=complex)
 
 
@@ -529,8 +527,6 @@ def _field_lines(model, pfx: str, ys: list[str]) -> list[str]:
     """Statements ``{pfx}c = ...`` for the body field as a quadratic polynomial in the names ``ys``
     (:func:`refimpl._taylor.quadratic_field`: ``w = I^-1 pi`` eliminated, equal monomials merged --
     e.g. ``2 p1 p2 - p2 p1 = p1 p2`` for a symmetric top -- zero coefficients dropped)."""
-    from ._taylor import quadratic_field
-
     F = quadratic_field(model)
     lines = []
     for c in range(F.d):
@@ -630,8 +626,6 @@ def numpy_rhs_inplace(model):
 
     d = 2 * model.n if model.gravity else model.n
     y = [f"y[{i}]" for i in range(d)]
-    from ._taylor import quadratic_field
-
     F = quadratic_field(model)   # w = I^-1 pi eliminated, equal monomials merged
     outs = {c: [(q, (y[i], y[j])) for (i, j), q in F.quad[c].items()] + [(q, (y[i],)) for i, q in F.lin[c].items()]
             for c in range(d)}
@@ -675,3 +669,137 @@ def numpy_rhs_inplace(model):
     ns: dict = {"_np": _np, "_buf": _buf}
     exec(compile("\n".join(src), "<tstarg numpy rhs in place>", "exec"), ns)  # noqa: S102 - numbers only
     return ns["rhs"]
+
+
+# ------------------------------------------------------------ protocol flow and trajectories
+def check_tolerance(tol) -> float:
+    try:
+        v = float(tol)
+    except (TypeError, ValueError):
+        raise ValueError(f"tol must be a finite number > 0, got {tol!r}") from None
+    if not np.isfinite(v) or v <= 0:
+        raise ValueError(f"tol must be a finite number > 0, got {tol!r}")
+    return v
+
+
+def _default_method(model: NumpyModel) -> Method:
+    return METHODS["dop853"] if model.upsilon_zero else METHODS["gauss6"]
+
+
+def fast_flow(f, theta, upsilon, inertia, potential, x0, pi0, t, *, method_name: str | None = None,
+              steps: int | None = None, tol: float = 1e-10):
+    """Protocol method 3, batched: ``(x, pi)`` at time ``t`` for every initial point.
+
+    ``method_name``: a key of :data:`METHODS` (default: ``dop853``, or
+    ``gauss6`` when ``Upsilon != 0``). ``steps``: a fixed step count; by
+    default steps are doubled from ``8 + 4 t`` until the runs with ``N`` and
+    ``2N`` steps differ by at most ``tol * (2^p - 1)`` (Richardson: the
+    error of the finer run is then below ``tol``) on every trajectory.
+    Raises ``ValueError`` for bad ``t``/``tol``, starting points on the
+    degenerate set (naming them), or an end point outside the chart.
+    """
+    tv = check_time(t)
+    tol = check_tolerance(tol)
+    model = NumpyModel(f, theta, upsilon, inertia, potential)
+    n = model.n
+    xa, pa = check_points(x0, pi0, n, batched=True)
+    shape = xa.shape[:-1]
+    X = np.ascontiguousarray(xa.reshape(-1, n).T)
+    P = np.ascontiguousarray(pa.reshape(-1, n).T)
+    _check_start(model, P)
+    meth = METHODS[method_name] if method_name is not None else _default_method(model)
+    if method_name is not None:
+        method(method_name)
+    if tv == 0:
+        return xa.copy(), pa.copy()
+    if steps is not None:
+        if not isinstance(steps, (int, np.integer)) or steps < 1:
+            raise ValueError(f"steps must be a positive int, got {steps!r}")
+        out = integrate_fast(model, meth, X, P, tv, int(steps), system="full")
+    else:
+        N = int(8 + 4 * np.ceil(tv))
+        prev = integrate_fast(model, meth, X, P, tv, N, system="full")
+        for _ in range(14):
+            N *= 2
+            out = integrate_fast(model, meth, X, P, tv, N, system="full")
+            diff = np.max(np.abs(np.concatenate([out["pi"] - prev["pi"], _xdiff(out, prev)])), axis=0)
+            if np.all(diff <= tol * (2 ** meth.order - 1)):
+                break
+            prev = out
+        else:
+            raise ValueError(f"fast_flow: tolerance {tol} not reached with {N} steps")
+    bad_pi = ~np.all(np.isfinite(out["pi"]), axis=0)
+    if np.any(bad_pi):
+        raise ValueError(
+            f"fast_flow: trajectories {np.flatnonzero(bad_pi)[:10].tolist()} became non-finite before t = {tv} "
+            "(they reached the degenerate set Pi_1, vier12, or diverged); no point is dropped")
+    x = out["x"]
+    if np.any(~np.isfinite(x)):
+        bad = np.argwhere(~np.all(np.isfinite(x), axis=0)).ravel()
+        raise ValueError(
+            f"fast_flow: the configuration of trajectories {bad[:10].tolist()} left the chart of exponential "
+            "coordinates and no representation is available to re-express g(t) = exp(x); use "
+            "fast_trajectory for the group element")
+    return x.T.reshape(shape + (n,)), out["pi"].T.reshape(shape + (n,))
+
+
+def _xdiff(a, b):
+    if a.get("Ad") is not None:
+        return (a["Ad"] - b["Ad"]).reshape(a["Ad"].shape[0], -1).T
+    return a["x"] - b["x"]
+
+
+def _check_start(model: NumpyModel, P: np.ndarray) -> None:
+    """Starting points on the degenerate set (``Delta = 0`` to float64 accuracy, vier12) are refused."""
+    if model.upsilon_zero:
+        return
+    res = _fast.FastCore().poisson_batch(model.f, model.theta, model.upsilon, np.zeros_like(P.T), P.T)
+    if np.any(res.degenerate):
+        idx = np.argwhere(res.degenerate).ravel()
+        raise ValueError(
+            f"initial point(s) {idx[:10].tolist()} lie on the degenerate set Pi_1 (Delta = det Phi = 0 to float64 "
+            f"accuracy, vier12): no flow exists there")
+
+
+def fast_trajectory(f, theta, upsilon, inertia, potential, x0, pi0, t_end, samples: int, steps_per_sample: int,
+                    *, method_name=None, system: str = "full", progress=None):
+    """A batch ``(N, n)`` sampled at ``samples`` equally spaced times in ``[0, t_end]``.
+
+    Returns a dict: ``times`` (T,), ``pi`` (T, N, n), ``Gamma`` (T, N, n) or
+    None, ``x`` (T, N, n) (NaN outside the chart when no representation is
+    known) or None for ``system="body"``, and the method used.
+    """
+    tv = check_time(t_end, "t_end")
+    if tv == 0:
+        raise ValueError("t_end must be > 0 for a trajectory")
+    if samples < 2 or steps_per_sample < 1:
+        raise ValueError(f"samples must be >= 2 and steps_per_sample >= 1, got {samples}, {steps_per_sample}")
+    model = NumpyModel(f, theta, upsilon, inertia, potential)
+    n = model.n
+    xa, pa = check_points(x0, pi0, n, batched=True)
+    X = np.ascontiguousarray(np.atleast_2d(xa).reshape(-1, n).T)
+    P = np.ascontiguousarray(np.atleast_2d(pa).reshape(-1, n).T)
+    _check_start(model, P)
+    meth = METHODS[method_name] if method_name else _default_method(model)
+    nsteps = (samples - 1) * steps_per_sample
+    rec = {"pi": [], "Gamma": [], "x": []}
+
+    def observe(k, pi, G, x):
+        if k % steps_per_sample == 0:
+            rec["pi"].append(pi.T.copy())
+            if G is not None:
+                rec["Gamma"].append(G.T.copy())
+            if x is not None:
+                rec["x"].append(np.asarray(x).T.copy())
+            if progress is not None:
+                progress(k // steps_per_sample, samples - 1)
+
+    G0 = None
+    if model.gravity:
+        adx = np.einsum("aN,mab->Nmb", X, model.f)
+        G0 = np.einsum("Nmb,m->bN", _fast._expm_batch(adx, su2=model.su2), model.gamma).T
+    observe(0, P, None if G0 is None else G0.T, X if system == "full" else None)
+    integrate_fast(model, meth, X, P, tv, nsteps, system=system, observe=observe)
+    return {"times": np.linspace(0, tv, samples), "pi": np.stack(rec["pi"]), "method": meth,
+            "Gamma": np.stack(rec["Gamma"]) if rec["Gamma"] else None,
+            "x": np.stack(rec["x"]) if rec["x"] else None}

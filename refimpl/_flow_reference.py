@@ -36,23 +36,16 @@ import numpy as np
 
 from ._algebra import LieAlgebra
 from ._validate import check_inertia, check_potential
-from .reference import DegeneratePointError, Reference, _as_float, _to_mpf
+from ._errors import DegeneratePointError
+from ._integrators import gbs_mp
+from ._reference_core import ReferenceCore as Reference
+from ._reference_core import _as_float, _to_mpf
+from ._representation import catalogue_match
 
 __all__ = ["ModelMP", "ReferenceTrajectory", "reference_trajectory", "reference_flow", "euler_top_closed_form"]
 
 GUARD = 15
 REBASE = mpmath.mpf(1)  # ||ad_x||_1 above which the chart is re-based (well inside |eig| < 2 pi)
-
-
-def _catalogue_match(f):
-    """The catalogue algebra with exactly these structure constants (for its representation), or None."""
-    from ._catalogue import CATALOGUE_NAMES, catalogue
-
-    for name in CATALOGUE_NAMES:
-        alg = catalogue(name)
-        if alg.f.shape == f.shape and np.array_equal(alg.f, f) and alg.rep is not None:
-            return alg
-    return None
 
 
 def check_time(t, name: str = "t") -> float:
@@ -78,7 +71,7 @@ class ModelMP:
         pot = check_potential(None if potential is None else {
             k: (_as_float(v, f"potential[{k!r}]") if k != "kind" else v) for k, v in potential.items()}, n)
         self.n = n
-        self.algebra = f if isinstance(f, LieAlgebra) else _catalogue_match(np.asarray(_as_float(f, "f")))
+        self.algebra = f if isinstance(f, LieAlgebra) else catalogue_match(np.asarray(_as_float(f, "f")))
         self.Fm = Fm
         self.f = [[[Fm[m][a, b] for b in range(n)] for a in range(n)] for m in range(n)]
         self.f_nz = [(m, a, b, Fm[m][a, b]) for m in range(n) for a in range(n) for b in range(n) if Fm[m][a, b] != 0]
@@ -394,7 +387,6 @@ def _run(model: ModelMP, system: str, x0, pi0, times, tol, k):
     )
 
 
-from ._integrators import gbs_mp  # noqa: E402  (after the helpers it uses)
 
 
 def _order_for(dps: int) -> int:

@@ -12,10 +12,12 @@ from __future__ import annotations
 
 from typing import Any
 
-import mpmath
 import numpy as np
 
+from . import _fast_kernels as fast
 from ._algebra import LieAlgebra
+from ._reference_core import ReferenceCore
+from ._validate import check_structure_constants
 
 __all__ = ["frames"]
 
@@ -29,9 +31,6 @@ def frames(f: Any, x: Any, *, dps: int | None = None, route: str = "series") -> 
     (``"series"`` or ``"vanloan"``); exact inputs are honoured.
     """
     if dps is None:
-        from . import fast
-        from ._validate import check_structure_constants
-
         ff = check_structure_constants(f.f if isinstance(f, LieAlgebra) else f)
         n = ff.shape[0]
         xa = np.asarray(x, dtype=float)
@@ -47,9 +46,7 @@ def frames(f: Any, x: Any, *, dps: int | None = None, route: str = "series") -> 
         Ad = fast._expm_batch(adx, su2=False)
         K = np.linalg.inv(Ad).transpose(0, 2, 1)
         return {k: v.reshape(shape + (n, n)) for k, v in {"A": A, "L": L, "Ad": Ad, "K": K}.items()}
-    from .reference import Reference
-
-    ref = Reference(dps)
+    ref = ReferenceCore(dps)
     with ref._prec():
         F = ref._algebra_mp(f)
         xv = ref._vec(x, len(F), "x")

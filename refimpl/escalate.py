@@ -82,7 +82,9 @@ from ._validate import (
     check_theta,
     check_upsilon,
 )
-from .reference import DegeneratePointError, Reference
+from . import fast as _fast_module
+from ._errors import DegeneratePointError
+from .reference import Reference
 
 __all__ = ["LADDER_STEP", "FieldWithin", "PoissonWithin", "delta_exact", "poisson_within", "vector_field_within"]
 
@@ -148,11 +150,7 @@ def _check_dps(dps, max_dps) -> None:
 def _fast_impl(fast):
     if fast is not None:
         return fast
-    from . import (
-        fast as _fast_module,  # looked up at call time: a replaced implementation is honoured
-    )
-
-    return _fast_module.implementation
+    return _fast_module.implementation  # looked up at call time: a replaced implementation is honoured
 
 
 def _model(f, theta, upsilon):

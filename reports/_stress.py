@@ -51,7 +51,6 @@ finite) and for the value returned after escalation.
 
 from __future__ import annotations
 
-import importlib
 import math
 import time
 from dataclasses import dataclass, field

@@ -35,7 +35,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._catalogue import catalogue
-from ._flow_fast import METHODS, NumpyModel, integrate_fast
+from ._flow_fast import METHODS, NumpyModel, check_tolerance, fast_trajectory, integrate_fast
+from ._flow_reference import check_time
+from ._invariants import casimirs, energy, momentum_map
 
 __all__ = ["Scene", "Plan", "load_scene", "parse_scene", "plan", "run_scene", "OUTPUTS"]
 
@@ -153,8 +155,6 @@ def parse_scene(d: dict) -> Scene:
         else:
             raise ValueError(f"scene keys 'x0' and 'pi0' must have the same number of points, "
                              f"got {x0.shape} and {pi0.shape}")
-    from ._flow_reference import check_time
-    from .flows import check_tolerance
 
     t_end = check_time(d["t_end"], "t_end")
     if t_end == 0:
@@ -254,7 +254,6 @@ def _pilot_steps(model, meth, scene, system) -> int:
 
 def run_scene(scene: Scene, the_plan: Plan | None = None, progress=None) -> dict:
     """Execute the plan; returns times and the requested outputs (arrays over (T, N, ...))."""
-    from .flows import casimirs, energy, fast_trajectory, momentum_map
 
     p = the_plan or plan(scene)
     f_in = scene.algebra if scene.algebra is not None else scene.f

@@ -1,0 +1,697 @@
+"""Kernels of the fast implementation (float64, batched); the mathematics and the error model are
+stated in :mod:`refimpl.fast`, the public face built on these kernels."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from ._errors import DegeneratePointError
+from ._validate import (
+    check_inertia, check_points, check_potential, check_structure_constants, check_theta, check_upsilon,
+)
+
+__all__ = ["FastCore", "PoissonBatch", "FieldBatch", "DegeneratePointError", "C_P"]
+
+EPS = np.finfo(float).eps
+C_P = 16.0          # constant of the error model, see the module docstring
+CHUNK = 16384       # points per chunk of the su(2) kernel (arrays of 128 KiB stay in cache)
+TWO_PI = 2 * np.pi
+
+
+
+
+@dataclass(frozen=True)
+class PoissonBatch:
+    """Poisson tensors of a batch and their per-point diagnostics (see the module docstring).
+
+    ``P`` has shape ``(..., 2n, 2n)`` for ``layout="points"`` and
+    ``(2n, 2n, ...)`` for ``layout="components"``.
+    """
+
+    P: np.ndarray
+    cond_phi: np.ndarray
+    cond_data: np.ndarray
+    error_bound: np.ndarray
+    degenerate: np.ndarray
+    path: str
+
+
+@dataclass(frozen=True)
+class FieldBatch:
+    xdot: np.ndarray
+    pidot: np.ndarray
+    cond_phi: np.ndarray
+    cond_data: np.ndarray
+    error_bound: np.ndarray
+    degenerate: np.ndarray
+    path: str
+
+
+# ------------------------------------------------------------ model analysis
+@lru_cache(maxsize=1)
+def _eps3() -> np.ndarray:
+    e = np.zeros((3, 3, 3))
+    for a, b, c in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+        e[a, b, c] = 1.0
+        e[a, c, b] = -1.0
+    return e
+
+
+def _is_su2(f: np.ndarray) -> bool:
+    return f.shape == (3, 3, 3) and bool(np.array_equal(f, _eps3()))
+
+
+@lru_cache(maxsize=8)
+def _bernoulli_even(k_max: int) -> np.ndarray:
+    """``b_k = B_2k / (2k)!`` for ``k = 1..k_max`` (exact rationals rounded once)."""
+    import sympy
+
+    return np.array([float(sympy.bernoulli(2 * k) / sympy.factorial(2 * k)) for k in range(1, k_max + 1)])
+
+
+def _series_terms(r: float) -> int:
+    """Smallest K with ``3.3 r^(2K+2) / (1 - r^2) <= eps/8`` (tail of the B series)."""
+    if r <= 0:
+        return 1
+    target = EPS / 8 * (1 - r * r) / 3.3
+    return max(1, int(np.ceil((np.log(target) / np.log(r) - 2) / 2)))
+
+
+# ------------------------------------------------------------- su(2) kernel
+def _su2_frame_coeffs(t2: np.ndarray, need_k: bool = True):
+    """``c(t)``, ``lam = (t/2)/sin(t/2)`` (so det L = lam^2) and ``k = lam^2 (t - sin t)/t^3``.
+
+    ``k = (t - sin t) / (2 t (1 - cos t))`` is the coefficient that P_xx needs.
+    One transcendental per point: with ``h = t/2`` and ``u = tan(h/2)``,
+    ``sin h = 2u/(1+u^2)``, ``cos h = (1-u^2)/(1+u^2)``, hence
+    ``h cot h = r (1 - u^2)`` and ``lam = r (1 + u^2)`` with ``r = h/(2u)``, and
+    ``k = (t (1+u^2)^2 - 4u(1-u^2)) / (16 t u^2)``.
+    """
+    t = np.sqrt(t2)
+    # Below t = 1/4 the closed forms lose ~1/t^2 digits to cancellation; the
+    # series' first omitted term there is < 1e-18 relative.
+    small = t < 0.25
+    ts = np.where(small, 1.0, t)
+    h = 0.5 * ts
+    u = np.tan(0.5 * h)
+    u2 = u * u
+    r = h / (u + u)
+    om = 1.0 - u2
+    v = 1.0 + u2
+    c = 1.0 - r * om
+    tts = ts * ts
+    c /= tts
+    lam = r * v
+    k = None
+    if need_k:
+        k = ts * v * v
+        k -= 4.0 * u * om
+        k /= 16.0 * ts * u2
+    if small.any():
+        w = t2[small]
+        # Taylor series at t = 0 in w = t^2 (sympy's exact coefficients; the
+        # first omitted term is below 1e-18 for t < 1/4):
+        c[small] = 1 / 12 + w * (1 / 720 + w * (1 / 30240 + w * (1 / 1209600 + w * (1 / 47900160 + w * (691 / 1307674368000)))))
+        # lam^2 = ((t/2)/sin(t/2))^2
+        lam[small] = np.sqrt(1 + w * (1 / 12 + w * (1 / 240 + w * (1 / 6048 + w * (1 / 172800 + w * (1 / 5322240))))))
+        if need_k:
+            # (t - sin t) / (2 t (1 - cos t))
+            k[small] = 1 / 6 + w * (1 / 180 + w * (1 / 5040 + w * (1 / 151200 + w * (1 / 4790016 + w * (691 / 108972864000)))))
+    return c, lam, k, t
+
+
+def _write_hat(dst, v) -> None:
+    """``dst[:3, :3] = [v]_x`` (``[v]_x w = v x w``) for components-first ``v`` of shape ``(3, N)``."""
+    dst[0, 0] = dst[1, 1] = dst[2, 2] = 0.0
+    np.negative(v[2], out=dst[0, 1])
+    np.copyto(dst[0, 2], v[1])
+    np.negative(v[0], out=dst[1, 2])
+    np.copyto(dst[1, 0], v[2])
+    np.negative(v[1], out=dst[2, 0])
+    np.copyto(dst[2, 1], v[0])
+
+
+def _su2_poisson_chunk(x, p, xi, tau, out, cond, sens, bound, degen):
+    """One chunk of the su(2) closed form. ``x``, ``p``: (3, m); ``out``: (6, 6, m)."""
+    x0, x1, x2 = x[0], x[1], x[2]
+    qv = p + xi[:, None] if xi is not None else p
+    q0, q1, q2 = qv[0], qv[1], qv[2]
+    t2 = x0 * x0
+    t2 += x1 * x1
+    t2 += x2 * x2
+    c, lam, k, t = _su2_frame_coeffs(t2, need_k=tau is not None)
+    # L = d 1 + [x]_x / 2 + c x x^T (d = 1 - c t^2 = (t/2) cot(t/2)), written straight into
+    # the P_xp block; with Upsilon it is scaled by 1/C1 on the way.
+    d = 1.0 - c * t2
+    if tau is not None:
+        tv = np.asarray(tau, dtype=float)
+        qt = tv @ qv                                   # q.tau
+        c1 = 1.0 - qt
+        ic = 1.0 / c1
+        dd, cc, hh = d * ic, c * ic, 0.5 * ic
+    else:
+        dd, cc, hh = d, c, 0.5
+    cx0, cx1, cx2 = cc * x0, cc * x1, cc * x2
+    hx0, hx1, hx2 = hh * x0, hh * x1, hh * x2
+    s01, s02, s12 = cx0 * x1, cx0 * x2, cx1 * x2
+    np.multiply(cx0, x0, out=out[0, 3])
+    out[0, 3] += dd
+    np.multiply(cx1, x1, out=out[1, 4])
+    out[1, 4] += dd
+    np.multiply(cx2, x2, out=out[2, 5])
+    out[2, 5] += dd
+    np.subtract(s01, hx2, out=out[0, 4])
+    np.add(s01, hx2, out=out[1, 3])
+    np.add(s02, hx1, out=out[0, 5])
+    np.subtract(s02, hx1, out=out[2, 3])
+    np.subtract(s12, hx0, out=out[1, 5])
+    np.add(s12, hx0, out=out[2, 4])
+    # frame condition: grows as |x| -> 2 pi (chart boundary); lam >= 1
+    frame = t * (-1.0 / TWO_PI)
+    frame += 1.0
+    np.maximum(frame, EPS, out=frame)
+    if tau is None:
+        for i in range(3):
+            for j in range(3):
+                np.negative(out[i, 3 + j], out=out[3 + j, i])
+        out[:3, :3] = 0.0
+        out[3, 3] = out[4, 4] = out[5, 5] = 0.0
+        np.negative(q2, out=out[3, 4])
+        np.copyto(out[3, 5], q1)
+        np.negative(q0, out=out[4, 5])
+        np.copyto(out[4, 3], q2)
+        np.negative(q1, out=out[5, 3])
+        np.copyto(out[5, 4], q0)
+        cond[...] = 1.0
+        sens[...] = 1.0
+        # |P| <= max(||L||_max <= lam^2, |q|_max): bound = 3 C_P eps max(lam^2, |q|, 1) / frame
+        qa = np.abs(q0)
+        np.maximum(qa, np.abs(q1), out=qa)
+        np.maximum(qa, np.abs(q2), out=qa)
+        lam *= lam
+        np.maximum(lam, qa, out=lam)
+        lam *= C_P * 3 * EPS
+        np.divide(lam, frame, out=bound)
+        degen[...] = False
+        return
+    # ---- Upsilon = tau.eps: Phi = C1 + tau q^T, Psi^-1 = (1 - q tau^T)/C1 (section cinq)
+    aic = np.abs(ic)
+    Lb = out[:3, 3:]                                   # (3, 3, m) view holding L / C1
+    lq = Lb[:, 0] * q0                                 # (L q) / C1
+    lq += Lb[:, 1] * q1
+    lq += Lb[:, 2] * q2
+    # P_xp = (L - (L q) tau^T) / C1 ; P_px = -P_xp^T
+    Lb -= lq[:, None, :] * tv[None, :, None]
+    np.negative(Lb.transpose(1, 0, 2), out=out[3:, :3])
+    # P_pp = [q]_x / C1
+    qi = qv * ic
+    _write_hat(out[3:, 3:], qi)
+    # P_xx = det(L) [phi1(K) tau]_x / C1 with phi1(K) tau = tau + a1 x*tau + a2 x*(x*tau),
+    # a1 = 1/(2 lam^2), a2 = (t - sin t)/t^3. With det L = lam^2:
+    #   det(L) phi1(K) tau = d tau + k (x.tau) x + (x*tau)/2,
+    # since lam^2 (1 - a2 t^2) = lam^2 sin t / t = (t/2) cot(t/2) = d and k = lam^2 a2.
+    xv = x
+    cross = np.array([[0.0, tv[2], -tv[1]], [-tv[2], 0.0, tv[0]], [tv[1], -tv[0], 0.0]])  # cross @ x = x * tau
+    w = (0.5 * cross) @ xv
+    k *= tv @ xv
+    w += k * xv
+    w += d * tv[:, None]
+    w *= ic
+    _write_hat(out[:3, :3], w)
+    # cond_F(Phi)/3 with Phi = C1 + tau q^T: ||Phi||_F^2 = C1 (3 C1 + 2 q.tau) + |tau|^2 |q|^2,
+    # ||Phi^-1||_F^2 = (3 - 2 q.tau + |tau|^2 |q|^2) / C1^2.
+    tn2 = float(tv @ tv)
+    tn = np.sqrt(tn2)
+    qn2 = np.einsum("im,im->m", qv, qv)
+    tq = qn2 * tn2
+    nf2 = 3.0 * c1
+    nf2 += 2.0 * qt
+    nf2 *= c1
+    nf2 += tq
+    ni2 = tq - 2.0 * qt
+    ni2 += 3.0
+    np.sqrt(nf2 * ni2, out=cond)
+    cond *= aic
+    cond *= 1.0 / 3.0
+    # cond_data = ||Phi^-1||_F (1 + ||S||_F ||U||_F)/sqrt(3), ||[v]_x||_F = sqrt(2)|v|.
+    # It dominates cond_phi here (||Phi||_F <= sqrt(3)|C1| + |tau||q| and |C1| <= 1 + |tau||q|),
+    # so it alone enters the bound.
+    qn = np.sqrt(qn2)
+    np.sqrt(ni2, out=sens)
+    g = qn * (2.0 * tn)
+    g += 1.0
+    g *= aic * (1.0 / np.sqrt(3.0))
+    sens *= g
+    # |P| <= (lam^2 (1 + |tau| lam) + lam (1 + |q||tau|) + |q|) / |C1|  (blockwise norms)
+    sc = lam * tn
+    sc += 1.0
+    sc *= lam * lam
+    sc += lam * (1 + qn * tn)
+    sc += qn
+    sc *= aic
+    np.maximum(sc, 1.0, out=sc)
+    sc *= sens
+    sc /= frame
+    np.multiply(sc, C_P * 3 * EPS, out=bound)
+    bad = ~(sens < 1.0 / (3 * C_P * EPS))
+    bad |= c1 == 0
+    np.copyto(degen, bad)
+    if bad.any():
+        out[:, :, bad] = np.nan
+        bound[bad] = np.inf
+        cond[bad] = np.inf
+        sens[bad] = np.inf
+
+
+def _su2_theta_to_xi(theta: np.ndarray | None) -> np.ndarray | None:
+    """Theta_ab = -xi_k eps_kab  =>  xi_0 = -Theta_12, xi_1 = -Theta_20, xi_2 = -Theta_01."""
+    if theta is None:
+        return None
+    return np.array([-theta[1, 2], -theta[2, 0], -theta[0, 1]])
+
+
+def _su2_upsilon_to_tau(u: np.ndarray | None):
+    """Upsilon^mn = tau_l eps_lmn  =>  tau_0 = U_12, tau_1 = U_20, tau_2 = U_01."""
+    if u is None:
+        return None
+    return (float(u[1, 2]), float(u[2, 0]), float(u[0, 1]))
+
+
+# ------------------------------------------------------------ generic kernel
+def _ps_poly(W: np.ndarray, coeffs: np.ndarray, eye: np.ndarray) -> np.ndarray:
+    """``sum_k coeffs[k] W^k`` (k = 0..K) by Paterson-Stockmeyer, batched over W's leading axis.
+
+    The powers ``W^0..W^(s-1)`` are combined into all ``K//s + 1`` blocks with
+    one ``tensordot``; Horner in ``W^s`` then costs one matmul per block.
+    """
+    K = len(coeffs) - 1
+    s = max(1, int(np.ceil(np.sqrt(K + 1))))
+    nblocks = K // s + 1
+    pows = np.empty((s,) + W.shape)
+    pows[0] = eye
+    if s > 1:
+        pows[1] = W
+    for i in range(2, s):
+        np.matmul(pows[i - 1], W, out=pows[i])
+    Ws = pows[s - 1] @ W if s > 1 else W
+    cmat = np.zeros((nblocks, s))
+    cmat.reshape(-1)[: K + 1] = coeffs
+    blocks = np.tensordot(cmat, pows, axes=(1, 0))
+    acc = blocks[nblocks - 1]
+    for j in range(nblocks - 2, -1, -1):
+        acc = acc @ Ws
+        acc += blocks[j]
+    return acc
+
+
+def _frame_series(A: np.ndarray, r: float) -> np.ndarray:
+    """``L = B(A)`` by the even Bernoulli series; ``r`` bounds ``||A||_2 / 2 pi`` over the batch."""
+    n = A.shape[-1]
+    eye = np.eye(n)
+    K = _series_terms(r)
+    coeffs = np.concatenate([[1.0], _bernoulli_even(K)])
+    return _ps_poly(A @ A, coeffs, eye) + 0.5 * A
+
+
+def _phi1_scaling_squaring(M: np.ndarray) -> np.ndarray:
+    """``phi1(M)`` by Taylor (degree 16) on ``M / 2^s`` and ``phi1(2X) = phi1(X)(e^X + 1)/2``."""
+    n = M.shape[-1]
+    eye = np.eye(n)
+    norm = float(np.max(np.sqrt(np.sum(M * M, axis=(-2, -1))))) if M.size else 0.0
+    s = max(0, int(np.ceil(np.log2(max(norm, 1e-300) / 0.25))))
+    X = M / 2.0**s
+    coeffs = np.array([1.0 / np.prod(np.arange(2, k + 2, dtype=float)) for k in range(17)])
+    T = _ps_poly(X, coeffs, eye)
+    E = eye + X @ T
+    for i in range(s):
+        T = 0.5 * (T @ (E + eye))
+        if i < s - 1:
+            E = E @ E
+    return T
+
+
+SERIES_BINS = (0.25, 0.45, 0.7)  # bins of r = ||ad_x||_2 / 2pi summed by the Bernoulli series
+
+
+def _frames_generic(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``L(g, e)`` for a batch of ``ad_x`` (N, n, n), and ``r >= ||ad_x||_2 / 2 pi`` per point.
+
+    ``||A||_2 <= min(||A||_F, sqrt(||A||_1 ||A||_inf))``. Points with ``r < 0.7`` use the
+    Bernoulli series, grouped in bins of ``r`` so each bin sums only the terms it
+    needs; the rest use scaling and squaring of phi1 and an inverse.
+    """
+    fro = np.sqrt(np.sum(A * A, axis=(-2, -1)))
+    n1 = np.max(np.sum(np.abs(A), axis=-2), axis=-1)
+    ninf = np.max(np.sum(np.abs(A), axis=-1), axis=-1)
+    r = np.minimum(fro, np.sqrt(n1 * ninf)) / TWO_PI
+    L = np.empty_like(A)
+    lo = -1.0
+    for hi in SERIES_BINS:
+        sel = (r > lo) & (r <= hi)
+        if sel.any():
+            L[sel] = _frame_series(A[sel], float(r[sel].max()))
+        lo = hi
+    rest = r > SERIES_BINS[-1]
+    if rest.any():
+        phi = _phi1_scaling_squaring(-A[rest])
+        L[rest] = _inv_batch(phi)
+    return L, r
+
+
+def _inv_batch(M: np.ndarray) -> np.ndarray:
+    try:
+        return np.linalg.inv(M)
+    except np.linalg.LinAlgError:
+        out = np.empty_like(M)
+        for k in range(M.shape[0]):
+            try:
+                out[k] = np.linalg.inv(M[k])
+            except np.linalg.LinAlgError:
+                out[k] = np.nan
+        return out
+
+
+def _frob(M: np.ndarray) -> np.ndarray:
+    return np.sqrt(np.sum(M * M, axis=(-2, -1)))
+
+
+def _summand_norms(f, theta, x, p):
+    """``||sum_m |pi_m| |f^m| + |Theta| ||_F`` and ``||sum_a |x^a| |f_a| ||_F`` per point.
+
+    Forming ``S = pi.f - Theta`` (vier3) and ``ad_x = x.f`` in float64 rounds each entry by up to
+    ``n eps`` times the magnitudes of its summands; under cancellation (an ill-conditioned basis,
+    ``LieAlgebra.change_basis``) these exceed ``||S||``, ``||ad_x||`` by any factor.
+    """
+    N, n = x.shape
+    absf = np.abs(f)
+    Sabs = (np.abs(p) @ absf.reshape(n, n * n)).reshape(N, n, n)
+    if theta is not None:
+        Sabs += np.abs(theta)
+    Aabs = (np.abs(x) @ absf.transpose(1, 0, 2).reshape(n, n * n)).reshape(N, n, n)
+    return _frob(Sabs), _frob(Aabs)
+
+
+GENERIC_CHUNK = 2048  # points per chunk of the generic path: its (chunk, n, n) stacks stay in cache
+
+
+def _generic_poisson(f, theta, upsilon, x, p, out=None):
+    """Batch-first generic path. ``x``, ``p``: (N, n). Returns P (N, 2n, 2n), cond, sens, bound, degen."""
+    N, n = x.shape
+    P = np.empty((N, 2 * n, 2 * n)) if out is None else out
+    cond, sens, bound, degen = np.empty(N), np.empty(N), np.empty(N), np.empty(N, dtype=bool)
+    for s in range(0, N, GENERIC_CHUNK):
+        e = min(N, s + GENERIC_CHUNK)
+        _generic_poisson_chunk(f, theta, upsilon, x[s:e], p[s:e], P[s:e], cond[s:e], sens[s:e], bound[s:e], degen[s:e])
+    return P, cond, sens, bound, degen
+
+
+def _generic_poisson_chunk(f, theta, upsilon, x, p, P, cond_out, sens_out, bound_out, degen_out):
+    N, n = x.shape
+    A = (x @ f.transpose(1, 0, 2).reshape(n, n * n)).reshape(N, n, n)
+    L, r = _frames_generic(A)
+    S = (p @ f.reshape(n, n * n)).reshape(N, n, n)
+    if theta is not None:
+        S -= theta
+    Sabs, Aabs = _summand_norms(f, theta, x, p)
+    if upsilon is None:
+        P[:, :n, :n] = 0.0
+        P[:, :n, n:] = L
+        P[:, n:, :n] = -L.transpose(0, 2, 1)
+        P[:, n:, n:] = -S
+        cond = np.ones(N)
+        sens = np.ones(N)
+    else:
+        # U @ S_k for every k as one BLAS GEMM on the stacked columns (a broadcast matmul is slow)
+        Psi = (upsilon @ S.transpose(1, 0, 2).reshape(n, -1)).reshape(n, N, n).transpose(1, 0, 2)
+        Psi += np.eye(n)
+        Psi_inv = _inv_batch(Psi)
+        with np.errstate(invalid="ignore", over="ignore"):
+            sens = _frob(Psi_inv) * (1 + _frob(S) * np.linalg.norm(upsilon)) / np.sqrt(n)
+        sens = np.where(np.isfinite(sens), sens, np.inf)
+        Pxp = L @ Psi_inv
+        Ppp = -(S @ Psi_inv)
+        Pxx = -((Pxp.reshape(-1, n) @ upsilon).reshape(N, n, n) @ L.transpose(0, 2, 1))
+        P[:, :n, :n] = 0.5 * (Pxx - Pxx.transpose(0, 2, 1))
+        P[:, :n, n:] = Pxp
+        P[:, n:, :n] = -Pxp.transpose(0, 2, 1)
+        P[:, n:, n:] = 0.5 * (Ppp - Ppp.transpose(0, 2, 1))
+        with np.errstate(invalid="ignore", over="ignore"):
+            cond = _frob(Psi) * _frob(Psi_inv) / n
+    cond = np.where(np.isfinite(cond), cond, np.inf)
+    frame = 1.0 / np.maximum(1.0 - np.minimum(r, 1.0), EPS)
+    with np.errstate(invalid="ignore", over="ignore"):
+        pmax = np.max(np.abs(P), axis=(-2, -1))
+        scale = np.maximum(pmax, 1.0)
+        eff = np.maximum(cond, sens)
+        if upsilon is None:
+            data = n * Sabs                                # G = [[0], [1]]: P_pp = -S
+        else:
+            # first order in dS: dP = G dS G^T, G = T (-W^-1)[:, :n] = -[[L U Phi^-1], [Phi^-1]] (vier9)
+            Phi_inv = Psi_inv.transpose(0, 2, 1)
+            data = Sabs * (_frob(L @ (upsilon @ Phi_inv)) ** 2 + _frob(Phi_inv) ** 2)
+        bound = C_P * n * EPS * frame * (eff * scale + data + Aabs * pmax)
+    degen = ~(eff * (n * C_P * EPS) < 1.0) | ~np.all(np.isfinite(L), axis=(-2, -1))
+    if degen.any():
+        P[degen] = np.nan
+        bound[degen] = np.inf
+        cond[degen] = np.inf
+        sens[degen] = np.inf
+    cond_out[...] = cond
+    sens_out[...] = sens
+    bound_out[...] = bound
+    degen_out[...] = degen
+
+
+# ----------------------------------------------------------------- the class
+class FastCore:
+    """The fast float64 implementation (protocol methods ``poisson_tensor``, ``hamiltonian_vector_field``).
+
+    Protocol contract (DESIGN.md): ``batched = True``; outputs carry the
+    leading axes of ``x`` and ``pi``; a degenerate point raises
+    :class:`DegeneratePointError` naming the points. The richer batch API,
+    :meth:`poisson_batch` and :meth:`vector_field_batch`, never raises for
+    degenerate points: it flags them and returns NaN there.
+    """
+
+    name = "tstarg-fast"
+    version = "0.1.0"
+    batched = True
+    precision_digits = 15.9  # float64
+
+    # -------------------------------------------------------- preparation
+    @staticmethod
+    def _model(f, theta, upsilon):
+        f = check_structure_constants(f)
+        n = f.shape[0]
+        th = check_theta(theta, f)
+        up = check_upsilon(upsilon, n)
+        return f, (None if not th.any() else th), (None if not up.any() else up)
+
+    def poisson_batch(self, f, theta, upsilon, x, pi, *, layout: str = "points", out: np.ndarray | None = None) -> PoissonBatch:
+        """Poisson tensors of a batch with ``cond_phi``, ``error_bound`` and ``degenerate`` per point.
+
+        ``layout="points"``: ``x``, ``pi`` of shape ``(..., n)``, ``P`` of shape
+        ``(..., 2n, 2n)``. ``layout="components"``: ``x``, ``pi`` of shape
+        ``(n, ...)`` and ``P`` of shape ``(2n, 2n, ...)`` -- the su(2) fast
+        path's native layout, with no transposes.
+
+        ``out``: an optional float64 C-contiguous array of ``P``'s shape to
+        write into (repeated calls then reuse memory instead of paying the
+        operating system's first-touch cost of a fresh 2n x 2n x N array).
+        """
+        f, th, up = self._model(f, theta, upsilon)
+        n = f.shape[0]
+        if layout == "components":
+            xa, pa = np.asarray(x, dtype=float), np.asarray(pi, dtype=float)
+            xa_pts, pa_pts = check_points(np.moveaxis(xa, 0, -1), np.moveaxis(pa, 0, -1), n, batched=True)
+            batch_shape = xa.shape[1:]
+        elif layout == "points":
+            xa_pts, pa_pts = check_points(x, pi, n, batched=True)
+            batch_shape = xa_pts.shape[:-1]
+        else:
+            raise ValueError(f"layout must be 'points' or 'components', got {layout!r}")
+        N = int(np.prod(batch_shape, dtype=int))
+        if _is_su2(f):
+            xc = np.ascontiguousarray(xa.reshape(3, N)) if layout == "components" else np.ascontiguousarray(xa_pts.reshape(N, 3).T)
+            pc = np.ascontiguousarray(pa.reshape(3, N)) if layout == "components" else np.ascontiguousarray(pa_pts.reshape(N, 3).T)
+            if layout == "components" and out is not None:
+                P = self._check_out(out, (6, 6) + batch_shape).reshape(6, 6, N)
+            else:
+                P = np.empty((6, 6, N))
+            cond, sens, bound, degen = np.empty(N), np.empty(N), np.empty(N), np.empty(N, dtype=bool)
+            xi, tau = _su2_theta_to_xi(th), _su2_upsilon_to_tau(up)
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                for s in range(0, N, CHUNK):
+                    e = min(N, s + CHUNK)
+                    _su2_poisson_chunk(xc[:, s:e], pc[:, s:e], xi, tau, P[:, :, s:e], cond[s:e], sens[s:e], bound[s:e], degen[s:e])
+            if layout == "points":
+                Pp = np.empty((N, 6, 6)) if out is None else self._check_out(out, batch_shape + (6, 6)).reshape(N, 6, 6)
+                np.copyto(Pp, np.moveaxis(P, -1, 0))
+                P = Pp.reshape(batch_shape + (6, 6))
+            else:
+                P = P.reshape((6, 6) + batch_shape)
+            path = "su2-closed-form" + ("" if up is not None else ", Upsilon = 0: no Phi")
+        else:
+            buf = None
+            if out is not None and layout == "points":
+                buf = self._check_out(out, batch_shape + (2 * n, 2 * n)).reshape(N, 2 * n, 2 * n)
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                P, cond, sens, bound, degen = _generic_poisson(f, th, up, xa_pts.reshape(N, n), pa_pts.reshape(N, n), out=buf)
+            if layout == "points":
+                P = P.reshape(batch_shape + (2 * n, 2 * n))
+            elif out is not None:
+                dst = self._check_out(out, (2 * n, 2 * n) + batch_shape)
+                np.copyto(dst.reshape(2 * n, 2 * n, N), np.moveaxis(P, 0, -1))
+                P = dst
+            else:
+                P = np.moveaxis(P, 0, -1).reshape((2 * n, 2 * n) + batch_shape)
+            path = "generic" + ("" if up is not None else ", Upsilon = 0: no Phi")
+        return PoissonBatch(
+            P=P, cond_phi=cond.reshape(batch_shape), cond_data=sens.reshape(batch_shape),
+            error_bound=bound.reshape(batch_shape),
+            degenerate=degen.reshape(batch_shape), path=path,
+        )
+
+    @staticmethod
+    def _check_out(out: np.ndarray, shape: tuple) -> np.ndarray:
+        if not isinstance(out, np.ndarray) or out.dtype != np.float64 or out.shape != shape or not out.flags.c_contiguous:
+            raise ValueError(f"out must be a C-contiguous float64 array of shape {shape}")
+        return out
+
+    # ------------------------------------------------------ vector field
+    def vector_field_batch(self, f, theta, upsilon, inertia, potential, x, pi) -> FieldBatch:
+        """``(xdot, pidot)`` of vier10/vier11 for a batch, with per-point diagnostics.
+
+        ``Omega = Psi^-1 (dK - U dV)``, ``pidot = Phi^-1 (-dV - S dK)``,
+        ``xdot = L(g, e) Omega``; ``dV_b = -Gamma_m f^m_bc L^c``,
+        ``Gamma = exp(ad_x)^T gamma`` (twee16). Degenerate points are NaN
+        and flagged.
+        """
+        f, th, up = self._model(f, theta, upsilon)
+        n = f.shape[0]
+        inertia = check_inertia(inertia, n)
+        pot = check_potential(potential, n)
+        xa, pa = check_points(x, pi, n, batched=True)
+        batch_shape = xa.shape[:-1]
+        N = int(np.prod(batch_shape, dtype=int))
+        X, Pm = xa.reshape(N, n), pa.reshape(N, n)
+        Iinv = np.linalg.inv(inertia)
+        Iinv = 0.5 * (Iinv + Iinv.T)
+        dK = Pm @ Iinv
+        A = (X @ f.transpose(1, 0, 2).reshape(n, n * n)).reshape(N, n, n)
+        if _is_su2(f):
+            t2 = np.sum(X * X, axis=1)
+            c, lam, _, t = _su2_frame_coeffs(t2, need_k=False)
+            K = A
+            L = np.eye(n) + 0.5 * K + c[:, None, None] * (K @ K)
+            r = t / TWO_PI
+        else:
+            L, r = _frames_generic(A)
+        S = (Pm @ f.reshape(n, n * n)).reshape(N, n, n)
+        if th is not None:
+            S -= th
+        if pot is None:
+            dV = None
+        else:
+            Ad = _expm_batch(A, su2=_is_su2(f))
+            Gamma = np.einsum("Nmb,m->Nb", Ad, pot["gamma"])
+            dV = -np.einsum("Nm,mbc,c->Nb", Gamma, f, pot["L"])
+        v = dK if dV is None else (dK if up is None else dK - dV @ up.T)
+        u = -np.einsum("Nab,Nb->Na", S, dK)
+        if dV is not None:
+            u = u - dV
+        if up is None:
+            Omega, pidot = v, u
+            cond = np.ones(N)
+            sens = np.ones(N)
+        else:
+            Psi = np.eye(n) + up @ S
+            Psi_inv = _inv_batch(Psi)
+            Omega = np.einsum("Nab,Nb->Na", Psi_inv, v)
+            pidot = np.einsum("Nba,Nb->Na", Psi_inv, u)  # Phi^-1 = Psi^-T
+            with np.errstate(invalid="ignore", over="ignore"):
+                cond = _frob(Psi) * _frob(Psi_inv) / n
+                sens = _frob(Psi_inv) * (1 + _frob(S) * np.linalg.norm(up)) / np.sqrt(n)
+            cond = np.where(np.isfinite(cond), cond, np.inf)
+            sens = np.where(np.isfinite(sens), sens, np.inf)
+        xdot = np.einsum("Nab,Nb->Na", L, Omega)
+        frame = 1.0 / np.maximum(1.0 - np.minimum(r, 1.0), EPS)
+        # rounding in forming dK = I^-1 pi (cond(I)), S and ad_x (summand magnitudes), to first order
+        Sabs, Aabs = _summand_norms(f, th, X, Pm)
+        kappa_I = float(np.linalg.norm(inertia) * np.linalg.norm(Iinv))
+        with np.errstate(invalid="ignore", over="ignore"):
+            nd = np.linalg.norm(dK, axis=1)
+            if up is None:
+                d_pidot = Sabs * nd + _frob(S) * kappa_I * nd
+                d_omega = kappa_I * nd
+            else:
+                pn, un, Sn = _frob(Psi_inv), float(np.linalg.norm(up)), _frob(S)
+                d_pidot = pn * (Sabs * nd + Sn * kappa_I * nd) + pn ** 2 * un * Sabs * (Sn * nd + 1)
+                d_omega = pn * kappa_I * nd + pn ** 2 * un * Sabs * nd
+            d_xdot = _frob(L) * d_omega + Aabs * np.linalg.norm(Omega, axis=1)
+            extra = C_P * n * EPS * frame * (d_pidot + d_xdot)
+        with np.errstate(invalid="ignore", over="ignore"):
+            scale = np.maximum(np.maximum(np.max(np.abs(xdot), axis=1), np.max(np.abs(pidot), axis=1)), 1.0)
+            scale = scale * np.maximum(1.0, np.max(np.abs(L), axis=(1, 2)))
+            eff = np.maximum(cond, sens)
+            bound = C_P * n * EPS * eff * frame * scale + extra
+        degen = ~(eff * (n * C_P * EPS) < 1.0)
+        if degen.any():
+            xdot[degen] = np.nan
+            pidot[degen] = np.nan
+            bound[degen] = np.inf
+        return FieldBatch(
+            xdot=xdot.reshape(batch_shape + (n,)), pidot=pidot.reshape(batch_shape + (n,)),
+            cond_phi=cond.reshape(batch_shape), cond_data=sens.reshape(batch_shape),
+            error_bound=bound.reshape(batch_shape),
+            degenerate=degen.reshape(batch_shape), path="su2" if _is_su2(f) else "generic",
+        )
+
+    # ---------------------------------------------------------- protocol
+    @staticmethod
+    def _raise_degenerate(degen: np.ndarray, what: str) -> None:
+        if np.any(degen):
+            idx = [tuple(int(i) for i in b) for b in np.argwhere(degen)]
+            shown = ", ".join(str(i) for i in idx[:10]) + (f" and {len(idx) - 10} more" if len(idx) > 10 else "")
+            raise DegeneratePointError(
+                f"{what}: {len(idx)} point(s) on the degenerate set Pi_1 (Delta = det Phi = 0 to float64 "
+                f"accuracy, vier12): batch indices {shown}"
+            )
+
+    def poisson_tensor(self, f, theta, upsilon, x, pi):
+        """Protocol method 1: ``P[..., i, j] = {z_i, z_j}``, ``z = (x, pi)``."""
+        res = self.poisson_batch(f, theta, upsilon, x, pi)
+        self._raise_degenerate(res.degenerate, "poisson_tensor")
+        return res.P
+
+    def hamiltonian_vector_field(self, f, theta, upsilon, inertia, potential, x, pi):
+        """Protocol method 2: ``(xdot, pidot)`` with the leading axes of ``x``."""
+        res = self.vector_field_batch(f, theta, upsilon, inertia, potential, x, pi)
+        self._raise_degenerate(res.degenerate, "hamiltonian_vector_field")
+        return res.xdot, res.pidot
+
+
+def _expm_batch(A: np.ndarray, su2: bool) -> np.ndarray:
+    """``Ad(g) = exp(ad_x)`` for a batch: Rodrigues for su(2), scaling and squaring otherwise."""
+    n = A.shape[-1]
+    if su2:
+        t2 = -0.5 * np.einsum("Nij,Nji->N", A, A)  # tr(K^2) = -2 t^2
+        t = np.sqrt(t2)
+        small = t < 1e-4
+        ts = np.where(small, 1.0, t)
+        s1 = np.where(small, 1 - t2 / 6, np.sin(ts) / ts)
+        s2 = np.where(small, 0.5 - t2 / 24, (1 - np.cos(ts)) / (ts * ts))
+        return np.eye(n) + s1[:, None, None] * A + s2[:, None, None] * (A @ A)
+    norm = float(np.max(_frob(A))) if A.size else 0.0
+    s = max(0, int(np.ceil(np.log2(max(norm, 1e-300) / 0.25))))
+    X = A / 2.0**s
+    coeffs = np.array([1.0 / np.prod(np.arange(1, k + 1, dtype=float)) for k in range(18)])
+    E = _ps_poly(X, coeffs, np.eye(n))
+    for _ in range(s):
+        E = E @ E
+    return E
+
+
