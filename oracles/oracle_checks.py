@@ -34,6 +34,8 @@ from hypothesis import strategies as st
 
 from tstarg.properties.runner import CheckResult, run_property
 
+from .h2_checks import h2_example, h2_examples, h2_published
+
 __all__ = ["oracle_checks"]
 
 EPS = float(np.finfo(float).eps)
@@ -258,6 +260,10 @@ def _b1():
     )
 
 
+def _h2_invariants(ex):
+    return tuple(h2_example(ex))
+
+
 def oracle_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
     """The oracle checks at a Hypothesis budget of ``max_examples`` per randomized check."""
     from tstarg.refimpl import CATALOGUE_NAMES, catalogue
@@ -299,6 +305,10 @@ def oracle_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
         ),
         _single("detest_b5", "twee14", _b5, {"source": "Hull et al. 1972, problem B5"}),
         _single("b1_published", "zeven1", _b1, {"source": "oracles/published.py"}),
+        run_property("h2_published", "zeven1, zeven3", h2_published, st.sampled_from(list(CATALOGUE_NAMES)),
+                     max_examples=len(CATALOGUE_NAMES) * 2, seed=seed, extra={"source": "oracles/published.py"}),
+        run_property("h2_invariants", "zeven1, zeven3", _h2_invariants, h2_examples(), max_examples=max_examples,
+                     seed=seed, extra={"source": "oracles/published.py + Kunneth + class B Bianchi b2 = b1 - 1"}),
         run_property(
             "heavy_top_integrals",
             "twee15-twee18",

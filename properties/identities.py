@@ -45,6 +45,9 @@ import mpmath
 import numpy as np
 import sympy
 
+from tstarg.refimpl.accuracy import correct_digits as _digits
+from tstarg.refimpl.accuracy import max_abs
+
 __all__ = [
     "Measurement", "omega_holonomic", "frame_A", "closedness_mp", "closedness_exact",
     "phi_psi_identities", "tensor_blocks", "jacobi_mp", "jacobi_exact", "jacobi_float",
@@ -125,13 +128,7 @@ def _f_raw(f: Any) -> np.ndarray:
 
 
 def _max_abs(vals) -> mpmath.mpf:
-    return max((abs(v) for v in vals), default=mpmath.mpf(0))
-
-
-def _digits(err, scale) -> float:
-    if err == 0:
-        return math.inf
-    return float(-mpmath.log10(mpmath.mpf(err) / max(mpmath.mpf(scale), mpmath.mpf(1))))
+    return max_abs(vals, dps=mpmath.mp.dps)
 
 
 # ------------------------------------------------------- omega_L (vier3)
@@ -550,6 +547,8 @@ def jacobi_float(batch: Callable[[np.ndarray, np.ndarray], tuple], z: np.ndarray
         D.append(Dh)
         Derr = max(Derr, float(np.max(np.abs(Dh - D2h))) / 3 + e / h)
     J = _jacobiator(P0, D, N)
+    if not J:  # 2n = 2: no triple of distinct indices, every bivector on a 2-manifold is Poisson
+        return Measurement(0.0, 0.0, math.inf, "vacuous: 2n = 2 coordinates, no triple i < j < k")
     worst_key = max(J, key=lambda k: abs(J[k]))
     worst = abs(float(J[worst_key]))
     sP = max(1.0, float(np.max(np.abs(P0))))

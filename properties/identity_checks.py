@@ -22,18 +22,18 @@ import numpy as np
 from hypothesis import assume
 from hypothesis import strategies as st
 
-from tstarg.refimpl import LieAlgebra, bianchi, catalogue
+from tstarg.refimpl import catalogue
 from tstarg.refimpl.fast import implementation as fast
 from tstarg.refimpl.reference import DegeneratePointError, Reference
 
 from . import identities as idn
 from .runner import CheckResult, run_property
 from .strategies import (
-    _coboundary_from, basis_changes, cocycles, jacobi_breaking_constants, lie_algebras, models, non_cocycles,
+    _coboundary_from, cocycles, jacobi_breaking_constants, lie_algebras, models, non_cocycles,
     points, rationals, upsilons,
 )
 
-__all__ = ["identity_checks", "IMPLEMENTATIONS", "model_points", "darboux_examples", "h2_examples"]
+__all__ = ["identity_checks", "IMPLEMENTATIONS", "model_points", "darboux_examples"]
 
 EPS = idn.EPS
 
@@ -80,45 +80,6 @@ def darboux_examples(draw, *, max_dim: int = 4):
     vec = st.lists(rationals(denominator=10), min_size=n, max_size=n)
     xi = draw(st.lists(rationals(), min_size=n, max_size=n).filter(any), label="xi")
     return alg, xi, draw(vec.filter(all), label="x"), draw(vec.filter(any), label="pi")
-
-
-def _b1(alg: LieAlgebra) -> int:
-    return alg.dim - alg.derived_dim()
-
-
-@st.composite
-def h2_examples(draw):
-    """``(algebra, expected dim H^2, why)`` with the expectation from a published value, not our code:
-
-    * a catalogue algebra in a random rational basis: ``dim H^2`` is basis-independent, so the
-      published value of oracles/published.py;
-    * a direct sum: Kunneth, ``b2(g+h) = b2(g) + b2(h) + b1(g) b1(h)`` with published ``b2``;
-    * a class B Bianchi algebra with random rational ``a``: ``b2 = b1 - 1`` (de Azcarraga &
-      Izquierdo, ch. 6; see oracles/published.py), ``b1 = 3 - dim [g, g]``.
-    """
-    from tstarg.oracles.published import PUBLISHED_H2
-
-    kind = draw(st.sampled_from(["basis", "sum", "class B"]), label="h2 oracle")
-    rational = [nm for nm in PUBLISHED_H2 if catalogue(nm).is_rational and catalogue(nm).dim <= 6]
-    if kind == "basis":
-        nm = draw(st.sampled_from(rational), label="algebra")
-        base = catalogue(nm)
-        c = draw(basis_changes(base.dim), label="C")
-        return base.change_basis(c), PUBLISHED_H2[nm], f"published b2 of {nm}, basis-independent"
-    if kind == "sum":
-        small = [nm for nm in rational if catalogue(nm).dim <= 3]
-        a = draw(st.sampled_from(small), label="g")
-        b = draw(st.sampled_from(small), label="h")
-        g, h = catalogue(a), catalogue(b)
-        return (g.direct_sum(h), PUBLISHED_H2[a] + PUBLISHED_H2[b] + _b1(g) * _b1(h),
-                f"Kunneth for {a} + {b}")
-    typ = draw(st.sampled_from(["III", "IV", "V", "VI_h", "VII_h"]), label="type")
-    if typ in ("III", "IV", "V"):
-        alg = bianchi(typ)
-    else:
-        a = draw(st.sampled_from([Fraction(1, 2), Fraction(2), Fraction(3, 2), Fraction(1, 3)]), label="a")
-        alg = bianchi(typ, -a * a if typ == "VI_h" else a * a)
-    return alg, _b1(alg) - 1, "class B Bianchi: b2 = b1 - 1"
 
 
 # ------------------------------------------------------------ implementations
@@ -284,13 +245,6 @@ def _flows_available() -> bool:
 
 def whitehead_example(alg):
     return idn.whitehead(alg)
-
-
-def h2_example(ex):
-    alg, expected, _ = ex
-    got = idn.h2_exact(alg)
-    return idn.Measurement(abs(got - expected), 0.0, math.inf if got == expected else None,
-                           f"dim H^2 = {got}, expected {expected}")
 
 
 # ------------------------------------------------------------ negative controls
@@ -479,8 +433,6 @@ def identity_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult
             max(1, k // 12), tolerance="4 eps max|state| (reference_flow vs mpmath.odefun of drie11/12)")
     add("whitehead", "zeven1, zeven3", whitehead_example, lie_algebras(semisimple=True, max_dim=6), k,
         tolerance="0 (every cocycle solved exactly)")
-    add("h2_invariants", "zeven1, zeven3", h2_example, h2_examples(), k,
-        source="oracles/published.py + Kunneth + class B Bianchi b2 = b1 - 1")
     # negative controls: each identity must fail on broken input
     add("negative[closedness: f breaks Jacobi]", "vier2", _expect_failure(_broken_jacobi_closedness),
         _broken_jacobi_models(), k, expects="failure")

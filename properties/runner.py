@@ -16,8 +16,6 @@ import time
 from dataclasses import asdict, dataclass, field
 from typing import Any, Callable
 
-import mpmath
-import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import seed as hyp_seed
 from hypothesis import strategies as st
@@ -49,24 +47,6 @@ class CheckResult:
             if isinstance(v, float) and not math.isfinite(v):
                 d[k] = str(v)
         return d
-
-
-def _mp_max_abs_diff(a, b) -> tuple[mpmath.mpf, mpmath.mpf]:
-    with mpmath.workdps(200):
-        A = [mpmath.mpf(v) for v in np.asarray(a, dtype=object).ravel()]
-        B = [mpmath.mpf(v) for v in np.asarray(b, dtype=object).ravel()]
-        diff = max((abs(x - y) for x, y in zip(A, B)), default=mpmath.mpf(0))
-        scale = max([mpmath.mpf(1)] + [abs(y) for y in B])
-        return diff, scale
-
-
-def _digits(diff, scale) -> float:
-    with mpmath.workdps(50):
-        return float("inf") if diff == 0 else float(-mpmath.log10(diff / scale))
-
-
-def _mp_array(m) -> np.ndarray:
-    return np.array([[m[i, j] for j in range(m.cols)] for i in range(m.rows)], dtype=object)
 
 
 def run_property(name: str, equations: str, body: Callable[[Any], tuple[float, float | None]],

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
-import mpmath
 import numpy as np
+
+from tstarg.refimpl import CATALOGUE_NAMES, catalogue
+from tstarg.refimpl.accuracy import digits_of_agreement
 
 
 def mp_matrix_to_array(m) -> np.ndarray:
@@ -11,18 +13,9 @@ def mp_matrix_to_array(m) -> np.ndarray:
 
 
 def mp_digits(a, b, *, dps: int = 200) -> float:
-    """Correct digits of ``a`` against ``b`` in the max norm: ``-log10(max|a-b| / max(max|b|, 1))``.
-
-    Computed at ``dps`` digits so the comparison itself does not round.
-    """
-    with mpmath.workdps(dps):
-        A = np.asarray(a, dtype=object).ravel()
-        B = np.asarray(b, dtype=object).ravel()
-        diff = max((abs(mpmath.mpf(x) - mpmath.mpf(y)) for x, y in zip(A, B)), default=mpmath.mpf(0))
-        scale = max([mpmath.mpf(1)] + [abs(mpmath.mpf(y)) for y in B])
-        if diff == 0:
-            return float("inf")
-        return float(-mpmath.log10(diff / scale))
+    """Correct digits of ``a`` against ``b`` in the max norm: ``-log10(max|a-b| / max(max|b|, 1))``
+    (:func:`refimpl.accuracy.digits_of_agreement`; a NaN on either side gives ``-inf``)."""
+    return digits_of_agreement(a, b, dps=dps)
 
 
 def assert_digits(a, b, digits: float, what: str) -> None:
@@ -49,7 +42,5 @@ def assert_within_bound(observed: np.ndarray, expected: np.ndarray, bound: np.nd
 def regime_cases(regimes):
     """(algebra name, regime) pairs; ``near_degenerate`` is left out for abelian algebras, whose
     Delta = det(1 + S Upsilon) does not depend on pi (S = -Theta): no degenerate set to approach."""
-    from tstarg.refimpl import CATALOGUE_NAMES, catalogue
-
     return [(n, r) for n in CATALOGUE_NAMES for r in regimes
             if not (r == "near_degenerate" and not catalogue(n).f.any())]

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from tstarg.oracles import closed_forms as cf
 from tstarg.refimpl import su2
 from tstarg.refimpl.reference import Reference
-from tests.conftest import ref_examples
+from tstarg.properties.profiles import ref_examples
 
 ZERO = [[0] * 3 for _ in range(3)]
 

@@ -14,7 +14,7 @@ from tstarg.properties import identities as idn
 from tstarg.properties.identity_checks import _broken_jacobi_models, _non_cocycle_models, model_points
 from tstarg.properties.strategies import FAMILIES, lie_algebras, models
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue
-from tests.conftest import ref_examples
+from tstarg.properties.profiles import ref_examples
 
 
 @pytest.mark.parametrize("family", FAMILIES)

@@ -16,7 +16,7 @@ from tstarg.properties import identities as idn
 from tstarg.properties.identity_checks import _nontrivial_darboux, _nontrivial_darboux_body, darboux_example, darboux_examples
 from tstarg.properties.strategies import _coboundary_from, lie_algebras, rationals, upsilons
 from tstarg.refimpl.reference import DegeneratePointError, Reference
-from tests.conftest import ref_examples
+from tstarg.properties.profiles import ref_examples
 
 
 @pytest.mark.parametrize("impl", ["reference", "fast"])

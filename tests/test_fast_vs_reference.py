@@ -14,7 +14,7 @@ from tstarg.refimpl import CATALOGUE_NAMES, catalogue, su2
 from tstarg.refimpl.fast import implementation as fast
 from tstarg.refimpl.reference import DegeneratePointError, Reference
 from tests._helpers import assert_within_bound, regime_cases
-from tests.conftest import ref_examples
+from tstarg.properties.profiles import ref_examples
 
 REF = Reference(dps=30)  # 30 digits judge float64 with 14 digits to spare
 BATCH = 3

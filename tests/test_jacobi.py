@@ -18,7 +18,7 @@ from tstarg.properties.identity_checks import (
 )
 from tstarg.properties.strategies import FAMILIES, REGIMES
 from tstarg.refimpl.reference import DegeneratePointError
-from tests.conftest import ref_examples
+from tstarg.properties.profiles import ref_examples
 
 
 @pytest.mark.parametrize("family", FAMILIES)

@@ -14,7 +14,7 @@ from tstarg.properties import cocycles, rationals, upsilons
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue, frames
 from tstarg.refimpl.reference import DegeneratePointError, Reference
 from tests._helpers import mp_digits, mp_matrix_to_array
-from tests.conftest import ref_examples
+from tstarg.properties.profiles import ref_examples
 
 
 def _rational_vec(n):

@@ -34,11 +34,15 @@ def _derived_basis(alg):
 
 @given(S.lie_algebras())
 def test_lie_algebras_are_lie_algebras(alg):
-    """Every draw is antisymmetric and satisfies the Jacobi identity exactly."""
+    """Every draw satisfies the Jacobi identity by a residual computed here from the float
+    constants (independent of the exact validator that built it), to c * eps * max|f|^2."""
     assert isinstance(alg, LieAlgebra) and alg.is_exact
-    f = alg.f_exact
-    assert all(sympy.simplify(v) == 0 for v in (f + f.transpose(0, 2, 1)).flat)
-    assert all(sympy.simplify(v) == 0 for v in jacobi_residual(f).flat)
+    f = np.asarray(alg.f, dtype=float)
+    ff = np.einsum("mab,bcd->macd", f, f)  # f^m_ab f^b_cd: [[e_c, e_d], e_a] components
+    jac = np.einsum("macd->macd", ff) + np.einsum("mdac->macd", ff) + np.einsum("mcda->macd", ff)
+    scale = max(1.0, float(np.max(np.abs(f)))) ** 2
+    tol = 8 * alg.dim * EPS * scale  # error model: 3 sums of n products, each rounded once
+    assert np.all(np.isfinite(jac)) and float(np.max(np.abs(jac))) <= tol
 
 
 @given(S.lie_algebras(solvable=True, max_dim=5))

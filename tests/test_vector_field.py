@@ -18,7 +18,7 @@ from tstarg.refimpl import CATALOGUE_NAMES, catalogue, frames, su2
 from tstarg.refimpl.fast import implementation as fast
 from tstarg.refimpl.reference import DegeneratePointError, Reference
 from tests._helpers import assert_within_bound, mp_digits, regime_cases
-from tests.conftest import ref_examples
+from tstarg.properties.profiles import ref_examples
 
 ALGEBRAS = ["su(2)", "so(3)[other basis]", "sl(2,R)", "h(3)", "Bianchi III", "Bianchi VII_h(h=3)", "se(2)",
             "aff(1)", "so(4)", "su(3)"]

@@ -10,10 +10,10 @@ from hypothesis import given, settings
 
 from tstarg.oracles.published import PUBLISHED_H2
 from tstarg.properties import identities as idn
-from tstarg.properties.identity_checks import h2_example, h2_examples
+from tstarg.oracles.h2_checks import h2_example, h2_examples
 from tstarg.properties.strategies import lie_algebras
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue
-from tests.conftest import ref_examples
+from tstarg.properties.profiles import ref_examples
 
 SEMISIMPLE = [n for n in CATALOGUE_NAMES if PUBLISHED_H2[n] == 0 and catalogue(n).is_semisimple()]
 
