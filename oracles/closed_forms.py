@@ -58,6 +58,8 @@ from dataclasses import dataclass
 
 import mpmath
 import sympy as sp
+from tstarg.refimpl import su2
+from tstarg.refimpl.reference import Reference
 
 __all__ = [
     "DETEST_B5_M",
@@ -229,8 +231,6 @@ def integral_rates(name: str, x, pi, *, dps: int = 50) -> dict:
     Returns ``{integral: (rate, scale)}`` with ``scale = |grad I| |zdot|`` (the size a wrong
     integral's rate would have).
     """
-    from tstarg.refimpl import su2
-    from tstarg.refimpl.reference import Reference
 
     if name not in HEAVY_TOPS:
         raise ValueError(f"unknown heavy top {name!r}; known: {sorted(HEAVY_TOPS)}")

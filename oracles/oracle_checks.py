@@ -31,10 +31,23 @@ import time
 import mpmath
 import numpy as np
 from hypothesis import strategies as st
-
 from tstarg.properties.runner import CheckResult, run_property
+from tstarg.refimpl import CATALOGUE_NAMES, catalogue, su2
+from tstarg.refimpl.reference import Reference
 
+from .claim_checks import quatre_identities
+from .claims import evaluate
+from .closed_forms import (
+    HEAVY_TOPS,
+    detest_b5,
+    detest_b5_exact,
+    integral_rates,
+    rigid_body_solution,
+)
+from .gnh_examples import EXAMPLES, check_example
 from .h2_checks import h2_example, h2_examples, h2_published
+from .published import PUBLISHED_B1
+from .su2_symbolic import residuals_degenerate, residuals_nondegenerate
 
 __all__ = ["oracle_checks"]
 
@@ -60,7 +73,6 @@ def _single(name, equations, fn, extra=None) -> CheckResult:
 
 # ------------------------------------------------------------------ claims
 def _paper_claims():
-    from .claims import evaluate
 
     obs = evaluate()
     bad = [o.claim.label for o in obs if o.verdict == "CONTRADICTED"]
@@ -76,7 +88,6 @@ def _paper_claims():
 
 
 def _quatre(example):
-    from .claim_checks import quatre_identities
 
     name, seed = example
     o = quatre_identities(name, seed)
@@ -84,7 +95,6 @@ def _quatre(example):
 
 
 def _cinq():
-    from .su2_symbolic import residuals_degenerate, residuals_nondegenerate
 
     r = {**residuals_nondegenerate(), **residuals_degenerate()}
     bad = [k for k, v in r.items() if not v]
@@ -92,7 +102,6 @@ def _cinq():
 
 
 def _gnh():
-    from .gnh_examples import EXAMPLES, check_example
 
     bad, det = [], []
     for k, ex in EXAMPLES.items():
@@ -111,10 +120,7 @@ DPS_CF = 40
 
 def _rigid_body(example):
     """ratio = |d/dt pi_closed - reference pidot| / (10^-(DPS_CF-10) |pidot|)."""
-    from tstarg.refimpl import su2
-    from tstarg.refimpl.reference import Reference
 
-    from .closed_forms import rigid_body_solution
 
     I, pi0, t = example
     if len({round(v, 6) for v in I}) < 3:
@@ -143,7 +149,6 @@ def _rigid_body(example):
 
 
 def _b5():
-    from .closed_forms import detest_b5, detest_b5_exact, rigid_body_solution
 
     with mpmath.workdps(50):
         inertia, s, p0 = detest_b5()
@@ -161,13 +166,10 @@ def _b5():
 
 
 def _heavy(example):
-    from .closed_forms import HEAVY_TOPS, integral_rates
 
     name, x, pi = example
     if name == "goryachev_chaplygin":
         # project pi onto pi.Gamma = 0 (the level on which the integral holds)
-        from tstarg.refimpl import su2
-        from tstarg.refimpl.reference import Reference
 
         ref = Reference(60)
         with ref._prec():
@@ -244,9 +246,7 @@ def _qutip_attitude():
 
 
 def _b1():
-    from tstarg.refimpl import CATALOGUE_NAMES, catalogue
 
-    from .published import PUBLISHED_B1
 
     bad = [
         n
@@ -266,7 +266,6 @@ def _h2_invariants(ex):
 
 def oracle_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
     """The oracle checks at a Hypothesis budget of ``max_examples`` per randomized check."""
-    from tstarg.refimpl import CATALOGUE_NAMES, catalogue
 
     small = [n for n in CATALOGUE_NAMES if catalogue(n).dim <= 4]
     n_ex = max(3, max_examples // 2)

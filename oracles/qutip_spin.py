@@ -27,9 +27,16 @@ Consequences checked here:
 
 from __future__ import annotations
 
+import matplotlib
+import matplotlib.pyplot as plt
+import mpmath
 import numpy as np
 import qutip
+from scipy.integrate import solve_ivp
 from scipy.linalg import expm
+from scipy.special import ellipj
+
+from .closed_forms import rigid_body_solution
 
 __all__ = [
     "adjoint_from_spin_half",
@@ -113,9 +120,7 @@ def linear_flow_error(
 
 def classical_unit_rigid_body(inertia_diag, n0, times, dps: int = 30) -> np.ndarray:
     """Unit-sphere Euler flow ``dpi/dt = pi x I^-1 pi`` from ``n0`` by the elliptic closed form."""
-    import mpmath
 
-    from .closed_forms import rigid_body_solution
 
     with mpmath.workdps(dps):
         sol = rigid_body_solution(inertia_diag, [mpmath.mpf(float(v)) for v in n0])
@@ -146,10 +151,7 @@ def attitude_propagator(
     """``g(t_end)`` in the spin-``j`` representation: the inverse of qutip's propagator of
     ``H(t) = -Omega(t).J`` with ``Omega = I^-1 pi(t)`` from the elliptic closed form
     (float64 evaluation of ``sn, cn, dn`` through ``scipy.special.ellipj``)."""
-    import mpmath
-    from scipy.special import ellipj
 
-    from .closed_forms import rigid_body_solution
 
     with mpmath.workdps(30):
         sol = rigid_body_solution(inertia_diag, [mpmath.mpf(float(v)) for v in pi0])
@@ -172,10 +174,7 @@ def attitude_propagator(
 def attitude_classical(inertia_diag, pi0, t_end: float, *, rtol: float = 1e-13) -> np.ndarray:
     """``g(t_end)`` as a 2x2 SU(2) matrix from ``dg/dt = g Omega^a E_a``, ``E_a = -(i/2) sigma_a``,
     integrated by scipy's DOP853 (an integrator independent of qutip) along the closed-form ``Omega``."""
-    import mpmath
-    from scipy.integrate import solve_ivp
 
-    from .closed_forms import rigid_body_solution
 
     with mpmath.workdps(30):
         sol = rigid_body_solution(inertia_diag, [mpmath.mpf(float(v)) for v in pi0])
@@ -185,7 +184,6 @@ def attitude_classical(inertia_diag, pi0, t_end: float, *, rtol: float = 1e-13) 
         np.array([[1, 0], [0, -1]], complex),
     ]
     E = [-0.5j * s for s in sig]
-    from scipy.special import ellipj
 
     A, B, C, w, m, u0 = (float(v) for v in (sol.A, sol.B, sol.C, sol.w, sol.m, sol.u0))
     p, q, r = sol.perm
@@ -239,10 +237,8 @@ def rep_defect(U1: qutip.Qobj, Ad: np.ndarray) -> float:
 def bloch_plot(path, classical: np.ndarray, quantum: np.ndarray, title: str) -> None:
     """Classical (line, normalised to the unit sphere) and quantum (points, ``<P>/j``, inside the
     sphere as coherence is lost) trajectories on a Bloch sphere (matplotlib Agg)."""
-    import matplotlib
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     fig = plt.figure(figsize=(5, 5))
     ax = fig.add_subplot(projection="3d")

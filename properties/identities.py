@@ -44,9 +44,11 @@ from typing import Any, Callable
 import mpmath
 import numpy as np
 import sympy
-
+from tstarg.refimpl import LieAlgebra
 from tstarg.refimpl.accuracy import correct_digits as _digits
 from tstarg.refimpl.accuracy import max_abs
+from tstarg.refimpl.flows import reference_flow
+from tstarg.refimpl.reference import Reference
 
 __all__ = [
     "Measurement", "omega_holonomic", "frame_A", "closedness_mp", "closedness_exact",
@@ -110,7 +112,6 @@ def _mpf(v: Any) -> mpmath.mpf:
 
 
 def _f_exact(f: Any) -> np.ndarray:
-    from tstarg.refimpl import LieAlgebra
 
     if isinstance(f, LieAlgebra):
         if f.f_exact is None:
@@ -120,7 +121,6 @@ def _f_exact(f: Any) -> np.ndarray:
 
 
 def _f_raw(f: Any) -> np.ndarray:
-    from tstarg.refimpl import LieAlgebra
 
     if isinstance(f, LieAlgebra):
         return f.f_exact if f.f_exact is not None else f.f
@@ -432,7 +432,6 @@ def jacobi_mp(tensor: Callable[[list], mpmath.matrix], z: list, *, dps: int = 20
 
 def reference_tensor(f, theta, upsilon, *, dps: int = 20) -> Callable[[list], mpmath.matrix]:
     """``z -> P(z)`` from :class:`refimpl.reference.Reference` at enough digits for ``mpmath.diff``."""
-    from tstarg.refimpl.reference import Reference
 
     ref = Reference(2 * dps + 20)
     n = np.asarray(_f_raw(f)).shape[0]
@@ -692,7 +691,6 @@ def darboux_flow(f, xi, inertia, x0, pi0, t, *, dps: int = 18, shift=None) -> Me
     ``shift`` (default ``xi``) is the xi used in the Darboux system: a different one is the
     negative control. Raises ``ModuleNotFoundError`` when :mod:`refimpl.flows` is absent.
     """
-    from tstarg.refimpl.flows import reference_flow
 
     raw = np.asarray(_f_raw(f))
     n = raw.shape[0]

@@ -15,22 +15,30 @@ third parties can call them directly.
 
 from __future__ import annotations
 
+import importlib.util
 import math
 from fractions import Fraction
 
 import numpy as np
 from hypothesis import assume
 from hypothesis import strategies as st
-
-from tstarg.refimpl import catalogue
+from tstarg.refimpl import catalogue, cocycle_basis
+from tstarg.refimpl._algebra import jacobi_residual
 from tstarg.refimpl.fast import implementation as fast
 from tstarg.refimpl.reference import DegeneratePointError, Reference
 
 from . import identities as idn
 from .runner import CheckResult, run_property
 from .strategies import (
-    _coboundary_from, cocycles, jacobi_breaking_constants, lie_algebras, models, non_cocycles,
-    points, rationals, upsilons,
+    _coboundary_from,
+    cocycles,
+    jacobi_breaking_constants,
+    lie_algebras,
+    models,
+    non_cocycles,
+    points,
+    rationals,
+    upsilons,
 )
 
 __all__ = ["identity_checks", "IMPLEMENTATIONS", "model_points", "darboux_examples"]
@@ -238,7 +246,6 @@ def _darboux_flow_wrong_shift(ex):
 
 
 def _flows_available() -> bool:
-    import importlib.util
 
     return importlib.util.find_spec("tstarg.refimpl.flows") is not None
 
@@ -261,7 +268,6 @@ def _expect_failure(measure):
 
 @st.composite
 def _broken_jacobi_models(draw):
-    from tstarg.refimpl._algebra import jacobi_residual
 
     f = draw(jacobi_breaking_constants(n=3), label="f breaking Jacobi")
     ups = draw(upsilons(3), label="upsilon")
@@ -291,7 +297,6 @@ def _broken_jacobi_jacobi(ex):
 
 @st.composite
 def _non_cocycle_models(draw):
-    from tstarg.refimpl import cocycle_basis
 
     alg = draw(lie_algebras(max_dim=4).filter(
         lambda a: a.is_rational and len(cocycle_basis(a)) < a.dim * (a.dim - 1) // 2), label="algebra (rational)")

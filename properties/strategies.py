@@ -19,12 +19,19 @@ from fractions import Fraction
 
 import numpy as np
 import sympy
-from hypothesis import assume
+from hypothesis import assume, reject
 from hypothesis import strategies as st
-
 from tstarg.refimpl import (
-    CATALOGUE_NAMES, LieAlgebra, abelian, bianchi, catalogue, coboundary_basis, cocycle_basis,
+    CATALOGUE_NAMES,
+    LieAlgebra,
+    abelian,
+    bianchi,
+    catalogue,
+    coboundary_basis,
+    cocycle_basis,
+    delta2,
 )
+from tstarg.refimpl._algebra import jacobi_residual
 
 __all__ = [
     "catalogue_algebras", "lie_algebras", "basis_changes", "FAMILIES", "is_solvable", "is_nilpotent",
@@ -548,7 +555,6 @@ def _points(draw, algebra, theta, upsilon, regime):
     d = draw(vec, label="line direction")
     roots = _degenerate_roots(algebra.f, th, up, pi, d) if np.any(d) and np.any(up) else []
     if not roots:
-        from hypothesis import reject
 
         reject()
     t0 = roots[int(draw(st.integers(0, len(roots) - 1), label="root"))]
@@ -685,7 +691,6 @@ def jacobi_breaking_constants(*, n: int = 3):
 
 @st.composite
 def _jacobi_breaking(draw, n):
-    from tstarg.refimpl._algebra import jacobi_residual
 
     k = n * n * (n - 1) // 2
     vals = draw(st.lists(st.integers(-2, 2), min_size=k, max_size=k), label="structure constants")
@@ -713,7 +718,6 @@ def non_cocycles(algebra: LieAlgebra):
 
 @st.composite
 def _non_cocycles(draw, algebra):
-    from tstarg.refimpl import delta2
 
     n = algebra.dim
     vals = draw(st.lists(rationals(), min_size=n * (n - 1) // 2, max_size=n * (n - 1) // 2), label="theta entries")

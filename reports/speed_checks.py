@@ -32,8 +32,14 @@ import math
 import time
 
 import numpy as np
-
+from scipy.integrate import solve_ivp
 from tstarg.properties.runner import CheckResult
+from tstarg.refimpl import su2, su3
+from tstarg.refimpl._flow_fast import scalar_rhs
+from tstarg.refimpl.fast import implementation as fast
+from tstarg.refimpl.flows import METHODS, NumpyModel, integrate_fast, reference_trajectory
+
+from .mutants import Plain
 
 __all__ = ["speed_checks", "race", "SPEED_ROWS"]
 
@@ -56,7 +62,6 @@ def race(*fns, repeat: int = 5, warmup: bool = True) -> list[float]:
 
 
 def _random_model(alg, rng, N):
-    from tstarg.refimpl import cohomology  # noqa: F401 - keeps the import graph explicit
 
     n = alg.dim
     Z = rng.standard_normal((n, n))
@@ -69,9 +74,7 @@ def _random_model(alg, rng, N):
 
 
 def _poisson_row(name: str, alg, N: int, n_plain: int, seed: int) -> CheckResult:
-    from tstarg.refimpl.fast import implementation as fast
 
-    from .mutants import Plain
 
     rng = np.random.default_rng(seed)
     theta, ups, x, pi = _random_model(alg, rng, N)
@@ -100,11 +103,7 @@ def _poisson_row(name: str, alg, N: int, n_plain: int, seed: int) -> CheckResult
 
 
 def _flow_row(seed: int) -> CheckResult:
-    from scipy.integrate import solve_ivp
 
-    from tstarg.refimpl import su2
-    from tstarg.refimpl._flow_fast import scalar_rhs
-    from tstarg.refimpl.flows import METHODS, NumpyModel, integrate_fast, reference_trajectory
 
     t0 = time.perf_counter()
     I = np.diag([1.0, 1.0, 0.5])
@@ -145,7 +144,6 @@ def _flow_row(seed: int) -> CheckResult:
 
 def speed_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
     """``tstarg verify`` provider: the speed rows (fixed workloads; ``max_examples`` is not used)."""
-    from tstarg.refimpl import su2, su3
 
     s = 0 if seed is None else int(seed)
     return [_poisson_row("speed.poisson[su2]", su2(), 10_000, 200, s),
