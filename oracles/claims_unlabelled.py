@@ -992,10 +992,11 @@ def evaluate_entries(index: PaperIndex) -> list[EntryObservation]:
 
 
 def fmt_outcome(o: Outcome) -> str:
-    """``pass``/``fail`` with the defect and its bound at one significant digit (stable across runs)."""
+    """``pass``/``fail`` with the defect and its bound at one significant digit (stable across runs);
+    for exact checks (no error) the check's own finding."""
     word = "pass" if o.ok else "fail"
     if o.error is None or not o.tolerance:
-        return word
+        return f"{word} ({_md_escape(o.detail)})" if o.detail and o.error is None else word
     return f"{word} (error {o.error:.0e}, bound {o.tolerance:.0e})"
 
 
