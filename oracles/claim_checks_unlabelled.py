@@ -15,6 +15,7 @@ bound is attained (or, as stated in their docstring, shown not to be).
 from __future__ import annotations
 
 import itertools
+import random
 
 import mpmath
 import sympy as sp
@@ -406,8 +407,6 @@ def cocycle_needed_counterexample() -> Outcome:
 
 # ------------------------------------------------------------------ quatre: determinant and degree
 def _rand_antisym(n, seed):
-    import random
-
     rnd = random.Random(seed)
     U = sp.zeros(n, n)
     for i in range(n):

@@ -857,7 +857,32 @@ SENTENCES: tuple[Entry, ...] = (
 
 
 # ------------------------------------------------------------------ labelled displays
-_STATUS_OF = {"verified": "verified", "erratum": "erratum"}
+# Bounds and hypotheses carried by labelled equations: extra checks and the attained / needed notes.
+_DEGREE = {
+    "checks": ("vier12_degree_attained",),
+    "attained": "Delta's degree <= N is attained on aff(1) (N = 2) and never for odd N (su(2): 2 = N - 1); "
+    "see quatre.s05",
+}
+_SEMI = {
+    "checks": ("semisimple_needed_counterexample", "whitehead_semisimple"),
+    "needed": _HYP_SEMISIMPLE,
+}
+_CLOSED = {"checks": ("cocycle_needed_counterexample",), "needed": _HYP_COCYCLE}
+LABEL_NOTES = {
+    "vier12": _DEGREE,
+    "drie7": _SEMI,
+    "drie8": _SEMI,
+    "drie9": _SEMI,
+    "drie10": _SEMI,
+    "zeven3": _SEMI,
+    "drie1": _CLOSED,
+    "vier2": _CLOSED,
+    "zeven2": _CLOSED,
+    "vier7": {
+        "checks": ("quatre_detW_equals_Delta",),
+        "needed": "Delta != 0 is necessary as well as sufficient: det W = Delta (exact)",
+    },
+}
 
 
 def labelled_display_entry(display_id: str, labels: tuple, latex: str, claims=CLAIMS) -> Entry:
@@ -876,7 +901,10 @@ def labelled_display_entry(display_id: str, labels: tuple, latex: str, claims=CL
             if all(c.reason.startswith("a definition") for c in cs)
             else "not checkable"
         )
-    checks = tuple(dict.fromkeys(n for c in cs for n in c.checks))
+    notes = [LABEL_NOTES[lab] for lab in labels if lab in LABEL_NOTES]
+    checks = tuple(
+        dict.fromkeys([n for c in cs for n in c.checks] + [n for x in notes for n in x["checks"]])
+    )
     literal = tuple(dict.fromkeys(n for c in cs for n in c.literal))
     return Entry(
         display_id,
@@ -888,6 +916,8 @@ def labelled_display_entry(display_id: str, labels: tuple, latex: str, claims=CL
         corrected=" / ".join(c.erratum for c in cs if c.erratum),
         reason=" / ".join(c.reason for c in cs if c.reason),
         evidence=" / ".join(c.remark for c in cs if c.remark),
+        attained=" / ".join(dict.fromkeys(x["attained"] for x in notes if "attained" in x)),
+        needed=" / ".join(dict.fromkeys(x["needed"] for x in notes if "needed" in x)),
         labels=tuple(labels),
     )
 

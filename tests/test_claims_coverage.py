@@ -7,6 +7,8 @@ from __future__ import annotations
 from argparse import Namespace
 
 import pytest
+import sympy as sp
+
 from tstarg.oracles import claim_checks as pc
 from tstarg.oracles import claim_checks_unlabelled as cu
 from tstarg.oracles.claims import LABELS
@@ -195,8 +197,6 @@ def test_delta1_component_erratum_exact():
     """sept.d01 by hand on su(2): for the cocycle theta(u) = k(u) eta (antisymmetric), the printed
     component form gives a nonzero coboundary, the corrected form zero; the first row agrees with
     the definition k(u) = -ad(u)^T; the corrected last term is theta_{alpha,k}."""
-    import sympy as sp
-
     F = cu.structure_constants("su(2)")
     th = cu._su2_coboundary_theta(F)
     assert th + th.T == sp.zeros(3, 3) and th != sp.zeros(3, 3)
