@@ -86,8 +86,20 @@ def test_labelled_registry_is_used_for_labelled_displays():
     if PAPER is None:
         pytest.skip("paper.tex not found")
     ix = index_paper(PAPER.read_text())
-    got = [lab for item, e in entries_for(ix) if getattr(item, "labels", ()) for lab in e.labels]
+    pairs = [(item, e) for item, e in entries_for(ix) if getattr(item, "labels", ())]
+    got = [lab for _, e in pairs for lab in e.labels]
     assert got == list(LABELS)
+    for item, e in pairs:
+        assert e.status in STATUSES, item.id
+        if e.status == "erratum":
+            assert e.literal and e.corrected and e.checks, item.id
+        elif e.status == "verified":
+            assert e.checks and not e.literal, item.id
+        else:
+            assert e.reason, item.id
+    by_id = {item.id: e for item, e in pairs}
+    assert by_id["quatre.d11"].attained and "vier12_degree_attained" in by_id["quatre.d11"].checks
+    assert "semisimple_needed_counterexample" in by_id["sept.d05"].checks
 
 
 # ------------------------------------------------------------------ the coverage test can fail
