@@ -499,11 +499,11 @@ PAPER_LABELS = (
 
 
 def paper_path() -> Path | None:
-    """The paper's LaTeX source: ``$TSTARG_PAPER``, else ``../shared/paper.tex`` next to the repository."""
-    cands = [
-        os.environ.get("TSTARG_PAPER"),
-        Path(__file__).resolve().parents[2] / "shared" / "paper.tex",
-    ]
+    """The paper's LaTeX source: ``$TSTARG_PAPER``, else ``shared/paper.tex`` in the folder holding the
+    repository (``../shared/paper.tex``) or in a folder above it (a git worktree such as
+    ``/work/wt/<name>`` sits one level deeper than the main checkout)."""
+    repo = Path(__file__).resolve().parents[1]
+    cands = [os.environ.get("TSTARG_PAPER")] + [a / "shared" / "paper.tex" for a in repo.parents]
     for c in cands:
         if c and Path(c).is_file():
             return Path(c)

@@ -117,10 +117,13 @@ def test_evaluate_has_no_contradiction():
     assert [o.claim.label for o in obs if o.verdict == "CONTRADICTED"] == []
 
 
-def test_claims_command_writes_markdown(tmp_path):
-    """`tstarg claims` writes a table with a row for every label and the errata section."""
+def test_claims_command_writes_markdown(tmp_path, capsys):
+    """`tstarg claims` writes a table with a row for every label and the errata section; with the
+    paper at hand also the coverage (items of the paper == entries) and one block per display and
+    mathematical sentence, with the errata found among them."""
     from argparse import Namespace
 
+    from tstarg.oracles.paper_index import index_paper
     from tstarg.reports import cmd_claims as claims
 
     out = tmp_path / "claims.md"
@@ -130,6 +133,17 @@ def test_claims_command_writes_markdown(tmp_path):
     for lab in LABELS:
         assert f"| {lab} |" in text, lab
     assert "## Errata" in text and "twee17" in text.split("## Errata")[1]
+    if pc.paper_path() is None:
+        return
+    ix = index_paper(pc.paper_path().read_text())
+    n = len(ix.displays) + len(ix.sentences)
+    assert f"* items: {n}; with a registry entry: {n}; missing: 0" in text
+    for d in ix.displays:
+        assert f"### {d.id} (" in text, d.id
+    for s in ix.sentences:
+        assert f"### {s.id}\n" in text, s.id
+    assert "sept.d01" in text.split("## Errata among the unlabelled")[1]
+    assert f"= {n} items; {n} entries; contradicted []" in capsys.readouterr().out
 
 
 def test_oracle_checks_all_pass():
