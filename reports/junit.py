@@ -75,7 +75,7 @@ def _kind(doc: dict) -> str:
             f"write_junit: expected a certificate or verify report dict, got {type(doc).__name__}"
         )
     if not isinstance(doc.get("checks"), list):
-        raise ValueError(
+        raise ValueError(  # noqa: TRY004 - a dict without the key, not a wrong type
             "write_junit: expected a certificate dict (Certificate.to_json()) or a verify report dict "
             f"(report.json), with a list under 'checks'; got keys {sorted(doc)[:12]}"
         )
