@@ -73,7 +73,15 @@ def _assert_certified(cmd: str, tmp_path: Path) -> None:
 def _assert_rejected(cmd: str) -> None:
     impl = CommandImplementation(cmd, timeout=30)
     try:
-        cert = certify(impl, max_examples=6, seed=0, checks=POISSON, shrink=False, target=cmd)
+        # the verdict is all that matters here: no shrinking, the reference check only
+        cert = certify(
+            impl,
+            max_examples=4,
+            seed=0,
+            checks=["poisson_tensor.reference"],
+            shrink=False,
+            target=cmd,
+        )
     finally:
         impl.close()
     assert not cert.passed, cert.summary()

@@ -37,10 +37,14 @@ class MyImplementation:
         # (singular to working precision: cond_2(Phi) >= 1 / (2 eps), where no float64 answer means anything)
         sv = np.linalg.svd(Phi, compute_uv=False)
         if not sv[-1] > 2 * np.finfo(float).eps * sv[0]:
-            raise ValueError(f"degenerate point: Phi = 1 + S Upsilon is singular to working precision (sigma {sv})")
+            raise ValueError(
+                f"degenerate point: Phi = 1 + S Upsilon is singular to working precision (sigma {sv})"
+            )
         Phi_inv = np.linalg.inv(Phi)
         Psi_inv = Phi_inv.T
-        P = np.block([[L @ (-upsilon @ Phi_inv) @ L.T, L @ Psi_inv], [-Phi_inv @ L.T, -S @ Psi_inv]])
+        P = np.block(
+            [[L @ (-upsilon @ Phi_inv) @ L.T, L @ Psi_inv], [-Phi_inv @ L.T, -S @ Psi_inv]]
+        )
         return 0.5 * (P - P.T)  # the exact P is antisymmetric; this is no farther from it
 
 
