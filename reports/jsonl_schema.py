@@ -18,7 +18,7 @@ Rules the schemas encode:
    ``null`` for a non-finite entry (JSON has no NaN);
 4. the ``capabilities`` result declares the domain: ``protocol_version`` and ``methods``
    (required), ``algebras`` (``"all"`` or catalogue names), ``dimensions``, ``theta``,
-   ``upsilon``, ``gravity``, ``batched``, ``max_abs_t``, ``precision_digits``,
+   ``upsilon``, ``gravity``, ``batched``, ``max_abs_t``, ``negative_t``, ``precision_digits``,
    ``flow_tolerance``, ``order``, ``poisson_integrator``.
 
 A violation raises :class:`ProtocolError`, deliberately *not* a ``ValueError``: in the

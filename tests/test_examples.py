@@ -60,14 +60,13 @@ def _assert_certified(cmd: str, tmp_path: Path) -> None:
     rc, cert, log = _certify_cli(cmd, tmp_path / "cert")
     assert rc == 0 and cert["passed"], log
     ran = {c["name"].split("[")[0] for c in cert["checks"]}
-    assert ran == set(POISSON), ran  # every Poisson-tensor check ran (none skipped) ...
-    assert sum(c["examples"] for c in cert["checks"]) >= 20
-    # ... and the methods the client does not provide are skipped with the reason
-    assert set(cert["skipped"]) == {
-        "poisson_tensor.batch",
-        "hamiltonian_vector_field.reference",
-        "flow.reference",
-    }
+    assert set(POISSON) <= ran, ran  # every Poisson-tensor check ran (none skipped) ...
+    assert (
+        sum(c["examples"] for c in cert["checks"] if c["name"].startswith("poisson_tensor.")) >= 20
+    )
+    # ... and the methods the client does not provide are skipped, saying so
+    for cid in ("hamiltonian_vector_field.reference", "flow.reference"):
+        assert cid in cert["skipped"] and cid.split(".")[0] in cert["skipped"][cid]
 
 
 def _assert_rejected(cmd: str) -> None:
@@ -147,3 +146,39 @@ def test_ci_workflow_example_certifies_on_push():
     assert certify_steps and all("--cmd" in s or ":" in s for s in certify_steps)
     text = (EXAMPLES / "ci" / "github-workflow.yml").read_text()
     assert "junit" in text.lower()
+
+
+def test_jaxlie_su2_only_implementation_certified_in_its_domain(monkeypatch):
+    """examples/jaxlie_su2: an su(2)-only implementation on jaxlie declares its domain (su(2),
+    Upsilon = 0, no potential, |t| <= 100); it is certified there, the certificate states the domain,
+    and the copy with the right-invariant frame in place of the left-invariant one is rejected."""
+    pytest.importorskip("jaxlie", reason="jaxlie not installed (pip install -e '.[jaxlie]')")
+    from tstarg.reports import certification
+
+    if not hasattr(certification, "declared_domain"):
+        pytest.skip("the certification does not read declared domains yet (issue 18, deliver 1)")
+    monkeypatch.syspath_prepend(str(EXAMPLES / "jaxlie_su2"))
+    import su2_jaxlie
+
+    cert = certify(
+        su2_jaxlie.implementation, max_examples=4, seed=0, target="su2_jaxlie:implementation"
+    )
+    assert cert.passed, cert.summary()
+    assert "su(2)" in cert.domain and "Upsilon = 0" in cert.domain and "100" in cert.domain
+    ran = {c.name.split("[")[0] for c in cert.checks}
+    assert {
+        "poisson_tensor.reference",
+        "hamiltonian_vector_field.reference",
+        "flow.reference",
+        "domain.refusal",
+    } <= ran
+    bad = certify(
+        su2_jaxlie.broken_implementation,
+        max_examples=4,
+        seed=0,
+        shrink=False,
+        stop_on_failure=True,
+        checks=["poisson_tensor.reference"],
+        target="su2_jaxlie:broken_implementation",
+    )
+    assert not bad.passed, bad.summary()
