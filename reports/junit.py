@@ -16,7 +16,7 @@ module turns the JSON written by ``tstarg certify`` (``certificate.json``, i.e.
 4. program incidents of ``--cmd`` targets (hangs, crashes, garbage) are one more failed test
    case ``program.incidents``, so that the XML fails exactly when the certificate fails;
 5. the suite's ``<properties>`` carry the implementation, version, target, seed, examples per
-   check, the reproduce command and, when present, the declared domain.
+   check, the reproduce command and, when present, the declared domain and the notes.
 
 Every value goes through :func:`_xml_text`, which drops the characters XML 1.0 forbids (a
 ``--cmd`` program may print anything into an error message).
@@ -51,6 +51,11 @@ def _ratio(value: Any) -> float:
 
 def _fmt_ratio(r: float) -> str:
     return f"{r:.3g}" if math.isfinite(r) else str(r)
+
+
+def _fmt_digits(value: Any) -> str:
+    d = _ratio(value)  # a number, or "inf" (exact agreement) stored as a string
+    return "exact" if d == math.inf else f"{d:.1f}"
 
 
 def _classname(check_id: str, check: dict, default: str) -> str:
@@ -129,6 +134,7 @@ def junit_tree(doc: dict) -> ET.ElementTree:
         "max_examples",
         "command",
         "domain",
+        "notes",
     ):
         _add_property(props, key, doc.get(key))
     if not len(props):
@@ -152,7 +158,7 @@ def junit_tree(doc: dict) -> ET.ElementTree:
         if check.get("passed", False):
             out = f"examples {check.get('examples', 0)}, worst error/tolerance {_fmt_ratio(ratio)}"
             if check.get("min_digits") is not None:
-                out += f", min digits {check['min_digits']}"
+                out += f", min digits {_fmt_digits(check['min_digits'])}"
             ET.SubElement(case, "system-out").text = _xml_text(out)
             continue
         first_line = (str(check.get("detail") or "").strip().splitlines() or ["check failed"])[0]
