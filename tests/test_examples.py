@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 import pytest
+
 from tstarg.reports.certification import certify
 from tstarg.reports.jsonl import CommandImplementation
 from tstarg.reports.jsonl_schema import check_program

@@ -8,6 +8,7 @@ import math
 import xml.etree.ElementTree as ET
 
 import pytest
+
 from tstarg.reports.certification import certify
 from tstarg.reports.junit import main as junit_main
 from tstarg.reports.junit import write_junit

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 from jsonschema import Draft202012Validator
+
 from tstarg.reports.certification import certify
 from tstarg.reports.jsonl import CommandImplementation
 from tstarg.reports.jsonl_schema import (

@@ -31,13 +31,13 @@ from __future__ import annotations
 from typing import ClassVar
 
 import jax
-
-jax.config.update("jax_enable_x64", True)  # float64 throughout (jax defaults to float32)
-
 import jax.numpy as jnp
 import jaxlie
 import numpy as np
 from jax.experimental.ode import odeint
+
+# float64 throughout (jax defaults to float32); before any array is made: nothing above makes one
+jax.config.update("jax_enable_x64", True)
 
 EPS3 = np.zeros((3, 3, 3))
 for _a, _b, _c in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
@@ -84,7 +84,10 @@ def _body_rhs(y, t, inertia_inv, S_theta):
 def _flow(pi0, x0, inertia_inv, theta, t):
     sign = jnp.sign(t)
     y0 = jnp.concatenate([pi0, jaxlie.SO3.exp(x0).wxyz])
-    rhs = lambda y, s, a, b: sign * _body_rhs(y, s, a, b)
+
+    def rhs(y, s, a, b):  # t < 0 runs the field backwards
+        return sign * _body_rhs(y, s, a, b)
+
     ys = odeint(
         rhs,
         y0,
