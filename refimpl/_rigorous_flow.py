@@ -1,0 +1,3 @@
+"""placeholder"""
+def body_flow_enclosure(*a, **k):
+    raise NotImplementedError
