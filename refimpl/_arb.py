@@ -24,6 +24,7 @@ import math
 from contextlib import contextmanager
 from dataclasses import dataclass
 from fractions import Fraction
+from functools import lru_cache
 from typing import Any
 
 import flint
@@ -32,7 +33,19 @@ import numpy as np
 import sympy
 from flint import arb, arb_mat, fmpq, fmpz
 
-__all__ = ["workprec", "to_arb", "to_exact", "Balls", "mat_entries", "upper"]
+from ._algebra import LieAlgebra
+
+__all__ = [
+    "Balls",
+    "algebra_balls",
+    "exact_source",
+    "float_view",
+    "mat_entries",
+    "to_arb",
+    "to_exact",
+    "upper",
+    "workprec",
+]
 
 
 @contextmanager
@@ -89,13 +102,15 @@ def _sympy_to_arb(e: sympy.Basic) -> arb:
                 raise ValueError(f"{e}: a fractional power needs a provably positive base")
             r = b.root(int(ex.q)) if int(ex.q) != 2 else b.sqrt()
             return r ** int(ex.p)
-    raise TypeError(f"cannot evaluate the sympy number {e} in ball arithmetic (use rationals and radicals)")
+    raise TypeError(
+        f"cannot evaluate the sympy number {e} in ball arithmetic (use rationals and radicals)"
+    )
 
 
 def to_arb(v: Any, name: str = "value") -> arb:
     """The ball of an input number at the current precision (see the module docstring)."""
     try:
-        if isinstance(v, bool) or isinstance(v, np.bool_):
+        if isinstance(v, (bool, np.bool_)):
             raise TypeError("booleans are not numbers here")
         if isinstance(v, arb):
             return +v
@@ -103,7 +118,7 @@ def to_arb(v: Any, name: str = "value") -> arb:
             return arb(fmpz(int(v)))
         if isinstance(v, (float, np.floating)):
             if not math.isfinite(float(v)):
-                raise ValueError(f"non-finite number {v!r}")
+                raise ValueError(f"non-finite number {v!r} (NaN or infinity)")
             return arb(float(v))  # a double is a binary rational: exact ball
         if isinstance(v, Fraction):
             return arb(fmpq(v.numerator, v.denominator))
@@ -177,7 +192,7 @@ class Balls:
     def rad(self) -> np.ndarray:
         return np.array([upper(b.rad()) for b in self.balls.flat], dtype=float).reshape(self.shape)
 
-    def __getitem__(self, idx) -> "Balls | arb":
+    def __getitem__(self, idx) -> Balls | arb:
         out = self.balls[idx]
         return Balls(out, self.prec_bits) if isinstance(out, np.ndarray) else out
 
@@ -191,8 +206,10 @@ class Balls:
         """Elementwise: does the ball contain the (exactly converted) value? Booleans array."""
         arr = self._values(values)
         with workprec(max(self.prec_bits, 64) + 64):
-            return np.array([b.contains(to_arb(v, "value")) for b, v in zip(self.balls.flat, arr.flat)],
-                            dtype=bool).reshape(self.shape)
+            return np.array(
+                [b.contains(to_arb(v, "value")) for b, v in zip(self.balls.flat, arr.flat)],
+                dtype=bool,
+            ).reshape(self.shape)
 
     def error_bounds(self, values: Any) -> tuple[np.ndarray, np.ndarray]:
         """Proven bounds ``lo <= |value - exact| <= hi`` per entry (float64, rounded outward).
@@ -212,3 +229,73 @@ class Balls:
 
     def max_rad(self) -> float:
         return float(np.max(self.rad)) if self.balls.size else 0.0
+
+
+# ------------------------------------------------------------------ model inputs
+def float_view(v: Any, name: str) -> np.ndarray:
+    """Any accepted input as float64 (for the shared float-side validation only)."""
+    if isinstance(v, LieAlgebra):
+        return v.f
+    arr = np.asarray(v, dtype=object)
+    try:
+        return np.asarray(arr, dtype=float)
+    except (TypeError, ValueError):
+        pass
+    out = np.empty(arr.shape)
+    for idx, e in np.ndenumerate(arr):
+        try:
+            out[idx] = float(to_exact(e))
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{name}: {exc}") from None
+    return out
+
+
+def exact_source(f: Any) -> np.ndarray:
+    """The entries of ``f`` to convert: the exact constants of an exact LieAlgebra, else the values given."""
+    if isinstance(f, LieAlgebra):
+        return f.f_exact if f.is_exact else f.f
+    return np.asarray(f, dtype=object)
+
+
+def _balls_of(arr: np.ndarray, name: str) -> list:
+    return [to_arb(e, name) for e in arr.flat]
+
+
+@lru_cache(maxsize=64)
+def _algebra_cached(key, prec: int, holder) -> tuple:
+    return _algebra_convert(holder.value, prec)
+
+
+class _Holder:
+    """Keeps a LieAlgebra alive and hashable by identity for the cache."""
+
+    def __init__(self, value):
+        self.value = value
+
+    def __hash__(self):
+        return id(self.value)
+
+    def __eq__(self, other):
+        return isinstance(other, _Holder) and other.value is self.value
+
+
+def _algebra_convert(f: Any, prec: int) -> tuple:
+    """``(Fad, FS, n)``: ``ad_x = reshape(Fad x)`` and ``pi_m f^m = reshape(FS pi)`` as ball matrices."""
+    src = exact_source(f)
+    n = src.shape[0]
+    with workprec(prec):
+        vals = np.array(_balls_of(src, "structure constants f"), dtype=object).reshape(n, n, n)
+        # Fad[(m, b), a] = f[m, a, b];  FS[(a, b), m] = f[m, a, b]
+        Fad = arb_mat(n * n, n, list(vals.transpose(0, 2, 1).reshape(n * n, n).flat))
+        FS = arb_mat(n * n, n, list(vals.transpose(1, 2, 0).reshape(n * n, n).flat))
+    return Fad, FS, n
+
+
+def algebra_balls(f: Any, prec: int) -> tuple:
+    """``(Fad, FS, n)`` for ``f`` at ``prec`` bits, cached for LieAlgebra objects and float arrays."""
+    if isinstance(f, LieAlgebra):
+        return _algebra_cached(id(f), prec, _Holder(f))
+    arr = np.asarray(f)
+    if arr.dtype == float:
+        return _algebra_cached(("float", arr.shape, arr.tobytes()), prec, _Holder(arr))
+    return _algebra_convert(f, prec)

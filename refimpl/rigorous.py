@@ -49,21 +49,43 @@ Judge API (for ``verify``/``certify``): :func:`judge_poisson`,
 from __future__ import annotations
 
 import math
-from functools import lru_cache
 from typing import Any
 
 import numpy as np
 import sympy
 from flint import arb, arb_mat
 
-from ._algebra import LieAlgebra
-from ._arb import Balls, mat_entries, to_arb, to_exact, upper, workprec
+from ._arb import (
+    Balls,
+    algebra_balls,
+    exact_source,
+    float_view,
+    mat_entries,
+    to_arb,
+    to_exact,
+    upper,
+    workprec,
+)
 from ._rigorous_flow import body_flow_enclosure
-from ._validate import check_inertia, check_potential, check_structure_constants, check_theta, check_upsilon
+from ._validate import (
+    check_inertia,
+    check_potential,
+    check_structure_constants,
+    check_theta,
+    check_upsilon,
+)
 
 __all__ = [
-    "Rigorous", "implementation", "DegeneratePointError", "UndecidedError", "Balls",
-    "judge_poisson", "judge_vector_field", "distance_to_ball", "error_bounds", "body_flow_enclosure",
+    "Balls",
+    "DegeneratePointError",
+    "Rigorous",
+    "UndecidedError",
+    "body_flow_enclosure",
+    "distance_to_ball",
+    "error_bounds",
+    "implementation",
+    "judge_poisson",
+    "judge_vector_field",
 ]
 
 LOG2E = 1.4426950408889634
@@ -82,86 +104,18 @@ class _Undecided(Exception):
 
 
 # ------------------------------------------------------------------ inputs
-def _float_view(v: Any, name: str) -> np.ndarray:
-    """Any accepted input as float64 (for the shared float-side validation only)."""
-    if isinstance(v, LieAlgebra):
-        return v.f
-    arr = np.asarray(v, dtype=object)
-    try:
-        return np.asarray(arr, dtype=float)
-    except (TypeError, ValueError):
-        pass
-    out = np.empty(arr.shape)
-    for idx, e in np.ndenumerate(arr):
-        try:
-            out[idx] = float(to_exact(e))
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"{name}: {exc}") from None
-    return out
-
-
-def _exact_source(f: Any) -> np.ndarray:
-    """The entries of ``f`` to convert: the exact constants of an exact LieAlgebra, else the values given."""
-    if isinstance(f, LieAlgebra):
-        return f.f_exact if f.is_exact else f.f
-    return np.asarray(f, dtype=object)
-
-
-def _balls_of(arr: np.ndarray, name: str) -> list:
-    return [to_arb(e, name) for e in arr.flat]
-
-
-@lru_cache(maxsize=64)
-def _algebra_balls_cached(key, prec: int, holder) -> tuple:
-    return _algebra_balls(holder.value, prec)
-
-
-class _Holder:
-    """Keeps a LieAlgebra alive and hashable by identity for the cache."""
-
-    def __init__(self, value):
-        self.value = value
-
-    def __hash__(self):
-        return id(self.value)
-
-    def __eq__(self, other):
-        return isinstance(other, _Holder) and other.value is self.value
-
-
-def _algebra_balls(f: Any, prec: int) -> tuple:
-    """``(Fad, FS, n)``: ``ad_x = reshape(Fad x)`` and ``pi_m f^m = reshape(FS pi)`` as ball matrices."""
-    src = _exact_source(f)
-    n = src.shape[0]
-    with workprec(prec):
-        vals = np.array(_balls_of(src, "structure constants f"), dtype=object).reshape(n, n, n)
-        # Fad[(m, b), a] = f[m, a, b];  FS[(a, b), m] = f[m, a, b]
-        Fad = arb_mat(n * n, n, list(vals.transpose(0, 2, 1).reshape(n * n, n).flat))
-        FS = arb_mat(n * n, n, list(vals.transpose(1, 2, 0).reshape(n * n, n).flat))
-    return Fad, FS, n
-
-
-def _algebra(f: Any, prec: int) -> tuple:
-    if isinstance(f, LieAlgebra):
-        return _algebra_balls_cached(id(f), prec, _Holder(f))
-    arr = np.asarray(f)
-    if arr.dtype == float:
-        return _algebra_balls_cached(("float", arr.shape, arr.tobytes()), prec, _Holder(arr))
-    return _algebra_balls(f, prec)
-
-
 def _vec(v: Any, n: int, name: str) -> arb_mat:
     arr = np.asarray(v, dtype=object)
     if arr.shape != (n,):
         raise ValueError(f"{name} must have shape ({n},), got {arr.shape}")
-    return arb_mat(n, 1, _balls_of(arr, name))
+    return arb_mat(n, 1, [to_arb(e, name) for e in arr.flat])
 
 
 def _mat(v: Any, n: int, name: str) -> arb_mat:
     arr = np.asarray(v, dtype=object)
     if arr.shape != (n, n):
         raise ValueError(f"{name} must have shape ({n}, {n}), got {arr.shape}")
-    return arb_mat(n, n, _balls_of(arr, name))
+    return arb_mat(n, n, [to_arb(e, name) for e in arr.flat])
 
 
 def _reshape(v: arb_mat, n: int) -> arb_mat:
@@ -180,7 +134,9 @@ def _norm_inf_upper(M: arb_mat) -> float:
     """An upper bound of ``||M||_inf`` (largest row sum of moduli), rounded up."""
     n, m = M.nrows(), M.ncols()
     e = M.entries()
-    return max((math.fsum(upper(e[i * m + j]) for j in range(m)) for i in range(n)), default=0.0) * (1 + 1e-15)
+    return max(
+        (math.fsum(upper(e[i * m + j]) for j in range(m)) for i in range(n)), default=0.0
+    ) * (1 + 1e-15)
 
 
 # ------------------------------------------------------------------ frames
@@ -190,15 +146,15 @@ def phi1_ball(M: arb_mat, prec: int) -> arb_mat:
     nu = arb(_norm_inf_upper(M))
     total = _eye(n)
     term = _eye(n)
-    bound = arb(1)          # nu^k/(k+1)! for the current k (k = 0)
+    bound = arb(1)  # nu^k/(k+1)! for the current k (k = 0)
     tiny = arb(2) ** (-(prec + 4))
     k = 0
     while True:
         k += 1
         term = term * M / (k + 1)
         total += term
-        bound = bound * nu / (k + 1)   # nu^k/(k+1)!: majorant of the entries of the term just added
-        nxt = bound * nu / (k + 2)     # nu^(k+1)/(k+2)!: the first omitted term's majorant
+        bound = bound * nu / (k + 1)  # nu^k/(k+1)!: majorant of the entries of the term just added
+        nxt = bound * nu / (k + 2)  # nu^(k+1)/(k+2)!: the first omitted term's majorant
         if k + 3 > 2 * nu and nxt < tiny:
             tail = nxt / (1 - nu / (k + 3))
             t = upper(tail)
@@ -227,7 +183,9 @@ class Rigorous:
             raise ValueError(f"prec_bits must be an int >= 53, got {prec_bits!r}")
         cap = 8 * prec_bits if max_prec_bits is None else max_prec_bits
         if not isinstance(cap, int) or cap < prec_bits:
-            raise ValueError(f"max_prec_bits must be an int >= prec_bits = {prec_bits}, got {max_prec_bits!r}")
+            raise ValueError(
+                f"max_prec_bits must be an int >= prec_bits = {prec_bits}, got {max_prec_bits!r}"
+            )
         self.prec_bits = prec_bits
         self.max_prec_bits = cap
 
@@ -237,10 +195,10 @@ class Rigorous:
     # -------------------------------------------------------------- validation
     @staticmethod
     def _validate(f, theta, upsilon):
-        ff = check_structure_constants(_float_view(f, "structure constants f"))
+        ff = check_structure_constants(float_view(f, "structure constants f"))
         n = ff.shape[0]
-        check_theta(_float_view(theta, "theta"), ff)
-        check_upsilon(_float_view(upsilon, "upsilon"), n)
+        check_theta(float_view(theta, "theta"), ff)
+        check_upsilon(float_view(upsilon, "upsilon"), n)
         return n
 
     # -------------------------------------------------------------- the core
@@ -252,16 +210,18 @@ class Rigorous:
                 return fn(prec)
             except _Undecided as exc:
                 if prec >= self.max_prec_bits:
-                    return exc.args[1](prec)   # the final decision, at the cap
+                    return exc.args[1](prec)  # the final decision, at the cap
                 prec = min(2 * prec, self.max_prec_bits)
 
     def _model(self, f, theta, upsilon, prec):
-        Fad, FS, n = _algebra(f, prec)
+        Fad, FS, n = algebra_balls(f, prec)
         th = _mat(theta, n, "theta")
         up = _mat(upsilon, n, "upsilon")
         for M, nm in ((th, "theta"), (up, "upsilon")):
             if not all(e.contains(0) for e in (M + M.transpose()).entries()):
-                raise ValueError(f"{nm} is not exactly antisymmetric ({nm} + {nm}^T is provably nonzero)")
+                raise ValueError(
+                    f"{nm} is not exactly antisymmetric ({nm} + {nm}^T is provably nonzero)"
+                )
         return Fad, FS, n, th, up
 
     @staticmethod
@@ -287,7 +247,9 @@ class Rigorous:
             xs = [float(e.mid()) for e in x.entries()]
             raise UndecidedError(
                 f"x = {xs} is outside the chart of exponential coordinates, or too close to its boundary to "
-                f"prove phi1(-ad_x) invertible at {prec} bits (an eigenvalue of ad_x at or near 2 pi i k, k != 0)")
+                f"prove phi1(-ad_x) invertible at {prec} bits (an eigenvalue of ad_x at or near 2 pi i k, k != 0)"
+            )
+
         return fail
 
     def _phi(self, FS, n, th, up, pi, exact_inputs):
@@ -312,24 +274,42 @@ class Rigorous:
         pis = [float(e.mid()) for e in pi.entries()]
         raise DegeneratePointError(
             f"point with pi = {pis} is on the degenerate set Pi_1 (vier12): Delta = det Phi = {Delta} exactly; "
-            "omega_L has no inverse there")
+            "omega_L has no inverse there"
+        )
 
     @staticmethod
     def _decide_delta(pi, exact_inputs):
         def decide(prec):
-            f, theta, upsilon = exact_inputs
-            src = _exact_source(f)
+            f, theta, upsilon, piv = exact_inputs
+            src = exact_source(f)
             n = src.shape[0]
-            ex = lambda a: np.vectorize(to_exact, otypes=[object])(np.asarray(a, dtype=object))  # noqa: E731
+
+            def ex(a):
+                return np.vectorize(to_exact, otypes=[object])(np.asarray(a, dtype=object))
+
             F = ex(src)
-            pv = ex(exact_inputs[3]) if len(exact_inputs) > 3 else None
-            S = sympy.Matrix(n, n, lambda a, b: sum(pv[m] * F[m, a, b] for m in range(n))) - sympy.Matrix(ex(theta))
-            d = sympy.nsimplify(sympy.expand((sympy.eye(n) + S * sympy.Matrix(ex(upsilon))).det(method="berkowitz")))
-            if d == 0 or sympy.simplify(d) == 0:
+            pv = ex(piv)
+            S = sympy.Matrix(
+                n, n, lambda a, b: sum(pv[m] * F[m, a, b] for m in range(n))
+            ) - sympy.Matrix(ex(theta))
+            d = sympy.expand((sympy.eye(n) + S * sympy.Matrix(ex(upsilon))).det(method="berkowitz"))
+            zero = d.is_zero
+            if zero is None:
+                zero = sympy.simplify(d).is_zero
+            if zero is None:
+                zero = d.equals(0)
+            if zero:
                 Rigorous._degenerate(pi, "0")
+            if zero is None:
+                raise UndecidedError(
+                    f"Delta = det Phi = {d} could not be decided (neither ball arithmetic up to "
+                    f"{prec} bits nor sympy)"
+                )
             raise UndecidedError(
                 f"Delta = det Phi is not zero (exactly {sympy.N(d, 5)}) but its ball still contains 0 at the "
-                f"precision cap {prec} bits; raise max_prec_bits")
+                f"precision cap {prec} bits; raise max_prec_bits"
+            )
+
         return decide
 
     def _evaluate(self, f, theta, upsilon, x, pi, *, vf=None, want=("P",)):
@@ -337,24 +317,33 @@ class Rigorous:
         n = self._validate(f, theta, upsilon)
         exact_inputs = (f, theta, upsilon, pi)
         if vf is not None:
-            check_inertia(_float_view(vf[0], "inertia"), n)
+            check_inertia(float_view(vf[0], "inertia"), n)
             pot = vf[1]
-            check_potential(None if pot is None else {
-                k: (_float_view(v, f"potential[{k!r}]") if k != "kind" else v) for k, v in pot.items()}, n)
+            check_potential(
+                None
+                if pot is None
+                else {
+                    k: (float_view(v, f"potential[{k!r}]") if k != "kind" else v)
+                    for k, v in pot.items()
+                },
+                n,
+            )
 
         def at(prec):
             with workprec(prec + 16):
-                Fad, _, _ = _algebra(f, prec + 16)
+                Fad, _, _ = algebra_balls(f, prec + 16)
                 xv = _vec(x, n, "x")
                 guard = self._guard(Fad, n, xv)
             wp = prec + guard
             with workprec(wp):
-                Fad, FS, n_, th, up = self._model(f, theta, upsilon, wp)
+                Fad, FS, _, th, up = self._model(f, theta, upsilon, wp)
                 xv, pv = _vec(x, n, "x"), _vec(pi, n, "pi")
                 q = self._phi(FS, n, th, up, pv, exact_inputs)
                 out = {"prec": wp, "S": q["S"], "Phi": q["Phi"], "Delta": q["Delta"], "n": n}
                 if "frames" in want or "P" in want or vf is not None:
-                    out.update(self._frames(Fad, n, xv, wp, want_ad=vf is not None and vf[1] is not None))
+                    out.update(
+                        self._frames(Fad, n, xv, wp, want_ad=vf is not None and vf[1] is not None)
+                    )
                 Phi_inv = q["Phi_inv"]
                 Psi_inv = Phi_inv.transpose()
                 out["Phi_inv"] = Phi_inv
@@ -396,37 +385,53 @@ class Rigorous:
         out = np.empty((2 * n, 2 * n), dtype=object)
         for k, B in enumerate(blocks):
             i, j = divmod(k, 2)
-            out[i * n:(i + 1) * n, j * n:(j + 1) * n] = mat_entries(B)
+            out[i * n : (i + 1) * n, j * n : (j + 1) * n] = mat_entries(B)
         return Balls(out, prec)
 
     def frames_balls(self, f, x) -> dict:
         """``{"A", "L", "Ad"}`` as :class:`Balls`: ``phi1(-ad_x)``, its inverse, ``exp(ad_x)`` (twee1, twee3)."""
-        n = check_structure_constants(_float_view(f, "structure constants f")).shape[0]
+        n = check_structure_constants(float_view(f, "structure constants f")).shape[0]
         z = np.zeros((n, n), dtype=int)
-        r = self._evaluate(f, z, z, x, np.zeros(n, dtype=int), vf=(np.eye(n, dtype=int),
-                           {"kind": "gravity", "L": [0] * n, "gamma": [0] * n}), want=("frames",))
+        r = self._evaluate(
+            f,
+            z,
+            z,
+            x,
+            np.zeros(n, dtype=int),
+            vf=(np.eye(n, dtype=int), {"kind": "gravity", "L": [0] * n, "gamma": [0] * n}),
+            want=("frames",),
+        )
         return {k: Balls(mat_entries(r[k]), r["prec"]) for k in ("A", "L", "Ad")}
 
     def phi_psi_delta_balls(self, f, theta, upsilon, pi) -> dict:
         """``{"S", "Phi", "Psi", "Delta"}`` (vier3, vier6, vier7); raises for a degenerate point."""
         n = self._validate(f, theta, upsilon)
         r = self._evaluate(f, theta, upsilon, np.zeros(n, dtype=int), pi, want=())
-        return {"S": Balls(mat_entries(r["S"]), r["prec"]), "Phi": Balls(mat_entries(r["Phi"]), r["prec"]),
-                "Psi": Balls(mat_entries(r["Phi"].transpose()), r["prec"]),
-                "Delta": Balls(np.array(r["Delta"], dtype=object), r["prec"])}
+        return {
+            "S": Balls(mat_entries(r["S"]), r["prec"]),
+            "Phi": Balls(mat_entries(r["Phi"]), r["prec"]),
+            "Psi": Balls(mat_entries(r["Phi"].transpose()), r["prec"]),
+            "Delta": Balls(np.array(r["Delta"], dtype=object), r["prec"]),
+        }
 
     def poisson_tensor_balls(self, f, theta, upsilon, x, pi, *, frame: str = "holonomic") -> Balls:
         """``P[i, j] = {z_i, z_j}`` as balls; ``frame="body"`` gives ``-W^-1`` (vier9)."""
         if frame not in ("holonomic", "body"):
             raise ValueError(f"unknown frame {frame!r} (holonomic or body)")
-        r = self._evaluate(f, theta, upsilon, x, pi, want=("P",) if frame == "holonomic" else ("body",))
+        r = self._evaluate(
+            f, theta, upsilon, x, pi, want=("P",) if frame == "holonomic" else ("body",)
+        )
         return self._blocks(r["P"] if frame == "holonomic" else r["body"], r["n"], r["prec"])
 
-    def hamiltonian_vector_field_balls(self, f, theta, upsilon, inertia, potential, x, pi) -> tuple[Balls, Balls]:
+    def hamiltonian_vector_field_balls(
+        self, f, theta, upsilon, inertia, potential, x, pi
+    ) -> tuple[Balls, Balls]:
         """``(xdot, pidot)`` as balls (vier10, vier11; gravity twee15/twee16)."""
         r = self._evaluate(f, theta, upsilon, x, pi, vf=(inertia, potential), want=())
-        return (Balls(np.array(r["xdot"].entries(), dtype=object), r["prec"]),
-                Balls(np.array(r["pidot"].entries(), dtype=object), r["prec"]))
+        return (
+            Balls(np.array(r["xdot"].entries(), dtype=object), r["prec"]),
+            Balls(np.array(r["pidot"].entries(), dtype=object), r["prec"]),
+        )
 
     # ------------------------------------------------------------ the protocol
     def _tight(self, compute):
@@ -436,7 +441,10 @@ class Rigorous:
             res = compute(inst)
             arrs = res if isinstance(res, tuple) else (res,)
             scale = max(max(float(np.max(np.abs(a.mid))) for a in arrs), 1e-300)
-            if all(a.max_rad() <= 2.0**-60 * scale for a in arrs) or inst.prec_bits >= self.max_prec_bits:
+            if (
+                all(a.max_rad() <= 2.0**-60 * scale for a in arrs)
+                or inst.prec_bits >= self.max_prec_bits
+            ):
                 return tuple(a.mid for a in arrs) if isinstance(res, tuple) else res.mid
             inst = Rigorous(min(2 * inst.prec_bits, self.max_prec_bits), self.max_prec_bits)
 
@@ -446,7 +454,9 @@ class Rigorous:
 
     def hamiltonian_vector_field(self, f, theta, upsilon, inertia, potential, x, pi):
         """Protocol method 2: float64 midpoints of :meth:`hamiltonian_vector_field_balls`."""
-        return self._tight(lambda r: r.hamiltonian_vector_field_balls(f, theta, upsilon, inertia, potential, x, pi))
+        return self._tight(
+            lambda r: r.hamiltonian_vector_field_balls(f, theta, upsilon, inertia, potential, x, pi)
+        )
 
 
 implementation = Rigorous(prec_bits=200)
@@ -465,7 +475,9 @@ def judge_poisson(f, theta, upsilon, x, pi, prec_bits: int = 200) -> tuple[np.nd
 
 def judge_vector_field(f, theta, upsilon, inertia, potential, x, pi, prec_bits: int = 200):
     """``((xdot_mid, xdot_rad), (pidot_mid, pidot_rad))`` for vier10/vier11, as :func:`judge_poisson`."""
-    xd, pd = Rigorous(prec_bits).hamiltonian_vector_field_balls(f, theta, upsilon, inertia, potential, x, pi)
+    xd, pd = Rigorous(prec_bits).hamiltonian_vector_field_balls(
+        f, theta, upsilon, inertia, potential, x, pi
+    )
     return (xd.mid, xd.rad), (pd.mid, pd.rad)
 
 
