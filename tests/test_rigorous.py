@@ -20,7 +20,10 @@ import mpmath
 import numpy as np
 import pytest
 import sympy
+from flint import arb_mat
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue, su2, su3
+from tstarg.refimpl._arb import workprec
+from tstarg.refimpl.fast import implementation as fast
 from tstarg.refimpl.reference import Reference
 from tstarg.refimpl.rigorous import (
     Balls,
@@ -60,9 +63,8 @@ def _point(name: str, regime: str, seed: int = 7):
         S = np.einsum("m,mab->ab", pi, f) - theta
         lam = np.linalg.eigvals(S @ U)
         real = [v.real for v in lam if abs(v.imag) <= 1e-9 * abs(v) and abs(v) > 1e-6]
-        if (
-            real
-        ):  # det(1 + s S U) = prod(1 + s lam): s = -1/lam is degenerate; stop 1e-9 short of it
+        # det(1 + s S U) = prod(1 + s lam): s = -1/lam is degenerate; stop 1e-9 short of it
+        if real:
             U = U * (-1.0 / max(real, key=abs)) * (1 - 1e-9)
     elif regime == "near_chart_boundary":
         ad = np.einsum("a,mab->mb", x, f)
@@ -217,9 +219,6 @@ def test_rational_and_sympy_inputs_match_exact_su2_closed_form():
 def test_phi1_series_tail_bound_contains_van_loan_exponential():
     """phi1(M) from the series with its tail bound contains the block exponential's (Arb expm, another
     rigorous route: Van Loan's ``expm([[M, 1], [0, 0]])``); for a nilpotent M the exact finite sum."""
-    from flint import arb_mat
-    from tstarg.refimpl._arb import workprec
-
     rng = np.random.default_rng(2)
     with workprec(256):
         for scale in (0.1, 3.0, 12.0):
@@ -310,8 +309,6 @@ def test_protocol_midpoints_are_the_rounded_reference():
 def test_judge_api_and_error_bounds():
     """judge_poisson: (mid, rad); error_bounds of the float64 fast implementation bracket its true error
     (lo <= hi), and a float64 implementation is within its error model c eps cond scale (c = 64 n)."""
-    from tstarg.refimpl.fast import implementation as fast
-
     alg, theta, U, x, pi, cond = _point("su(2)", "generic")
     mid, rad = judge_poisson(alg.f, theta, U, x, pi)
     B = R200.poisson_tensor_balls(alg.f, theta, U, x, pi)
