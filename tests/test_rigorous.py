@@ -21,8 +21,11 @@ import numpy as np
 import pytest
 import sympy
 from flint import arb_mat
+from hypothesis import given, reject, settings
+from hypothesis import strategies as st
+from tstarg.properties.strategies import lie_algebras
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue, su2, su3
-from tstarg.refimpl._arb import workprec
+from tstarg.refimpl._arb import to_arb, workprec
 from tstarg.refimpl.fast import implementation as fast
 from tstarg.refimpl.reference import Reference
 from tstarg.refimpl.rigorous import (
@@ -39,6 +42,7 @@ from tstarg.refimpl.rigorous import (
 )
 
 from tests._helpers import regime_cases
+from tests.conftest import ref_examples
 
 REGIMES = ("generic", "near_degenerate", "large_momenta", "near_chart_boundary")
 EPS = np.finfo(float).eps
@@ -339,3 +343,53 @@ def test_bad_input_and_no_mutation():
         Rigorous(10)
     with pytest.raises(ValueError, match="pi"):
         R200.poisson_tensor_balls(alg, theta, U, x, ["a", 0, 0])
+
+
+@settings(max_examples=ref_examples(0.6))
+@given(alg=lie_algebras(max_dim=4), data=st.data())
+def test_random_algebras_vector_field_is_poisson_tensor_times_gradient(alg, data):
+    """vier10/vier11 against vier9: with V = 0, ``zdot = P grad H`` and ``grad H = (0, I^-1 pi)``, so
+    ``xdot = P_x,pi dK`` and ``pidot = P_pi,pi dK``: the balls of the two formulas overlap, and the
+    60-digit reference lies inside both (128 bits: radii about 1e-35, far above the reference's error)."""
+    n = alg.f.shape[0]
+    num = st.floats(-1.0, 1.0, allow_nan=False, width=32)
+    x = np.array(data.draw(st.lists(num, min_size=n, max_size=n)), dtype=float) * 0.8
+    pi = np.array(data.draw(st.lists(num, min_size=n, max_size=n)), dtype=float) * 2.0
+    u = (
+        np.array(data.draw(st.lists(num, min_size=n * n, max_size=n * n)), dtype=float).reshape(
+            n, n
+        )
+        * 0.3
+    )
+    U = u - u.T
+    inertia = np.diag(
+        1.0 + np.abs(np.array(data.draw(st.lists(num, min_size=n, max_size=n)), dtype=float))
+    )
+    Z = np.zeros((n, n))
+    R = Rigorous(128)
+    try:
+        P = R.poisson_tensor_balls(alg, Z, U, x, pi)
+    except (DegeneratePointError, UndecidedError):
+        reject()
+    xd, pd = R.hamiltonian_vector_field_balls(alg, Z, U, inertia, None, x, pi)
+    with workprec(160):
+        dK = [
+            to_arb(p) / to_arb(inertia[i, i]) for i, p in enumerate(pi.tolist())
+        ]  # exact inputs, ball quotient
+        for k in range(n):
+            vx = sum((P.balls[k, n + j] * dK[j] for j in range(n)), arb_mat(1, 1)[0, 0])
+            vp = sum((P.balls[n + k, n + j] * dK[j] for j in range(n)), arb_mat(1, 1)[0, 0])
+            assert vx.overlaps(xd.balls[k]) and vp.overlaps(pd.balls[k]), (
+                k,
+                vx,
+                xd.balls[k],
+                vp,
+                pd.balls[k],
+            )
+    ref = Reference(60)
+    assert P.contains(_arr(ref.poisson_tensor_mp(alg, Z, U, x, pi))).all()
+    rx, rp = ref.hamiltonian_vector_field_mp(alg, Z, U, inertia, None, x, pi)
+    assert (
+        xd.contains(np.array(list(rx), dtype=object)).all()
+        and pd.contains(np.array(list(rp), dtype=object)).all()
+    )
