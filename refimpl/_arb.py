@@ -296,6 +296,11 @@ def algebra_balls(f: Any, prec: int) -> tuple:
     if isinstance(f, LieAlgebra):
         return _algebra_cached(id(f), prec, _Holder(f))
     arr = np.asarray(f)
-    if arr.dtype == float:
-        return _algebra_cached(("float", arr.shape, arr.tobytes()), prec, _Holder(arr))
+    if arr.dtype == float and arr.ndim == 3:
+        return _algebra_cached_float(arr.shape, np.ascontiguousarray(arr).tobytes(), prec)
     return _algebra_convert(f, prec)
+
+
+@lru_cache(maxsize=64)
+def _algebra_cached_float(shape: tuple, data: bytes, prec: int) -> tuple:
+    return _algebra_convert(np.frombuffer(data, dtype=float).reshape(shape), prec)

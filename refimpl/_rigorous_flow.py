@@ -251,7 +251,8 @@ def _lohner_step(F, yhat, B, r, h, p, q, tol):
     d = F.d
     H = _hull0(h)
     Br = B * r
-    Y = [yhat[i] + Br[i, 0] for i in range(d)]
+    # the set, as a box; it contains yhat (r contains 0), made explicit for the mean-value segment
+    Y = [(yhat[i] + Br[i, 0]).union(yhat[i]) for i in range(d)]
     E = _enclosure(F, Y, H)
     if E is None:
         return None

@@ -44,6 +44,16 @@ in :mod:`refimpl._rigorous_flow` (:func:`body_flow_enclosure`).
 Judge API (for ``verify``/``certify``): :func:`judge_poisson`,
 :func:`judge_vector_field` return ``(midpoints, radii)``; :func:`distance_to_ball` and
 :func:`error_bounds` give proven bounds on the error of a float64 value.
+
+Wiring it as the judge (not done here; reports/ owns the call sites): where a check computes
+``ref = Reference(dps).poisson_tensor(...)`` and ``err = |value - ref|``, compute instead
+``B = Rigorous(prec_bits).poisson_tensor_balls(...)`` and ``lo, hi = error_bounds(value, B)``:
+``hi`` is a proven upper bound of the error (use it against the tolerance, so a pass is proven),
+``lo`` a proven lower bound (``lo > tol`` proves a failure); proven digits are
+``-log10(hi / max(|B.mid|, floor))``. Keep the mpmath reference as the second route: assert
+``B.contains(reference values)`` (at a reference precision above ``-log10(B.rad)``, else compare
+with :func:`distance_to_ball` against the reference's own promise). Record the judge's name
+(``Rigorous.name``) and ``B.prec_bits`` in the report/certificate.
 """
 
 from __future__ import annotations
