@@ -291,6 +291,60 @@ def _lohner_step(F, yhat, B, r, h, p, q, tol):
     return yhat_n, Bn, rn, remmax
 
 
+def enclose_quadratic(
+    F: QuadraticField,
+    y0: list,
+    T: arb,
+    *,
+    order: int = 40,
+    jac_order: int = 8,
+    tol: float = 2.0**-184,
+    h0: float = 0.05,
+    max_steps: int = 100000,
+) -> tuple[list, int, int]:
+    """Enclose ``y(T)`` for ``y' = F(y)``, ``y(0) in y0`` (balls), at the current precision (module docstring).
+
+    Returns ``(balls of y(T), accepted steps, rejected steps)``; raises ``ValueError`` when the step
+    size underflows (no enclosure or remainder small enough) or after ``max_steps`` steps.
+    """
+    if T.is_zero():
+        return list(y0), 0, 0
+    d = F.d
+    yhat = [v.mid() for v in y0]
+    B = arb_mat([[1 if i == j else 0 for j in range(d)] for i in range(d)])
+    r = arb_mat(d, 1, [v - m for v, m in zip(y0, yhat)])
+    tnow = arb(0)  # exact: a sum of dyadic steps
+    h = h0
+    steps = rejected = 0
+    while True:
+        left = T - tnow
+        if not (left > 0):
+            break
+        last = h >= float(left.upper())
+        hb = left if last else arb(h)
+        res = _lohner_step(F, yhat, B, r, hb, order, jac_order, tol)
+        if res is None or res[0] == "big":
+            rejected += 1
+            h = (float(left.mid()) if last else h) / 2
+            if h < 1e-12 or rejected > max_steps:
+                raise ValueError(
+                    f"rigorous flow: step size underflow at t = {float(tnow.mid())} "
+                    "(the enclosure or the remainder cannot be made small enough)"
+                )
+            continue
+        yhat, B, r, remmax = res
+        steps += 1
+        if last:
+            break
+        tnow += hb
+        if remmax < tol * 1e-6:
+            h = h * 1.25
+        if steps > max_steps:
+            raise ValueError(f"rigorous flow: more than max_steps = {max_steps} steps")
+    Br = B * r
+    return [yhat[i] + Br[i, 0] for i in range(d)], steps, rejected
+
+
 def body_flow_enclosure(
     f,
     theta,
@@ -375,43 +429,16 @@ def body_flow_enclosure(
                 ],
             )
             y0 += (Ad.transpose() * gam).entries()
-        d = F.d
-        yhat = [v.mid() for v in y0]
-        B = arb_mat([[1 if i == j else 0 for j in range(d)] for i in range(d)])
-        r = arb_mat(d, 1, [v - m for v, m in zip(y0, yhat)])
-        T = to_arb(t, "t")
-        tnow = arb(0)  # exact: a sum of dyadic steps
-        h = h0
-        steps = rejected = 0
-        while True:
-            left = T - tnow
-            if not (left > 0):
-                break
-            last = h >= float(left.upper())
-            hb = left if last else arb(h)
-            res = _lohner_step(F, yhat, B, r, hb, order, jac_order, tol)
-            if res is None or res[0] == "big":
-                rejected += 1
-                h = (float(left.mid()) if last else h) / 2
-                if h < 1e-12 or rejected > max_steps:
-                    raise ValueError(
-                        f"rigorous flow: step size underflow at t = {float(tnow.mid())} "
-                        "(the enclosure or the remainder cannot be made small enough)"
-                    )
-                continue
-            yhat, B, r, remmax = res
-            steps += 1
-            if last:
-                break
-            tnow += hb
-            if remmax < tol * 1e-6:
-                h = h * 1.25
-            if steps > max_steps:
-                raise ValueError(f"rigorous flow: more than max_steps = {max_steps} steps")
-        Br = B * r
-        y = [yhat[i] + Br[i, 0] for i in range(d)]
-        if tv == 0:
-            y = y0
+        y, steps, rejected = enclose_quadratic(
+            F,
+            y0,
+            to_arb(t, "t"),
+            order=order,
+            jac_order=jac_order,
+            tol=tol,
+            h0=h0,
+            max_steps=max_steps,
+        )
     Gam = Balls(np.array(y[n:], dtype=object), prec_bits) if pot is not None else None
     return FlowEnclosure(
         t=tv,

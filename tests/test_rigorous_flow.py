@@ -15,9 +15,10 @@ from __future__ import annotations
 import mpmath
 import numpy as np
 import pytest
-from flint import arb
+from flint import arb, arb_mat
 from tstarg.refimpl import so4, su2
-from tstarg.refimpl._arb import to_arb, workprec
+from tstarg.refimpl._arb import Balls, algebra_balls, to_arb, workprec
+from tstarg.refimpl._rigorous_flow import QuadraticField, body_field, enclose_quadratic
 from tstarg.refimpl.flows import euler_top_closed_form, reference_trajectory
 from tstarg.refimpl.rigorous import body_flow_enclosure
 
@@ -167,3 +168,35 @@ def test_heavy_top_t10(top):
         enc = body_flow_enclosure(su2(), Z, Z, inertia, pot, X0, PI0, t, prec_bits=200, order=45)
         assert enc.max_rad() <= 1e-45
         _assert_inside(enc, *_ref(inertia, pot, t, 70), f"{top} top T = {t}, 200 bits")
+
+
+def test_printed_twee17_sign_is_excluded():
+    """Negative control: the same method on the printed twee17 (dGamma/dt with the opposite sign, the
+    erratum of CONVENTIONS.md) gives an enclosure that excludes the reference, which the corrected
+    law's enclosure contains: the containment tests can tell the two laws apart."""
+    with workprec(128):
+        F, n = body_field(su2(), Z, ISSUE_TOP, GRAV)
+        quad = {i: {(j, k): v for j, k, v in F.quad.get(i, ())} for i in range(F.d)}
+        lin = {i: dict(F.lin.get(i, ())) for i in range(F.d)}
+        wrong = QuadraticField(
+            F.d,
+            {},
+            lin,
+            {i: ({jk: -v for jk, v in q.items()} if i >= n else q) for i, q in quad.items()},
+        )
+        good = body_flow_enclosure(
+            su2(), Z, Z, ISSUE_TOP, GRAV, X0, PI0, 0.5, prec_bits=128, order=30
+        )
+        y0 = [to_arb(v) for v in PI0] + list(good_gamma0())
+        y_bad, _, _ = enclose_quadratic(wrong, y0, arb(0.5), order=30, tol=2.0**-112)
+    pi_ref, G_ref = _ref(ISSUE_TOP, GRAV, 0.5, 40)
+    _assert_inside(good, pi_ref, G_ref, "corrected twee17")
+    bad = Balls(np.array(y_bad, dtype=object), 128)
+    assert not bad.contains(np.concatenate([pi_ref, G_ref])).all()
+
+
+def good_gamma0():
+    """Gamma(0) = Ad(exp x0)^T gamma, enclosed (Arb's matrix exponential of ad_x0 for su(2))."""
+    Fad, _, _ = algebra_balls(su2(), 128)
+    ad = arb_mat(3, 3, (Fad * arb_mat(3, 1, [to_arb(v) for v in X0])).entries())
+    return (ad.exp().transpose() * arb_mat(3, 1, [to_arb(v) for v in GRAV["gamma"]])).entries()
