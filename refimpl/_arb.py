@@ -63,11 +63,15 @@ def _pow2(e: int) -> arb:
     return arb(2) ** int(e)  # exact: a power of two is representable at any precision
 
 
+def _tuple_to_arb(t: tuple) -> arb:
+    sign, man, exp, _ = t
+    return arb(fmpz(-int(man) if sign else int(man))) * _pow2(exp)
+
+
 def _mpf_to_arb(v: mpmath.mpf) -> arb:
     if not mpmath.isfinite(v):
         raise ValueError(f"non-finite number {v!r}")
-    sign, man, exp, _ = v._mpf_
-    return arb(fmpz(-int(man) if sign else int(man))) * _pow2(exp)
+    return _tuple_to_arb(v._mpf_)
 
 
 def _sympy_to_arb(e: sympy.Basic) -> arb:
@@ -76,8 +80,10 @@ def _sympy_to_arb(e: sympy.Basic) -> arb:
         return arb(fmpz(int(e)))
     if e.is_Rational:
         return arb(fmpq(int(e.p), int(e.q)))
-    if e.is_Float:
-        return _mpf_to_arb(mpmath.mpf(e._mpf_))
+    if e.is_Float:  # a binary float of any precision: exact, from its (sign, man, exp, bc) tuple
+        if not e.is_finite:
+            raise ValueError(f"non-finite number {e}")
+        return _tuple_to_arb(e._mpf_)
     if e is sympy.pi:
         return arb.pi()
     if e is sympy.E:

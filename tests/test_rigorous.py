@@ -393,3 +393,31 @@ def test_random_algebras_vector_field_is_poisson_tensor_times_gradient(alg, data
         xd.contains(np.array(list(rx), dtype=object)).all()
         and pd.contains(np.array(list(rp), dtype=object)).all()
     )
+
+
+def test_inputs_enter_exactly():
+    """Binary floats of any precision (float64, mpmath, sympy Float) become exact balls; rationals and
+    radicals become balls around their exact values; what is not a real number is refused by name."""
+    with workprec(200), mpmath.workdps(40):
+        for v in (0.1, mpmath.mpf("0.1"), sympy.Float("0.1", 30), -1.5, 7, np.int64(-3)):
+            b = to_arb(v)
+            assert b.is_exact() and b.contains(to_arb(sympy.Rational(*_ratio(v))))
+        third = to_arb(Fraction(1, 3))
+        assert not third.is_exact() and third.rad() < 1e-59 and (3 * third).contains(1)
+        s3 = to_arb(sympy.sqrt(3) / 2)
+        assert (4 * s3 * s3).contains(3) and s3.rad() < 1e-59
+    for bad in (sympy.I, sympy.Symbol("y"), "abc", None, True, float("nan")):
+        with pytest.raises(ValueError, match="v:"):
+            to_arb(bad, "v")
+
+
+def _ratio(v):
+    """The exact rational of a binary float, independently of refimpl: via Python's Fraction."""
+    if isinstance(v, mpmath.mpf):
+        m, e = v.man_exp
+        q = Fraction(int(m)) * Fraction(2) ** int(e) * (-1 if v < 0 else 1)
+    elif isinstance(v, sympy.Float):
+        q = Fraction(str(sympy.Rational(v)))
+    else:
+        q = Fraction(float(v)) if not isinstance(v, (int, np.integer)) else Fraction(int(v))
+    return q.numerator, q.denominator
