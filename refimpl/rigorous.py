@@ -519,22 +519,54 @@ implementation = Rigorous(prec_bits=200)
 
 
 # ------------------------------------------------------------------ judge API
+def _over_points(x, pi, one, name: str):
+    """Apply ``one(x_k, pi_k) -> tuple of arrays`` over the leading axes of ``x``, ``pi`` (same leading shape);
+    an error at a point is re-raised with its index (the same exception class)."""
+    xa, pa = np.asarray(x, dtype=object), np.asarray(pi, dtype=object)
+    if xa.ndim <= 1 and pa.ndim <= 1:
+        return one(x, pi)
+    if xa.shape[:-1] != pa.shape[:-1] or xa.ndim != pa.ndim:
+        raise ValueError(
+            f"{name}: x and pi must have the same leading (batch) axes, got {xa.shape} and {pa.shape}"
+        )
+    lead = xa.shape[:-1]
+    outs = []
+    for idx in np.ndindex(*lead):
+        try:
+            outs.append(one(xa[idx], pa[idx]))
+        except ValueError as exc:
+            raise type(exc)(f"point {idx}: {exc}") from None
+    return tuple(
+        np.stack([o[i] for o in outs]).reshape(lead + outs[0][i].shape) for i in range(len(outs[0]))
+    )
+
+
 def judge_poisson(f, theta, upsilon, x, pi, prec_bits: int = 200) -> tuple[np.ndarray, np.ndarray]:
     """``(mid, rad)``: float64 midpoints and radii (upper bounds) of the balls of ``P`` (vier9, holonomic).
 
     The exact tensor satisfies ``|P_exact - mid| <= rad + ulp(mid)/2`` per entry; use
-    :func:`error_bounds` for proven bounds on the error of a candidate value.
+    :func:`error_bounds` for proven bounds on the error of a candidate value. ``x``, ``pi`` may carry
+    leading batch axes (then so do the outputs); an error names the point.
     """
-    b = Rigorous(prec_bits).poisson_tensor_balls(f, theta, upsilon, x, pi)
-    return b.mid, b.rad
+    R = Rigorous(prec_bits)
+
+    def one(xk, pk):
+        b = R.poisson_tensor_balls(f, theta, upsilon, xk, pk)
+        return b.mid, b.rad
+
+    return _over_points(x, pi, one, "judge_poisson")
 
 
 def judge_vector_field(f, theta, upsilon, inertia, potential, x, pi, prec_bits: int = 200):
     """``((xdot_mid, xdot_rad), (pidot_mid, pidot_rad))`` for vier10/vier11, as :func:`judge_poisson`."""
-    xd, pd = Rigorous(prec_bits).hamiltonian_vector_field_balls(
-        f, theta, upsilon, inertia, potential, x, pi
-    )
-    return (xd.mid, xd.rad), (pd.mid, pd.rad)
+    R = Rigorous(prec_bits)
+
+    def one(xk, pk):
+        xd, pd = R.hamiltonian_vector_field_balls(f, theta, upsilon, inertia, potential, xk, pk)
+        return xd.mid, xd.rad, pd.mid, pd.rad
+
+    xm, xr, pm, pr = _over_points(x, pi, one, "judge_vector_field")
+    return (xm, xr), (pm, pr)
 
 
 def error_bounds(value, ball: Balls) -> tuple[np.ndarray, np.ndarray]:

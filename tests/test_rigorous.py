@@ -421,3 +421,22 @@ def _ratio(v):
     else:
         q = Fraction(float(v)) if not isinstance(v, (int, np.integer)) else Fraction(int(v))
     return q.numerator, q.denominator
+
+
+def test_judge_over_a_batch_names_the_bad_point():
+    """Batched judge: the same balls as point by point; a degenerate point (su(2), pi.tau = 1) is named."""
+    alg = su2()
+    rng = np.random.default_rng(4)
+    X, PI = 0.3 * rng.normal(size=(2, 2, 3)), rng.normal(size=(2, 2, 3))
+    tau = np.array([0.5, 0.0, 0.0])
+    U = np.einsum("l,lmn->mn", tau, alg.f)
+    Z = np.zeros((3, 3))
+    mid, rad = judge_poisson(alg, Z, U, X, PI, prec_bits=128)
+    assert mid.shape == rad.shape == (2, 2, 6, 6)
+    m11, r11 = judge_poisson(alg, Z, U, X[1, 1], PI[1, 1], prec_bits=128)
+    assert np.array_equal(mid[1, 1], m11) and np.array_equal(rad[1, 1], r11)
+    (xm, _), (pm, pr) = judge_vector_field(alg, Z, U, np.eye(3), None, X, PI, prec_bits=128)
+    assert xm.shape == pm.shape == pr.shape == (2, 2, 3)
+    PI[0, 1] = [2.0, 0.3, -0.1]  # pi.tau = 1: Delta = 0 exactly
+    with pytest.raises(DegeneratePointError, match=r"point \(0, 1\)"):
+        judge_poisson(alg, Z, U, X, PI, prec_bits=128)
