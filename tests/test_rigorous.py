@@ -440,3 +440,18 @@ def test_judge_over_a_batch_names_the_bad_point():
     PI[0, 1] = [2.0, 0.3, -0.1]  # pi.tau = 1: Delta = 0 exactly
     with pytest.raises(DegeneratePointError, match=r"point \(0, 1\)"):
         judge_poisson(alg, Z, U, X, PI, prec_bits=128)
+
+
+@pytest.mark.parametrize("name", ["su(2)", "so(4)", "Bianchi VI_h(h=-2)"])
+def test_body_frame_tensor_is_minus_w_inverse(name):
+    """frame="body": the blocks of -W^-1 (vier9); the reference's first-principles inverse of W (vier3,
+    at 100 digits) lies inside; and the holonomic tensor at x = 0 (L = 1) has the same balls' values."""
+    alg, theta, U, _, pi, _ = _point(name, "generic", seed=3)
+    n = alg.f.shape[0]
+    B = R200.poisson_tensor_balls(alg, theta, U, np.zeros(n), pi, frame="body")
+    W = Reference(100).poisson_tensor_mp(
+        alg, theta, U, np.zeros(n), pi, route="first_principles", frame="body"
+    )
+    assert B.contains(_arr(W)).all() and B.max_rad() < 1e-55
+    H = R200.poisson_tensor_balls(alg, theta, U, np.zeros(n), pi)
+    assert all(h.overlaps(b) for h, b in zip(H.balls.flat, B.balls.flat))
