@@ -17,6 +17,11 @@ Implementations (DESIGN.md protocol)
     :mod:`refimpl.reference` (``Reference(dps)``, ``implementation`` at 50 digits)
     and :mod:`refimpl.fast` (``Fast``, ``implementation``); :class:`Implementation`
     states the protocol.
+Rigorous (Arb balls, python-flint; :mod:`refimpl.rigorous`)
+    :class:`Rigorous` (``Rigorous(prec_bits)``, ``implementation`` at 200 bits), :class:`Balls`,
+    :class:`RigorousDegeneratePointError`, :class:`UndecidedError`, the judge API
+    (:func:`judge_poisson`, :func:`judge_vector_field`, :func:`error_bounds`, :func:`distance_to_ball`)
+    and :func:`body_flow_enclosure` (validated flows of the polynomial body systems).
 """
 
 from ._algebra import LieAlgebra
@@ -42,4 +47,21 @@ __all__ = [
     "delta1", "delta2", "h2_dim", "solve_coboundary",
     "frames", "Implementation", "Fast", "Reference", "DegeneratePointError", "ChartError",
     "Scene", "Plan", "load_scene", "plan", "run_scene",
+]
+
+from .rigorous import (
+    Balls,
+    Rigorous,
+    UndecidedError,
+    body_flow_enclosure,
+    distance_to_ball,
+    error_bounds,
+    judge_poisson,
+    judge_vector_field,
+)
+from .rigorous import DegeneratePointError as RigorousDegeneratePointError
+
+__all__ += [
+    "Balls", "Rigorous", "RigorousDegeneratePointError", "UndecidedError", "body_flow_enclosure", "distance_to_ball",
+    "error_bounds", "judge_poisson", "judge_vector_field",
 ]
