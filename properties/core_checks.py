@@ -13,8 +13,12 @@ Core checks (issue "the core"):
     the reference's closed formulas against inverting the ``2n x 2n`` matrix
     of omega_L, at 50 digits, tolerance ``1e-40 * max|P|``;
 ``fast_matches_reference`` (vier9)
-    the fast implementation against the 30-digit reference, tolerance the
-    fast implementation's own per-point error bound;
+    the fast implementation against the rigorous judge (Arb balls at 200 bits,
+    :mod:`refimpl.rigorous`), tolerance the fast implementation's own per-point error
+    bound, judged with the proven upper bound of the error (proven digits);
+``reference_inside_balls`` (vier9)
+    the mpmath reference (50 digits), the independent second route, within
+    ``10^-45 max|P|`` of the balls;
 ``precision_ladder``
     the reference at dps 30 and 60 against dps 120, tolerance
     ``10^-(dps-3) * max|P|``;
@@ -33,6 +37,7 @@ from hypothesis import strategies as st
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue
 from tstarg.refimpl.fast import implementation as fast
 from tstarg.refimpl.reference import DegeneratePointError, Reference
+from tstarg.refimpl.rigorous import Rigorous, UndecidedError, error_bounds
 
 from tstarg.refimpl.accuracy import correct_digits as _digits
 from tstarg.refimpl.accuracy import max_abs_diff as _mp_max_abs_diff
@@ -40,7 +45,8 @@ from tstarg.refimpl.accuracy import max_abs_diff as _mp_max_abs_diff
 from .runner import CheckResult, run_property
 from .strategies import REGIMES, cocycles, points, rationals, upsilons
 
-__all__ = ["CORE_CHECKS", "core_checks", "routes_agree", "fast_matches_reference", "precision_ladder"]
+__all__ = ["CORE_CHECKS", "core_checks", "routes_agree", "fast_matches_reference", "precision_ladder",
+           "reference_inside_balls"]
 
 
 # ------------------------------------------------------------------ strategies
@@ -72,20 +78,45 @@ def routes_agree(example) -> tuple[float, float] | None:
     return float(diff / (mpmath.mpf(10) ** -40 * scale)), _digits(diff, scale)
 
 
-_REF30 = Reference(30)
+_JUDGE = Rigorous(200)
 
 
 def fast_matches_reference(example) -> tuple[float, float] | None:
+    """The fast tensor against the rigorous judge (Arb balls at 200 bits, which provably contain the
+    exact tensor of the float64 inputs): the ratio uses the proven upper bound of the error, so a
+    pass is proven; the digits are proven digits."""
     name, theta, ups, x, pi = example
     alg = catalogue(name)
     res = fast.poisson_batch(alg.f, theta, ups, x, pi)
     if res.degenerate:
         return None
-    P_ref = _REF30.poisson_tensor(alg.f, theta, ups, x, pi)
-    err = float(np.max(np.abs(res.P - P_ref)))
-    scale = max(1.0, float(np.max(np.abs(P_ref))))
+    try:
+        balls = _JUDGE.poisson_tensor_balls(alg.f, theta, ups, x, pi)
+    except (DegeneratePointError, UndecidedError):
+        return None
+    _, hi = error_bounds(res.P, balls)
+    err = float(np.max(hi))
+    scale = max(1.0, float(np.max(np.abs(balls.mid))))
     digits = float("inf") if err == 0 else -math.log10(err / scale)
     return err / float(res.error_bound), digits
+
+
+def reference_inside_balls(example) -> tuple[float, float] | None:
+    """The second route: the mpmath reference at 50 digits lies within its own promise
+    (``10^-45 max|P|``) of the rigorous balls at 200 bits; the digits are the reference's proven
+    digits."""
+    name, theta, ups, x, pi = example
+    alg = catalogue(name)
+    try:
+        Pm = Reference(50).poisson_tensor_mp(alg.f, theta, ups, x, pi)
+        P = np.array([[Pm[i, j] for j in range(Pm.cols)] for i in range(Pm.rows)], dtype=object)
+        balls = _JUDGE.poisson_tensor_balls(alg.f, theta, ups, x, pi)
+    except (DegeneratePointError, UndecidedError):
+        return None
+    _, hi = error_bounds(P, balls)
+    scale = max(1.0, float(np.max(np.abs(balls.mid))))
+    err = float(np.max(hi))
+    return err / (1e-45 * scale), (float("inf") if err == 0 else -math.log10(err / scale))
 
 
 def precision_ladder(example) -> tuple[float, float] | None:
@@ -118,8 +149,13 @@ def core_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
         out.append(run_property(f"fast_matches_reference[{regime}]", "vier9", fast_matches_reference,
                                 _model_and_point(names, exact=False, regime=regime),
                                 max_examples=max_examples, seed=seed,
-                                extra={"tolerance": "per-point error_bound of refimpl.fast"}))
+                                extra={"tolerance": "per-point error_bound of refimpl.fast",
+                                       "judge": f"{_JUDGE.name} (Arb balls, 200 bits): proven digits"}))
+    out.append(run_property("reference_inside_balls", "vier9", reference_inside_balls,
+                            _model_and_point(names, exact=False), max_examples=max(3, max_examples // 4), seed=seed,
+                            extra={"tolerance": "10^-45 max|P| (reference at dps 50) from the 200-bit balls",
+                                   "judge": "refimpl.rigorous; second route refimpl.reference"}))
     return out
 
 
-CORE_CHECKS = ("routes_agree", "precision_ladder", "fast_matches_reference")
+CORE_CHECKS = ("routes_agree", "precision_ladder", "fast_matches_reference", "reference_inside_balls")

@@ -19,7 +19,7 @@ Implementations (DESIGN.md protocol)
     states the protocol.
 Rigorous (Arb balls, python-flint; :mod:`refimpl.rigorous`)
     :class:`Rigorous` (``Rigorous(prec_bits)``, ``implementation`` at 200 bits), :class:`Balls`,
-    :class:`RigorousDegeneratePointError`, :class:`UndecidedError`, the judge API
+    :class:`UndecidedError` (degenerate points raise the shared :class:`DegeneratePointError`), the judge API
     (:func:`judge_poisson`, :func:`judge_vector_field`, :func:`error_bounds`, :func:`distance_to_ball`)
     and :func:`body_flow_enclosure` (validated flows of the polynomial body systems).
 """
@@ -59,9 +59,8 @@ from .rigorous import (
     judge_poisson,
     judge_vector_field,
 )
-from .rigorous import DegeneratePointError as RigorousDegeneratePointError
 
 __all__ += [
-    "Balls", "Rigorous", "RigorousDegeneratePointError", "UndecidedError", "body_flow_enclosure", "distance_to_ball",
+    "Balls", "Rigorous", "UndecidedError", "body_flow_enclosure", "distance_to_ball",
     "error_bounds", "judge_poisson", "judge_vector_field",
 ]

@@ -66,6 +66,7 @@ import numpy as np
 import sympy
 from flint import arb, arb_mat
 
+from ._errors import DegeneratePointError
 from ._arb import (
     Balls,
     algebra_balls,
@@ -100,10 +101,6 @@ __all__ = [
 ]
 
 LOG2E = 1.4426950408889634
-
-
-class DegeneratePointError(ValueError):
-    """Delta = det Phi is exactly 0 (vier7, vier12): omega_L is not invertible at the point."""
 
 
 class UndecidedError(ValueError):
