@@ -26,6 +26,8 @@ import sys
 import time
 from pathlib import Path
 
+from ._atomic import write_text
+
 HELP = "work-precision benchmarks: flows and brackets vs scipy and the mpmath reference, batch throughput"
 
 
@@ -196,8 +198,8 @@ def main(args) -> int:
 
     report["loadavg_end"] = list(os.getloadavg())
     report["seconds"] = time.perf_counter() - t_start
-    (out / "report.json").write_text(json.dumps(_finite(report), indent=1, default=_json_default, allow_nan=False))
-    (out / "report.md").write_text(render_markdown(report))
+    write_text(out / "report.json", json.dumps(_finite(report), indent=1, default=_json_default, allow_nan=False))
+    write_text(out / "report.md", render_markdown(report))
     print(f"wrote {out / 'report.json'}, {out / 'report.md'} and figures ({report['seconds']:.0f} s)")
     return 0
 
