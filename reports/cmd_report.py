@@ -48,15 +48,21 @@ def main(args) -> int:
         # re-rendering writes only into --out (default: the run's own folder, unless that is the
         # committed baseline, whose folder holds report.json alone: then nothing is written there)
         folder = Path(rep.pop("_path")).parent
+        try:
+            md = render_markdown(rep)
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+            print(f"tstarg report: {folder}: not a complete tstarg verify report ({type(exc).__name__}: {exc})",
+                  file=sys.stderr)
+            return 2
         if args.out:
             folder = Path(args.out)
         elif folder.resolve() == regression.BASELINE.parent.resolve():
-            print(render_markdown(rep))
+            print(md)
             print(f"(not written: {folder} is the committed baseline; give --out FOLDER to write report.md)")
             return 0
         if rep.get("comparison"):
             regression.plot(rep["comparison"], folder / "figures" / "compare.png")
-        write_text(folder / "report.md", render_markdown(rep))
+        write_text(folder / "report.md", md)
         print(f"rendered {folder / 'report.md'}")
         return 0
     slack = regression.DIGITS_SLACK if args.digits_slack is None else args.digits_slack
