@@ -251,9 +251,12 @@ class ReferenceCore:
         n = adx.rows
         xs = [mpmath.nstr(v, 8) for v in x]
         norm = mpmath.mnorm(adx, 1)
-        A = np.array([[float(adx[i, j]) for j in range(n)] for i in range(n)], dtype=float)
+        with np.errstate(all="ignore"):
+            A = np.array([[float(adx[i, j]) for j in range(n)] for i in range(n)], dtype=float)
         rho, err = ad_chart_radius(A[None])
-        if not rho[0] - err[0] <= TWO_PI:
+        with np.errstate(all="ignore"):
+            outside = not rho[0] - err[0] <= TWO_PI
+        if outside:
             raise ChartError(
                 f"x = {xs} is outside the chart of exponential coordinates: max |Im eigenvalue of ad_x| = "
                 f"{float(rho[0]):.6g} > 2 pi (the frame phi1(-ad_x) of twee1 is singular at 2 pi; su(2): |x| < 2 pi)"

@@ -46,6 +46,8 @@ _REAL_KINDS = "fiu"
 
 def _element_kind_error(value: Any, name: str) -> str | None:
     """Why ``value`` (an object-array element) is not a real number, or None."""
+    if value is None:
+        return f"{name} contains None; real numbers are expected"
     if isinstance(value, (bool, np.bool_)):
         return f"{name} contains a boolean ({value!r}); real numbers are expected"
     if isinstance(value, (complex, np.complexfloating)):
@@ -285,7 +287,7 @@ def chart_radius(f: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     (``||ad_x||_2 >= rho``; bounded by ``min(||.||_F, sqrt(||.||_1 ||.||_inf))``).
     """
     N, n = x.shape
-    with np.errstate(over="ignore", invalid="ignore"):
+    with np.errstate(all="ignore"):
         if _su2_like(f):
             rho = np.sqrt(np.sum(x * x, axis=1))
             rho = np.where(np.isfinite(rho), rho, np.inf)
@@ -295,22 +297,33 @@ def chart_radius(f: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def ad_chart_radius(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`chart_radius` from a batch of ``ad_x`` matrices ``(N, n, n)``."""
+    """:func:`chart_radius` from a batch of ``ad_x`` matrices ``(N, n, n)``.
+
+    Eigenvalues scale with the matrix, so each ``ad_x`` is divided by its largest entry first
+    (no overflow for entries up to the float64 limit); the results may be ``inf``."""
     N, n = A.shape[0], A.shape[-1]
-    with np.errstate(over="ignore", invalid="ignore"):
-        fro = np.sqrt(np.sum(A * A, axis=(-2, -1)))
-        n1 = np.max(np.sum(np.abs(A), axis=-2), axis=-1) if n else np.zeros(N)
-        ninf = np.max(np.sum(np.abs(A), axis=-1), axis=-1) if n else np.zeros(N)
-        bound = np.minimum(fro, np.sqrt(n1 * ninf))
-    finite = np.isfinite(fro) & np.all(np.isfinite(A), axis=(-2, -1))
-    err = np.where(finite, 16 * n * EPS * fro, np.inf)
     rho = np.full(N, np.inf)
-    need = finite & (bound >= TWO_PI * (1 - 1e-3))
-    # points whose norm bound is below 2 pi: rho <= bound < 2 pi, the bound stands in for rho
-    rho[finite & ~need] = bound[finite & ~need]
-    if need.any():
-        lam = np.linalg.eigvals(A[need])
-        rho[need] = np.max(np.abs(lam.imag), axis=-1)
+    err = np.zeros(N)
+    if N == 0 or n == 0:
+        return np.zeros(N), err
+    with np.errstate(all="ignore"):
+        finite = np.all(np.isfinite(A), axis=(-2, -1))
+        s = np.where(finite, np.max(np.abs(A), axis=(-2, -1)), 1.0)
+        s = np.where(s > 0, s, 1.0)
+        An = np.where(finite[:, None, None], A, 0.0) / s[:, None, None]
+        fro = np.sqrt(np.sum(An * An, axis=(-2, -1)))
+        n1 = np.max(np.sum(np.abs(An), axis=-2), axis=-1)
+        ninf = np.max(np.sum(np.abs(An), axis=-1), axis=-1)
+        bound = s * np.minimum(fro, np.sqrt(n1 * ninf))
+        err = np.where(finite, 16 * n * EPS * s * fro, 0.0)
+        need = finite & ~(bound < TWO_PI * (1 - 1e-3))
+        # points whose norm bound is below 2 pi: rho <= bound < 2 pi, the bound stands in for rho
+        inside = finite & ~need
+        rho[inside] = bound[inside]
+        if need.any():
+            lam = np.linalg.eigvals(An[need])
+            r = s[need] * np.max(np.abs(lam.imag), axis=-1)
+            rho[need] = np.where(np.isfinite(r), r, np.inf)
     return rho, err
 
 
@@ -318,7 +331,8 @@ def outside_chart(f: np.ndarray, x: np.ndarray) -> np.ndarray:
     """Boolean mask ``(N,)``: points at or beyond the chart edge ``rho(x) >= 2 pi`` to float64
     accuracy (``rho + err >= 2 pi``), including every point whose ``ad_x`` overflows."""
     rho, err = chart_radius(f, x)
-    return ~(rho + err < TWO_PI)
+    with np.errstate(all="ignore"):
+        return ~(rho + err < TWO_PI)
 
 
 def check_chart(f: np.ndarray, x: np.ndarray, *, name: str = "x", strict: bool = True) -> None:
@@ -329,7 +343,8 @@ def check_chart(f: np.ndarray, x: np.ndarray, *, name: str = "x", strict: bool =
     clearly outside, ``rho - err > 2 pi``.
     """
     rho, err = chart_radius(f, x)
-    bad = ~(rho + err < TWO_PI) if strict else ~(rho - err <= TWO_PI)
+    with np.errstate(all="ignore"):
+        bad = ~(rho + err < TWO_PI) if strict else ~(rho - err <= TWO_PI)
     if bad.any():
         idx = np.flatnonzero(bad)
         k = int(idx[0])
