@@ -6,7 +6,7 @@
   truncated one. :func:`save_figure` does the same for matplotlib figures.
 * :func:`claim_output`: an exclusive lock (``fcntl.flock`` on ``<folder>/.tstarg.lock``) held
   for the life of the process; a second concurrent run asking for the same folder gets a
-  distinct sibling folder (``<folder>-<pid>``) instead, and says so on stdout.
+  distinct folder inside it (``<folder>/run-<pid>``) instead, and says so on stdout.
 * :func:`safe_name`: a file-name component from untrusted text (scene names): no path
   separators, no leading dots, no ``..``, bounded length.
 """
@@ -82,15 +82,15 @@ def _try_lock(folder: Path) -> int | None:
 
 def claim_output(folder, *, announce: bool = True) -> Path:
     """The folder this run writes into: ``folder`` itself if no other live run holds it, else a
-    distinct sibling ``<folder>-<pid>`` (or ``-<pid>-<k>``). The lock is held until the process
+    distinct folder ``<folder>/run-<pid>`` (or ``run-<pid>-<k>``) *inside* it, so that a command
+    still writes only under the output folder it was given. The lock is held until the process
     exits (the operating system releases it even after ``kill -9``)."""
     folder = Path(folder)
     key = str(folder.resolve())
     if key in _HELD:
         return folder
     candidates = [folder] + [
-        folder.with_name(f"{folder.name}-{os.getpid()}" + (f"-{k}" if k else ""))
-        for k in range(100)
+        folder / (f"run-{os.getpid()}" + (f"-{k}" if k else "")) for k in range(100)
     ]
     for cand in candidates:
         fd = _try_lock(cand)
@@ -102,7 +102,7 @@ def claim_output(folder, *, announce: bool = True) -> Path:
                     flush=True,
                 )
             return cand
-    raise RuntimeError(f"could not lock {folder} or any of 100 alternatives")
+    raise RuntimeError(f"could not lock {folder} or any of 100 alternatives inside it")
 
 
 _UNSAFE = re.compile(r"[^A-Za-z0-9._+-]+")

@@ -193,7 +193,7 @@ def test_concurrent_runs_get_distinct_folders(tmp_path, capsys):
     try:
         assert Path(holder.stdout.readline().strip()) == out
         mine = _atomic.claim_output(out)
-        assert mine != out and mine.parent == out.parent and mine.name.startswith("latest-")
+        assert mine != out and mine.parent == out and mine.name.startswith("run-")
         assert str(mine) in capsys.readouterr().out  # the run says where it writes
     finally:
         holder.kill()
@@ -227,7 +227,7 @@ def test_verify_run_while_another_holds_the_folder_writes_elsewhere(tmp_path, mo
         )
         assert rc == 0
         text = capsys.readouterr().out
-        others = [p for p in tmp_path.iterdir() if p.name.startswith("latest-")]
+        others = [p for p in out.iterdir() if p.name.startswith("run-")]
         assert len(others) == 1 and (others[0] / "report.json").is_file()
         assert not (out / "report.json").exists()
         assert str(others[0]) in text
