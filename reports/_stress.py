@@ -271,7 +271,8 @@ def _chart_points(name: str, quick: bool) -> list[dict]:
             x = (2 * np.pi * c) * u
         if not np.all(np.isfinite(x)):
             x = np.sign(u) * 1e300
-        out.append({"f": alg.f, "theta": theta, "upsilon": U, "x": x, "pi": pi, "param": c,
+        # the 1e300 point is drawn at the plot's edge (a log axis overflows there): param inf
+        out.append({"f": alg.f, "theta": theta, "upsilon": U, "x": x, "pi": pi, "param": c if c < 1e100 else math.inf,
                     "label": f"rho(x) = 2 pi x {c:.12g}"})
     return out
 
