@@ -398,3 +398,32 @@ def test_fuzz_reference_api(args):
     else:
         assert np.all(np.isfinite(np.asarray(P, dtype=float)))
     assert not hasattr(builtins, "TSTARG_PWNED")
+
+
+def test_stress_chart_sweeps_have_zero_silent_failures(tmp_path):
+    """``tstarg stress`` sweeps |x| up to and past the chart edge (su(2) closed form, so(4) generic
+    path): every point is ok, escalated or flagged, every one past the edge flagged, and the fast
+    bound holds wherever it is finite (judged by the reference at 50 and 70 digits)."""
+    from tstarg.reports.cli import main
+
+    out = tmp_path / "stress"
+    code = main(
+        [
+            "stress",
+            "--quick",
+            "--workers",
+            "1",
+            "--sweeps",
+            "chart-su2,chart-so4",
+            "--out",
+            str(out),
+        ]
+    )
+    rep = __import__("json").loads((out / "report.json").read_text())
+    assert code == 0
+    rows = [r for sw in rep["sweeps"] for r in sw["rows"]]
+    assert {sw["name"] for sw in rep["sweeps"]} == {"chart-su2", "chart-so4"} and len(rows) >= 16
+    assert all(r["outcome"] != "SILENT FAILURE" for r in rows)
+    assert all(r["bound_held_fast"] and r["bound_held_final"] for r in rows)
+    past = [r for r in rows if "e+300" in r["label"] or not float(r["param"]) < 1]
+    assert len(past) >= 8 and all(r["flagged"] for r in past)
