@@ -190,6 +190,9 @@ def check_inertia(inertia: Any, n: int) -> np.ndarray:
         raise ValueError(f"inertia must have shape ({n}, {n}) to match f, got {arr.shape}")
     _finite(arr, "inertia")
     scale = float(np.max(np.abs(arr)))
+    if scale > INERTIA_RANGE[1]:
+        raise ValueError(f"inertia has an entry of magnitude {scale:.3g}, outside the accepted range "
+                         f"[{INERTIA_RANGE[0]:g}, {INERTIA_RANGE[1]:g}]")
     asym = float(np.max(np.abs(arr - arr.T)))
     if asym > 4 * EPS * scale:
         raise ValueError(f"inertia is not symmetric: max |I - I^T| = {asym:.3g}")

@@ -427,3 +427,43 @@ def test_stress_chart_sweeps_have_zero_silent_failures(tmp_path):
     assert all(r["bound_held_fast"] and r["bound_held_final"] for r in rows)
     past = [r for r in rows if "e+300" in r["label"] or not float(r["param"]) < 1]
     assert len(past) >= 8 and all(r["flagged"] for r in past)
+
+
+@st.composite
+def _malformed_field(draw):
+    inertia = np.diag([1.0, 2.0, 3.0]).tolist()
+    potential = {"kind": "gravity", "L": [0.0, 0.0, 1.0], "gamma": [0.1, 0.2, 0.97]}
+    which = draw(st.sampled_from(["inertia", "inertia_whole", "potential", "L", "gamma", "kind"]))
+    junk = draw(JUNK)
+    if which == "inertia":
+        i = draw(st.integers(0, 2))
+        inertia[i][i] = junk
+    elif which == "inertia_whole":
+        inertia = junk
+    elif which == "potential":
+        potential = junk
+    elif which == "kind":
+        potential["kind"] = junk
+    else:
+        potential[which][draw(st.integers(0, 2))] = junk
+    return inertia, potential
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(_malformed_field())
+def test_fuzz_vector_field_inputs(args):
+    """Malformed inertia or potential: a ValueError naming it, or a finite field with a finite bound."""
+    inertia, potential = args
+    for call in (
+        lambda: FAST.hamiltonian_vector_field(F, Z, U, inertia, potential, 0.5 * DIR, PI),
+        lambda: REF.hamiltonian_vector_field(F, Z, U, inertia, potential, 0.5 * DIR, PI),
+    ):
+        try:
+            xd, pd = call()
+        except ValueError as exc:
+            assert str(exc)
+        else:
+            assert np.all(np.isfinite(np.asarray(xd, dtype=float))) and np.all(
+                np.isfinite(np.asarray(pd, dtype=float))
+            )
+    assert not hasattr(builtins, "TSTARG_PWNED")
