@@ -26,7 +26,7 @@ import sys
 import time
 from pathlib import Path
 
-from ._atomic import write_text
+from ._atomic import claim_output, write_text
 
 HELP = "work-precision benchmarks: flows and brackets vs scipy and the mpmath reference, batch throughput"
 
@@ -137,7 +137,7 @@ def main(args) -> int:
             print(f"tstarg bench: --ref-dps must be >= 15, got {args.ref_dps}", file=sys.stderr)
             return 2
         S["ref_dps"] = args.ref_dps
-    out = Path(args.out)
+    out = claim_output(Path(args.out))  # a concurrent run gets its own folder and says so
     out.mkdir(parents=True, exist_ok=True)
     print(f"tstarg bench{' --quick' if args.quick else ''}: references and error ladders on {describe(**opts)}; "
           f"{TIMING_NOTE}", flush=True)

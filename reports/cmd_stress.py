@@ -19,7 +19,7 @@ import sys
 import time
 from pathlib import Path
 
-from ._atomic import save_figure, write_text
+from ._atomic import claim_output, save_figure, write_text
 
 HELP = "numerical stability sweeps: digits lost vs the error model, flagged/escalated points, Brouwer's law"
 
@@ -334,7 +334,7 @@ def main(args) -> int:
     except (ValueError, ImportError, AttributeError) as exc:
         print(f"tstarg stress: {exc}", file=sys.stderr)
         return 2
-    out = Path(args.out)
+    out = claim_output(Path(args.out))  # a concurrent run gets its own folder and says so
     write(report, out)
     sm = report["summary"]
     for sw in report["sweeps"]:
