@@ -467,3 +467,32 @@ def test_fuzz_vector_field_inputs(args):
                 np.isfinite(np.asarray(pd, dtype=float))
             )
     assert not hasattr(builtins, "TSTARG_PWNED")
+
+
+@pytest.mark.parametrize("frac", [0.9, 1 - 1e-4, 1 - 1e-8])
+@pytest.mark.parametrize("name", ["su(2)", "so(4)"])
+def test_fast_field_bound_holds_up_to_the_edge(name, frac):
+    """The vector field (vier10, vier11, gravity twee16) near the edge: the fast bound holds
+    against the reference at 40 digits."""
+    f = catalogue(name).f
+    n = f.shape[0]
+    rng = np.random.default_rng(3)
+    up = 0.3 * rng.standard_normal((n, n))
+    up = up - up.T
+    if name == "su(2)":
+        up = U
+    u = rng.standard_normal(n)
+    u /= np.max(np.abs(np.linalg.eigvals(np.einsum("a,mab->mb", u, f)).imag))
+    pi, inertia = 0.5 * rng.standard_normal(n), np.diag(np.arange(1.0, n + 1))
+    pot = {"kind": "gravity", "L": np.eye(n)[-1], "gamma": 0.3 * np.ones(n)}
+    x = 2 * np.pi * frac * u
+    res = FAST.vector_field_batch(f, np.zeros((n, n)), up, inertia, pot, x[None], pi[None])
+    with mpmath.workdps(40):
+        xd, pd = Reference(40).hamiltonian_vector_field_mp(
+            f, np.zeros((n, n)), up, inertia, pot, x, pi
+        )
+        err = max(
+            [abs(mpmath.mpf(float(res.xdot[0, i])) - xd[i]) for i in range(n)]
+            + [abs(mpmath.mpf(float(res.pidot[0, i])) - pd[i]) for i in range(n)]
+        )
+    assert math.isfinite(res.error_bound[0]) and float(err) <= res.error_bound[0]
