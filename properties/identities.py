@@ -89,16 +89,37 @@ class Measurement:
 
 # ------------------------------------------------------------------ helpers
 def _exact(v: Any) -> sympy.Expr:
-    """An exact sympy number; floats are taken at their exact binary value."""
+    """An exact sympy number; floats are taken at their exact binary value.
+
+    Strings are parsed as decimal or rational literals by :class:`fractions.Fraction` only, never
+    by ``sympify`` (which evaluates them as Python code); anything else is refused by name.
+    """
+    if isinstance(v, (bool, np.bool_)):
+        raise TypeError(f"booleans are not numbers here, got {v!r}")
     if isinstance(v, sympy.Basic):
         return v
     if isinstance(v, Fraction):
         return sympy.Rational(v.numerator, v.denominator)
     if isinstance(v, (float, np.floating)):
+        if not np.isfinite(v):
+            raise ValueError(f"non-finite number {v!r}")
         return sympy.Rational(float(v))
     if isinstance(v, (int, np.integer)):
         return sympy.Integer(int(v))
-    return sympy.sympify(v)
+    if isinstance(v, mpmath.mpf):
+        if not mpmath.isfinite(v):
+            raise ValueError(f"non-finite number {v!r}")
+        man, exp = v.man_exp
+        return sympy.Integer(man) * sympy.Integer(2) ** exp
+    if isinstance(v, str):
+        if len(v) > 1000:
+            raise ValueError(f"number string of {len(v)} characters (at most 1000)")
+        try:
+            q = Fraction(v.strip())
+        except (ValueError, ZeroDivisionError):
+            raise ValueError(f"{v!r:.60} is not a decimal or rational number (strings are never evaluated)") from None
+        return sympy.Rational(q.numerator, q.denominator)
+    raise TypeError(f"cannot use {type(v).__name__} {v!r:.60} as an exact real number")
 
 
 def _mpf(v: Any) -> mpmath.mpf:
@@ -519,15 +540,19 @@ def jacobi_float(batch: Callable[[np.ndarray, np.ndarray], tuple], z: np.ndarray
     """Jacobi identity of a float64 implementation by central differences.
 
     ``batch(x, pi) -> (P, error_bound)`` over a leading batch axis. Steps ``h`` and ``2h``
-    with ``h = eps^(1/3) max(1, |z|)``. Error model per derivative: truncation
+    with ``h = eps^(1/3) max(1, |x|_max)`` in ``x`` and ``eps^(1/3) max(1, |pi|_max)`` in
+    ``pi`` (a step scaled by large momenta would carry ``x`` out of the chart). Error model per derivative: truncation
     ``|D_h - D_2h| / 3`` (Richardson) plus rounding ``e / h`` (``e`` the entry error
     bound of P); ``J`` sums ``3N`` products: tolerance ``4 * 3N (max|P| dP_err + max|dP| e)``.
     """
     z = np.asarray(z, dtype=float)
     N = 2 * n
-    h = EPS ** (1 / 3) * max(1.0, float(np.max(np.abs(z))))
+    hx = EPS ** (1 / 3) * max(1.0, float(np.max(np.abs(z[:n]))))
+    hp = EPS ** (1 / 3) * max(1.0, float(np.max(np.abs(z[n:]))))
+    steps = [hx] * n + [hp] * n
     pts = [z]
     for l in range(N):
+        h = steps[l]
         for s in (h, -h, 2 * h, -2 * h):
             zz = z.copy()
             zz[l] += s
@@ -541,6 +566,7 @@ def jacobi_float(batch: Callable[[np.ndarray, np.ndarray], tuple], z: np.ndarray
     D, Derr = [], 0.0
     for l in range(N):
         p1, m1, p2, m2 = P[1 + 4 * l: 5 + 4 * l]
+        h = steps[l]
         Dh = (p1 - m1) / (2 * h)
         D2h = (p2 - m2) / (4 * h)
         D.append(Dh)

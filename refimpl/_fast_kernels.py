@@ -9,8 +9,10 @@ from functools import lru_cache
 import numpy as np
 
 from ._errors import DegeneratePointError
+from ._errors import ChartError
 from ._validate import (
     check_inertia, check_points, check_potential, check_structure_constants, check_theta, check_upsilon,
+    outside_chart,
 )
 
 __all__ = ["FastCore", "PoissonBatch", "FieldBatch", "DegeneratePointError", "C_P"]
@@ -37,6 +39,7 @@ class PoissonBatch:
     error_bound: np.ndarray
     degenerate: np.ndarray
     path: str
+    outside_chart: np.ndarray | None = None  # points at or past the chart edge: NaN, bound inf (issue 15)
 
 
 @dataclass(frozen=True)
@@ -48,6 +51,29 @@ class FieldBatch:
     error_bound: np.ndarray
     degenerate: np.ndarray
     path: str
+    outside_chart: np.ndarray | None = None  # points at or past the chart edge: NaN, bound inf (issue 15)
+
+
+def _chart_hook(f, xa_pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Issue 15 hook: the mask of points outside the chart (``refimpl._validate.outside_chart``) and
+    ``x`` with those points replaced by 0, so that they cost nothing; the caller's array is kept."""
+    n = f.shape[0]
+    out = outside_chart(f, xa_pts.reshape(-1, n)).reshape(xa_pts.shape[:-1])
+    if out.any():
+        xa_pts = np.where(out[..., None], 0.0, xa_pts)
+    return out, xa_pts
+
+
+def _mark_outside(res, out: np.ndarray, arrays: tuple, points_first: bool):
+    """Issue 15 hook: NaN and infinite bounds at the points outside the chart; the flag set."""
+    if out.any():
+        for a in arrays:
+            if points_first:
+                a[out] = np.nan
+            else:
+                a[..., out] = np.nan
+        res.error_bound[out] = np.inf
+    return res
 
 
 # ------------------------------------------------------------ model analysis
@@ -505,11 +531,16 @@ class FastCore:
         f, th, up = self._model(f, theta, upsilon)
         n = f.shape[0]
         if layout == "components":
-            xa, pa = np.asarray(x, dtype=float), np.asarray(pi, dtype=float)
+            xa, pa = np.asarray(x), np.asarray(pi)
+            if xa.ndim == 0 or pa.ndim == 0:
+                raise ValueError(f"x and pi must have shape (n, ...) for layout='components', got {xa.shape} and {pa.shape}")
             xa_pts, pa_pts = check_points(np.moveaxis(xa, 0, -1), np.moveaxis(pa, 0, -1), n, batched=True)
+            outside, xa_pts = _chart_hook(f, xa_pts)
+            xa, pa = np.moveaxis(xa_pts, -1, 0), np.moveaxis(pa_pts, -1, 0)
             batch_shape = xa.shape[1:]
         elif layout == "points":
             xa_pts, pa_pts = check_points(x, pi, n, batched=True)
+            outside, xa_pts = _chart_hook(f, xa_pts)
             batch_shape = xa_pts.shape[:-1]
         else:
             raise ValueError(f"layout must be 'points' or 'components', got {layout!r}")
@@ -549,11 +580,11 @@ class FastCore:
             else:
                 P = np.moveaxis(P, 0, -1).reshape((2 * n, 2 * n) + batch_shape)
             path = "generic" + ("" if up is not None else ", Upsilon = 0: no Phi")
-        return PoissonBatch(
+        return _mark_outside(PoissonBatch(
             P=P, cond_phi=cond.reshape(batch_shape), cond_data=sens.reshape(batch_shape),
             error_bound=bound.reshape(batch_shape),
-            degenerate=degen.reshape(batch_shape), path=path,
-        )
+            degenerate=degen.reshape(batch_shape), path=path, outside_chart=outside,
+        ), outside, (P,), layout == "points")
 
     @staticmethod
     def _check_out(out: np.ndarray, shape: tuple) -> np.ndarray:
@@ -575,6 +606,7 @@ class FastCore:
         inertia = check_inertia(inertia, n)
         pot = check_potential(potential, n)
         xa, pa = check_points(x, pi, n, batched=True)
+        outside, xa = _chart_hook(f, xa)
         batch_shape = xa.shape[:-1]
         N = int(np.prod(batch_shape, dtype=int))
         X, Pm = xa.reshape(N, n), pa.reshape(N, n)
@@ -643,12 +675,13 @@ class FastCore:
             xdot[degen] = np.nan
             pidot[degen] = np.nan
             bound[degen] = np.inf
-        return FieldBatch(
+        res = FieldBatch(
             xdot=xdot.reshape(batch_shape + (n,)), pidot=pidot.reshape(batch_shape + (n,)),
             cond_phi=cond.reshape(batch_shape), cond_data=sens.reshape(batch_shape),
             error_bound=bound.reshape(batch_shape),
-            degenerate=degen.reshape(batch_shape), path="su2" if _is_su2(f) else "generic",
+            degenerate=degen.reshape(batch_shape), path="su2" if _is_su2(f) else "generic", outside_chart=outside,
         )
+        return _mark_outside(res, outside, (res.xdot, res.pidot), True)
 
     # ---------------------------------------------------------- protocol
     @staticmethod
@@ -661,15 +694,27 @@ class FastCore:
                 f"accuracy, vier12): batch indices {shown}"
             )
 
+    @staticmethod
+    def _raise_outside(out, what: str) -> None:
+        if out is not None and np.any(out):
+            idx = [tuple(int(i) for i in b) for b in np.argwhere(out)]
+            shown = ", ".join(str(i) for i in idx[:10]) + (f" and {len(idx) - 10} more" if len(idx) > 10 else "")
+            raise ChartError(
+                f"{what}: {len(idx)} point(s) x outside the chart of exponential coordinates (max |Im eigenvalue "
+                f"of ad_x| >= 2 pi, twee1; su(2): |x| >= 2 pi): {'batch indices ' + shown if shown != '()' else 'the point given'}"
+            )
+
     def poisson_tensor(self, f, theta, upsilon, x, pi):
         """Protocol method 1: ``P[..., i, j] = {z_i, z_j}``, ``z = (x, pi)``."""
         res = self.poisson_batch(f, theta, upsilon, x, pi)
+        self._raise_outside(res.outside_chart, "poisson_tensor")
         self._raise_degenerate(res.degenerate, "poisson_tensor")
         return res.P
 
     def hamiltonian_vector_field(self, f, theta, upsilon, inertia, potential, x, pi):
         """Protocol method 2: ``(xdot, pidot)`` with the leading axes of ``x``."""
         res = self.vector_field_batch(f, theta, upsilon, inertia, potential, x, pi)
+        self._raise_outside(res.outside_chart, "hamiltonian_vector_field")
         self._raise_degenerate(res.degenerate, "hamiltonian_vector_field")
         return res.xdot, res.pidot
 

@@ -53,7 +53,8 @@ from ._integrators import DOP853, RK4, ExplicitRK, GaussLegendre, triple_jump_we
 from ._representation import catalogue_match
 from ._taylor import numpy_taylor_integrator, quadratic_field, scalar_taylor_integrator
 from ._validate import (
-    check_inertia, check_points, check_potential, check_structure_constants, check_theta, check_upsilon,
+    check_flow_rates, check_flow_request, check_inertia, check_points, check_potential, check_structure_constants,
+    check_theta, check_upsilon,
 )
 
 __all__ = ["METHODS", "TAYLOR_SCALAR_MAX", "NumpyModel", "integrate_fast", "method"]
@@ -700,9 +701,12 @@ def fast_flow(f, theta, upsilon, inertia, potential, x0, pi0, t, *, method_name:
     """
     tv = check_time(t)
     tol = check_tolerance(tol)
+    check_flow_request(tv, tol, steps, method_name, METHODS)  # issue 15 hook: the stated budget
     model = NumpyModel(f, theta, upsilon, inertia, potential)
     n = model.n
     xa, pa = check_points(x0, pi0, n, batched=True)
+    if steps is None:  # issue 15 hook: refuse points too fast for the step-doubling budget
+        check_flow_rates(model.f, model.inertia, pa, tv)
     shape = xa.shape[:-1]
     X = np.ascontiguousarray(xa.reshape(-1, n).T)
     P = np.ascontiguousarray(pa.reshape(-1, n).T)

@@ -12,12 +12,24 @@ import numpy as np
 import sympy
 
 from ._algebra import LieAlgebra
-from ._errors import DegeneratePointError
-from ._validate import check_inertia, check_potential, check_structure_constants, check_theta, check_upsilon
+from ._errors import ChartError, DegeneratePointError
+from ._validate import (
+    TWO_PI, ad_chart_radius, check_inertia, check_potential, check_structure_constants, check_theta, check_upsilon,
+)
 
-__all__ = ["ReferenceCore", "DegeneratePointError", "GUARD_DIGITS"]
+__all__ = ["ReferenceCore", "DegeneratePointError", "ChartError", "GUARD_DIGITS", "MAX_DPS", "MAX_AD_NORM",
+           "MAX_MAGNITUDE"]
 
 GUARD_DIGITS = 12
+MAX_DPS = 5000
+"""Precision cap of ``Reference(dps)``: 5000 significant digits (a 6 x 6 inverse there costs about a
+second; the escalation ladder stops at 400 by default)."""
+MAX_AD_NORM = 400.0
+"""Work budget of the frames: ``||ad_x||_1 <= 400``. Summing ``phi1(-ad_x)`` costs ``~e ||ad_x||``
+terms at ``||ad_x|| / ln 10`` extra digits (the cancellation of ``e^||ad_x||``); on algebras whose
+``ad_x`` has real eigenvalues the chart alone does not bound ``x``."""
+MAX_MAGNITUDE = mpmath.mpf("1e300")
+"""Inputs are real numbers of magnitude below 1e300 (the float64 range, with room)."""
 
 
 
@@ -37,7 +49,18 @@ def _is_exact_scalar(v: Any) -> bool:
 
 
 def _to_mpf(v: Any) -> mpmath.mpf:
-    if isinstance(v, bool):
+    """A finite real number of magnitude below :data:`MAX_MAGNITUDE` as an mpf; strings are parsed by
+    ``mpmath.mpf`` or ``fractions.Fraction`` only (never evaluated)."""
+    out = _to_mpf_raw(v)
+    if not mpmath.isfinite(out):
+        raise ValueError(f"non-finite number {v!r}")
+    if abs(out) > MAX_MAGNITUDE:
+        raise ValueError(f"number {v!r:.40} has magnitude beyond {mpmath.nstr(MAX_MAGNITUDE, 3)}")
+    return out
+
+
+def _to_mpf_raw(v: Any) -> mpmath.mpf:
+    if isinstance(v, (bool, np.bool_)):
         raise TypeError("booleans are not numbers here")
     if isinstance(v, mpmath.mpf):
         return +v
@@ -46,10 +69,15 @@ def _to_mpf(v: Any) -> mpmath.mpf:
     if isinstance(v, Fraction):
         return mpmath.mpf(v.numerator) / v.denominator
     if isinstance(v, str):
+        if len(v) > 1000:
+            raise ValueError(f"number string of {len(v)} characters (at most 1000)")
         try:
             return mpmath.mpf(v)
         except ValueError:
-            q = Fraction(v)  # rational strings such as "1/3"
+            try:
+                q = Fraction(v)  # rational strings such as "1/3"
+            except (ValueError, ZeroDivisionError):
+                raise ValueError(f"{v!r:.60} is not a decimal or rational number") from None
             return mpmath.mpf(q.numerator) / q.denominator
     if isinstance(v, sympy.Basic):
         if not v.is_real:
@@ -78,9 +106,9 @@ class ReferenceCore:
     batched = False
 
     def __init__(self, dps: int = 50):
-        if not isinstance(dps, int) or dps < 15:
-            raise ValueError(f"dps must be an int >= 15, got {dps!r}")
-        self.dps = dps
+        if isinstance(dps, bool) or not isinstance(dps, (int, np.integer)) or not 15 <= dps <= MAX_DPS:
+            raise ValueError(f"dps must be an int in [15, {MAX_DPS}] (the precision cap), got {dps!r}")
+        self.dps = int(dps)
 
     def __repr__(self) -> str:
         return f"Reference(dps={self.dps})"
@@ -193,6 +221,7 @@ class ReferenceCore:
         singular: an eigenvalue of ``ad_x`` at ``2 pi i k``, ``k != 0``).
         """
         adx = self.ad(F, x)
+        self._check_chart(adx, x)
         norm = mpmath.mnorm(adx, 1)
         extra = int(mpmath.ceil(norm / mpmath.log(10))) + 5  # cancellation in the series ~ e^||ad||
         with mpmath.extradps(extra):
@@ -204,7 +233,7 @@ class ReferenceCore:
                 raise ValueError(f"unknown frame route {route!r} (series or vanloan)")
             det = mpmath.det(A)
             if abs(det) <= mpmath.mpf(10) ** (-(self.dps // 2)):
-                raise ValueError(
+                raise ChartError(
                     f"x = {[mpmath.nstr(v, 8) for v in x]} is outside the chart of exponential coordinates: "
                     f"det phi1(-ad_x) = {mpmath.nstr(det, 5)} (an eigenvalue of ad_x is near 2 pi i k)"
                 )
@@ -212,6 +241,31 @@ class ReferenceCore:
             Ad = mpmath.expm(adx)
             K = mpmath.inverse(Ad).T
         return {"A": A, "L": L, "Ad": Ad, "K": K, "ad": adx}
+
+    @staticmethod
+    def _check_chart(adx: mpmath.matrix, x) -> None:
+        """Before any series or extra digits: refuse ``x`` clearly outside the chart (``max |Im
+        eigenvalue of ad_x| > 2 pi``, :func:`refimpl._validate.chart_radius`) with
+        :class:`ChartError`, and ``||ad_x||_1 > MAX_AD_NORM`` (the work budget). Points within
+        float64 rounding of the edge are left to the determinant test of :meth:`frames_mp`."""
+        n = adx.rows
+        xs = [mpmath.nstr(v, 8) for v in x]
+        norm = mpmath.mnorm(adx, 1)
+        with np.errstate(all="ignore"):
+            A = np.array([[float(adx[i, j]) for j in range(n)] for i in range(n)], dtype=float)
+        rho, err = ad_chart_radius(A[None])
+        with np.errstate(all="ignore"):
+            outside = not rho[0] - err[0] <= TWO_PI
+        if outside:
+            raise ChartError(
+                f"x = {xs} is outside the chart of exponential coordinates: max |Im eigenvalue of ad_x| = "
+                f"{float(rho[0]):.6g} > 2 pi (the frame phi1(-ad_x) of twee1 is singular at 2 pi; su(2): |x| < 2 pi)"
+            )
+        if norm > MAX_AD_NORM:
+            raise ValueError(
+                f"x = {xs}: ||ad_x||_1 = {mpmath.nstr(norm, 5)} exceeds the reference's work budget "
+                f"{MAX_AD_NORM:g} (the frame series needs ~||ad_x||/ln 10 extra digits)"
+            )
 
     # -------------------------------------------------- Phi, Psi, Delta
     def phi_psi_delta(self, F, theta, upsilon, pi) -> dict:
@@ -364,6 +418,8 @@ class ReferenceCore:
             F, th, up = self._model(f, theta, upsilon)
             n = len(F)
             check_inertia(_as_float(inertia, "inertia"), n)
+            if potential is not None and not isinstance(potential, dict):
+                check_potential(potential, n)  # raises, naming the input
             pot = check_potential(
                 None if potential is None else {
                     k: (_as_float(v, f"potential[{k!r}]") if k != "kind" else v) for k, v in potential.items()

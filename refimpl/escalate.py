@@ -52,8 +52,11 @@ dropped (outputs keep the batch shape):
     whose bound exceeds ``allowed_k`` is flagged (the fast value is kept);
     with ``escalate=True`` a point is flagged only when escalation cannot
     give a trustworthy value: ``Delta = 0`` exactly (the point is on the
-    degenerate set ``Pi_1``; no Poisson tensor exists, vier12), the
-    reference finds the point outside the chart, the ladder reaches
+    degenerate set ``Pi_1``; no Poisson tensor exists, vier12), the point
+    lies outside the chart of exponential coordinates (``max |Im eigenvalue
+    of ad_x| >= 2 pi``, su(2): ``|x| >= 2 pi``; checked here before any
+    work, whatever the fast implementation returned, and then NaN with
+    ``error_bound = inf``), the reference refuses the point, the ladder reaches
     ``max_dps`` without two agreeing rungs, or float64 rounding alone
     exceeds ``allowed_k``. Values at flagged degenerate points are NaN and
     their ``error_bound`` is ``inf``.
@@ -81,9 +84,11 @@ from ._validate import (
     check_structure_constants,
     check_theta,
     check_upsilon,
+    outside_chart,
 )
 from . import fast as _fast_module
 from ._errors import DegeneratePointError
+from ._reference_core import MAX_DPS
 from .reference import Reference
 
 __all__ = ["LADDER_STEP", "FieldWithin", "PoissonWithin", "delta_exact", "poisson_within", "vector_field_within"]
@@ -141,10 +146,11 @@ def _check_tol(tol) -> float:
 
 
 def _check_dps(dps, max_dps) -> None:
-    if dps is not None and (not isinstance(dps, (int, np.integer)) or isinstance(dps, bool) or dps < 15):
-        raise ValueError(f"dps must be None or an int >= 15, got {dps!r}")
-    if not isinstance(max_dps, (int, np.integer)) or isinstance(max_dps, bool) or max_dps < 30:
-        raise ValueError(f"max_dps must be an int >= 30, got {max_dps!r}")
+    if dps is not None and (not isinstance(dps, (int, np.integer)) or isinstance(dps, bool)
+                            or not 15 <= dps <= MAX_DPS):
+        raise ValueError(f"dps must be None or an int in [15, {MAX_DPS}] (the reference's cap), got {dps!r}")
+    if not isinstance(max_dps, (int, np.integer)) or isinstance(max_dps, bool) or not 30 <= max_dps <= MAX_DPS:
+        raise ValueError(f"max_dps must be an int in [30, {MAX_DPS}] (the reference's cap), got {max_dps!r}")
 
 
 def _fast_impl(fast):
@@ -239,8 +245,10 @@ def _ladder(evaluate: Callable[[int], list], d0: int, max_dps: int, tol: float, 
 
 def _resolve(n_points: int, values: np.ndarray, bound: np.ndarray, degenerate: np.ndarray, cond: np.ndarray,
              tol: float, relative: bool, escalate: bool, dps: int | None, max_dps: int,
-             evaluate_point: Callable[[int, int], list], exact_cond: Callable[[int], float]):
-    """Shared logic: decide ok / escalated / flagged per point. ``values``: (N, m) float64, modified in place."""
+             evaluate_point: Callable[[int, int], list], exact_cond: Callable[[int], float],
+             outside: np.ndarray | None = None):
+    """Shared logic: decide ok / escalated / flagged per point. ``values``: (N, m) float64, modified in place.
+    ``outside``: points outside the chart, flagged at once (NaN, bound inf)."""
     with np.errstate(invalid="ignore", over="ignore"):
         scale = np.maximum(1.0, np.max(np.abs(values), axis=1)) if relative else np.ones(n_points)
     scale = np.where(np.isfinite(scale), scale, np.inf)
@@ -251,6 +259,12 @@ def _resolve(n_points: int, values: np.ndarray, bound: np.ndarray, degenerate: n
     escalated = np.zeros(n_points, dtype=bool)
     used = np.zeros(n_points, dtype=int)
     reason = np.full(n_points, "", dtype=object)
+    if outside is not None and outside.any():
+        values[outside] = np.nan
+        bound[outside] = np.inf
+        flagged[outside] = True
+        reason[outside] = "outside the chart of exponential coordinates (max |Im eig ad_x| >= 2 pi, twee1)"
+        over &= ~outside
     for k in np.flatnonzero(over):
         if not escalate:
             flagged[k] = True
@@ -328,7 +342,7 @@ def poisson_within(f, theta, upsilon, x, pi, tol, *, escalate: bool = True, dps:
     values, bound, allowed, flagged, escalated, used, reason = _resolve(
         N, values, np.asarray(res.error_bound, dtype=float).reshape(N).copy(),
         np.asarray(res.degenerate, dtype=bool).reshape(N), cond, tol, relative, escalate, dps, max_dps,
-        evaluate, _exact_cond_fn(ff, th, up, Pm))
+        evaluate, _exact_cond_fn(ff, th, up, Pm), outside_chart(ff, X))
     return PoissonWithin(
         P=values.reshape(shape + (2 * n, 2 * n)), error_bound=bound.reshape(shape), allowed=allowed.reshape(shape),
         flagged=flagged.reshape(shape), escalated=escalated.reshape(shape), dps=used.reshape(shape),
@@ -371,7 +385,7 @@ def vector_field_within(f, theta, upsilon, inertia, potential, x, pi, tol, *, es
     values, bound, allowed, flagged, escalated, used, reason = _resolve(
         N, values, np.asarray(res.error_bound, dtype=float).reshape(N).copy(),
         np.asarray(res.degenerate, dtype=bool).reshape(N), cond, tol, relative, escalate, dps, max_dps,
-        evaluate, _exact_cond_fn(ff, th, up, Pm))
+        evaluate, _exact_cond_fn(ff, th, up, Pm), outside_chart(ff, X))
     return FieldWithin(
         xdot=values[:, :n].reshape(shape + (n,)), pidot=values[:, n:].reshape(shape + (n,)),
         error_bound=bound.reshape(shape), allowed=allowed.reshape(shape), flagged=flagged.reshape(shape),

@@ -51,6 +51,13 @@ Every batch result carries, per point:
     degenerate set Pi_1 (vier12) to float64 accuracy. ``P`` is NaN there;
     such points are never dropped. The protocol methods raise
     :class:`DegeneratePointError` (a ``ValueError``) naming them.
+``outside_chart``
+    ``True`` where ``x`` lies at or past the edge of the chart of exponential
+    coordinates, ``rho(x) = max |Im eigenvalue of ad_x| >= 2 pi`` to float64
+    accuracy (su(2): ``|x| >= 2 pi``; twee1: ``phi1(-ad_x)`` is singular at
+    ``2 pi i k``), including ``x`` whose ``ad_x`` overflows. ``P`` is NaN and
+    ``error_bound`` inf there (the bound is valid only inside the chart); such
+    points are never dropped. The protocol methods raise :class:`ChartError`.
 """
 
 from __future__ import annotations

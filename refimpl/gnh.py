@@ -36,6 +36,8 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from fractions import Fraction
+from numbers import Integral, Real
 
 import sympy as sp
 
@@ -64,7 +66,9 @@ class PresymplecticModel:
     names: dict = field(default_factory=dict)
 
     def __post_init__(self):
-        W = sp.Matrix(self.W)
+        W = _matrix(self.W, "W")
+        self.hamiltonian = _expr(self.hamiltonian)
+        self.primary = [_expr(c) for c in self.primary]
         if W.shape[0] != W.shape[1]:
             raise ValueError(f"W must be square, got shape {W.shape}")
         if any(sp.simplify(v) != 0 for v in (W + W.T)):
@@ -154,8 +158,50 @@ def _primitive(z: sp.Matrix) -> sp.Matrix:
     return z.applyfunc(lambda v: sp.factor(sp.cancel(v / g)))
 
 
+def _expr(v) -> sp.Expr:
+    """A caller's value as a sympy expression without evaluating strings (``sympify`` runs Python code).
+
+    sympy objects pass; ints, ``Fraction`` and float numbers become exact numbers (floats via
+    ``nsimplify`` of the float itself); strings are parsed as decimal or rational literals by
+    :class:`fractions.Fraction` only; anything else is refused by name.
+    """
+    if isinstance(v, sp.Basic):
+        return v
+    if isinstance(v, bool) or type(v).__name__ == "bool_":
+        raise TypeError(f"booleans are not numbers here, got {v!r}")
+    if isinstance(v, Integral):
+        return sp.Integer(int(v))
+    if isinstance(v, Fraction):
+        return sp.Rational(v.numerator, v.denominator)
+    if isinstance(v, str):
+        try:
+            q = Fraction(v.strip())
+        except (ValueError, ZeroDivisionError):
+            raise ValueError(
+                f"{v!r:.60} is not a decimal or rational literal; give sympy expressions, strings are never evaluated"
+            ) from None
+        return sp.Rational(q.numerator, q.denominator)
+    if isinstance(v, Real):
+        fv = float(v)
+        if fv != fv or fv in (float("inf"), float("-inf")):
+            raise ValueError(f"non-finite number {v!r}")
+        return sp.nsimplify(sp.Float(fv, 17), rational=True) if fv != int(fv) else sp.Integer(int(fv))
+    raise TypeError(f"cannot use {type(v).__name__} {v!r:.60} as a sympy expression")
+
+
+def _matrix(value, name: str) -> sp.Matrix:
+    """A caller's matrix, entry by entry through :func:`_expr`."""
+    if isinstance(value, sp.MatrixBase):
+        return sp.Matrix(value)
+    rows = [list(r) for r in value]
+    try:
+        return sp.Matrix([[_expr(e) for e in r] for r in rows])
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: {exc}") from None
+
+
 def _on(expr, subs: dict) -> sp.Expr:
-    return sp.simplify(sp.together(sp.sympify(expr).subs(subs)))
+    return sp.simplify(sp.together(_expr(expr).subs(subs)))
 
 
 def _eliminate(constraint, subs: dict, model: PresymplecticModel):
@@ -260,7 +306,7 @@ def verify_result(model: PresymplecticModel, result: GNHResult) -> dict[str, boo
     tangent = all(
         sp.simplify(((model.frame_derivative(c).T * X)[0]).subs(subs)) == 0 for c in graph
     )
-    on_manifold = all(sp.simplify(sp.sympify(c).subs(subs)) == 0 for c in result.constraints)
+    on_manifold = all(sp.simplify(_expr(c).subs(subs)) == 0 for c in result.constraints)
     return {"solves": solves, "tangent": tangent, "on_manifold": on_manifold}
 
 
@@ -432,10 +478,13 @@ def lie_poisson_model(
     if F.ndim != 3 or F.shape[0] != F.shape[1] or F.shape[1] != F.shape[2]:
         raise ValueError(f"f must have shape (n, n, n), got {F.shape}")
     n = F.shape[0]
-    Fs = [[[sp.nsimplify(F[m, a, b]) for b in range(n)] for a in range(n)] for m in range(n)]
-    Th = sp.Matrix(theta).applyfunc(sp.nsimplify)
-    Up = sp.Matrix(upsilon).applyfunc(sp.nsimplify)
-    I = sp.Matrix(inertia).applyfunc(sp.nsimplify)
+    try:
+        Fs = [[[_expr(F[m, a, b]) for b in range(n)] for a in range(n)] for m in range(n)]
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"f: {exc}") from None
+    Th = _matrix(theta, "theta")
+    Up = _matrix(upsilon, "upsilon")
+    I = _matrix(inertia, "inertia")
     for name, M in (("theta", Th), ("upsilon", Up)):
         if M.shape != (n, n):
             raise ValueError(f"{name} must have shape ({n}, {n}), got {M.shape}")
@@ -453,9 +502,11 @@ def lie_poisson_model(
     state = list(pi)
     Gam = None
     if potential is not None:
+        if not isinstance(potential, dict):
+            raise ValueError(f"potential must be None or a dict with kind 'gravity', L and gamma, got {potential!r:.60}")
         if potential.get("kind") != "gravity":
             raise ValueError(f"potential['kind'] must be 'gravity', got {potential.get('kind')!r}")
-        L = sp.Matrix([sp.nsimplify(v) for v in potential["L"]])
+        L = _matrix([[v] for v in potential["L"]], "potential['L']")
         if L.shape != (n, 1):
             raise ValueError(f"potential['L'] must have length {n}")
         Gam = sp.Matrix(sp.symbols(f"{prefix}Gamma1:{n + 1}", real=True))
@@ -463,7 +514,7 @@ def lie_poisson_model(
         state = list(Gam) + state
 
     def frame_derivative(expr) -> sp.Matrix:
-        expr = sp.sympify(expr)
+        expr = _expr(expr)
         conf = []
         for a in range(n):
             d = 0

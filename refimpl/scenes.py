@@ -29,6 +29,7 @@ The planner (:func:`plan`) states each choice and what it skipped:
 
 from __future__ import annotations
 
+import os
 import tomllib
 from dataclasses import dataclass, field
 
@@ -38,6 +39,17 @@ from ._catalogue import catalogue
 from ._flow_fast import METHODS, NumpyModel, check_tolerance, fast_trajectory, integrate_fast
 from ._flow_reference import check_time
 from ._invariants import casimirs, energy, momentum_map
+from ._fast_kernels import FastCore
+from ._validate import MAX_FLOW_TIME, MIN_FLOW_TOL, as_float_array, check_flow_rates, check_inertia
+
+MAX_SAMPLES = 10**6
+"""Loader budget: at most this many output samples per trajectory."""
+MAX_POINTS = 10**4
+"""Loader budget: at most this many trajectories in one scene."""
+MAX_SAMPLE_VALUES = 10**8
+"""Loader budget: samples x points x n numbers per output (800 MB of float64)."""
+MAX_NAME = 200
+"""Longest scene name (output names are sanitised from it by the commands)."""
 
 __all__ = ["Scene", "Plan", "load_scene", "parse_scene", "plan", "run_scene", "OUTPUTS"]
 
@@ -82,9 +94,9 @@ class Plan:
 
 def _arr(d, key, shape, *, allow_batch=False):
     try:
-        a = np.asarray(d[key], dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"scene key {key!r} must be a numeric array of shape {shape}") from None
+        a = as_float_array(d[key], f"scene key {key!r}")
+    except ValueError as exc:
+        raise ValueError(f"{exc} (expected a numeric array of shape {shape})") from None
     ok = a.shape == shape or (allow_batch and a.ndim == 2 and a.shape[1:] == shape)
     if not ok:
         exp = f"{shape} or (N, {shape[0]})" if allow_batch else f"{shape}"
@@ -102,13 +114,15 @@ def parse_scene(d: dict) -> Scene:
     if ("algebra" in d) == ("f" in d):
         raise ValueError("a scene needs exactly one of 'algebra' (catalogue name) or 'f' (structure constants)")
     if "algebra" in d:
+        if not isinstance(d["algebra"], str):
+            raise ValueError(f"scene key 'algebra' must be a catalogue name (a string), got {d['algebra']!r:.60}")
         try:
             alg = catalogue(d["algebra"])
         except (KeyError, ValueError) as exc:
             raise ValueError(f"scene key 'algebra': {exc}") from None
         f = alg.f
     else:
-        f = np.asarray(d["f"], dtype=float)
+        f = as_float_array(d["f"], "scene key 'f'")
         if f.ndim != 3 or len(set(f.shape)) != 1:
             raise ValueError(f"scene key 'f' must have shape (n, n, n), got {f.shape}")
         alg = None
@@ -156,30 +170,84 @@ def parse_scene(d: dict) -> Scene:
             raise ValueError(f"scene keys 'x0' and 'pi0' must have the same number of points, "
                              f"got {x0.shape} and {pi0.shape}")
 
+    if isinstance(d["t_end"], (bool, str)):
+        raise ValueError(f"scene key 't_end' must be a number > 0, got {d['t_end']!r}")
     t_end = check_time(d["t_end"], "t_end")
     if t_end == 0:
         raise ValueError("scene key 't_end' must be > 0")
+    if t_end > MAX_FLOW_TIME:
+        raise ValueError(f"scene key 't_end' = {t_end:g} exceeds the budget t_end <= {MAX_FLOW_TIME:g}")
     samples = d.get("samples", 101)
-    if not isinstance(samples, int) or samples < 2:
-        raise ValueError(f"scene key 'samples' must be an int >= 2, got {samples!r}")
+    if isinstance(samples, bool) or not isinstance(samples, int) or not 2 <= samples <= MAX_SAMPLES:
+        raise ValueError(f"scene key 'samples' must be an int in [2, {MAX_SAMPLES}], got {samples!r}")
+    if x0.shape[0] > MAX_POINTS:
+        raise ValueError(f"scene has {x0.shape[0]} starting points, over the budget of {MAX_POINTS}")
+    if samples * x0.shape[0] * n > MAX_SAMPLE_VALUES:
+        raise ValueError(f"scene asks for samples x points x n = {samples * x0.shape[0] * n} numbers per output, "
+                         f"over the budget of {MAX_SAMPLE_VALUES}")
+    if isinstance(d.get("tol", 1e-9), (bool, str)):
+        raise ValueError(f"scene key 'tol' must be a number, got {d['tol']!r}")
     tol = check_tolerance(d.get("tol", 1e-9))
+    if tol < MIN_FLOW_TOL:
+        raise ValueError(f"scene key 'tol' = {tol:g} is below {MIN_FLOW_TOL:g} (float64 rounding alone exceeds it)")
+    try:
+        inertia = check_inertia(inertia, n)
+        check_flow_rates(f, inertia, pi0, t_end, name="scene key 'pi0'")
+    except ValueError as exc:
+        raise ValueError(f"scene: {exc}") from None
+    _check_start(f, theta, upsilon, x0, pi0)
     method = d.get("method")
-    if method is not None and method not in METHODS:
+    if method is not None and (not isinstance(method, str) or method not in METHODS):
         raise ValueError(f"scene key 'method' must be one of {sorted(METHODS)}, got {method!r}")
-    outputs = tuple(d.get("outputs", ["pi", "energy"]))
+    outputs = d.get("outputs", ["pi", "energy"])
+    if not isinstance(outputs, list) or not all(isinstance(o, str) for o in outputs):
+        raise ValueError(f"scene key 'outputs' must be a list of strings from {list(OUTPUTS)}, got {outputs!r:.80}")
+    outputs = tuple(outputs)
     bad = [o for o in outputs if o not in OUTPUTS]
     if bad:
         raise ValueError(f"scene key 'outputs' has unknown entries {bad}; allowed: {list(OUTPUTS)}")
-    return Scene(str(d.get("name", "scene")), f, alg, theta, upsilon, inertia, pot, x0, pi0, t_end, samples, tol,
+    name = d.get("name", "scene")
+    if not isinstance(name, str) or not name.strip() or len(name) > MAX_NAME:
+        raise ValueError(f"scene key 'name' must be a non-empty string of at most {MAX_NAME} characters, "
+                         f"got {name!r:.80}")
+    return Scene(name, f, alg, theta, upsilon, inertia, pot, x0, pi0, t_end, samples, tol,
                  method, outputs)
 
 
+def _check_start(f, theta, upsilon, x0, pi0) -> None:
+    """Starting points on the degenerate set Pi_1 (vier12) or outside the chart are refused by name
+    (the fast implementation's flags: Delta = 0 to float64 accuracy, max |Im eig ad_x| >= 2 pi)."""
+    try:
+        res = FastCore().poisson_batch(f, theta, upsilon, x0, pi0)
+    except ValueError as exc:
+        raise ValueError(f"scene: {exc}") from None
+    for mask, what in ((res.outside_chart, "x0 outside the chart of exponential coordinates (|Im eig ad_x| >= 2 pi)"),
+                       (res.degenerate, "a start on the degenerate set Pi_1 (Delta = det Phi = 0, vier12)")):
+        if mask is not None and np.any(mask):
+            k = int(np.flatnonzero(mask)[0])
+            raise ValueError(f"scene starting point {k} (x0 = {x0[k].tolist()}, pi0 = {pi0[k].tolist()}) is {what}; "
+                             f"{int(np.sum(mask))} such point(s)")
+
+
+MAX_SCENE_BYTES = 10 * 2**20
+"""Loader budget: a scene file is at most 10 MiB."""
+
+
 def load_scene(path) -> Scene:
+    """Read and validate a TOML scene file (at most :data:`MAX_SCENE_BYTES`)."""
+    try:
+        size = os.path.getsize(path)
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot read the scene file: {exc.strerror}") from None
+    if size > MAX_SCENE_BYTES:
+        raise ValueError(f"{path}: scene file of {size} bytes, over the budget of {MAX_SCENE_BYTES}")
     with open(path, "rb") as fh:
         try:
             d = tomllib.load(fh)
         except tomllib.TOMLDecodeError as exc:
             raise ValueError(f"{path}: not valid TOML: {exc}") from None
+        except UnicodeDecodeError as exc:
+            raise ValueError(f"{path}: not valid TOML (not UTF-8: {exc.reason})") from None
     return parse_scene(d)
 
 

@@ -26,6 +26,8 @@ import sys
 import time
 from pathlib import Path
 
+from ._atomic import claim_output, write_text
+
 HELP = "work-precision benchmarks: flows and brackets vs scipy and the mpmath reference, batch throughput"
 
 
@@ -135,7 +137,7 @@ def main(args) -> int:
             print(f"tstarg bench: --ref-dps must be >= 15, got {args.ref_dps}", file=sys.stderr)
             return 2
         S["ref_dps"] = args.ref_dps
-    out = Path(args.out)
+    out = claim_output(Path(args.out))  # a concurrent run gets its own folder and says so
     out.mkdir(parents=True, exist_ok=True)
     print(f"tstarg bench{' --quick' if args.quick else ''}: references and error ladders on {describe(**opts)}; "
           f"{TIMING_NOTE}", flush=True)
@@ -196,8 +198,8 @@ def main(args) -> int:
 
     report["loadavg_end"] = list(os.getloadavg())
     report["seconds"] = time.perf_counter() - t_start
-    (out / "report.json").write_text(json.dumps(_finite(report), indent=1, default=_json_default, allow_nan=False))
-    (out / "report.md").write_text(render_markdown(report))
+    write_text(out / "report.json", json.dumps(_finite(report), indent=1, default=_json_default, allow_nan=False))
+    write_text(out / "report.md", render_markdown(report))
     print(f"wrote {out / 'report.json'}, {out / 'report.md'} and figures ({report['seconds']:.0f} s)")
     return 0
 

@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import csv
+import io
 import sys
 from pathlib import Path
+
+from ._atomic import claim_output, safe_name, save_figure, write_bytes, write_text
 
 HELP = "integrate a scene (TOML): prints the plan and what it skipped, writes npz, CSV and a plot"
 
@@ -63,7 +66,7 @@ def _plot(out: dict, path: Path, title: str) -> None:
     axes[1].set_ylabel("|I(t) - I(0)| (worst trajectory)")
     if drawn:
         axes[1].legend(loc="lower right")
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
 
 
@@ -85,27 +88,32 @@ def main(args) -> int:
     print(the_plan.describe())
     long_run = scene.samples * the_plan.steps_per_sample * scene.x0.shape[0] > 20000
     out = run_scene(scene, the_plan, progress=_Progress(long_run and not args.quiet))
-    folder = Path(args.out) if args.out else Path("reports") / "runs" / Path(args.scene).stem
-    folder.mkdir(parents=True, exist_ok=True)
+    # the default folder is named from the scene file, sanitised: a file named "...toml" must not
+    # resolve to reports/ itself (issue 15); a concurrent run on the same folder gets its own
+    folder = Path(args.out) if args.out else Path("reports") / "runs" / safe_name(Path(args.scene).stem, default="scene")
+    folder = claim_output(folder)
     arrays = {k: np.asarray(v) for k, v in out.items() if not k.startswith("note")}
-    np.savez(folder / "trajectory.npz", **{k.replace(" ", "_"): v for k, v in arrays.items()})
-    with open(folder / "trajectory.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        cols, header = [], ["t"]
-        for k, v in arrays.items():
-            if k == "times":
-                continue
-            v0 = v[:, 0] if v.ndim >= 2 else v
-            if v0.ndim == 1:
-                cols.append(v0)
-                header.append(k.replace(" ", "_"))
-            else:
-                for a in range(v0.shape[1]):
-                    cols.append(v0[:, a])
-                    header.append(f"{k}_{a}")
-        w.writerow(header)
-        for i, t in enumerate(out["times"]):
-            w.writerow([repr(float(t))] + [repr(float(c[i])) for c in cols])
+    buf = io.BytesIO()
+    np.savez(buf, **{safe_name(k.replace(" ", "_")): v for k, v in arrays.items()})
+    write_bytes(folder / "trajectory.npz", buf.getvalue())
+    fh = io.StringIO(newline="")
+    w = csv.writer(fh)
+    cols, header = [], ["t"]
+    for k, v in arrays.items():
+        if k == "times":
+            continue
+        v0 = v[:, 0] if v.ndim >= 2 else v
+        if v0.ndim == 1:
+            cols.append(v0)
+            header.append(k.replace(" ", "_"))
+        else:
+            for a in range(v0.shape[1]):
+                cols.append(v0[:, a])
+                header.append(f"{k}_{a}")
+    w.writerow(header)
+    for i, t in enumerate(out["times"]):
+        w.writerow([repr(float(t))] + [repr(float(c[i])) for c in cols])
+    write_text(folder / "trajectory.csv", fh.getvalue())
     for k, v in out.items():
         if k.startswith("note"):
             print(f"note: {v}")

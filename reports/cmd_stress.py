@@ -19,6 +19,8 @@ import sys
 import time
 from pathlib import Path
 
+from ._atomic import claim_output, save_figure, write_text
+
 HELP = "numerical stability sweeps: digits lost vs the error model, flagged/escalated points, Brouwer's law"
 
 DEFAULT_OUT = "reports/stress/latest"
@@ -182,7 +184,7 @@ def _plot_sweep(sweep: dict, path: Path, tol: float, d64: float) -> None:
     ax.set_ylabel("digits lost (of 15.95)")
     ax.set_title(f"{sweep['name']}: {sweep['title']}", fontsize=10)
     ax.legend(fontsize=7, loc="upper left")
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
 
 
@@ -207,7 +209,7 @@ def _plot_brouwer(b: dict, path: Path) -> None:
     ax.set_ylabel("RMS |H(t) - H(0)| (exact evaluation)")
     ax.set_title("Long integration: round-off in the energy against Brouwer's law", fontsize=10)
     ax.legend(fontsize=8)
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
 
 
@@ -221,8 +223,8 @@ def write(report: dict, out: Path) -> None:
             _plot_sweep(sw, out / f"{sw['name']}.png", tol, d64)
     if report["brouwer"]:
         _plot_brouwer(report["brouwer"], out / "brouwer.png")
-    (out / "report.json").write_text(json.dumps(_clean(report), indent=1))
-    (out / "report.md").write_text(render_markdown(report))
+    write_text(out / "report.json", json.dumps(_clean(report), indent=1))
+    write_text(out / "report.md", render_markdown(report))
 
 
 def render_markdown(report: dict) -> str:
@@ -332,7 +334,7 @@ def main(args) -> int:
     except (ValueError, ImportError, AttributeError) as exc:
         print(f"tstarg stress: {exc}", file=sys.stderr)
         return 2
-    out = Path(args.out)
+    out = claim_output(Path(args.out))  # a concurrent run gets its own folder and says so
     write(report, out)
     sm = report["summary"]
     for sw in report["sweeps"]:

@@ -33,6 +33,7 @@ import time
 import traceback
 from pathlib import Path
 
+from ._atomic import claim_output, write_text
 from ._imports import import_module
 
 PROFILES = {"dev": 6, "ci": 20, "thorough": 60}
@@ -245,14 +246,13 @@ def main(args) -> int:
         "seconds": total, "providers": status, "checks": [r.to_json() for r in results], "environment": _env(),
         "command": " ".join(["tstarg"] + sys.argv[1:]),
     }
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = claim_output(Path(args.out))  # issue 15: a concurrent run gets its own folder and says so
     _compare_with_baseline(args, report, results, out)
     failed = [r for r in results if not r.passed]
     report.update(passed=not failed, n_failed=len(failed))
     print(render_table(results))
-    (out / "report.json").write_text(json.dumps(report, indent=2))
-    (out / "report.md").write_text(render_markdown(report))
+    write_text(out / "report.json", json.dumps(report, indent=2))
+    write_text(out / "report.md", render_markdown(report))
     if getattr(args, "write_baseline", False):
         from .regression import BASELINE
 
@@ -260,7 +260,7 @@ def main(args) -> int:
         kept = dict(report, checks=[c for c in report["checks"] if not c["name"].startswith("regression.")])
         kept.pop("comparison", None)
         kept.pop("baseline_note", None)
-        BASELINE.write_text(json.dumps(kept, indent=2))
+        write_text(BASELINE, json.dumps(kept, indent=2))  # atomic: the old baseline stays until this is whole
         print(f"baseline written: {BASELINE}")
     print(f"\n{len(results) - len(failed)} passed, {len(failed)} failed in {total:.1f} s; report: {out / 'report.md'}")
     for r in failed:
@@ -293,6 +293,6 @@ def _compare_with_baseline(args, report: dict, results: list, out: Path) -> None
     report["checks"].extend(r.to_json() for r in rows)
     report["comparison"] = cmp
     regression.plot(cmp, out / "figures" / "compare.png")
-    (out / "compare.md").write_text(regression.render_markdown(cmp, figure="figures/compare.png"))
+    write_text(out / "compare.md", regression.render_markdown(cmp, figure="figures/compare.png"))
     print(f"against baseline {path}: {'REGRESSED' if cmp['regressed'] else 'no regression'}"
           + (f" (accuracy: {cmp['accuracy_regressions']}; speed: {cmp['speed_regressions']})" if cmp["regressed"] else ""))

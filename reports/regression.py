@@ -28,7 +28,10 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 from pathlib import Path
+
+from ._atomic import save_figure
 
 __all__ = ["BASELINE", "DIGITS_SLACK", "SPEED_FACTOR", "load_report", "compare", "render_markdown", "plot",
            "regression_checks"]
@@ -52,18 +55,74 @@ def load_report(path) -> dict:
         raise ValueError(f"{p}: not valid JSON ({exc})") from None
     if not isinstance(rep, dict) or not isinstance(rep.get("checks"), list):
         raise ValueError(f"{p}: not a tstarg verify report (no 'checks' list)")
+    for i, c in enumerate(rep["checks"]):
+        _validate_row(c, f"{p}: checks[{i}]")
+    names = [c["name"] for c in rep["checks"]]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise ValueError(f"{p}: check name(s) {dup[:5]} appear more than once")
+    if "passed" in rep and not isinstance(rep["passed"], bool):
+        raise ValueError(f"{p}: 'passed' must be true or false, got {rep['passed']!r:.40}")
     rep["_path"] = str(p)
     return rep
 
 
-def _num(v):
-    """JSON values to floats: None stays None, "inf" strings to inf."""
+_NONFINITE = {"inf": math.inf, "-inf": -math.inf, "Infinity": math.inf, "-Infinity": -math.inf}
+
+
+def _strict_num(v, where: str, *, allow_nan: bool) -> float | None:
+    """A report number: null, a JSON number, or the strings "inf"/"-inf" (:meth:`CheckResult.to_json`);
+    NaN only where ``allow_nan``. Anything else (``"lots"``, ``true``) is a clear error."""
     if v is None:
         return None
+    if isinstance(v, bool) or not isinstance(v, (int, float, str)):
+        raise ValueError(f"{where} must be a number or null, got {v!r:.40}")
+    if isinstance(v, str):
+        if v in _NONFINITE:
+            return _NONFINITE[v]
+        if v.lower() == "nan":
+            x = math.nan
+        else:
+            raise ValueError(f"{where} must be a number or null, got the string {v!r:.40}")
+    else:
+        x = float(v)
+    if math.isnan(x) and not allow_nan:
+        raise ValueError(f"{where} is NaN in a check marked passed: the report is corrupted")
+    return x
+
+
+def _validate_row(c, where: str) -> None:
+    """One check row of a report: ``name`` (non-empty string), ``passed`` (true/false), numbers
+    ``min_digits``, ``worst_ratio`` and ``extra.speedup`` as :func:`_strict_num` accepts."""
+    if not isinstance(c, dict):
+        raise ValueError(f"{where} must be an object, got {type(c).__name__}")
+    if not isinstance(c.get("name"), str) or not c["name"]:
+        raise ValueError(f"{where}: 'name' must be a non-empty string, got {c.get('name')!r:.40}")
+    where = f"{where} ({c['name'][:60]})"
+    if not isinstance(c.get("passed"), bool):
+        raise ValueError(f"{where}: 'passed' must be true or false, got {c.get('passed')!r:.40}")
+    nan_ok = not c["passed"]
+    for key in ("min_digits", "worst_ratio"):
+        _strict_num(c.get(key), f"{where}: {key!r}", allow_nan=nan_ok)
+    extra = c.get("extra")
+    if extra is not None and not isinstance(extra, dict):
+        raise ValueError(f"{where}: 'extra' must be an object, got {type(extra).__name__}")
+    if extra and "speedup" in extra:
+        sp = _strict_num(extra["speedup"], f"{where}: extra.speedup", allow_nan=nan_ok)
+        if sp is not None and c["passed"] and not sp > 0:
+            raise ValueError(f"{where}: extra.speedup must be > 0 in a passed check, got {sp!r}")
+
+
+def _num(v):
+    """JSON values to floats (rows validated by :func:`_validate_row`): None stays None, "inf" strings
+    to inf; NaN (allowed only in failed rows) becomes None, i.e. unknown."""
+    if v is None or isinstance(v, bool):
+        return None
     try:
-        return float(v)
+        x = float(v)
     except (TypeError, ValueError):
         return None
+    return None if math.isnan(x) else x
 
 
 def _digits_lost(b: dict, n: dict) -> float | None:
@@ -174,8 +233,20 @@ def render_markdown(cmp: dict, figure: str | None = None) -> str:
     return "\n".join(out) + "\n"
 
 
-def plot(cmp: dict, path) -> Path:
-    """Two panels: minimum digits per check (base vs new) and speed-ups (base vs new), PNG."""
+def plot(cmp: dict, path) -> Path | None:
+    """Two panels: minimum digits per check (base vs new) and speed-ups (base vs new), PNG.
+
+    A figure is an illustration of the comparison, never a reason to lose it: if drawing fails
+    the error is printed and ``None`` returned (the report and ``compare.md`` are still written).
+    """
+    try:
+        return _plot(cmp, path)
+    except Exception as exc:  # noqa: BLE001 - see the docstring
+        print(f"comparison figure not drawn ({type(exc).__name__}: {exc})", file=sys.stderr)
+        return None
+
+
+def _plot(cmp: dict, path) -> Path:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -205,15 +276,21 @@ def plot(cmp: dict, path) -> Path:
             color=["tab:red" if "speed regression" in r["status"] else "tab:green" for r in spd])
     ax.set_yticks(y, [r["name"] for r in spd], fontsize=8)
     ax.invert_yaxis()
-    ax.set_xscale("log")
+    positive = [v for r in spd for v in (r["speedup_base"], r["speedup_new"])
+                if v is not None and math.isfinite(v) and v > 0]
+    if positive:
+        ax.set_xscale("log")
+    else:  # no speed rows (e.g. a run of core_checks only): a log axis cannot be drawn
+        ax.text(0.5, 0.5, "no speed-up rows in these runs", ha="center", va="center", transform=ax.transAxes)
     ax.set_xlabel("speed-up vs baseline computation (same run)")
     ax.legend(loc="lower right", fontsize=8)
     fig.suptitle("base (grey) vs new; red = regression", fontsize=10)
     fig.tight_layout()
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    try:
+        save_figure(fig, path, dpi=110)
+    finally:
+        plt.close(fig)
     return path
 
 
