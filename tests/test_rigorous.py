@@ -42,7 +42,7 @@ from tstarg.refimpl.rigorous import (
 )
 
 from tests._helpers import regime_cases
-from tests.conftest import ref_examples
+from tstarg.properties.profiles import ref_examples
 
 REGIMES = ("generic", "near_degenerate", "large_momenta", "near_chart_boundary")
 EPS = np.finfo(float).eps
