@@ -35,11 +35,11 @@ import mpmath
 import numpy as np
 
 from ._algebra import LieAlgebra
-from ._validate import check_inertia, check_potential
+from ._validate import MAX_REFERENCE_FLOW_TIME, check_inertia, check_potential
 from ._errors import DegeneratePointError
 from ._integrators import gbs_mp
 from ._reference_core import ReferenceCore as Reference
-from ._reference_core import _as_float, _to_mpf
+from ._reference_core import MAX_DPS, _as_float, _to_mpf
 from ._representation import catalogue_match
 
 __all__ = ["ModelMP", "ReferenceTrajectory", "reference_trajectory", "reference_flow", "euler_top_closed_form"]
@@ -408,6 +408,9 @@ def reference_trajectory(f, theta, upsilon, inertia, potential, x0, pi0, times, 
     if system not in ("full", "body"):
         raise ValueError(f"system must be 'full' or 'body', got {system!r}")
     tl = [check_time(t, "times") for t in np.atleast_1d(np.asarray(times, dtype=object))]
+    if dps > MAX_DPS or (tl and max(tl) > MAX_REFERENCE_FLOW_TIME):  # issue 15 hook: the stated budget
+        raise ValueError(f"reference flow budget: dps <= {MAX_DPS} and times <= {MAX_REFERENCE_FLOW_TIME:g}, "
+                         f"got dps = {dps} and t = {max(tl) if tl else 0:g}")
     if any(b < a for a, b in zip(tl, tl[1:])):
         raise ValueError("times must be increasing")
     times_exact = list(np.atleast_1d(np.asarray(times, dtype=object)))

@@ -20,7 +20,7 @@ __all__ = [
     "check_structure_constants", "check_theta", "check_upsilon", "check_inertia",
     "check_potential", "check_points", "as_float_array", "chart_radius", "outside_chart", "check_chart",
     "check_flow_request", "TWO_PI", "MAX_ELEMENTS", "INERTIA_RANGE", "INERTIA_MAX_COND", "MAX_FLOW_STEPS",
-    "MAX_FLOW_TIME", "MIN_FLOW_TOL", "ad_chart_radius", "check_flow_rates",
+    "MAX_FLOW_TIME", "MIN_FLOW_TOL", "MAX_REFERENCE_FLOW_TIME", "ad_chart_radius", "check_flow_rates",
 ]
 
 TWO_PI = 2 * np.pi
@@ -37,6 +37,9 @@ MAX_FLOW_STEPS = 10**7
 MAX_FLOW_TIME = 1e4
 """Budget of a flow: time spans ``|t|`` up to this (the step count grows linearly with ``t``; at
 ``t = 1e4`` the first rung of the step doubling already takes 40 000 steps)."""
+MAX_REFERENCE_FLOW_TIME = 1e3
+"""Budget of a reference (mpmath) flow: times up to this (about a second of CPU per unit time at
+20 digits for su(2); the cost grows with the digits)."""
 MIN_FLOW_TOL = 1e-14
 """Smallest flow tolerance: below ~50 eps the rounding of the steps alone exceeds it, so no step
 count can meet it (the step doubling would only run to its limit)."""

@@ -34,6 +34,7 @@ as nonzero); each stage records what was assumed in its report.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -183,7 +184,7 @@ def _expr(v) -> sp.Expr:
         return sp.Rational(q.numerator, q.denominator)
     if isinstance(v, Real):
         fv = float(v)
-        if fv != fv or fv in (float("inf"), float("-inf")):
+        if not math.isfinite(fv):
             raise ValueError(f"non-finite number {v!r}")
         return sp.nsimplify(sp.Float(fv, 17), rational=True) if fv != int(fv) else sp.Integer(int(fv))
     raise TypeError(f"cannot use {type(v).__name__} {v!r:.60} as a sympy expression")

@@ -496,3 +496,14 @@ def test_fast_field_bound_holds_up_to_the_edge(name, frac):
             + [abs(mpmath.mpf(float(res.pidot[0, i])) - pd[i]) for i in range(n)]
         )
     assert math.isfinite(res.error_bound[0]) and float(err) <= res.error_bound[0]
+
+
+@pytest.mark.parametrize("t, dps", [(1e12, 20), (1e6, 20), (1.0, 10**6)])
+def test_reference_flow_budget_is_refused_before_work(t, dps):
+    """reference_flow(t = 1e12) ran without end."""
+    from tstarg.refimpl.flows import reference_flow
+
+    with pytest.raises(ValueError, match="reference flow budget"):
+        reference_flow(
+            F, Z, Z, np.diag([1.0, 2.0, 3.0]), None, [0, 0, 0.1], [0.1, 0.2, 0.3], t, dps=dps
+        )
