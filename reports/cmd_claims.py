@@ -17,14 +17,30 @@ import math
 import sys
 from pathlib import Path
 
+from ._atomic import write_text as atomic_write_text
+
 HELP = "the paper's claims and errata (every display and mathematical sentence): run the checks, write claims.md"
 
 
+def _destinations(args) -> tuple[Path, Path]:
+    """Where to write: under reports/latest/claims unless ``--write`` (the tracked files) or
+    ``--out``/``--figures`` say otherwise."""
+    write = getattr(args, "write", False)
+    out = Path(args.out) if args.out else Path("reports/claims.md" if write else "reports/latest/claims/claims.md")
+    figures = Path(args.figures) if getattr(args, "figures", None) else (
+        Path("reports/figures") if write else out.parent / "figures")
+    return out, figures
+
+
 def add_arguments(p) -> None:
-    p.add_argument("--out", default="reports/claims.md", help="Markdown file to write")
-    p.add_argument(
-        "--figures", default="reports/figures", help="folder for the Bloch-sphere figures"
-    )
+    p.add_argument("--out", default=None,
+                   help="Markdown file to write (default reports/latest/claims/claims.md; with --write "
+                        "the committed reports/claims.md)")
+    p.add_argument("--figures", default=None,
+                   help="folder for the Bloch-sphere figures (default beside --out; with --write the "
+                        "committed reports/figures)")
+    p.add_argument("--write", action="store_true",
+                   help="rewrite the committed table reports/claims.md and reports/figures")
     p.add_argument(
         "--no-quantum", action="store_true", help="skip the qutip comparisons and figures"
     )
@@ -166,11 +182,11 @@ def main(args) -> int:
                 f"sentences = {cov['items']} items; {cov['entries']} entries; contradicted {ebad}"
             )
     md += "\n".join(_gnh_section()) + "\n"
+    out, figures = _destinations(args)
     if not args.no_quantum:
-        md += "\n".join(_quantum_section(Path(args.figures))) + "\n"
-    out = Path(args.out)
+        md += "\n".join(_quantum_section(figures)) + "\n"
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(md)
+    atomic_write_text(out, md)
     print(f"wrote {out}")
     return 1 if bad or missing else 0
 

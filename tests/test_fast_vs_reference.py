@@ -57,7 +57,7 @@ def test_poisson_tensor_within_error_model(name, regime, data):
 @given(data=st.data())
 def test_su2_closed_form_matches_generic_path(tau_scale, data):
     """su(2): the closed-form kernel and the generic matrix kernel agree within the sum of their bounds."""
-    from tstarg.refimpl.fast import _generic_poisson
+    from tstarg.refimpl._fast_kernels import _generic_poisson
 
     alg = su2()
     theta = data.draw(cocycles(alg, exact=False))
