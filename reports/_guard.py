@@ -36,7 +36,15 @@ from .jsonl import METHODS, CommandImplementation, check_timeout
 
 __all__ = ["Guarded", "NotAnImplementation", "certify_target", "explain", "materialize"]
 
-ATTRIBUTES = ("name", "version", "batched", "precision_digits", "flow_tolerance", "order", "poisson_integrator")
+ATTRIBUTES = (
+    "name",
+    "version",
+    "batched",
+    "precision_digits",
+    "flow_tolerance",
+    "order",
+    "poisson_integrator",
+)
 
 
 class NotAnImplementation(ValueError):
@@ -48,16 +56,26 @@ def _validate_attributes(target, label: str) -> None:
         v = getattr(target, attr, None)
         if v is None:
             continue
-        ok = isinstance(v, (int, float, np.floating, np.integer)) and not isinstance(v, bool) and math.isfinite(float(v))
-        if not ok or not (lo < float(v) <= hi if attr == "flow_tolerance" else lo <= float(v) <= hi):
-            raise NotAnImplementation(f"target {label}: attribute {attr} = {v!r} is not a number in "
-                                      f"{'(' if attr == 'flow_tolerance' else '['}{lo:g}, {hi:g}]")
+        ok = (
+            isinstance(v, (int, float, np.floating, np.integer))
+            and not isinstance(v, bool)
+            and math.isfinite(float(v))
+        )
+        if not ok or not (
+            lo < float(v) <= hi if attr == "flow_tolerance" else lo <= float(v) <= hi
+        ):
+            raise NotAnImplementation(
+                f"target {label}: attribute {attr} = {v!r} is not a number in "
+                f"{'(' if attr == 'flow_tolerance' else '['}{lo:g}, {hi:g}]"
+            )
 
 
 class Guarded:
     """An implementation under test, with a time limit per call and checked inputs and outputs."""
 
-    def __init__(self, target, *, call_timeout: float = 10.0, label: str = "", max_timeouts: int = 3):
+    def __init__(
+        self, target, *, call_timeout: float = 10.0, label: str = "", max_timeouts: int = 3
+    ):
         self._target = target
         self._label = label or repr(target)
         self.call_timeout = check_timeout(call_timeout, "call timeout")
@@ -68,7 +86,8 @@ class Guarded:
         if not provided:
             raise NotAnImplementation(
                 f"target {self._label} ({type(target).__name__}) provides none of the protocol's methods "
-                f"({', '.join(METHODS)}): not an implementation (DESIGN.md, the implementation protocol)")
+                f"({', '.join(METHODS)}): not an implementation (DESIGN.md, the implementation protocol)"
+            )
         _validate_attributes(target, self._label)
         self.provided = provided
 
@@ -96,8 +115,10 @@ class Guarded:
     def _call(self, method: str, fn, args: tuple, kw: dict):
         names = METHODS[method]
         if self._timeouts >= self.max_timeouts:
-            raise CheckAborted(f"{method}: {self._timeouts} calls exceeded the per-call timeout of "
-                               f"{self.call_timeout:g} s; no further calls are made")
+            raise CheckAborted(
+                f"{method}: {self._timeouts} calls exceeded the per-call timeout of "
+                f"{self.call_timeout:g} s; no further calls are made"
+            )
         saved = [copy.deepcopy(a) for a in args]
         t0 = time.perf_counter()
         try:
@@ -107,31 +128,64 @@ class Guarded:
             if exc.what != "call":
                 raise
             self._timeouts += 1
-            self._own_incidents.append({"id": len(self._own_incidents) + 1, "method": method, "kind": "hang",
-                                        "detail": f"no return within the per-call timeout of {self.call_timeout:g} s"})
-            raise AssertionError(f"{method} did not return within the per-call timeout of {self.call_timeout:g} s") from None
+            self._own_incidents.append(
+                {
+                    "id": len(self._own_incidents) + 1,
+                    "method": method,
+                    "kind": "hang",
+                    "detail": f"no return within the per-call timeout of {self.call_timeout:g} s",
+                }
+            )
+            raise AssertionError(
+                f"{method} did not return within the per-call timeout of {self.call_timeout:g} s"
+            ) from None
         except SystemExit as exc:
-            self._own_incidents.append({"id": len(self._own_incidents) + 1, "method": method, "kind": "exit",
-                                        "detail": f"sys.exit({exc.code!r}) inside the method"})
-            raise CheckAborted(f"{method} called sys.exit({exc.code!r}): an implementation must return or raise, "
-                               "never end the process") from None
+            self._own_incidents.append(
+                {
+                    "id": len(self._own_incidents) + 1,
+                    "method": method,
+                    "kind": "exit",
+                    "detail": f"sys.exit({exc.code!r}) inside the method",
+                }
+            )
+            raise CheckAborted(
+                f"{method} called sys.exit({exc.code!r}): an implementation must return or raise, "
+                "never end the process"
+            ) from None
         finally:
-            note(call={"method": method, "args": dict(zip(names, saved)), "seconds": time.perf_counter() - t0})
+            note(
+                call={
+                    "method": method,
+                    "args": dict(zip(names, saved)),
+                    "seconds": time.perf_counter() - t0,
+                }
+            )
             self._check_unchanged(method, names, saved, args)
         if len(args) != len(names):
             return out  # not the protocol's call shape: the target's own business
         res = _validate_result(method, out, args)
-        note(call={"method": method, "args": dict(zip(names, saved)), "result": res,
-                   "seconds": time.perf_counter() - t0})
+        note(
+            call={
+                "method": method,
+                "args": dict(zip(names, saved)),
+                "result": res,
+                "seconds": time.perf_counter() - t0,
+            }
+        )
         return res
 
     @staticmethod
     def _check_unchanged(method, names, saved, args) -> None:
         for name, before, now in zip(names, saved, args):
-            same = (np.array_equal(before, now, equal_nan=True) if isinstance(before, np.ndarray)
-                    else _same(before, now))
+            same = (
+                np.array_equal(before, now, equal_nan=True)
+                if isinstance(before, np.ndarray)
+                else _same(before, now)
+            )
             if not same:
-                raise AssertionError(f"{method} mutated its input {name!r} (an implementation never mutates its inputs)")
+                raise AssertionError(
+                    f"{method} mutated its input {name!r} (an implementation never mutates its inputs)"
+                )
 
 
 def _same(a, b) -> bool:
@@ -139,7 +193,9 @@ def _same(a, b) -> bool:
         return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
         return np.array_equal(np.asarray(a), np.asarray(b), equal_nan=True)
-    return a == b or (isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b))
+    return a == b or (
+        isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b)
+    )
 
 
 def _real(value: Any, what: str) -> np.ndarray:
@@ -147,8 +203,10 @@ def _real(value: Any, what: str) -> np.ndarray:
         arr = np.asarray(value)
     except Exception as exc:  # noqa: BLE001 - anything that is not an array of numbers
         raise AssertionError(f"{what}: not an array ({type(exc).__name__}: {exc})") from None
-    if arr.dtype.kind not in "fiu" and not (arr.dtype == object and all(
-            isinstance(v, (int, float)) or hasattr(v, "__float__") for v in arr.ravel())):
+    if arr.dtype.kind not in "fiu" and not (
+        arr.dtype == object
+        and all(isinstance(v, (int, float)) or hasattr(v, "__float__") for v in arr.ravel())
+    ):
         raise AssertionError(f"{what}: expected real numbers, got {arr.dtype} ({str(value)[:120]})")
     if arr.dtype.kind == "c":  # pragma: no cover - excluded above
         raise AssertionError(f"{what}: complex values")
@@ -166,13 +224,19 @@ def _validate_result(method: str, out: Any, args: tuple) -> Any:
     if method == "poisson_tensor":
         P = _real(out, "poisson_tensor result")
         if P.shape != (*lead, 2 * n, 2 * n):
-            raise AssertionError(f"poisson_tensor returned shape {P.shape}, expected {(*lead, 2 * n, 2 * n)}")
+            raise AssertionError(
+                f"poisson_tensor returned shape {P.shape}, expected {(*lead, 2 * n, 2 * n)}"
+            )
         return P
     if not isinstance(out, (tuple, list)) or len(out) != 2:
-        raise AssertionError(f"{method} must return a pair (a, b) of arrays, got {type(out).__name__}: {str(out)[:120]}")
+        raise AssertionError(
+            f"{method} must return a pair (a, b) of arrays, got {type(out).__name__}: {str(out)[:120]}"
+        )
     a, b = (_real(v, f"{method} result[{k}]") for k, v in enumerate(out))
     if a.shape != (*lead, n) or b.shape != (*lead, n):
-        raise AssertionError(f"{method} returned shapes {a.shape}, {b.shape}, expected two of {(*lead, n)}")
+        raise AssertionError(
+            f"{method} returned shapes {a.shape}, {b.shape}, expected two of {(*lead, n)}"
+        )
     return a, b
 
 
@@ -181,15 +245,21 @@ def materialize(spec, *, call_timeout: float = 10.0):
     """A guarded implementation from ``"module:object"``, ``"module"`` or ``{"cmd": ..., ...}``."""
     if isinstance(spec, dict) and "cmd" in spec:
         timeout = check_timeout(spec.get("timeout", call_timeout), "--timeout")
-        impl = CommandImplementation(spec["cmd"], timeout=timeout, stderr_log=spec.get("stderr_log"))
+        impl = CommandImplementation(
+            spec["cmd"], timeout=timeout, stderr_log=spec.get("stderr_log")
+        )
         # the program's own timeout is per request; the guard's is a backstop a little above it
         try:
-            return Guarded(impl, call_timeout=min(timeout * 2 + 5, 3600.0), label=f"--cmd {spec['cmd']!r}")
+            return Guarded(
+                impl, call_timeout=min(timeout * 2 + 5, 3600.0), label=f"--cmd {spec['cmd']!r}"
+            )
         except NotAnImplementation:
             impl.close()
             raise
     if not isinstance(spec, str) or not spec:
-        raise ValueError(f"certification target must be 'module', 'module:object' or {{'cmd': ...}}, got {spec!r}")
+        raise ValueError(
+            f"certification target must be 'module', 'module:object' or {{'cmd': ...}}, got {spec!r}"
+        )
     obj = resolve(spec) if ":" in spec else import_module(spec)
     return Guarded(obj, call_timeout=call_timeout, label=spec)
 
@@ -213,22 +283,36 @@ def explain(check, *, seconds: float = 60.0) -> None:
     try:
         with time_limit(seconds, "explain"):
             if method == "poisson_tensor":
-                exp = Reference(30).poisson_tensor(a["f"], a["theta"], a["upsilon"], a["x"], a["pi"])
+                exp = Reference(30).poisson_tensor(
+                    a["f"], a["theta"], a["upsilon"], a["x"], a["pi"]
+                )
                 got = call["result"]
             elif method == "hamiltonian_vector_field":
-                xd, pd = Reference(30).hamiltonian_vector_field(a["f"], a["theta"], a["upsilon"], a["inertia"],
-                                                                a["potential"], a["x"], a["pi"])
+                xd, pd = Reference(30).hamiltonian_vector_field(
+                    a["f"], a["theta"], a["upsilon"], a["inertia"], a["potential"], a["x"], a["pi"]
+                )
                 exp, got = np.concatenate([xd, pd]), np.concatenate(call["result"])
             elif method == "flow":
                 from tstarg.refimpl.flows import reference_flow
 
-                xr, pr = reference_flow(a["f"], a["theta"], a["upsilon"], a["inertia"], a["potential"], a["x0"],
-                                        a["pi0"], a["t"], dps=25)
+                xr, pr = reference_flow(
+                    a["f"],
+                    a["theta"],
+                    a["upsilon"],
+                    a["inertia"],
+                    a["potential"],
+                    a["x0"],
+                    a["pi0"],
+                    a["t"],
+                    dps=25,
+                )
                 exp, got = np.concatenate([xr, pr]), np.concatenate(call["result"])
             else:
                 return
     except TimeLimitExceeded:
-        ex["worst_entry_note"] = f"the reference at the example took over {seconds:g} s: not recomputed"
+        ex["worst_entry_note"] = (
+            f"the reference at the example took over {seconds:g} s: not recomputed"
+        )
         return
     except Exception as exc:  # noqa: BLE001 - an explanation must not turn into a crash
         ex["worst_entry_note"] = f"reference not recomputed: {type(exc).__name__}: {exc}"
@@ -240,11 +324,20 @@ def explain(check, *, seconds: float = 60.0) -> None:
         return
     ex["worst_entry"] = worst
     idx = ",".join(map(str, worst["index"]))
-    name = {"poisson_tensor": "P", "hamiltonian_vector_field": "(xdot, pidot)", "flow": "(x(t), pi(t))"}[method]
-    line = (f"  worst entry {name}[{idx}] (reference recomputed at the recorded call): expected "
-            f"{worst['expected']!r}, got {worst['got']!r}, error {worst['error']:.3e}"
-            + (f", tolerance {worst['tolerance']:.3e} (error / ratio), ratio {worst['ratio']:.3g}"
-               if "tolerance" in worst else ""))
+    name = {
+        "poisson_tensor": "P",
+        "hamiltonian_vector_field": "(xdot, pidot)",
+        "flow": "(x(t), pi(t))",
+    }[method]
+    line = (
+        f"  worst entry {name}[{idx}] (reference recomputed at the recorded call): expected "
+        f"{worst['expected']!r}, got {worst['got']!r}, error {worst['error']:.3e}"
+        + (
+            f", tolerance {worst['tolerance']:.3e} (error / ratio), ratio {worst['ratio']:.3g}"
+            if "tolerance" in worst
+            else ""
+        )
+    )
     check.falsifying_example = check.falsifying_example + "\n" + line
 
 
@@ -260,34 +353,57 @@ def _unit(item):
     left = budget["deadline"] - time.time()
     check_s = max(1e-3, min(budget["check_seconds"], left))
     try:
-        with runner.limits(example_seconds=budget["example_seconds"], check_seconds=check_s,
-                           shrink_seconds=budget.get("shrink_seconds")):
+        with runner.limits(
+            example_seconds=budget["example_seconds"],
+            check_seconds=check_s,
+            shrink_seconds=budget.get("shrink_seconds"),
+        ):
             return certify(impl, checks=[cid], **kwargs)
     finally:
         impl.close()
 
 
-def certify_target(spec, *, workers=None, scheduler=None, budget: dict, checks=None, **kwargs):
+def certify_target(
+    spec, *, workers=None, scheduler=None, budget: dict, checks=None, provided=None, **kwargs
+):
     """Run the battery on ``spec`` with the budgets ``{"call_timeout", "example_seconds",
-    "check_seconds", "deadline" (time.time())}``; one unit per check id; merged in order."""
+    "check_seconds", "shrink_seconds", "deadline" (time.time())}``; one unit per check id,
+    merged in order. Check ids listed in ``skips`` or needing a method outside ``provided``
+    (when given) get their reason without starting a unit (no program started for nothing)."""
     from ._parallel import map_tasks
     from .certification import CHECKS, Certificate
 
     t0 = time.perf_counter()
     ids = [c for c in CHECKS if checks is None or c in checks]
-    items = [(spec, cid, kwargs, budget) for cid in ids]
+    skips = dict(kwargs.get("skips") or {})
+    pre = {}
+    for cid in ids:
+        if cid in skips:
+            pre[cid] = skips[cid]
+        elif provided is not None and CHECKS[cid] not in provided:
+            pre[cid] = f"the implementation has no method {CHECKS[cid]!r}"
+    run_ids = [c for c in ids if c not in pre] or ids[:1]
+    items = [(spec, cid, kwargs, budget) for cid in run_ids]
     if (workers == 1 or len(items) == 1) and scheduler is None:
         parts = [_unit(it) for it in items]
     else:
         parts = map_tasks(_unit, items, workers=workers, scheduler=scheduler)
     first = parts[0]
-    cert = Certificate(implementation=first.implementation, version=first.version, target=first.target,
-                       seed=first.seed, max_examples=first.max_examples, xfailed=dict(kwargs.get("xfails") or {}),
-                       command=first.command)
+    cert = Certificate(
+        implementation=first.implementation,
+        version=first.version,
+        target=first.target,
+        seed=first.seed,
+        max_examples=first.max_examples,
+        xfailed=dict(kwargs.get("xfails") or {}),
+        command=first.command,
+    )
     for part in parts:
         cert.checks.extend(part.checks)
         cert.skipped.update(part.skipped)
         cert.incidents.extend(part.incidents)
+    cert.skipped.update({k: v for k, v in pre.items() if k not in cert.skipped})
+    cert.skipped = {k: cert.skipped[k] for k in CHECKS if k in cert.skipped}
     for c in cert.checks:
         explain(c)
     cert.seconds = time.perf_counter() - t0

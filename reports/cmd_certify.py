@@ -60,6 +60,8 @@ def add_arguments(p) -> None:
     p.add_argument("--shrink-seconds", type=float, default=None,
                    help="time for shrinking a failure to a smaller example (default: profile)")
     p.add_argument("--budget", type=float, default=None, help="budget of the whole run in seconds (default: profile)")
+    p.add_argument("--check", action="append", default=None, metavar="ID",
+                   help="run only this check id (repeatable; default: all)")
     p.add_argument("--skips-file", help="check ids to skip, one per line, optional reason after a space")
     p.add_argument("--xfails-file", help="check ids expected to fail, one per line")
     p.add_argument("--replay", metavar="CERTIFICATE_JSON",
@@ -104,6 +106,11 @@ def main(args) -> int:
         from .certification import _read_ids
 
         skips, xfails = _read_ids(args.skips_file, "skips"), _read_ids(args.xfails_file, "xfails")
+        from .certification import CHECKS
+
+        unknown = [c for c in args.check or [] if c not in CHECKS]
+        if unknown:
+            raise ValueError(f"--check {unknown[0]!r}: unknown check id (known: {', '.join(CHECKS)})")
     except (ValueError, OSError) as exc:
         return _fail(str(exc))
     out = Path(args.out)
@@ -130,7 +137,7 @@ def main(args) -> int:
         spec = dict(spec, stderr_dir=str(stderr_dir))
     budget["deadline"] = time.time() + run_budget
     kw = {"max_examples": n, "seed": args.seed, "skips": skips, "xfails": xfails, "target": target}
-    cert = _run(spec, par, budget, kw)
+    cert = _run(spec, par, budget, dict(kw, checks=args.check, provided=provided))
     if cert is None:
         return 1
     cert.command = "tstarg " + " ".join(shlex.quote(a) for a in sys.argv[2:]) if len(sys.argv) > 2 else cert.command

@@ -161,18 +161,20 @@ class CommandImplementation:
         except OSError as exc:
             raise ProgramFailure(f"cannot start the program {self._argv[0]!r}: {exc.strerror or exc}") from None
         self._lines = queue.Queue(maxsize=10000)
-        proc, lines = self._proc, self._lines
+        self._tail = collections.deque(maxlen=STDERR_TAIL)  # this run of the program only
+        proc, lines, tail = self._proc, self._lines, self._tail
 
         def reader():
-            for line in proc.stdout:
-                lines.put(line)
+            with contextlib.suppress(ValueError, OSError):  # the pipe closed under us by close()
+                for line in proc.stdout:
+                    lines.put(line)
             lines.put(None)
 
         def err_reader():
-            for line in proc.stderr:
-                self._tail.append(line.rstrip("\n"))
-                if self._log is not None:
-                    with contextlib.suppress(ValueError, OSError):
+            with contextlib.suppress(ValueError, OSError):
+                for line in proc.stderr:
+                    tail.append(line.rstrip("\n"))
+                    if self._log is not None:
                         self._log.write(line)
                         self._log.flush()
 

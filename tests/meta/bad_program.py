@@ -19,11 +19,19 @@ import numpy as np
 def answer(req):
     from tstarg.refimpl.fast import implementation as fast
 
-    a = {k: (np.asarray(v, dtype=float) if v is not None and k != "potential" else v) for k, v in req["args"].items()}
+    a = {
+        k: (np.asarray(v, dtype=float) if v is not None and k != "potential" else v)
+        for k, v in req["args"].items()
+    }
     if req["method"] != "poisson_tensor":
         return {"id": req["id"], "error": f"unknown method {req['method']}"}
     try:
-        return {"id": req["id"], "result": fast.poisson_tensor(a["f"], a["theta"], a["upsilon"], a["x"], a["pi"]).tolist()}
+        return {
+            "id": req["id"],
+            "result": fast.poisson_tensor(
+                a["f"], a["theta"], a["upsilon"], a["x"], a["pi"]
+            ).tolist(),
+        }
     except ValueError as exc:
         return {"id": req["id"], "error": f"ValueError: {exc}"}
 
@@ -36,9 +44,13 @@ def main() -> None:
         while True:
             sys.stdout.write("this is not json\n")
             sys.stdout.flush()
-    if mode == "fork":
-        for _ in range(3):
+    if mode == "fork":  # argv[2]: a file that receives the children's pids
+        kids = [
             subprocess.Popen([sys.executable, "-c", "import time; time.sleep(600)"])
+            for _ in range(3)
+        ]
+        with open(sys.argv[2], "a") as fh:
+            fh.write("".join(f"{k.pid}\n" for k in kids))
     count = 0
     for line in sys.stdin:
         count += 1
