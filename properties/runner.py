@@ -194,6 +194,7 @@ class Limits:
     example_seconds: float | None = None
     check_seconds: float | None = None
     shrink_seconds: float | None = None
+    deadline: float | None = None  # time.time() after which no check draws another example
 
 
 LIMITS = Limits()
@@ -202,13 +203,19 @@ LIMITS = Limits()
 
 @contextlib.contextmanager
 def limits(example_seconds: float | None = None, check_seconds: float | None = None,
-           shrink_seconds: float | None = None):
-    """Run the enclosed checks with these budgets (``tstarg verify`` / ``certify`` set them per profile)."""
+           shrink_seconds: float | None = None, run_seconds: float | None = None):
+    """Run the enclosed checks with these budgets (``tstarg verify`` / ``certify`` set them per profile);
+    ``run_seconds``: a budget for everything inside the block (checks started after it is used
+    up stop at once and report that nothing was verified)."""
     new = {"example_seconds": example_seconds, "check_seconds": check_seconds, "shrink_seconds": shrink_seconds}
+    if run_seconds is not None:  # otherwise an enclosing run's deadline stays
+        new["deadline"] = run_seconds
     for what, v in new.items():
         if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
             raise ValueError(f"{what} must be a positive number of seconds, got {v!r}")
     old = {k: getattr(LIMITS, k) for k in new}
+    if run_seconds is not None:
+        new["deadline"] = time.time() + run_seconds
     for k, v in new.items():
         setattr(LIMITS, k, v)
     try:
@@ -416,6 +423,9 @@ def run_property(name: str, equations: str, body: Callable[[Any], tuple[float, f
     res = CheckResult(name=name, equations=equations, extra=dict(extra or {}))
     ex_s = example_seconds if example_seconds is not None else LIMITS.example_seconds
     ck_s = check_seconds if check_seconds is not None else LIMITS.check_seconds
+    if LIMITS.deadline is not None:
+        left = max(1e-3, LIMITS.deadline - time.time())
+        ck_s = left if ck_s is None else min(ck_s, left)
     sh_s = shrink_seconds if shrink_seconds is not None else LIMITS.shrink_seconds
     t0 = time.perf_counter()
     state = {"failure": None, "over": 0, "stopped": False, "example_seconds": ex_s, "first_failure": None}
@@ -521,7 +531,8 @@ def _finish(res: CheckResult, state: dict, t0: float, max_examples: int, ck_s: f
     if res.passed and res.examples == 0 and state["stopped"] and not state["over"]:
         res.passed = False
         res.worst_ratio = math.inf
-        res.detail = f"nothing verified: the check's budget ({ck_s} s) was used up before any example finished"
+        res.detail = (f"nothing verified: the budget left for this check ({ck_s:.3g} s, the check's own or what "
+                      "remained of the run's) was used up before any example finished")
     if res.passed and res.examples == 0 and state["over"]:
         res.passed = False
         res.worst_ratio = math.inf
