@@ -78,7 +78,11 @@ class Guarded:
     ):
         self._target = target
         self._label = label or repr(target)
-        self.call_timeout = check_timeout(call_timeout, "call timeout")
+        self.call_timeout = float(call_timeout)
+        if not (math.isfinite(self.call_timeout) and self.call_timeout > 0):
+            raise ValueError(
+                f"call timeout must be a positive number of seconds, got {call_timeout!r}"
+            )
         self.max_timeouts = int(max_timeouts)
         self._timeouts = 0
         self._own_incidents: list[dict] = []
@@ -245,13 +249,14 @@ def materialize(spec, *, call_timeout: float = 10.0):
     """A guarded implementation from ``"module:object"``, ``"module"`` or ``{"cmd": ..., ...}``."""
     if isinstance(spec, dict) and "cmd" in spec:
         timeout = check_timeout(spec.get("timeout", call_timeout), "--timeout")
+        startup = check_timeout(spec.get("startup_timeout", 30.0), "--startup-timeout")
         impl = CommandImplementation(
-            spec["cmd"], timeout=timeout, stderr_log=spec.get("stderr_log")
+            spec["cmd"], timeout=timeout, stderr_log=spec.get("stderr_log"), startup_timeout=startup
         )
-        # the program's own timeout is per request; the guard's is a backstop a little above it
+        # the program's own timeout is per request; the guard's is a backstop above it
         try:
             return Guarded(
-                impl, call_timeout=min(timeout * 2 + 5, 3600.0), label=f"--cmd {spec['cmd']!r}"
+                impl, call_timeout=max(timeout, startup) * 2 + 5, label=f"--cmd {spec['cmd']!r}"
             )
         except NotAnImplementation:
             impl.close()

@@ -52,6 +52,8 @@ def add_arguments(p) -> None:
     p.add_argument("--cmd", help='an external program speaking JSON lines, e.g. --cmd "julia impl.jl"')
     p.add_argument("--timeout", type=float, default=10.0,
                    help="seconds per call to the implementation (module or program), in (0, 3600]")
+    p.add_argument("--startup-timeout", type=float, default=30.0,
+                   help="--cmd: seconds the first request after a (re)start may take (program start-up), in (0, 3600]")
     p.add_argument("--profile", choices=sorted(PROFILES), default="ci")
     p.add_argument("--max-examples", type=int, default=None)
     p.add_argument("--seed", type=int, default=0)
@@ -92,6 +94,7 @@ def main(args) -> int:
         return _fail("give exactly one of TARGET (module or module:object) or --cmd")
     try:
         timeout = check_timeout(args.timeout, "--timeout")
+        startup = check_timeout(args.startup_timeout, "--startup-timeout")
         prof = BUDGETS[args.profile]
         budget = {
             "call_timeout": timeout,
@@ -114,7 +117,7 @@ def main(args) -> int:
     except (ValueError, OSError) as exc:
         return _fail(str(exc))
     out = Path(args.out)
-    spec = {"cmd": args.cmd, "timeout": timeout} if args.cmd else args.target
+    spec = {"cmd": args.cmd, "timeout": timeout, "startup_timeout": startup} if args.cmd else args.target
     target = f"--cmd {args.cmd!r}" if args.cmd else args.target
     # pre-flight in this process: a clear error before any worker starts
     try:

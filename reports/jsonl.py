@@ -18,7 +18,8 @@ can never pass as "refused a degenerate point") and recorded in
 :attr:`CommandImplementation.incidents` with the tail of the program's stderr:
 
 * **hang**: no reply with the request's id within ``timeout`` seconds (one deadline per
-  request, however many other lines the program prints meanwhile);
+  request, however many other lines the program prints meanwhile; the first request after
+  each start gets ``max(timeout, startup_timeout)``, so a slow start-up is not a hang);
 * **crash**: the program exited (it is restarted);
 * **garbage**: a line that is not a JSON object;
 * **malformed**: a reply without ``result``/``error``, or a ``result`` that is not the
@@ -129,9 +130,12 @@ class CommandImplementation:
     batched = False
 
     def __init__(self, command: str, *, timeout: float = 10.0, probe: bool = True,
-                 stderr_log: str | os.PathLike | None = None, max_failures: int = 3):
+                 stderr_log: str | os.PathLike | None = None, max_failures: int = 3,
+                 startup_timeout: float = 30.0):
         self.command = command
         self.timeout = check_timeout(timeout)
+        self.startup_timeout = max(self.timeout, check_timeout(startup_timeout, "startup timeout"))
+        self._fresh = True
         self.name = f"cmd: {command}"
         self.version = "external"
         self.incidents: list[dict] = []
@@ -160,6 +164,7 @@ class CommandImplementation:
                                           start_new_session=True)
         except OSError as exc:
             raise ProgramFailure(f"cannot start the program {self._argv[0]!r}: {exc.strerror or exc}") from None
+        self._fresh = True
         self._lines = queue.Queue(maxsize=10000)
         self._tail = collections.deque(maxlen=STDERR_TAIL)  # this run of the program only
         proc, lines, tail = self._proc, self._lines, self._tail
@@ -245,7 +250,9 @@ class CommandImplementation:
         except (BrokenPipeError, OSError, ValueError):
             raise ProgramFailure(self._incident(rid, method, "crash", "the program had exited (stdin closed)",
                                                 restart=True)) from None
-        deadline = time.monotonic() + self.timeout
+        wait = self.startup_timeout if self._fresh else self.timeout
+        self._fresh = False
+        deadline = time.monotonic() + wait
         while True:
             left = deadline - time.monotonic()
             try:
@@ -253,7 +260,7 @@ class CommandImplementation:
                     raise queue.Empty
                 reply = self._lines.get(timeout=left)
             except queue.Empty:
-                raise ProgramFailure(self._incident(rid, method, "hang", f"no reply within {self.timeout:g} s",
+                raise ProgramFailure(self._incident(rid, method, "hang", f"no reply within {wait:g} s",
                                                     restart=True)) from None
             if reply is None:
                 code = self._proc.wait()

@@ -137,7 +137,15 @@ def test_broken_program_fails_fast_with_its_incidents(tmp_path, mode, kind):
     """Each ends as FAIL with incidents of its kind; three failed requests in a row and the program
     is declared broken (no one-timeout-per-example run of many minutes)."""
     rc, cert = certify(
-        tmp_path, "--cmd", f"{BAD} {mode}", "--timeout", "1", "--check", "poisson_tensor.degenerate"
+        tmp_path,
+        "--cmd",
+        f"{BAD} {mode}",
+        "--timeout",
+        "1",
+        "--startup-timeout",
+        "1",
+        "--check",
+        "poisson_tensor.degenerate",
     )
     assert rc == 1 and cert is not None and not cert["passed"]
     kinds = {i["kind"] for i in cert["incidents"]}
