@@ -129,6 +129,10 @@ class Guarded:
             with time_limit(self.call_timeout, "call"):
                 out = fn(*args, **kw)
         except TimeLimitExceeded as exc:
+            if exc.what == "example":  # the implementation itself used the example's whole budget
+                raise AssertionError(
+                    f"{method} was still running when the example's budget of {exc.seconds:g} s ran out"
+                ) from None
             if exc.what != "call":
                 raise
             self._timeouts += 1

@@ -204,3 +204,20 @@ def test_program_stderr_is_kept_and_quoted_per_incident(tmp_path):
     assert crashes and all(i["stderr_tail"][-1] == "fatal: planted crash" for i in crashes)
     md = (tmp_path / "certificate.md").read_text()
     assert "program-stderr.log" in md and "fatal: planted crash" in md
+
+
+def test_implementation_using_the_whole_example_budget_fails(tmp_path):
+    """A per-example budget shorter than --timeout: the time went to the implementation, so it is
+    its failure (not an example 'drawn again' as when the reference computation is too costly)."""
+    rc, cert = certify(
+        tmp_path,
+        "tests.meta.targets:sleeps",
+        "--timeout",
+        "100",
+        "--example-seconds",
+        "0.5",
+        "--check",
+        "poisson_tensor.degenerate",
+    )
+    c = by_name(cert, "poisson_tensor.degenerate")
+    assert rc == 1 and not c["passed"] and "still running when the example's budget" in c["detail"]
