@@ -24,7 +24,6 @@ give the mpmath-driven checks a fraction of it.
 
 from __future__ import annotations
 
-import importlib
 import json
 import math
 import platform
