@@ -112,6 +112,8 @@ class Guarded:
             if not callable(fn):
                 raise AttributeError(attr)
             return lambda *args, **kw: self._call(attr, fn, args, kw)
+        if attr == "name":  # the certificate names the target, never this wrapper
+            return getattr(self._target, "name", None) or self._label
         if attr in ATTRIBUTES:
             return getattr(self._target, attr)
         raise AttributeError(attr)

@@ -74,6 +74,9 @@ def test_sys_exit_in_a_method_fails_with_a_certificate(tmp_path):
         tmp_path, "tests.meta.targets:exits", "--check", "poisson_tensor.antisymmetry"
     )
     assert rc == 1 and cert is not None and not cert["passed"]
+    assert (
+        cert["implementation"] == "tests.meta.targets:exits"
+    )  # a nameless target: named by its spec
     c = by_name(cert, "poisson_tensor.antisymmetry")
     assert not c["passed"] and "sys.exit(0)" in c["detail"]
 
