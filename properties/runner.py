@@ -41,6 +41,7 @@ import math
 import signal
 import threading
 import time
+import traceback
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any
@@ -515,6 +516,11 @@ def run_property(name: str, equations: str, body: Callable[[Any], tuple[float, f
     except BaseException as exc:  # noqa: BLE001 - any failure of the check is its verdict
         res.passed = False
         res.detail = _strip_notes(exc)
+        if state["failure"] is None:  # raised outside the body: while drawing the example
+            tb = "".join(traceback.format_exception(type(exc), exc, exc.__traceback__)[-6:])
+            res.falsifying_example = ("no example to show: this was raised outside the check's body, while "
+                                      "drawing an example (in the strategy) or inside Hypothesis itself:\n"
+                                      + tb)[:8000]
     if buf.getvalue():
         res.extra["hypothesis_output"] = ("(Hypothesis' own report, not the example) " + buf.getvalue())[:4000]
     return _finish(res, state, t0, max_examples, ck_s)

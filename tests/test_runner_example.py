@@ -278,3 +278,16 @@ def test_planted_certificate_names_algebra_point_and_worst_entry(tmp_path, capsy
     )
     out = capsys.readouterr().out
     assert out.count("FAIL on the stored example") == len(failed)
+
+
+def test_error_while_drawing_is_reported_as_such():
+    """A strategy that raises: no example exists, and the report says where it came from."""
+
+    def boom(x):
+        raise np.linalg.LinAlgError("SVD did not converge")
+
+    res = run_property(
+        "draw fails", "-", lambda ex: (0.0, None), st.integers().map(boom), max_examples=3, seed=0
+    )
+    assert not res.passed and "LinAlgError" in res.detail
+    assert "while drawing an example" in res.falsifying_example and "boom" in res.falsifying_example
