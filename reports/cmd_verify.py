@@ -24,7 +24,6 @@ give the mpmath-driven checks a fraction of it.
 
 from __future__ import annotations
 
-import importlib
 import json
 import math
 import platform
@@ -37,6 +36,18 @@ from ._atomic import claim_output, write_text
 from ._imports import import_module
 
 PROFILES = {"dev": 6, "ci": 20, "thorough": 60}
+BUDGETS = {
+    "dev": {"example_seconds": 20.0, "check_seconds": 60.0, "shrink_seconds": 20.0, "run_seconds": 1800.0},
+    "ci": {"example_seconds": 30.0, "check_seconds": 120.0, "shrink_seconds": 30.0, "run_seconds": 5400.0},
+    "thorough": {"example_seconds": 60.0, "check_seconds": 600.0, "shrink_seconds": 120.0, "run_seconds": 21600.0},
+}
+"""Wall-clock budgets by profile (:mod:`properties.runner` limits): one example (reference
+computation included; longer ones are drawn again and counted as ``over_budget``), one check,
+shrinking after the first failure, and the whole run -- the stated time of ``tstarg verify``
+per profile: dev 30 min, ci 90 min, thorough 6 h at most, on a machine whose cores are not
+oversubscribed (measured: dev takes 8-16 min of wall time at a load of 5-6 per core, about
+200 s of CPU). Checks that would start after the run's budget is used up report that nothing
+was verified, and fail: a run out of time says so instead of passing."""
 HELP = "run the verification suite and write a report (the main job)"
 
 PROVIDERS = (
@@ -63,6 +74,10 @@ def add_arguments(v) -> None:
     v.add_argument("--digits-slack", type=float, default=None, help="digits a check may lose before it is a regression (default 2)")
     v.add_argument("--speed-factor", type=float, default=None, help="slowdown factor of a speed-up that is a regression (default 2)")
     v.add_argument("--write-baseline", action="store_true", help="also store this run as the committed baseline")
+    for name, what in (("example", "one example"), ("check", "one check"), ("shrink", "shrinking a failure"),
+                       ("run", "the whole run")):
+        v.add_argument(f"--{name}-seconds", type=float, default=None,
+                       help=f"wall-clock budget of {what} (default: the profile's, see BUDGETS)")
 
 
 def _load_provider(spec: str):
@@ -96,11 +111,16 @@ class Progress:
             self.count += 1
             if self.tty:
                 self._bar(name, 0, total)
+            else:  # which check is running, before it finishes (a slow one is visible as such)
+                self.stream.write(f"[{self.count:3d}] {name[:52]:52s} running ...\n")
+                self.stream.flush()
         elif event == "example" and self.tty:
             self._bar(name, done, total)
         elif event == "done":
             verdict = "PASS" if result is None or result.passed else "FAIL"
-            line = f"[{self.count:3d}] {name[:52]:52s} {done:4d} ex {result.seconds if result else 0:6.1f}s {verdict}"
+            over = (result.extra.get("over_budget", 0) if result else 0) or 0
+            line = (f"[{self.count:3d}] {name[:52]:52s} {done:4d} ex {result.seconds if result else 0:6.1f}s {verdict}"
+                    + (f" ({over} examples over the per-example budget, drawn again)" if over else ""))
             self.stream.write(("\r\033[K" if self.tty else "") + line + "\n")
             self.stream.flush()
 
@@ -156,6 +176,9 @@ def render_markdown(report: dict) -> str:
            f"- verdict: **{'PASS' if report['passed'] else 'FAIL'}** ({report['n_failed']} failed of {len(report['checks'])})",
            f"- wall time: {report['seconds']:.1f} s; BLAS pinned to one thread ({report['environment']['blas_threads']})",
            *[f"- provider `{k}`: {v}" for k, v in report.get("providers", {}).items()],
+           *([(f"- slowest check: `{report['slowest_check']['name']}` ({report['slowest_check']['seconds']:.1f} s); "
+               f"examples over the per-example budget (drawn again): {report.get('over_budget_examples', 0)}")]
+             if report.get("slowest_check") else []),
            "", "| check | equations | examples | skipped | worst error/tolerance | min digits | verdict |",
            "|---|---|---:|---:|---:|---:|---|"]
     for c in report["checks"]:
@@ -214,12 +237,26 @@ def run_providers(specs, max_examples: int, seed, progress=None, optional=PROVID
                 raise TypeError(f"provider {spec} returned {type(bad[0]).__name__}, expected CheckResult")
             for r in got:
                 r.extra.setdefault("provider", spec)
+                if not r.passed and isinstance(r.extra.get("example"), dict):
+                    r.extra["example"]["replay"] = (f"tstarg verify --provider {spec} --seed {seed} "
+                                                    f"--max-examples {max_examples} --no-baseline")
             results.extend(got)
             status[spec] = f"ran {len(got)} checks in {time.perf_counter() - t0:.1f} s"
     finally:
         if progress is not None:
             _checks.PROGRESS.remove(progress)
     return results, status
+
+
+def _budget(args) -> dict:
+    out = dict(BUDGETS[args.profile])
+    for k in out:
+        v = getattr(args, k, None)
+        if v is not None:
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"--{k.replace('_', '-')} must be a positive number of seconds, got {v}")
+            out[k] = float(v)
+    return out
 
 
 def main(args) -> int:
@@ -233,17 +270,27 @@ def main(args) -> int:
     for spec in specs:
         if spec.count(":") != 1:
             raise ValueError(f"--provider must be 'module:function', got {spec!r}")
+    budget = _budget(args)
     print(f"tstarg verify: profile {args.profile}, {max_examples} examples per check, seed {args.seed}; "
-          f"BLAS pinned to 1 thread", flush=True)
+          f"budgets: example {budget['example_seconds']:g} s, check {budget['check_seconds']:g} s, "
+          f"shrinking {budget['shrink_seconds']:g} s, run {budget['run_seconds']:g} s; BLAS pinned to 1 thread",
+          flush=True)
     t0 = time.perf_counter()
     progress = None if getattr(args, "quiet", False) else Progress()
-    results, status = run_providers(specs, max_examples, args.seed, progress)
+    from tstarg.properties import runner
+
+    with runner.limits(**budget):
+        results, status = run_providers(specs, max_examples, args.seed, progress)
     total = time.perf_counter() - t0
+    slowest = max(results, key=lambda r: r.seconds, default=None)
+    over = sum(int(r.extra.get("over_budget", 0) or 0) for r in results)
     for spec, st in status.items():
         print(f"provider {spec}: {st}")
     report = {
         "tool": "tstarg verify", "profile": args.profile, "max_examples": max_examples, "seed": args.seed,
         "seconds": total, "providers": status, "checks": [r.to_json() for r in results], "environment": _env(),
+        "budgets": budget, "over_budget_examples": over,
+        "slowest_check": None if slowest is None else {"name": slowest.name, "seconds": slowest.seconds},
         "command": " ".join(["tstarg"] + sys.argv[1:]),
     }
     out = claim_output(Path(args.out))  # issue 15: a concurrent run gets its own folder and says so
@@ -263,6 +310,9 @@ def main(args) -> int:
         write_text(BASELINE, json.dumps(kept, indent=2))  # atomic: the old baseline stays until this is whole
         print(f"baseline written: {BASELINE}")
     print(f"\n{len(results) - len(failed)} passed, {len(failed)} failed in {total:.1f} s; report: {out / 'report.md'}")
+    if slowest is not None:
+        print(f"slowest check: {slowest.name} ({slowest.seconds:.1f} s); examples over the per-example budget "
+              f"(drawn again): {over}")
     for r in failed:
         print(f"\nFAILED {r.name}: {r.detail}\n{r.falsifying_example}")
     return 1 if failed else 0

@@ -1,7 +1,9 @@
 """pytest plugin: certify an implementation inside any test suite.
 
-Name the target with ``--tstarg-impl module:object`` (or the environment variable
-``TSTARG_IMPL``). The session fixture ``tstarg_certificate`` runs the battery on it once
+Name the target with ``--tstarg-impl module:object`` or ``--tstarg-impl module`` (or the
+environment variable ``TSTARG_IMPL``). The target runs behind the same guard as under
+``tstarg certify`` (:mod:`reports._guard`: a time limit per call, ``sys.exit`` and garbage
+results are failures, a target without any protocol method is an error). The session fixture ``tstarg_certificate`` runs the battery on it once
 (``--tstarg-examples``, ``--tstarg-seed``) and an author writes::
 
     def test_certified(tstarg_certificate):
@@ -30,11 +32,11 @@ def _target(config) -> str:
 
 
 def pytest_report_header(config):
-    from tstarg.reports.certification import load_target
+    from tstarg.reports._guard import materialize
 
     spec = _target(config)
     try:
-        obj = load_target(spec)
+        obj = materialize(spec)
         return f"tstarg certification target: {spec} ({getattr(obj, 'name', '?')} {getattr(obj, 'version', '?')})"
     except Exception as exc:  # noqa: BLE001 - only a header
         return f"tstarg certification target: {spec} (cannot load: {exc})"
@@ -42,8 +44,14 @@ def pytest_report_header(config):
 
 @pytest.fixture(scope="session")
 def tstarg_certificate(pytestconfig):
-    from tstarg.reports.certification import certify, load_target
+    from tstarg.properties.runner import limits
+    from tstarg.reports._guard import materialize
+    from tstarg.reports.certification import certify
+    from tstarg.reports.cmd_certify import BUDGETS
 
     spec = _target(pytestconfig)
-    return certify(load_target(spec), max_examples=pytestconfig.getoption("--tstarg-examples"),
-                   seed=pytestconfig.getoption("--tstarg-seed"), target=spec)
+    b = BUDGETS["dev"]
+    with limits(example_seconds=b["example_seconds"], check_seconds=b["check_seconds"],
+                shrink_seconds=b["shrink_seconds"]):
+        return certify(materialize(spec), max_examples=pytestconfig.getoption("--tstarg-examples"),
+                       seed=pytestconfig.getoption("--tstarg-seed"), target=spec)

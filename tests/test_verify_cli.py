@@ -91,10 +91,12 @@ def test_bad_provider_spec(tmp_path, spec):
 
 
 def test_progress_lines(capsys):
-    """The progress display prints one line per finished check (non-terminal output)."""
+    """The progress display (non-terminal output) prints which check starts, then one line when it is done."""
     prog = verify.Progress()
     prog("start", "c1", 0, 3)
     prog("example", "c1", 1, 3)
+    started = capsys.readouterr().out
+    assert started.count("\n") == 1 and "c1" in started and "running" in started
     prog("done", "c1", 3, 3, CheckResult(name="c1", equations="e", examples=3))
     out = capsys.readouterr().out
     assert out.count("\n") == 1 and "c1" in out and "PASS" in out

@@ -1,0 +1,421 @@
+"""What ``tstarg certify`` puts between the battery and the implementation under test.
+
+* :func:`materialize` turns a target description into an implementation: ``"module:object"``,
+  a bare ``"module"`` (DESIGN.md: an implementation may be a module), or
+  ``{"cmd": "PROGRAM ARGS", "timeout": s, "stderr_log": path}`` for a JSON-lines program
+  (:mod:`reports.jsonl`). A target that provides none of the protocol's methods is refused
+  (:class:`NotAnImplementation`) before anything runs.
+* :class:`Guarded` wraps it: every call has a time limit (``call_timeout``; after
+  ``max_timeouts`` of them the check is aborted instead of shrunk), ``sys.exit`` inside a
+  method ends the check as a failure (never the process), a method that mutates its inputs
+  or returns something that is not the protocol's shape of real numbers fails with that
+  reason, and each call is recorded (:func:`properties.runner.note`) so that a failing
+  example shows what the implementation was asked and what it returned.
+* :func:`explain` adds, for a failed reference check whose body recorded no expected value,
+  the worst entry (expected from the reference at 30 digits, got, error, tolerance = error /
+  ratio) to the rendered example.
+* :func:`certify_target` runs :func:`reports.certification.certify` per check id (in worker
+  processes by default), each worker on its own guarded copy of the target, with the run's
+  budgets (:mod:`properties.runner` limits), and merges the partial certificates in check order.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from tstarg.properties import runner
+from tstarg.properties.runner import CheckAborted, TimeLimitExceeded, note, time_limit
+
+from ._imports import import_module, resolve
+from .jsonl import METHODS, CommandImplementation, check_timeout
+
+__all__ = ["Guarded", "NotAnImplementation", "certify_target", "explain", "materialize"]
+
+ATTRIBUTES = (
+    "name",
+    "version",
+    "batched",
+    "precision_digits",
+    "flow_tolerance",
+    "order",
+    "poisson_integrator",
+)
+
+
+class NotAnImplementation(ValueError):
+    """The target provides none of the protocol's methods, or declares an invalid attribute."""
+
+
+def _validate_attributes(target, label: str) -> None:
+    for attr, lo, hi in (("precision_digits", 1.0, 10000.0), ("flow_tolerance", 0.0, 1.0)):
+        v = getattr(target, attr, None)
+        if v is None:
+            continue
+        ok = (
+            isinstance(v, (int, float, np.floating, np.integer))
+            and not isinstance(v, bool)
+            and math.isfinite(float(v))
+        )
+        if not ok or not (
+            lo < float(v) <= hi if attr == "flow_tolerance" else lo <= float(v) <= hi
+        ):
+            raise NotAnImplementation(
+                f"target {label}: attribute {attr} = {v!r} is not a number in "
+                f"{'(' if attr == 'flow_tolerance' else '['}{lo:g}, {hi:g}]"
+            )
+
+
+class Guarded:
+    """An implementation under test, with a time limit per call and checked inputs and outputs."""
+
+    def __init__(
+        self, target, *, call_timeout: float = 10.0, label: str = "", max_timeouts: int = 3
+    ):
+        self._target = target
+        self._label = label or repr(target)
+        self.call_timeout = float(call_timeout)
+        if not (math.isfinite(self.call_timeout) and self.call_timeout > 0):
+            raise ValueError(
+                f"call timeout must be a positive number of seconds, got {call_timeout!r}"
+            )
+        self.max_timeouts = int(max_timeouts)
+        self._timeouts = 0
+        self._own_incidents: list[dict] = []
+        provided = [m for m in METHODS if callable(getattr(target, m, None))]
+        if not provided:
+            raise NotAnImplementation(
+                f"target {self._label} ({type(target).__name__}) provides none of the protocol's methods "
+                f"({', '.join(METHODS)}): not an implementation (DESIGN.md, the implementation protocol)"
+            )
+        _validate_attributes(target, self._label)
+        self.provided = provided
+
+    @property
+    def incidents(self) -> list:
+        theirs = self._target.incidents if isinstance(self._target, CommandImplementation) else []
+        return self._own_incidents + list(theirs)
+
+    def close(self) -> None:
+        if isinstance(self._target, CommandImplementation):
+            self._target.close()
+
+    def __getattr__(self, attr: str):
+        if attr.startswith("_"):
+            raise AttributeError(attr)
+        if attr in METHODS:
+            fn = getattr(self._target, attr, None)
+            if not callable(fn):
+                raise AttributeError(attr)
+            return lambda *args, **kw: self._call(attr, fn, args, kw)
+        if attr == "name":  # the certificate names the target, never this wrapper
+            return getattr(self._target, "name", None) or self._label
+        if attr in ATTRIBUTES:
+            return getattr(self._target, attr)
+        raise AttributeError(attr)
+
+    def _call(self, method: str, fn, args: tuple, kw: dict):
+        names = METHODS[method]
+        if self._timeouts >= self.max_timeouts:
+            raise CheckAborted(
+                f"{method}: {self._timeouts} calls exceeded the per-call timeout of "
+                f"{self.call_timeout:g} s; no further calls are made"
+            )
+        saved = [copy.deepcopy(a) for a in args]
+        t0 = time.perf_counter()
+        try:
+            with time_limit(self.call_timeout, "call"):
+                out = fn(*args, **kw)
+        except TimeLimitExceeded as exc:
+            if exc.what == "example":  # the implementation itself used the example's whole budget
+                raise AssertionError(
+                    f"{method} was still running when the example's budget of {exc.seconds:g} s ran out"
+                ) from None
+            if exc.what != "call":
+                raise
+            self._timeouts += 1
+            self._own_incidents.append(
+                {
+                    "id": len(self._own_incidents) + 1,
+                    "method": method,
+                    "kind": "hang",
+                    "detail": f"no return within the per-call timeout of {self.call_timeout:g} s",
+                }
+            )
+            raise AssertionError(
+                f"{method} did not return within the per-call timeout of {self.call_timeout:g} s"
+            ) from None
+        except SystemExit as exc:
+            self._own_incidents.append(
+                {
+                    "id": len(self._own_incidents) + 1,
+                    "method": method,
+                    "kind": "exit",
+                    "detail": f"sys.exit({exc.code!r}) inside the method",
+                }
+            )
+            raise CheckAborted(
+                f"{method} called sys.exit({exc.code!r}): an implementation must return or raise, "
+                "never end the process"
+            ) from None
+        finally:
+            note(
+                call={
+                    "method": method,
+                    "args": dict(zip(names, saved)),
+                    "seconds": time.perf_counter() - t0,
+                }
+            )
+            self._check_unchanged(method, names, saved, args)
+        if len(args) != len(names):
+            return out  # not the protocol's call shape: the target's own business
+        res = _validate_result(method, out, args)
+        note(
+            call={
+                "method": method,
+                "args": dict(zip(names, saved)),
+                "result": res,
+                "seconds": time.perf_counter() - t0,
+            }
+        )
+        return res
+
+    @staticmethod
+    def _check_unchanged(method, names, saved, args) -> None:
+        for name, before, now in zip(names, saved, args):
+            same = (
+                np.array_equal(before, now, equal_nan=True)
+                if isinstance(before, np.ndarray)
+                else _same(before, now)
+            )
+            if not same:
+                raise AssertionError(
+                    f"{method} mutated its input {name!r} (an implementation never mutates its inputs)"
+                )
+
+
+def _same(a, b) -> bool:
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return np.array_equal(np.asarray(a), np.asarray(b), equal_nan=True)
+    return a == b or (
+        isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b)
+    )
+
+
+def _real(value: Any, what: str) -> np.ndarray:
+    try:
+        arr = np.asarray(value)
+    except Exception as exc:  # noqa: BLE001 - anything that is not an array of numbers
+        raise AssertionError(f"{what}: not an array ({type(exc).__name__}: {exc})") from None
+    if arr.dtype.kind not in "fiu" and not (
+        arr.dtype == object
+        and all(isinstance(v, (int, float)) or hasattr(v, "__float__") for v in arr.ravel())
+    ):
+        raise AssertionError(f"{what}: expected real numbers, got {arr.dtype} ({str(value)[:120]})")
+    if arr.dtype.kind == "c":  # pragma: no cover - excluded above
+        raise AssertionError(f"{what}: complex values")
+    try:
+        return arr.astype(float)
+    except (TypeError, ValueError) as exc:
+        raise AssertionError(f"{what}: not real numbers ({exc})") from None
+
+
+def _validate_result(method: str, out: Any, args: tuple) -> Any:
+    """The protocol's output shapes of real numbers; anything else is a failure (never a ValueError)."""
+    f = np.asarray(args[0])
+    n = f.shape[0] if f.ndim == 3 else 0
+    lead = np.shape(args[3] if method == "poisson_tensor" else args[5])[:-1]
+    if method == "poisson_tensor":
+        P = _real(out, "poisson_tensor result")
+        if P.shape != (*lead, 2 * n, 2 * n):
+            raise AssertionError(
+                f"poisson_tensor returned shape {P.shape}, expected {(*lead, 2 * n, 2 * n)}"
+            )
+        return P
+    if not isinstance(out, (tuple, list)) or len(out) != 2:
+        raise AssertionError(
+            f"{method} must return a pair (a, b) of arrays, got {type(out).__name__}: {str(out)[:120]}"
+        )
+    a, b = (_real(v, f"{method} result[{k}]") for k, v in enumerate(out))
+    if a.shape != (*lead, n) or b.shape != (*lead, n):
+        raise AssertionError(
+            f"{method} returned shapes {a.shape}, {b.shape}, expected two of {(*lead, n)}"
+        )
+    return a, b
+
+
+# ------------------------------------------------------------------ targets
+def materialize(spec, *, call_timeout: float = 10.0):
+    """A guarded implementation from ``"module:object"``, ``"module"`` or ``{"cmd": ..., ...}``."""
+    if isinstance(spec, dict) and "cmd" in spec:
+        timeout = check_timeout(spec.get("timeout", call_timeout), "--timeout")
+        startup = check_timeout(spec.get("startup_timeout", 30.0), "--startup-timeout")
+        impl = CommandImplementation(
+            spec["cmd"], timeout=timeout, stderr_log=spec.get("stderr_log"), startup_timeout=startup
+        )
+        # the program's own timeout is per request; the guard's is a backstop above it
+        try:
+            return Guarded(
+                impl, call_timeout=max(timeout, startup) * 2 + 5, label=f"--cmd {spec['cmd']!r}"
+            )
+        except NotAnImplementation:
+            impl.close()
+            raise
+    if not isinstance(spec, str) or not spec:
+        raise ValueError(
+            f"certification target must be 'module', 'module:object' or {{'cmd': ...}}, got {spec!r}"
+        )
+    obj = resolve(spec) if ":" in spec else import_module(spec)
+    return Guarded(obj, call_timeout=call_timeout, label=spec)
+
+
+# ------------------------------------------------------------------ explaining a failure
+def explain(check, *, seconds: float = 60.0) -> None:
+    """Complete a failed reference check's example with the worst entry, from the recorded call.
+
+    Only when the body recorded no ``expected``: the reference is evaluated once at the
+    recorded inputs (30 digits; the flow at 25, under a ``seconds`` time limit).
+    """
+    ex = check.extra.get("example")
+    if check.passed or not ex or "worst_entry" in ex or ".reference" not in check.name:
+        return
+    call = runner.decode(ex.get("notes", {}).get("call"))
+    if not isinstance(call, dict) or "result" not in call:
+        return
+    from tstarg.refimpl.reference import Reference
+
+    a, method = call["args"], call["method"]
+    try:
+        with time_limit(seconds, "explain"):
+            if method == "poisson_tensor":
+                exp = Reference(30).poisson_tensor(
+                    a["f"], a["theta"], a["upsilon"], a["x"], a["pi"]
+                )
+                got = call["result"]
+            elif method == "hamiltonian_vector_field":
+                xd, pd = Reference(30).hamiltonian_vector_field(
+                    a["f"], a["theta"], a["upsilon"], a["inertia"], a["potential"], a["x"], a["pi"]
+                )
+                exp, got = np.concatenate([xd, pd]), np.concatenate(call["result"])
+            elif method == "flow":
+                from tstarg.refimpl.flows import reference_flow
+
+                xr, pr = reference_flow(
+                    a["f"],
+                    a["theta"],
+                    a["upsilon"],
+                    a["inertia"],
+                    a["potential"],
+                    a["x0"],
+                    a["pi0"],
+                    a["t"],
+                    dps=25,
+                )
+                exp, got = np.concatenate([xr, pr]), np.concatenate(call["result"])
+            else:
+                return
+    except TimeLimitExceeded:
+        ex["worst_entry_note"] = (
+            f"the reference at the example took over {seconds:g} s: not recomputed"
+        )
+        return
+    except Exception as exc:  # noqa: BLE001 - an explanation must not turn into a crash
+        ex["worst_entry_note"] = f"reference not recomputed: {type(exc).__name__}: {exc}"
+        return
+    ratio = runner.decode(ex.get("ratio"))
+    notes = {"expected": np.asarray(exp, dtype=float), "got": np.asarray(got, dtype=float)}
+    worst = runner.worst_entry(notes, ratio if isinstance(ratio, float) else None)
+    if worst is None:
+        return
+    ex["worst_entry"] = worst
+    idx = ",".join(map(str, worst["index"]))
+    name = {
+        "poisson_tensor": "P",
+        "hamiltonian_vector_field": "(xdot, pidot)",
+        "flow": "(x(t), pi(t))",
+    }[method]
+    line = (
+        f"  worst entry {name}[{idx}] (reference recomputed at the recorded call): expected "
+        f"{worst['expected']!r}, got {worst['got']!r}, error {worst['error']:.3e}"
+        + (
+            f", tolerance {worst['tolerance']:.3e} (error / ratio), ratio {worst['ratio']:.3g}"
+            if "tolerance" in worst
+            else ""
+        )
+    )
+    check.falsifying_example = check.falsifying_example + "\n" + line
+
+
+# ------------------------------------------------------------------ the run
+def _unit(item):
+    """Worker: one check id on a freshly materialized, guarded target, within the run's budgets."""
+    from .certification import certify
+
+    spec, cid, kwargs, budget = item
+    if isinstance(spec, dict) and spec.get("stderr_dir"):
+        spec = dict(spec, stderr_log=str(Path(spec["stderr_dir"]) / f"{cid}.log"))
+    impl = materialize(spec, call_timeout=budget["call_timeout"])
+    left = budget["deadline"] - time.time()
+    check_s = max(1e-3, min(budget["check_seconds"], left))
+    try:
+        with runner.limits(
+            example_seconds=budget["example_seconds"],
+            check_seconds=check_s,
+            shrink_seconds=budget.get("shrink_seconds"),
+        ):
+            return certify(impl, checks=[cid], **kwargs)
+    finally:
+        impl.close()
+
+
+def certify_target(
+    spec, *, workers=None, scheduler=None, budget: dict, checks=None, provided=None, **kwargs
+):
+    """Run the battery on ``spec`` with the budgets ``{"call_timeout", "example_seconds",
+    "check_seconds", "shrink_seconds", "deadline" (time.time())}``; one unit per check id,
+    merged in order. Check ids listed in ``skips`` or needing a method outside ``provided``
+    (when given) get their reason without starting a unit (no program started for nothing)."""
+    from ._parallel import map_tasks
+    from .certification import CHECKS, Certificate
+
+    t0 = time.perf_counter()
+    ids = [c for c in CHECKS if checks is None or c in checks]
+    skips = dict(kwargs.get("skips") or {})
+    pre = {}
+    for cid in ids:
+        if cid in skips:
+            pre[cid] = skips[cid]
+        elif provided is not None and CHECKS[cid] not in provided:
+            pre[cid] = f"the implementation has no method {CHECKS[cid]!r}"
+    run_ids = [c for c in ids if c not in pre] or ids[:1]
+    items = [(spec, cid, kwargs, budget) for cid in run_ids]
+    if (workers == 1 or len(items) == 1) and scheduler is None:
+        parts = [_unit(it) for it in items]
+    else:
+        parts = map_tasks(_unit, items, workers=workers, scheduler=scheduler)
+    first = parts[0]
+    cert = Certificate(
+        implementation=first.implementation,
+        version=first.version,
+        target=first.target,
+        seed=first.seed,
+        max_examples=first.max_examples,
+        xfailed=dict(kwargs.get("xfails") or {}),
+        command=first.command,
+    )
+    for part in parts:
+        cert.checks.extend(part.checks)
+        cert.skipped.update(part.skipped)
+        cert.incidents.extend(part.incidents)
+    cert.skipped.update({k: v for k, v in pre.items() if k not in cert.skipped})
+    cert.skipped = {k: cert.skipped[k] for k in CHECKS if k in cert.skipped}
+    for c in cert.checks:
+        explain(c)
+    cert.seconds = time.perf_counter() - t0
+    return cert
