@@ -2,7 +2,7 @@
 
 ``dev`` is fast and randomized (the default locally), ``ci`` derandomized (the default when the
 environment variable ``CI`` is set), ``thorough`` many examples. ``max_examples`` is the test
-suite's budget per property; ``verify_examples`` the budget per check of ``tstarg verify`` (whose
+suite's budget per property; ``certify_examples`` that of ``tstarg certify``; ``verify_examples`` the budget per check of ``tstarg verify`` (whose
 checks are each a whole property over many algebras, so fewer examples per check). Checks driven
 by the mpmath reference take a fraction of the budget (:func:`ref_examples`).
 """
@@ -16,9 +16,9 @@ from hypothesis import HealthCheck, settings
 __all__ = ["PROFILES", "register_profiles", "default_profile", "ref_examples", "verify_examples"]
 
 PROFILES: dict[str, dict] = {
-    "dev": {"max_examples": 15, "verify_examples": 6, "derandomize": False},
-    "ci": {"max_examples": 25, "verify_examples": 20, "derandomize": True},
-    "thorough": {"max_examples": 400, "verify_examples": 60, "derandomize": False},
+    "dev": {"max_examples": 15, "verify_examples": 6, "certify_examples": 8, "derandomize": False},
+    "ci": {"max_examples": 25, "verify_examples": 20, "certify_examples": 15, "derandomize": True},
+    "thorough": {"max_examples": 400, "verify_examples": 60, "certify_examples": 100, "derandomize": False},
 }
 
 

@@ -34,10 +34,13 @@ import sys
 import time
 from pathlib import Path
 
+from tstarg.properties.profiles import PROFILES as _PROFILES
+
 from ._parallel import TaskError, add_parallel_arguments, describe, parallel_options
+from .junit import write_junit
 
 HELP = "certify an implementation (module, module:object or --cmd PROGRAM) against the reference"
-PROFILES = {"dev": 8, "ci": 15, "thorough": 100}
+PROFILES = {name: p["certify_examples"] for name, p in _PROFILES.items()}  # properties.profiles
 BUDGETS = {
     "dev": {"example_seconds": 30.0, "check_seconds": 120.0, "shrink_seconds": 30.0, "budget": 900.0},
     "ci": {"example_seconds": 60.0, "check_seconds": 300.0, "shrink_seconds": 60.0, "budget": 1800.0},
@@ -156,6 +159,7 @@ def main(args) -> int:
     if stderr_dir is not None:
         _merge_stderr(stderr_dir, out / "program-stderr.log")
         _append_incident_tails(cert, out)
+    write_junit(cert.to_json(), out / "certificate.junit.xml")
     print(cert.summary())
     for c in cert.checks:
         if not c.passed and c.falsifying_example:

@@ -32,10 +32,13 @@ import time
 import traceback
 from pathlib import Path
 
+from tstarg.properties.profiles import PROFILES as _PROFILES
+
 from ._atomic import claim_output, write_text
 from ._imports import import_module
+from .junit import write_junit
 
-PROFILES = {"dev": 6, "ci": 20, "thorough": 60}
+PROFILES = {name: p["verify_examples"] for name, p in _PROFILES.items()}  # properties.profiles
 BUDGETS = {
     "dev": {"example_seconds": 20.0, "check_seconds": 60.0, "shrink_seconds": 20.0, "run_seconds": 1800.0},
     "ci": {"example_seconds": 30.0, "check_seconds": 120.0, "shrink_seconds": 30.0, "run_seconds": 5400.0},
@@ -300,6 +303,7 @@ def main(args) -> int:
     print(render_table(results))
     write_text(out / "report.json", json.dumps(report, indent=2))
     write_text(out / "report.md", render_markdown(report))
+    write_junit(report, out / "report.junit.xml")
     if getattr(args, "write_baseline", False):
         from .regression import BASELINE
 

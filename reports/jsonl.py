@@ -50,7 +50,10 @@ import time
 from typing import Any
 
 import numpy as np
+
 from tstarg.properties.runner import CheckAborted
+
+from .jsonl_schema import ProtocolError, validate_reply, validate_request
 
 __all__ = ["METHODS", "CommandImplementation", "ProgramBroken", "ProgramFailure"]
 
@@ -109,6 +112,10 @@ def _real_array(value: Any, what: str) -> np.ndarray:
 
 def parse_result(method: str, result: Any, args: dict) -> Any:
     """Validate a reply's ``result`` against the method's shapes; returns arrays (or raises ProgramFailure)."""
+    if method == "capabilities":
+        if not isinstance(result, dict):
+            raise ProgramFailure(f"capabilities result must be an object, got {json.dumps(result)[:200]}")
+        return result
     n = len(args["f"])
     lead = np.shape(args.get("x", args.get("x0")))[:-1]
     if method == "poisson_tensor":
@@ -243,7 +250,9 @@ class CommandImplementation:
             raise ProgramBroken(f"the program is broken: {self._broken}")
         self._next_id += 1
         rid = self._next_id
-        line = json.dumps({"id": rid, "method": method, "args": _plain(args)})
+        req = {"id": rid, "method": method, "args": _plain(args)}
+        validate_request(req)  # the harness's own side of the schema (reports/schema/)
+        line = json.dumps(req)
         try:
             self._proc.stdin.write(line + "\n")
             self._proc.stdin.flush()
@@ -276,6 +285,10 @@ class CommandImplementation:
             if msg.get("id") != rid:
                 continue  # a late reply to an earlier, timed-out request (the deadline still runs)
             try:
+                try:
+                    validate_reply(msg, method)
+                except ProtocolError as exc:
+                    raise ProgramFailure(f"reply breaks the protocol schema: {exc}") from None
                 if "error" in msg:
                     err = str(msg["error"])
                     self._failures_in_a_row = 0
@@ -301,7 +314,17 @@ class CommandImplementation:
         z = [[0.0] * 3 for _ in range(3)]
         base = {"f": eps, "theta": z, "upsilon": z, "inertia": np.eye(3).tolist(), "potential": None,
                 "x": [0.1, 0.2, 0.3], "pi": [1.0, 0.5, -0.2], "x0": [0.1, 0.2, 0.3], "pi0": [1.0, 0.5, -0.2], "t": 0.1}
+        try:
+            caps = self.request("capabilities", {})
+        except (NotImplementedError, ValueError, ProgramFailure):
+            caps = None
+        except ProgramBroken:
+            return
+        if isinstance(caps, dict):
+            self._declare(caps)
         for method, names in METHODS.items():
+            if method in self._missing:
+                continue
             try:
                 self.request(method, {k: base[k] for k in names})
             except NotImplementedError:
@@ -310,6 +333,23 @@ class CommandImplementation:
                 pass
             except ProgramBroken:
                 return
+
+    def _declare(self, caps: dict) -> None:
+        """The ``capabilities`` reply (reports/schema/reply.schema.json) as the object's attributes:
+        ``domain`` (the keys the certification reads), ``batched``, the promised accuracy, the name."""
+        self.capabilities = caps
+        self.name = str(caps.get("name", getattr(self, "name", "program")))
+        self.version = str(caps.get("version", getattr(self, "version", "")))
+        if "methods" in caps:
+            self._missing |= set(METHODS) - set(caps["methods"])
+        domain = {k: caps[k] for k in ("algebras", "theta", "upsilon", "gravity", "max_abs_t", "negative_t")
+                  if caps.get(k) is not None and caps.get(k) != "all"}
+        if domain:
+            self.domain = domain
+        self.batched = bool(caps.get("batched", False))
+        for k in ("precision_digits", "flow_tolerance", "order", "poisson_integrator"):
+            if k in caps:
+                setattr(self, k, caps[k])
 
     def __getattr__(self, method: str):
         if method in METHODS and method not in self.__dict__.get("_missing", set()):
