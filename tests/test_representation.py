@@ -14,12 +14,13 @@ import scipy.linalg
 import sympy
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
 from tstarg.properties.strategies import basis_changes, lie_algebras
 from tstarg.refimpl import LieAlgebra
 from tstarg.refimpl._catalogue import CATALOGUE_NAMES, catalogue, heisenberg, su2
 from tstarg.refimpl._representation import (
-    RepresentationError, check_representation, faithful_representation,
+    RepresentationError,
+    check_representation,
+    faithful_representation,
 )
 
 EPS = np.finfo(float).eps
@@ -34,9 +35,25 @@ def _oscillator() -> LieAlgebra:
 
 
 def _h3_plus_su2_mixed() -> LieAlgebra:
-    C = sympy.Matrix([[1, 0, 0, 1, 0, 0], [0, 1, 0, 0, 1, 0], [1, 0, 1, 0, 0, 1],
-                      [0, 1, 0, 1, 0, 0], [0, 0, 1, 0, 1, 0], [1, 0, 0, 0, 0, 1]]) / 2 + sympy.eye(6) / 2
-    return heisenberg(1).direct_sum(su2()).change_basis(np.array(C.tolist(), dtype=object), name="h3+su2 mixed")
+    C = (
+        sympy.Matrix(
+            [
+                [1, 0, 0, 1, 0, 0],
+                [0, 1, 0, 0, 1, 0],
+                [1, 0, 1, 0, 0, 1],
+                [0, 1, 0, 1, 0, 0],
+                [0, 0, 1, 0, 1, 0],
+                [1, 0, 0, 0, 0, 1],
+            ]
+        )
+        / 2
+        + sympy.eye(6) / 2
+    )
+    return (
+        heisenberg(1)
+        .direct_sum(su2())
+        .change_basis(np.array(C.tolist(), dtype=object), name="h3+su2 mixed")
+    )
 
 
 def _check_exact(alg, rep):
@@ -110,15 +127,20 @@ def test_negative_controls_are_rejected():
     alg = _oscillator()
     rep = faithful_representation(alg.f)
     bad = rep.mats.copy()
-    bad[0] = bad[0] + 1e-3 * np.eye(bad.shape[1])[::-1]    # breaks [rho(N), rho(a)] = rho(b)
+    bad[0] = bad[0] + 1e-3 * np.eye(bad.shape[1])[::-1]  # breaks [rho(N), rho(a)] = rho(b)
     with pytest.raises(RepresentationError, match="not a homomorphism"):
         check_representation(alg.f, bad)
-    adj = np.array([alg.f[:, a, :] for a in range(4)], dtype=float)   # ad kills the centre c
+    adj = np.array([alg.f[:, a, :] for a in range(4)], dtype=float)  # ad kills the centre c
     with pytest.raises(RepresentationError, match="not injective"):
         check_representation(alg.f, adj)
     with pytest.raises(RepresentationError, match="not injective"):
-        check_representation(alg.f, None, exact=np.array([sympy.Matrix(m.tolist()) for m in adj.astype(int)],
-                                                         dtype=object).reshape(adj.shape))
+        check_representation(
+            alg.f,
+            None,
+            exact=np.array(
+                [sympy.Matrix(m.tolist()) for m in adj.astype(int)], dtype=object
+            ).reshape(adj.shape),
+        )
     ex = rep.exact.copy()
     ex[1] = ex[1] * 2
     with pytest.raises(RepresentationError, match="not a homomorphism"):
@@ -158,7 +180,7 @@ def test_log_on_the_cut_locus():
     r = np.max(np.abs(np.linalg.eigvals(adx).imag))
     x = np.pi / r * axis
     G = rep.exp(x)
-    assert np.min(np.abs(np.linalg.eigvals(G) + 1)) < 1e-12     # on the cut locus
+    assert np.min(np.abs(np.linalg.eigvals(G) + 1)) < 1e-12  # on the cut locus
     y = rep.log(G, G)
     assert np.max(np.abs(rep.exp(y) - G)) <= 1e4 * EPS * np.linalg.norm(G, 1)
     assert abs(np.max(np.abs(np.linalg.eigvals(rep.matrix(y)).imag)) - np.pi) < 1e-6
