@@ -50,7 +50,7 @@ from . import _fast_kernels as _fast
 from ._algebra import LieAlgebra
 from ._flow_reference import check_time
 from ._integrators import DOP853, RK4, ExplicitRK, GaussLegendre, triple_jump_weights
-from ._representation import catalogue_match
+from ._representation import Representation, representation_for
 from ._taylor import numpy_taylor_integrator, quadratic_field, scalar_taylor_integrator
 from ._validate import (
     check_flow_rates, check_flow_request, check_inertia, check_points, check_potential, check_structure_constants,
@@ -380,7 +380,7 @@ def integrate_fast(model: NumpyModel, meth: Method, x0, pi0, t, nsteps: int, *, 
         quat = x_to_quat(x0) if system == "full" else None
         _splitting_integrate(model, pi, G, quat, t, nsteps, meth.order, observe=observe)
         out = {"pi": pi, "Gamma": G, "x": None if quat is None else quat_to_x(quat), "quat": quat,
-               "Ad": None, "rebases": np.zeros(N, dtype=int)}
+               "g": None if quat is None else quat_matrix(quat), "Ad": None, "rebases": np.zeros(N, dtype=int)}
         return out
     stepper: ExplicitRK | GaussLegendre = _STEPPERS[meth.name]
     if system == "body":
@@ -399,21 +399,23 @@ def integrate_fast(model: NumpyModel, meth: Method, x0, pi0, t, nsteps: int, *, 
     if q_ref is not None:
         q_ref[0] = 1.0
     rep = _rep_of(model) if q_ref is None else None
-    G_ref = None if rep is None else np.broadcast_to(np.eye(rep.shape[-1], dtype=complex),
-                                                     (N,) + rep.shape[1:]).copy()
+    G_ref = None if rep is None else np.broadcast_to(np.eye(rep.dim, dtype=rep.mats.dtype),
+                                                     (N, rep.dim, rep.dim)).copy()
     F = model.full_rhs(Ad_ref)
+    # nilpotent algebras: exp is a global diffeomorphism and phi1(-ad_x) never degenerates -> no re-basing
+    threshold = np.inf if (rep is not None and rep.nilpotent) else (0.0 if meth.rkmk else 1.0)
 
     def after(y):
         x = y[:n]
         adx = np.einsum("aN,mab->Nmb", x, model.f)
         r = np.sqrt(np.sum(adx * adx, axis=(1, 2)))
-        move = r > (0.0 if meth.rkmk else 1.0)
+        move = r > threshold
         if move.any():
             Ad_ref[move] = Ad_ref[move] @ _fast._expm_batch(adx[move], su2=model.su2)
             if q_ref is not None:
                 q_ref[:, move] = qmul(q_ref[:, move], x_to_quat(x[:, move]))
             if G_ref is not None:
-                G_ref[move] = G_ref[move] @ _rep_exp(rep, x[:, move])
+                G_ref[move] = G_ref[move] @ rep.exp(x[:, move].T)
             y = y.copy()
             y[:n, move] = 0.0
             rebases[move] += 1
@@ -439,54 +441,37 @@ def integrate_fast(model: NumpyModel, meth: Method, x0, pi0, t, nsteps: int, *, 
     quat = None if q_ref is None else qmul(q_ref, x_to_quat(x))
     if quat is not None:
         xs = np.where(rebases[None] == 0, x, quat_to_x(quat))
+        g = quat_matrix(quat)
     else:
         xs = _x_from_rep(model, rep, G_ref, x, Ad, rebases)
+        g = G_ref @ rep.exp(x.T)
     return {"pi": y[n:], "Gamma": G, "x_local": x, "Ad_ref": Ad_ref, "Ad": Ad, "quat": quat,
-            "x": xs, "rebases": rebases}
+            "x": xs, "g": g, "rebases": rebases}
 
 
-def _rep_of(model):
-    """The faithful matrix representation ``E_a`` of the model's algebra (catalogue), or None."""
-    alg = model.algebra
-    if alg is None:
-        alg = catalogue_match(model.f)
-    return None if alg is None or alg.rep is None else np.asarray(alg.rep, dtype=complex)
+def quat_matrix(q):
+    """The SU(2) matrix ``q0 - i qv.sigma`` (the catalogue's representation ``E_a = -(i/2) sigma_a``) of
+    quaternions (4, N): (N, 2, 2) complex."""
+    q0, q1, q2, q3 = q
+    return np.stack([np.stack([q0 - 1j * q3, -1j * q1 - q2], -1), np.stack([-1j * q1 + q2, q0 + 1j * q3], -1)], -2)
 
 
-def _rep_exp(rep, x):
-    """``exp(x^a E_a)`` for x of shape (n, M): (M, r, r) complex (scipy.linalg.expm on the stack)."""
-    from scipy.linalg import expm
+def _rep_of(model) -> Representation:
+    """The faithful matrix representation ``E_a`` of the model's algebra (:mod:`refimpl._representation`:
+    the algebra's own or an exact catalogue match's, else built from ``f`` and cached). Raises
+    :class:`refimpl._representation.RepresentationError` naming the condition when none can be built."""
+    return representation_for(model.algebra if model.algebra is not None else model.f)
 
-    return expm(np.einsum("aM,aij->Mij", x, rep))
 
-
-def _x_from_rep(model, rep, G_ref, x, Ad, rebases):
-    """``x`` with ``g = exp(x)`` for re-based trajectories, from the principal logarithm of the
-    representation matrix projected on the basis ``E_a``; NaN when that is not a chart point
-    (projection residual or ``exp(ad_x) != Ad(g)`` beyond ``1e3 eps`` scaled)."""
-    out = np.where(rebases[None] == 0, x, np.nan)
-    if G_ref is None or not np.any(rebases):
-        return out
-    from scipy.linalg import logm
-
-    n = model.n
-    B = np.concatenate([rep.real.reshape(n, -1), rep.imag.reshape(n, -1)], axis=1).T  # (2 r^2, n)
+def _x_from_rep(model, rep: Representation, G_ref, x, Ad, rebases):
+    """``x`` with ``g = exp(x)``: the chart coordinate itself for trajectories never re-based (then
+    ``||ad_x||_F <= 1``, well inside the principal strip, or the algebra is nilpotent), else the
+    logarithm of ``g = g_ref exp(x)`` chosen by :meth:`Representation.log` (principal logarithm in
+    ``rho``, else of ``Ad(g)`` corrected by the centre, documented choice on the cut locus)."""
+    out = x.copy()
     for j in np.flatnonzero(rebases):
-        g = G_ref[j] @ _rep_exp(rep, x[:, j:j + 1])[0]
-        try:
-            X = logm(g)
-        except (ValueError, np.linalg.LinAlgError):
-            continue
-        rhs = np.concatenate([X.real.ravel(), X.imag.ravel()])
-        xj, *_ = np.linalg.lstsq(B, rhs, rcond=None)
-        tol = 1e3 * EPS * max(1.0, float(np.max(np.abs(rhs))))   # rounding of logm and the projection
-        if np.max(np.abs(B @ xj - rhs)) > tol * 100:
-            continue
-        adx = np.einsum("a,mab->mb", xj, model.f)
-        Ad_x = _fast._expm_batch(adx[None], su2=False)[0]
-        if np.max(np.abs(Ad_x - Ad[j])) > tol * 100 * max(1.0, np.max(np.abs(Ad[j]))):
-            continue
-        out[:, j] = xj
+        g = G_ref[j] @ rep.exp(x[:, j])
+        out[:, j] = rep.log(g, Ad[j])
     return out
 
 
@@ -688,7 +673,7 @@ def _default_method(model: NumpyModel) -> Method:
 
 
 def fast_flow(f, theta, upsilon, inertia, potential, x0, pi0, t, *, method_name: str | None = None,
-              steps: int | None = None, tol: float = 1e-10):
+              steps: int | None = None, tol: float = 1e-10, return_group: bool = False):
     """Protocol method 3, batched: ``(x, pi)`` at time ``t`` for every initial point.
 
     ``method_name``: a key of :data:`METHODS` (default: ``dop853``, or
@@ -696,10 +681,16 @@ def fast_flow(f, theta, upsilon, inertia, potential, x0, pi0, t, *, method_name:
     default steps are doubled from ``8 + 4 t`` until the runs with ``N`` and
     ``2N`` steps differ by at most ``tol * (2^p - 1)`` (Richardson: the
     error of the finer run is then below ``tol``) on every trajectory.
-    Raises ``ValueError`` for bad ``t``/``tol``, starting points on the
-    degenerate set (naming them), or an end point outside the chart.
+    ``t`` may be negative (the flow backwards). ``x(t)`` always exists: the chart is re-based through
+    the algebra's faithful representation (:mod:`refimpl._representation`) and ``x(t)`` is the
+    logarithm of ``g(t)`` documented there (principal where it exists). ``return_group=True`` also
+    returns ``g(t)`` as matrices of that representation, shape batch + ``(r, r)``
+    (:func:`refimpl._representation.representation_for` gives the representation).
+    Raises ``ValueError`` for bad ``t``/``tol`` (NaN, infinite, non-real), starting points on the
+    degenerate set (naming them), trajectories that reach it, and algebras whose representation
+    cannot be built (:class:`refimpl._representation.RepresentationError`).
     """
-    tv = check_time(t)
+    tv = check_time(t, allow_negative=True)
     tol = check_tolerance(tol)
     check_flow_request(tv, tol, steps, method_name, METHODS)  # issue 15 hook: the stated budget
     model = NumpyModel(f, theta, upsilon, inertia, potential)
@@ -715,13 +706,16 @@ def fast_flow(f, theta, upsilon, inertia, potential, x0, pi0, t, *, method_name:
     if method_name is not None:
         method(method_name)
     if tv == 0:
+        if return_group:
+            g0 = _group_of(model, X)
+            return xa.copy(), pa.copy(), g0.reshape(shape + g0.shape[1:])
         return xa.copy(), pa.copy()
     if steps is not None:
         if not isinstance(steps, (int, np.integer)) or steps < 1:
             raise ValueError(f"steps must be a positive int, got {steps!r}")
         out = integrate_fast(model, meth, X, P, tv, int(steps), system="full")
     else:
-        N = int(8 + 4 * np.ceil(tv))
+        N = int(8 + 4 * np.ceil(abs(tv)))
         prev = integrate_fast(model, meth, X, P, tv, N, system="full")
         for _ in range(14):
             N *= 2
@@ -740,11 +734,19 @@ def fast_flow(f, theta, upsilon, inertia, potential, x0, pi0, t, *, method_name:
     x = out["x"]
     if np.any(~np.isfinite(x)):
         bad = np.argwhere(~np.all(np.isfinite(x), axis=0)).ravel()
-        raise ValueError(
-            f"fast_flow: the configuration of trajectories {bad[:10].tolist()} left the chart of exponential "
-            "coordinates and no representation is available to re-express g(t) = exp(x); use "
-            "fast_trajectory for the group element")
-    return x.T.reshape(shape + (n,)), out["pi"].T.reshape(shape + (n,))
+        raise ValueError(f"fast_flow: no logarithm x(t) of g(t) found for trajectories {bad[:10].tolist()}")
+    xs, ps = x.T.reshape(shape + (n,)), out["pi"].T.reshape(shape + (n,))
+    if return_group:
+        g = out["g"]
+        return xs, ps, g.reshape(shape + g.shape[1:])
+    return xs, ps
+
+
+def _group_of(model, X):
+    """``rho(exp(x))`` for X (n, N): (N, r, r) in the representation the flows use."""
+    if model.su2:
+        return quat_matrix(x_to_quat(X))
+    return _rep_of(model).exp(X.T)
 
 
 def _xdiff(a, b):
@@ -770,12 +772,13 @@ def fast_trajectory(f, theta, upsilon, inertia, potential, x0, pi0, t_end, sampl
     """A batch ``(N, n)`` sampled at ``samples`` equally spaced times in ``[0, t_end]``.
 
     Returns a dict: ``times`` (T,), ``pi`` (T, N, n), ``Gamma`` (T, N, n) or
-    None, ``x`` (T, N, n) (NaN outside the chart when no representation is
-    known) or None for ``system="body"``, and the method used.
+    None, ``x`` (T, N, n) with ``exp(x) = g`` (the logarithm of :mod:`refimpl._representation`)
+    or None for ``system="body"``, ``g`` (T, N, r, r): ``g(t)`` in the algebra's faithful
+    representation (None for ``system="body"``), and the method used. ``t_end`` may be negative.
     """
-    tv = check_time(t_end, "t_end")
+    tv = check_time(t_end, "t_end", allow_negative=True)
     if tv == 0:
-        raise ValueError("t_end must be > 0 for a trajectory")
+        raise ValueError("t_end must be non-zero for a trajectory")
     if samples < 2 or steps_per_sample < 1:
         raise ValueError(f"samples must be >= 2 and steps_per_sample >= 1, got {samples}, {steps_per_sample}")
     model = NumpyModel(f, theta, upsilon, inertia, potential)
@@ -804,6 +807,11 @@ def fast_trajectory(f, theta, upsilon, inertia, potential, x0, pi0, t_end, sampl
         G0 = np.einsum("Nmb,m->bN", _fast._expm_batch(adx, su2=model.su2), model.gamma).T
     observe(0, P, None if G0 is None else G0.T, X if system == "full" else None)
     integrate_fast(model, meth, X, P, tv, nsteps, system=system, observe=observe)
+    xs = np.stack(rec["x"]) if rec["x"] else None
+    g = None
+    if xs is not None:
+        T_, N_ = xs.shape[:2]
+        g = _group_of(model, xs.reshape(-1, n).T)
+        g = g.reshape((T_, N_) + g.shape[1:])
     return {"times": np.linspace(0, tv, samples), "pi": np.stack(rec["pi"]), "method": meth,
-            "Gamma": np.stack(rec["Gamma"]) if rec["Gamma"] else None,
-            "x": np.stack(rec["x"]) if rec["x"] else None}
+            "Gamma": np.stack(rec["Gamma"]) if rec["Gamma"] else None, "x": xs, "g": g}

@@ -40,7 +40,7 @@ from ._errors import DegeneratePointError
 from ._integrators import gbs_mp
 from ._reference_core import ReferenceCore as Reference
 from ._reference_core import MAX_DPS, _as_float, _to_mpf
-from ._representation import catalogue_match
+from ._representation import Representation, representation_for
 
 __all__ = ["ModelMP", "ReferenceTrajectory", "reference_trajectory", "reference_flow", "euler_top_closed_form"]
 
@@ -48,15 +48,21 @@ GUARD = 15
 REBASE = mpmath.mpf(1)  # ||ad_x||_1 above which the chart is re-based (well inside |eig| < 2 pi)
 
 
-def check_time(t, name: str = "t") -> float:
-    """A time span must be a finite number >= 0."""
+def check_time(t, name: str = "t", *, allow_negative: bool = False) -> float:
+    """A time span must be a finite real number (>= 0 unless ``allow_negative``: flows run backwards too).
+
+    Exact inputs are accepted (int, Fraction, ``"1/2"``, mpf, sympy); complex numbers (even with a zero
+    imaginary part), NaN, infinities and non-numbers are refused with a ValueError naming ``name``."""
+    cond = "a finite real number" + ("" if allow_negative else " >= 0")
+    if isinstance(t, (complex, np.complexfloating, mpmath.mpc)) or isinstance(t, bool):
+        raise ValueError(f"{name} must be {cond}, got {t!r}")
     try:
         with mpmath.workdps(30):
             tv = float(_to_mpf(t))  # exact inputs accepted: int, Fraction, "1/2", mpf, sympy
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a finite number >= 0, got {t!r}") from None
-    if not np.isfinite(tv) or tv < 0:
-        raise ValueError(f"{name} must be a finite number >= 0, got {t!r}")
+        raise ValueError(f"{name} must be {cond}, got {t!r}") from None
+    if not np.isfinite(tv) or (tv < 0 and not allow_negative):
+        raise ValueError(f"{name} must be {cond}, got {t!r}")
     return tv
 
 
@@ -71,7 +77,9 @@ class ModelMP:
         pot = check_potential(None if potential is None else {
             k: (_as_float(v, f"potential[{k!r}]") if k != "kind" else v) for k, v in potential.items()}, n)
         self.n = n
-        self.algebra = f if isinstance(f, LieAlgebra) else catalogue_match(np.asarray(_as_float(f, "f")))
+        self.algebra = f if isinstance(f, LieAlgebra) else None
+        # the faithful representation g(t) is kept in (raises RepresentationError naming the condition)
+        self.rep: Representation = representation_for(f if isinstance(f, LieAlgebra) else _as_float(f, "f"))
         self.Fm = Fm
         self.f = [[[Fm[m][a, b] for b in range(n)] for a in range(n)] for m in range(n)]
         self.f_nz = [(m, a, b, Fm[m][a, b]) for m in range(n) for a in range(n) for b in range(n) if Fm[m][a, b] != 0]
@@ -236,60 +244,20 @@ def _col(v):
 
 
 def _rep_exp(model: ModelMP, x):
-    """``exp(x^a E_a)`` in the algebra's representation (mpmath, complex allowed), or None."""
-    alg = model.algebra
-    if alg is None or alg.rep is None:
-        return None
-    r = alg.rep.shape[-1]
-    X = mpmath.zeros(r, r)
-    for a in range(model.n):
-        Ea = alg.rep[a]
-        for i in range(r):
-            for j in range(r):
-                z = complex(Ea[i, j])
-                if z != 0:
-                    X[i, j] += x[a] * (mpmath.mpf(z.real) + 1j * mpmath.mpf(z.imag) if z.imag else mpmath.mpf(z.real))
-    return mpmath.expm(X)
+    """``exp(x^a E_a)`` in the algebra's faithful representation (mpmath, complex allowed)."""
+    return model.rep.mp_exp(x, model.Fm)
 
 
 def _log_coordinates(model: ModelMP, Ad_total, g_rep):
-    """``x`` with ``g = exp(x)`` if ``g`` is inside the chart, else None.
-
-    From the representation (principal ``logm``, projected on the basis
-    ``E_a`` by least squares, accepted when the residual is at rounding level
-    and ``exp(ad_x)`` reproduces ``Ad(g)``)."""
-    if g_rep is None:
-        return None
-    alg = model.algebra
-    try:
-        Xl = mpmath.logm(g_rep)
-    except (ZeroDivisionError, ValueError):
-        return None
-    r = alg.rep.shape[-1]
-    rows, rhs = [], []
-    for i in range(r):
-        for j in range(r):
-            for part in (0, 1):
-                rows.append([(complex(alg.rep[a][i, j]).real if part == 0 else complex(alg.rep[a][i, j]).imag)
-                             for a in range(model.n)])
-                z = Xl[i, j]
-                rhs.append(mpmath.re(z) if part == 0 else mpmath.im(z))
-    M = mpmath.matrix([[mpmath.mpf(v) for v in row] for row in rows])
-    b = mpmath.matrix(rhs)
-    x = mpmath.lu_solve(M.T * M, M.T * b)
-    resid = mpmath.norm(M * x - b)
-    tol = mpmath.mpf(10) ** (-(mpmath.mp.dps - GUARD // 2))
-    if resid > tol * max(1, mpmath.norm(b)):
-        return None
-    if mpmath.mnorm(mpmath.expm(model.ad(x)) - Ad_total, 1) > tol * max(1, mpmath.mnorm(Ad_total, 1)):
-        return None
-    # inside the chart: phi1(-ad_x) invertible, no eigenvalue of ad_x at 2 pi i k
-    if abs(mpmath.det(Reference.phi1_series(-model.ad(x)))) <= tol:
-        return None
-    return x
+    """``x`` with ``g = exp(x)``: :meth:`refimpl._representation.Representation.mp_log` (principal
+    logarithm in the representation, else of ``Ad(g)`` corrected by the centre, the documented
+    choice on the cut locus)."""
+    return model.rep.mp_log(g_rep, Ad_total, model.Fm)
 
 
-def _run(model: ModelMP, system: str, x0, pi0, times, tol, k):
+def _run(model: ModelMP, system: str, x0, pi0, times, tol, k, sign=1):
+    """Integrate to each of ``times`` (increasing, >= 0); ``sign = -1`` runs the flow backwards
+    (``y' = -F(y)`` in the time ``s = -t``: the fields are autonomous)."""
     n = model.n
     pi0 = _col(pi0)
     x0 = _col(x0)
@@ -311,7 +279,7 @@ def _run(model: ModelMP, system: str, x0, pi0, times, tol, k):
 
         def after(t, y):
             x = _col(y[:n])
-            if mpmath.mnorm(model.ad(x), 1) > REBASE:
+            if not model.rep.nilpotent and mpmath.mnorm(model.ad(x), 1) > REBASE:
                 state["c"] += mpmath.inverse(state["Ad_ref"]).T * model.cocycle_term(x)
                 state["Ad_ref"] = state["Ad_ref"] * mpmath.expm(model.ad(x))
                 if state["g_ref"] is not None:
@@ -346,6 +314,11 @@ def _run(model: ModelMP, system: str, x0, pi0, times, tol, k):
                     return list(model.omega_pidot(_col(y), None)[1])
 
             y = list(pi0)
+    if sign < 0:
+        F_fwd = F
+
+        def F(t, y):
+            return [-v for v in F_fwd(t, y)]
     t_prev = mpmath.mpf(0)
     steps = 0
     for tk in times:
@@ -361,11 +334,10 @@ def _run(model: ModelMP, system: str, x0, pi0, times, tol, k):
             out_pi.append(list(pi))
             out_G.append(list(Ad.T * model.gamma) if grav else None)
             if state["rebases"] == 0:
-                out_x.append(list(x))
+                out_x.append(list(x))   # never re-based: ||ad_x||_1 <= 1 (or nilpotent), the chart itself
             else:
-                xl = _log_coordinates(model, Ad, g)
-                out_x.append(list(xl) if xl is not None else [mpmath.nan] * n)
-            out_g.append(g if g is not None else Ad)
+                out_x.append(list(_log_coordinates(model, Ad, g)))
+            out_g.append(g)
             out_Ad.append(Ad)
             Kx = mpmath.expm(-model.ad(x)).T
             J = mpmath.inverse(state["Ad_ref"]).T * (Kx * pi - model.cocycle_term(x)) - state["c"]
@@ -376,7 +348,7 @@ def _run(model: ModelMP, system: str, x0, pi0, times, tol, k):
     T = len(out_pi)
     mat = lambda ms: np.array([[[m[i, j] for j in range(m.cols)] for i in range(m.rows)] for m in ms], dtype=object)
     return ReferenceTrajectory(
-        times=np.array([mpmath.mpf(t) for t in times], dtype=object),
+        times=np.array([sign * mpmath.mpf(t) for t in times], dtype=object),
         pi=np.array(out_pi, dtype=object).reshape(T, n),
         Gamma=np.array(out_G, dtype=object).reshape(T, n) if grav else None,
         x=np.array(out_x, dtype=object).reshape(T, n) if system == "full" else None,
@@ -396,7 +368,9 @@ def _order_for(dps: int) -> int:
 
 def reference_trajectory(f, theta, upsilon, inertia, potential, x0, pi0, times, *, dps: int = 50,
                          system: str = "full", check: bool = False) -> ReferenceTrajectory:
-    """The reference trajectory sampled at ``times`` (increasing, >= 0).
+    """The reference trajectory sampled at ``times`` (increasing and >= 0, or decreasing and <= 0 for
+    the flow backwards). ``x`` always exists (the logarithm of ``g``, :mod:`refimpl._representation`);
+    ``g`` holds ``g(t)`` in the algebra's faithful representation.
 
     ``system="full"``: the state ``(x, pi)`` of vier10/vier11 with re-basing;
     ``system="body"``: the reduced body system (Euler or Euler-Poisson).
@@ -407,12 +381,15 @@ def reference_trajectory(f, theta, upsilon, inertia, potential, x0, pi0, times, 
         raise ValueError(f"dps must be an int >= 15, got {dps!r}")
     if system not in ("full", "body"):
         raise ValueError(f"system must be 'full' or 'body', got {system!r}")
-    tl = [check_time(t, "times") for t in np.atleast_1d(np.asarray(times, dtype=object))]
-    if dps > MAX_DPS or (tl and max(tl) > MAX_REFERENCE_FLOW_TIME):  # issue 15 hook: the stated budget
-        raise ValueError(f"reference flow budget: dps <= {MAX_DPS} and times <= {MAX_REFERENCE_FLOW_TIME:g}, "
-                         f"got dps = {dps} and t = {max(tl) if tl else 0:g}")
-    if any(b < a for a, b in zip(tl, tl[1:])):
-        raise ValueError("times must be increasing")
+    tl = [check_time(t, "times", allow_negative=True) for t in np.atleast_1d(np.asarray(times, dtype=object))]
+    if dps > MAX_DPS or (tl and max(abs(v) for v in tl) > MAX_REFERENCE_FLOW_TIME):  # the stated budget
+        raise ValueError(f"reference flow budget: dps <= {MAX_DPS} and |times| <= {MAX_REFERENCE_FLOW_TIME:g}, "
+                         f"got dps = {dps} and t = {max(abs(v) for v in tl) if tl else 0:g}")
+    sign = -1 if any(v < 0 for v in tl) else 1
+    if sign < 0 and any(v > 0 for v in tl):
+        raise ValueError("times must be all >= 0 (a forward flow) or all <= 0 (a backward flow)")
+    if any(sign * b < sign * a for a, b in zip(tl, tl[1:])):
+        raise ValueError("times must be increasing (decreasing for a backward flow)")
     times_exact = list(np.atleast_1d(np.asarray(times, dtype=object)))
 
     def once(d, tol_digits):
@@ -421,8 +398,8 @@ def reference_trajectory(f, theta, upsilon, inertia, potential, x0, pi0, times, 
             n = model.n
             xv = Reference._vec(x0, n, "x0")
             pv = Reference._vec(pi0, n, "pi0")
-            tms = [_to_mpf(t) for t in times_exact]
-            return _run(model, system, xv, pv, tms, mpmath.mpf(10) ** (-tol_digits), _order_for(d))
+            tms = [sign * _to_mpf(t) for t in times_exact]
+            return _run(model, system, xv, pv, tms, mpmath.mpf(10) ** (-tol_digits), _order_for(d), sign)
 
     tr = once(dps, dps + 5)
     if check:
@@ -438,29 +415,27 @@ def reference_trajectory(f, theta, upsilon, inertia, potential, x0, pi0, times, 
     return tr
 
 
-def reference_flow(f, theta, upsilon, inertia, potential, x0, pi0, t, dps: int = 50):
+def reference_flow(f, theta, upsilon, inertia, potential, x0, pi0, t, dps: int = 50, *, return_group: bool = False):
     """Protocol method 3 (DESIGN.md): the state ``(x, pi)`` at time ``t`` from ``(x0, pi0)`` at 0.
 
     Full state of vier10/vier11, integrated at ``dps`` digits (see the module
-    docstring). Returns float64 arrays, or object arrays of mpf when any input
-    is exact (as :class:`refimpl.reference.Reference` does). Raises
-    ``ValueError`` for a negative or non-finite ``t``, a start on the
-    degenerate set, or an end point outside the chart of exponential
-    coordinates (then ``x`` does not exist; use :func:`reference_trajectory`
-    for the group element).
+    docstring), re-based through the algebra's faithful representation; ``x`` is the logarithm of
+    ``g(t)`` chosen in :mod:`refimpl._representation` (principal where it exists). ``t`` may be
+    negative. Returns float64 arrays, or object arrays of mpf when any input is exact (as
+    :class:`refimpl.reference.Reference` does); ``return_group=True`` adds ``g(t)`` as an ``(r, r)``
+    object array of mpmath numbers in that representation. Raises ``ValueError`` for a non-finite or
+    non-real ``t``, a start on (or a trajectory reaching) the degenerate set, or an algebra whose
+    representation cannot be built (:class:`refimpl._representation.RepresentationError`).
     """
-    check_time(t)
+    check_time(t, allow_negative=True)
     exact = Reference._wants_exact(f, theta, upsilon, inertia, potential, x0, pi0, t)
     tr = reference_trajectory(f, theta, upsilon, inertia, potential, x0, pi0, [t], dps=dps, system="full")
     x, pi = tr.x[-1], tr.pi[-1]
-    if any(mpmath.isnan(v) for v in x):
-        raise ValueError(
-            f"the flow left the chart of exponential coordinates around e (re-based {tr.rebases} times) and "
-            f"g(t) at t = {t} has no coordinates x with g = exp(x); the group element is available from "
-            "reference_trajectory(...).g")
     if exact:
-        return np.array(list(x), dtype=object), np.array(list(pi), dtype=object)
-    return np.array([float(v) for v in x]), np.array([float(v) for v in pi])
+        out = (np.array(list(x), dtype=object), np.array(list(pi), dtype=object))
+    else:
+        out = (np.array([float(v) for v in x]), np.array([float(v) for v in pi]))
+    return out + (tr.g[-1],) if return_group else out
 
 
 def euler_top_closed_form(I, pi0, t):
