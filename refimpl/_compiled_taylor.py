@@ -55,8 +55,16 @@ except ImportError:  # pragma: no cover - exercised only where numba is missing
     numba = None
     HAVE_NUMBA = False
 
-__all__ = ["HAVE_NUMBA", "PATH", "CompiledField", "adaptive_order", "compile_count", "compiled_field",
-           "taylor_adaptive", "taylor_fixed"]
+__all__ = [
+    "HAVE_NUMBA",
+    "PATH",
+    "CompiledField",
+    "adaptive_order",
+    "compile_count",
+    "compiled_field",
+    "taylor_adaptive",
+    "taylor_fixed",
+]
 
 PATH = "numba" if HAVE_NUMBA else "python"
 
@@ -106,12 +114,29 @@ class CompiledField:
     def structure_key(self) -> tuple:
         """What decides the generated code (never the numbers): monomials, their classes, the term
         pattern per component, the constant components."""
-        return (self.d, self.mons.tobytes(), self.mcls.tobytes(), self.qptr.tobytes(), self.qmon.tobytes(),
-                self.lptr.tobytes(), self.lidx.tobytes(), self.const.tobytes())
+        return (
+            self.d,
+            self.mons.tobytes(),
+            self.mcls.tobytes(),
+            self.qptr.tobytes(),
+            self.qmon.tobytes(),
+            self.lptr.tobytes(),
+            self.lidx.tobytes(),
+            self.const.tobytes(),
+        )
 
     def args(self):
-        return (self.mons, self.mcls, self.qptr, self.qmon, self.qcoef, self.lptr, self.lidx, self.lcoef,
-                self.const)
+        return (
+            self.mons,
+            self.mcls,
+            self.qptr,
+            self.qmon,
+            self.qcoef,
+            self.lptr,
+            self.lidx,
+            self.lcoef,
+            self.const,
+        )
 
 
 def compiled_field(F) -> CompiledField:
@@ -228,10 +253,20 @@ def _coefficient_source(cf: CompiledField) -> str:
     i3 = ind * 3
     for m, ((i, j), c) in enumerate(zip(cf.mons.tolist(), cf.mcls.tolist())):
         if c == 0:
-            src += [i2 + f"m{m} = 0.0", i2 + "for a in range(k + 1):", i3 + f"m{m} += y{i}[a] * y{j}[k - a]"]
+            src += [
+                i2 + f"m{m} = 0.0",
+                i2 + "for a in range(k + 1):",
+                i3 + f"m{m} += y{i}[a] * y{j}[k - a]",
+            ]
         elif c == 1:
-            src += [i2 + f"m{m} = 0.0", i2 + "for a in range((k + 1) // 2):", i3 + f"m{m} += y{i}[a] * y{i}[k - a]",
-                    i2 + f"m{m} *= 2.0", i2 + "if k % 2 == 0:", i3 + f"m{m} += y{i}[k // 2] * y{i}[k // 2]"]
+            src += [
+                i2 + f"m{m} = 0.0",
+                i2 + "for a in range((k + 1) // 2):",
+                i3 + f"m{m} += y{i}[a] * y{i}[k - a]",
+                i2 + f"m{m} *= 2.0",
+                i2 + "if k % 2 == 0:",
+                i3 + f"m{m} += y{i}[k // 2] * y{i}[k // 2]",
+            ]
         elif c == 2:
             src.append(i2 + f"m{m} = y{i}[0] * y{j}[k]")
         elif c == 3:
@@ -251,7 +286,9 @@ def _coefficient_source(cf: CompiledField) -> str:
 
 def cache_dir() -> Path:
     """Where the per-structure kernel modules live: ``$TSTARG_CACHE_DIR`` or ``~/.cache/tstarg``."""
-    root = os.environ.get("TSTARG_CACHE_DIR") or os.path.join(os.path.expanduser("~"), ".cache", "tstarg")
+    root = os.environ.get("TSTARG_CACHE_DIR") or os.path.join(
+        os.path.expanduser("~"), ".cache", "tstarg"
+    )
     return Path(root) / "taylor_kernels"
 
 
@@ -279,21 +316,34 @@ def _unrolled_source(cf: CompiledField, P: int) -> str:
     for k in range(P):
         for m, (i, j) in enumerate(mons):
             if i == j:
-                terms = [f"y{i}_{a}*y{i}_{k - a}" for a in range((k + 1) // 2) if not z(i, a) and not z(i, k - a)]
+                terms = [
+                    f"y{i}_{a}*y{i}_{k - a}"
+                    for a in range((k + 1) // 2)
+                    if not z(i, a) and not z(i, k - a)
+                ]
                 expr = f"2.0*({' + '.join(terms)})" if terms else ""
                 if k % 2 == 0 and not z(i, k // 2):
                     expr = (expr + " + " if expr else "") + f"y{i}_{k // 2}*y{i}_{k // 2}"
             else:
-                terms = [f"y{i}_{a}*y{j}_{k - a}" for a in range(k + 1) if not z(i, a) and not z(j, k - a)]
+                terms = [
+                    f"y{i}_{a}*y{j}_{k - a}"
+                    for a in range(k + 1)
+                    if not z(i, a) and not z(j, k - a)
+                ]
                 expr = " + ".join(terms)
             body.append(f"m{m} = {expr or '0.0'}")
         for c in range(d):
             if c in const:
                 continue
             terms = [f"q{t}*m{cf.qmon[t]}" for t in range(cf.qptr[c], cf.qptr[c + 1])]
-            terms += [f"l{t}*y{cf.lidx[t]}_{k}" for t in range(cf.lptr[c], cf.lptr[c + 1])
-                      if not z(int(cf.lidx[t]), k)]
-            body.append(f"y{c}_{k + 1} = ({' + '.join(terms) if terms else '0.0'})*{1.0 / (k + 1)!r}")
+            terms += [
+                f"l{t}*y{cf.lidx[t]}_{k}"
+                for t in range(cf.lptr[c], cf.lptr[c + 1])
+                if not z(int(cf.lidx[t]), k)
+            ]
+            body.append(
+                f"y{c}_{k + 1} = ({' + '.join(terms) if terms else '0.0'})*{1.0 / (k + 1)!r}"
+            )
     var = [c for c in range(d) if c not in const]
 
     def horner(hname):
@@ -304,7 +354,12 @@ def _unrolled_source(cf: CompiledField, P: int) -> str:
             e = f"y{c}_{P}"
             for k in range(P - 1, 0, -1):
                 e = f"({e})*{hname} + y{c}_{k}"
-            out += [f"z = ({e})*{hname} - e{c}", f"w = y{c}_0 + z", f"e{c} = (w - y{c}_0) - z", f"y{c}_0 = w"]
+            out += [
+                f"z = ({e})*{hname} - e{c}",
+                f"w = y{c}_0 + z",
+                f"e{c} = (w - y{c}_0) - z",
+                f"y{c}_0 = w",
+            ]
         return out
 
     def amax(k):
@@ -312,44 +367,99 @@ def _unrolled_source(cf: CompiledField, P: int) -> str:
         if not terms:
             return "0.0"
         e = terms[0]
-        for t in terms[1:]:   # pairwise max: numba's variadic max builds a tuple per call
+        for t in terms[1:]:  # pairwise max: numba's variadic max builds a tuple per call
             e = f"max({e}, {t})"
         return e
 
-    load = [f"q{t} = q[{t}]" for t in range(len(cf.qcoef))] + [f"l{t} = l[{t}]" for t in range(len(cf.lcoef))]
+    load = [f"q{t} = q[{t}]" for t in range(len(cf.qcoef))] + [
+        f"l{t} = l[{t}]" for t in range(len(cf.lcoef))
+    ]
     unpack = [f"y{c}_0 = y0[n, {c}]" for c in range(d)] + [f"e{c} = 0.0" for c in var]
     store_ok = [f"out[n, {c}] = y{c}_0" for c in range(d)]
     fin = " and ".join(f"math.isfinite(y{c}_0)" for c in var) or "True"
     I1, I2, I3, I4 = "    ", "        ", "            ", "                "
-    src = ["import math", "import numpy as np", "from numba import njit", "", "",
-           "@njit(cache=True, nogil=True)",
-           "def adaptive(y0, T, tol, max_steps, q, l, out, nsteps):"]
+    src = [
+        "import math",
+        "import numpy as np",
+        "from numba import njit",
+        "",
+        "",
+        "@njit(cache=True, nogil=True)",
+        "def adaptive(y0, T, tol, max_steps, q, l, out, nsteps):",
+    ]
     src += [I1 + x for x in load]
-    src += [I1 + "N = y0.shape[0]", I1 + "sgn = 1.0 if T >= 0 else -1.0", I1 + "Tabs = abs(T)",
-            I1 + f"damp = {math.exp(-0.7 / (P - 1))!r}", I1 + "for n in range(N):"]
+    src += [
+        I1 + "N = y0.shape[0]",
+        I1 + "sgn = 1.0 if T >= 0 else -1.0",
+        I1 + "Tabs = abs(T)",
+        I1 + f"damp = {math.exp(-0.7 / (P - 1))!r}",
+        I1 + "for n in range(N):",
+    ]
     src += [I2 + x for x in unpack]
     src += [I2 + "t = 0.0", I2 + "k = 0", I2 + "ok = True", I2 + "while t < Tabs:"]
-    src += [I3 + x for x in body]
-    src += [I3 + f"s = tol * max(1.0, {amax(0)})", I3 + f"a1 = {amax(P - 1)}", I3 + f"a2 = {amax(P)}",
-            I3 + "h = np.inf", I3 + "if a1 > 0.0:", I4 + f"h = (s / a1) ** {1.0 / (P - 1)!r}",
-            I3 + "if a2 > 0.0:", I4 + f"h = min(h, (s / a2) ** {1.0 / P!r})", I3 + "h *= damp",
-            I3 + "if not (h > 0.0):", I4 + "ok = False", I4 + "break",
-            I3 + "if t + h >= Tabs:", I4 + "h = Tabs - t", I4 + "t = Tabs", I3 + "else:", I4 + "t += h",
-            I3 + "hs = sgn * h"]
+    src += [I3 + x for x in body] + [I3 + "pass"]
+    src += [
+        I3 + f"s = tol * max(1.0, {amax(0)})",
+        I3 + f"a1 = {amax(P - 1)}",
+        I3 + f"a2 = {amax(P)}",
+        I3 + "h = np.inf",
+        I3 + "if a1 > 0.0:",
+        I4 + f"h = (s / a1) ** {1.0 / (P - 1)!r}",
+        I3 + "if a2 > 0.0:",
+        I4 + f"h = min(h, (s / a2) ** {1.0 / P!r})",
+        I3 + "h *= damp",
+        I3 + "if not (h > 0.0):",
+        I4 + "ok = False",
+        I4 + "break",
+        I3 + "if t + h >= Tabs:",
+        I4 + "h = Tabs - t",
+        I4 + "t = Tabs",
+        I3 + "else:",
+        I4 + "t += h",
+        I3 + "hs = sgn * h",
+    ]
     src += [I3 + x for x in horner("hs")]
-    src += [I3 + "k += 1", I3 + f"if not ({fin}) or k > max_steps:", I4 + "ok = False", I4 + "break"]
+    src += [
+        I3 + "k += 1",
+        I3 + f"if not ({fin}) or k > max_steps:",
+        I4 + "ok = False",
+        I4 + "break",
+    ]
     src += [I2 + "if ok:"] + [I3 + x for x in store_ok]
     src += [I2 + "else:", I3 + "for c in range(y0.shape[1]):", I4 + "out[n, c] = np.nan"]
-    src += [I2 + "nsteps[n] = k if ok else -1", "", "",
-            "@njit(cache=True, nogil=True)", "def fixed(y0, h, nsteps, q, l, out):"]
+    src += [
+        I2 + "nsteps[n] = k if ok else -1",
+        "",
+        "",
+        "@njit(cache=True, nogil=True)",
+        "def fixed(y0, h, nsteps, q, l, out):",
+    ]
     src += [I1 + x for x in load]
     src += [I1 + "for n in range(y0.shape[0]):"] + [I2 + x for x in unpack]
-    src += [I2 + "for _ in range(nsteps):"] + [I3 + x for x in body] + [I3 + x for x in horner("h")]
+    src += (
+        [I2 + "for _ in range(nsteps):"]
+        + [I3 + x for x in body]
+        + [I3 + x for x in horner("h")]
+        + [I3 + "pass"]
+    )
     src += [I2 + x for x in store_ok]
     return "\n".join(src) + "\n"
 
 
-MAX_UNROLLED_ORDER = 30   # beyond this the loop kernels of _TEMPLATE run (order an argument)
+MAX_UNROLLED_ORDER = 30  # beyond this the loop kernels of _TEMPLATE run (order an argument)
+UNROLL_BUDGET = (
+    4500  # unrolled Cauchy-product terms (monomials * P(P+1)/2) above which the loop kernel
+)
+# runs instead: LLVM's compile time grows with the straight-line code (a heavy top's full state at order 20
+# has about 4200 and compiles in ~2 s; larger structures would take tens of seconds once)
+
+
+def _unrolls(cf: CompiledField, order) -> bool:
+    return (
+        order is not None
+        and order <= MAX_UNROLLED_ORDER
+        and len(cf.mons) * order * (order + 1) // 2 <= UNROLL_BUDGET
+    )
 
 
 def _import_kernel_module(src: str):
@@ -361,7 +471,9 @@ def _import_kernel_module(src: str):
     folder = cache_dir()
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"taylor_{key}.py"
-    if not path.exists() or path.read_text() != src:   # never rewrite an existing file: numba keys on mtime
+    if (
+        not path.exists() or path.read_text() != src
+    ):  # never rewrite an existing file: numba keys on mtime
         tmp = folder / f".taylor_{key}.{os.getpid()}.tmp"
         tmp.write_text(src)
         os.replace(tmp, path)
@@ -379,7 +491,7 @@ def structure_kernels(cf: CompiledField, order: int | None = None):
     most :data:`MAX_UNROLLED_ORDER`, else the loop kernels (order an argument). None without numba."""
     if not HAVE_NUMBA:
         return None
-    skey = (cf.structure_key(), order if order is not None and order <= MAX_UNROLLED_ORDER else None)
+    skey = (cf.structure_key(), order if _unrolls(cf, order) else None)
     if skey in _BY_STRUCTURE:
         return _BY_STRUCTURE[skey]
     _BY_STRUCTURE[skey] = mod = _structure_module(cf, order)
@@ -390,7 +502,7 @@ _BY_STRUCTURE: dict = {}
 
 
 def _structure_module(cf: CompiledField, order):
-    if order is not None and order <= MAX_UNROLLED_ORDER:
+    if _unrolls(cf, order):
         return _import_kernel_module(_unrolled_source(cf, int(order)))
     return _import_kernel_module(_TEMPLATE.replace("{COEFF}", _coefficient_source(cf)))
 
@@ -401,7 +513,7 @@ def taylor_fixed(cf: CompiledField, y0, h: float, nsteps: int, order: int) -> np
     out = np.empty_like(y)
     order = int(order)
     mod = structure_kernels(cf, order)
-    if mod is not None and order <= MAX_UNROLLED_ORDER:
+    if mod is not None and _unrolls(cf, order):
         mod.fixed(y, float(h), int(nsteps), cf.qcoef, cf.lcoef, out)
     elif mod is not None:
         mod.fixed(y, float(h), int(nsteps), order, cf.qcoef, cf.lcoef, out)
@@ -410,8 +522,14 @@ def taylor_fixed(cf: CompiledField, y0, h: float, nsteps: int, order: int) -> np
     return out
 
 
-def taylor_adaptive(cf: CompiledField, y0, T: float, tol: float, order: int | None = None,
-                    max_steps: int = 10_000_000):
+def taylor_adaptive(
+    cf: CompiledField,
+    y0,
+    T: float,
+    tol: float,
+    order: int | None = None,
+    max_steps: int = 10_000_000,
+):
     """Adaptive Taylor over ``[0, T]`` for every row of ``y0`` (N, d): ``(y(T), steps)``.
 
     ``order`` defaults to :func:`adaptive_order` of ``tol``; ``steps[n] = -1`` marks a trajectory that
@@ -422,7 +540,7 @@ def taylor_adaptive(cf: CompiledField, y0, T: float, tol: float, order: int | No
     out = np.empty_like(y)
     steps = np.zeros(y.shape[0], dtype=np.int64)
     mod = structure_kernels(cf, P)
-    if mod is not None and P <= MAX_UNROLLED_ORDER:
+    if mod is not None and _unrolls(cf, P):
         mod.adaptive(y, float(T), float(tol), int(max_steps), cf.qcoef, cf.lcoef, out, steps)
     elif mod is not None:
         mod.adaptive(y, float(T), float(tol), P, int(max_steps), cf.qcoef, cf.lcoef, out, steps)
@@ -452,7 +570,7 @@ def _py_coefficients(cf: CompiledField, Y, P):
         pr = []
         for (i, j), c in zip(cf.mons.tolist(), cf.mcls.tolist()):
             if c in (0, 1):
-                pr.append(float(np.dot(Y[i, :k + 1], Y[j, k::-1])))
+                pr.append(float(np.dot(Y[i, : k + 1], Y[j, k::-1])))
             elif c == 2:
                 pr.append(Y[i, 0] * Y[j, k])
             elif c == 3:
@@ -496,7 +614,10 @@ def _py_adaptive(cf, y0, T, tol, P, max_steps, out, steps):
             _py_coefficients(cf, Y, P)
             s = tol * max(1.0, float(np.max(np.abs(Y[:, 0]))))
             a1, a2 = float(np.max(np.abs(Y[:, P - 1]))), float(np.max(np.abs(Y[:, P])))
-            h = min((s / a1) ** (1 / (P - 1)) if a1 > 0 else np.inf, (s / a2) ** (1 / P) if a2 > 0 else np.inf)
+            h = min(
+                (s / a1) ** (1 / (P - 1)) if a1 > 0 else np.inf,
+                (s / a2) ** (1 / P) if a2 > 0 else np.inf,
+            )
             h *= damp
             if not h > 0:
                 ok = False

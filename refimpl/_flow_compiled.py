@@ -28,21 +28,33 @@ from . import _compiled_taylor as _ct
 from . import _fast_kernels as _fast
 from ._taylor import quadratic_field, quadratic_field_su2_full
 
-__all__ = ["PATH", "compiled_taylor_body", "compiled_taylor_flow", "quat_rotation", "quat_to_x", "supports_full",
-           "x_to_quat"]
+__all__ = [
+    "PATH",
+    "compiled_taylor_body",
+    "compiled_taylor_flow",
+    "quat_rotation",
+    "quat_to_x",
+    "supports_full",
+    "x_to_quat",
+]
 
 EPS = np.finfo(float).eps
 PATH = _ct.PATH
 _FIELDS: dict = {}
-SAFETY = 1e-2     # B's local tolerance relative to A's
+SAFETY = 1e-2  # B's local tolerance relative to A's
 EPS_FLOOR = 1e-14  # the floor of A's local tolerance (B's is 1e-16, the Jorba-Zou order 20)
-FIRST = 1e-2       # A's first local tolerance relative to the global one (global/local error ~ 10-100
+FIRST = 1e-2  # A's first local tolerance relative to the global one (global/local error ~ 10-100
 # over 10^2-10^3 steps, so one pair of runs usually suffices)
 
 
 def _field(model, full: bool) -> _ct.CompiledField:
-    key = (full, model.f.tobytes(), model.theta.tobytes(), model.Iinv.tobytes(),
-           None if not model.gravity else model.Lvec.tobytes())
+    key = (
+        full,
+        model.f.tobytes(),
+        model.theta.tobytes(),
+        model.Iinv.tobytes(),
+        None if not model.gravity else model.Lvec.tobytes(),
+    )
     if key not in _FIELDS:
         F = quadratic_field_su2_full(model) if full else quadratic_field(model)
         _FIELDS[key] = _ct.compiled_field(F)
@@ -65,7 +77,7 @@ def quat_to_x(q):
 
 def x_to_quat(x):
     """The unit quaternion ``(cos(|x|/2), sin(|x|/2) x/|x|)`` of ``exp(x^a E_a)``, x of shape (3, N)."""
-    t = np.sqrt(np.sum(x ** 2, axis=0))
+    t = np.sqrt(np.sum(x**2, axis=0))
     with np.errstate(invalid="ignore", divide="ignore"):
         s = np.where(t > 0, np.sin(t / 2) / np.where(t > 0, t, 1), 0.5)
     return np.concatenate([np.cos(t / 2)[None], s * x])
@@ -94,14 +106,24 @@ def _gamma0(model, x0):
     return np.einsum("Nmb,m->bN", Ad0, model.gamma)
 
 
-def compiled_taylor_body(model, x0, pi0, t: float, *, tol: float | None = None, order: int | None = None,
-                         nsteps: int | None = None) -> dict:
+def compiled_taylor_body(
+    model,
+    x0,
+    pi0,
+    t: float,
+    *,
+    tol: float | None = None,
+    order: int | None = None,
+    nsteps: int | None = None,
+) -> dict:
     """Body system of ``N`` trajectories (``x0``, ``pi0`` of shape (n, N)) to time ``t``: fixed steps
     (``order`` and ``nsteps``) or the adaptive kernel at the *local* tolerance ``tol``.
 
     Returns the dict of :func:`refimpl._flow_fast.integrate_fast` (``x`` None) plus ``steps`` (N,)."""
     if not model.upsilon_zero:
-        raise ValueError("compiled Taylor: the body field is a quadratic polynomial only for Upsilon = 0 (vier6)")
+        raise ValueError(
+            "compiled Taylor: the body field is a quadratic polynomial only for Upsilon = 0 (vier6)"
+        )
     n, N = pi0.shape
     G0 = _gamma0(model, x0)
     y0 = (pi0 if G0 is None else np.concatenate([pi0, G0])).T
@@ -112,8 +134,15 @@ def compiled_taylor_body(model, x0, pi0, t: float, *, tol: float | None = None, 
     else:
         y, steps = _ct.taylor_adaptive(cf, y0, t, float(tol), order)
     y = y.T
-    return {"pi": y[:n], "Gamma": None if G0 is None else y[n:], "x": None, "Ad": None, "quat": None,
-            "rebases": np.zeros(N, dtype=int), "steps": steps}
+    return {
+        "pi": y[:n],
+        "Gamma": None if G0 is None else y[n:],
+        "x": None,
+        "Ad": None,
+        "quat": None,
+        "rebases": np.zeros(N, dtype=int),
+        "steps": steps,
+    }
 
 
 def _full_run(model, y0, t, eps):
@@ -150,7 +179,8 @@ def compiled_taylor_flow(model, x0, pi0, t: float, tol: float) -> dict:
             if np.any(bad):
                 raise ValueError(
                     f"compiled Taylor flow: trajectories {idx[bad][:10].tolist()} became non-finite before t = {t} "
-                    "(diverged); no point is dropped")
+                    "(diverged); no point is dropped"
+                )
             dpi = np.max(np.abs(A[:n] - B[:n]), axis=0)
             # every entry of Ad(g) = R(q) is a quadratic form q^T M q with ||M||_2 = 1 (unit quaternions), so
             # |R(q)_ij - R(q')_ij| = |(q - q')^T M (q + q')| <= 2 ||q - q'||_2: a bound, no rotation formed
@@ -173,8 +203,17 @@ def compiled_taylor_flow(model, x0, pi0, t: float, tol: float) -> dict:
     if over.size:
         raise ValueError(
             f"compiled Taylor flow: tolerance {tol} not reached on trajectories {over[:10].tolist()} "
-            f"(estimated errors {est[over][:3].tolist()}) at the float64 floor of the local tolerance")
+            f"(estimated errors {est[over][:3].tolist()}) at the float64 floor of the local tolerance"
+        )
     q = res[-4:]
-    return {"pi": res[:n], "Gamma": None if G0 is None else res[n:2 * n], "quat": q, "x": quat_to_x(q),
-            "Ad": None, "rebases": np.zeros(N, dtype=int), "steps": steps, "error_estimate": est,
-            "path": PATH}
+    return {
+        "pi": res[:n],
+        "Gamma": None if G0 is None else res[n : 2 * n],
+        "quat": q,
+        "x": quat_to_x(q),
+        "Ad": None,
+        "rebases": np.zeros(N, dtype=int),
+        "steps": steps,
+        "error_estimate": est,
+        "path": PATH,
+    }
