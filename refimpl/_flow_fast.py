@@ -15,7 +15,12 @@ written independently in numpy):
     every step for the RKMK variant (Munthe-Kaas: the RK method is applied in
     the chart centred at the current point).
 
-Methods (each declares ``order``; ``tests/test_flow_orders.py`` fits it):
+Methods (the registry :mod:`refimpl.integrators`, one module per family; each declares ``order``,
+fitted by ``tests/test_flow_orders.py``):
+
+* ``taylor``: adaptive Taylor, compiled (numba, :mod:`refimpl._compiled_taylor`): Jorba-Zou order and
+  step from a tolerance, per trajectory; on su(2)/so(3) the full state carries the group element as a
+  quaternion (:mod:`refimpl._flow_compiled`); the default of :func:`fast_flow` when numba is present;
 
 * ``dop853``: fixed-step explicit RK of order 8 (Dormand-Prince tableau);
   with ``Upsilon = 0`` the body field is generated straight-line code
@@ -26,9 +31,10 @@ Methods (each declares ``order``; ``tests/test_flow_orders.py`` fits it):
   2, 4, 6) for general ``omega_L`` (``Upsilon != 0``);
 * ``taylor12/16/20/24``: Taylor series of order 12-24 for the polynomial body
   systems (``Upsilon = 0``): Cauchy-product recurrences for the Taylor
-  coefficients of the quadratic field (:mod:`refimpl._taylor`), generated
-  scalar code for up to :data:`TAYLOR_SCALAR_MAX` trajectories, batched numpy
-  ``einsum`` kernels beyond;
+  coefficients of the quadratic field (:mod:`refimpl._taylor`); the compiled
+  kernel of :mod:`refimpl._compiled_taylor` when numba is importable, else
+  generated scalar code for up to :data:`TAYLOR_SCALAR_MAX` trajectories and
+  batched numpy ``einsum`` kernels beyond (also used when steps are observed);
 * ``splitting2/4/6``: Lie-Poisson splitting for su(2)/so(3) with diagonal
   inertia, ``Upsilon = 0``, any ``Theta`` and gravity. ``H = sum_i H_i + V``
   with ``H_i = (pi'_i - xi_i)^2 / 2 I_i`` (``pi' = pi + xi``, drie7, drie10):
