@@ -21,7 +21,6 @@ fitted by ``tests/test_flow_orders.py``):
 * ``taylor``: adaptive Taylor, compiled (numba, :mod:`refimpl._compiled_taylor`): Jorba-Zou order and
   step from a tolerance, per trajectory; on su(2)/so(3) the full state carries the group element as a
   quaternion (:mod:`refimpl._flow_compiled`); the default of :func:`fast_flow` when numba is present;
-
 * ``dop853``: fixed-step explicit RK of order 8 (Dormand-Prince tableau);
   with ``Upsilon = 0`` the body field is generated straight-line code
   (code generation section at the end of this module); ``dop853-scalar`` runs the same method as
