@@ -72,7 +72,7 @@ PATH = "numba" if HAVE_NUMBA else "python"
 class CompiledField:
     """The sparse arrays of a quadratic field (kernel arguments; see the module docstring)."""
 
-    __slots__ = ("const", "d", "lcoef", "lidx", "lptr", "mcls", "mons", "qcoef", "qmon", "qptr")
+    __slots__ = ("_key", "const", "d", "lcoef", "lidx", "lptr", "mcls", "mons", "qcoef", "qmon", "qptr")
 
     def __init__(self, F):
         d = F.d
@@ -114,6 +114,11 @@ class CompiledField:
     def structure_key(self) -> tuple:
         """What decides the generated code (never the numbers): monomials, their classes, the term
         pattern per component, the constant components."""
+        if getattr(self, "_key", None) is None:
+            self._key = self._structure()
+        return self._key
+
+    def _structure(self) -> tuple:
         return (
             self.d,
             self.mons.tobytes(),
