@@ -15,8 +15,12 @@ written independently in numpy):
     every step for the RKMK variant (Munthe-Kaas: the RK method is applied in
     the chart centred at the current point).
 
-Methods (each declares ``order``; ``tests/test_flow_orders.py`` fits it):
+Methods (the registry :mod:`refimpl.integrators`, one module per family; each declares ``order``,
+fitted by ``tests/test_flow_orders.py``):
 
+* ``taylor``: adaptive Taylor, compiled (numba, :mod:`refimpl._compiled_taylor`): Jorba-Zou order and
+  step from a tolerance, per trajectory; on su(2)/so(3) the full state carries the group element as a
+  quaternion (:mod:`refimpl._flow_compiled`); the default of :func:`fast_flow` when numba is present;
 * ``dop853``: fixed-step explicit RK of order 8 (Dormand-Prince tableau);
   with ``Upsilon = 0`` the body field is generated straight-line code
   (code generation section at the end of this module); ``dop853-scalar`` runs the same method as
@@ -26,9 +30,10 @@ Methods (each declares ``order``; ``tests/test_flow_orders.py`` fits it):
   2, 4, 6) for general ``omega_L`` (``Upsilon != 0``);
 * ``taylor12/16/20/24``: Taylor series of order 12-24 for the polynomial body
   systems (``Upsilon = 0``): Cauchy-product recurrences for the Taylor
-  coefficients of the quadratic field (:mod:`refimpl._taylor`), generated
-  scalar code for up to :data:`TAYLOR_SCALAR_MAX` trajectories, batched numpy
-  ``einsum`` kernels beyond;
+  coefficients of the quadratic field (:mod:`refimpl._taylor`); the compiled
+  kernel of :mod:`refimpl._compiled_taylor` when numba is importable, else
+  generated scalar code for up to :data:`TAYLOR_SCALAR_MAX` trajectories and
+  batched numpy ``einsum`` kernels beyond (also used when steps are observed);
 * ``splitting2/4/6``: Lie-Poisson splitting for su(2)/so(3) with diagonal
   inertia, ``Upsilon = 0``, any ``Theta`` and gravity. ``H = sum_i H_i + V``
   with ``H_i = (pi'_i - xi_i)^2 / 2 I_i`` (``pi' = pi + xi``, drie7, drie10):
@@ -42,22 +47,24 @@ Methods (each declares ``order``; ``tests/test_flow_orders.py`` fits it):
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from . import _fast_kernels as _fast
 from ._algebra import LieAlgebra
+from ._flow_compiled import quat_to_x, x_to_quat
 from ._flow_reference import check_time
-from ._integrators import DOP853, RK4, ExplicitRK, GaussLegendre, triple_jump_weights
+from . import _compiled_taylor as _ct
+from ._flow_compiled import compiled_taylor_body, compiled_taylor_flow, supports_full
+from ._integrators import DOP853, ExplicitRK, GaussLegendre, triple_jump_weights
 from ._representation import Representation, representation_for
 from ._taylor import numpy_taylor_integrator, quadratic_field, scalar_taylor_integrator
+from .integrators import METHODS, Method
 from ._validate import (
     check_flow_rates, check_flow_request, check_inertia, check_points, check_potential, check_structure_constants,
     check_theta, check_upsilon,
 )
 
-__all__ = ["METHODS", "TAYLOR_SCALAR_MAX", "NumpyModel", "integrate_fast", "method"]
+__all__ = ["METHODS", "TAYLOR_SCALAR_MAX", "Method", "NumpyModel", "integrate_fast", "method"]
 
 EPS = np.finfo(float).eps
 TAYLOR_SCALAR_MAX = 16  # up to this many trajectories the Taylor methods run generated scalar code: the numpy
@@ -196,52 +203,9 @@ def _frame_L(adx, su2):
 
 
 # -------------------------------------------------------------- methods
-@dataclass(frozen=True)
-class Method:
-    """A fast flow method. ``order``: the declared global order; ``kind``: rk, gauss or splitting."""
-
-    name: str
-    order: int
-    kind: str
-    rkmk: bool = False
-
-    def applies(self, model: NumpyModel) -> tuple[bool, str]:
-        if self.kind == "splitting":
-            if not model.su2:
-                return False, "Lie-Poisson splitting is written for su(2)/so(3) only"
-            if not model.upsilon_zero:
-                return False, "Lie-Poisson splitting needs Upsilon = 0"
-            if not model.I_diagonal:
-                return False, "Lie-Poisson splitting needs a diagonal inertia (principal axes)"
-        if self.kind == "scalar" and not model.upsilon_zero:
-            return False, "the generated scalar code covers the polynomial body system (Upsilon = 0)"
-        if self.kind == "taylor" and not model.upsilon_zero:
-            return False, "the Taylor recurrences need the quadratic polynomial body system (Upsilon = 0)"
-        if self.kind == "rk" and not model.upsilon_zero:
-            return True, "explicit RK is not symplectic for omega_L; a Gauss method keeps the structure"
-        return True, ""
-
-
-METHODS = {
-    "dop853": Method("dop853", 8, "rk"),
-    "dop853-scalar": Method("dop853-scalar", 8, "scalar"),
-    "rk4": Method("rk4", 4, "rk"),
-    "rkmk4": Method("rkmk4", 4, "rk", rkmk=True),
-    "rkmk8": Method("rkmk8", 8, "rk", rkmk=True),
-    "midpoint": Method("midpoint", 2, "gauss"),
-    "gauss4": Method("gauss4", 4, "gauss"),
-    "gauss6": Method("gauss6", 6, "gauss"),
-    "taylor12": Method("taylor12", 12, "taylor"),
-    "taylor16": Method("taylor16", 16, "taylor"),
-    "taylor20": Method("taylor20", 20, "taylor"),
-    "taylor24": Method("taylor24", 24, "taylor"),
-    "splitting2": Method("splitting2", 2, "splitting"),
-    "splitting4": Method("splitting4", 4, "splitting"),
-    "splitting6": Method("splitting6", 6, "splitting"),
-}
-
-_STEPPERS = {"dop853": DOP853, "rk4": RK4, "rkmk4": RK4, "rkmk8": DOP853,
-             "midpoint": GaussLegendre(1), "gauss4": GaussLegendre(2), "gauss6": GaussLegendre(3)}
+# The methods come from the registry (refimpl.integrators: one module per family, each method a class
+# declaring its order, kind and applies(model)).
+_STEPPERS = {name: m.stepper for name, m in METHODS.items() if m.stepper is not None}
 
 
 def method(name: str) -> Method:
@@ -319,34 +283,34 @@ def _splitting_integrate(model: NumpyModel, pi, Gamma, quat, t, nsteps, order, o
     pi[:] = q - xi[:, None]
 
 
-def quat_to_x(q):
-    """``x`` with ``exp(x^a E_a) = q0 - i qv.sigma``: ``x = 2 atan2(|qv|, q0) qv/|qv|`` (|x| <= 2 pi)."""
-    s = np.sqrt(np.sum(q[1:] ** 2, axis=0))
-    ang = 2 * np.arctan2(s, q[0])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        fac = np.where(s > 0, ang / np.where(s > 0, s, 1), 2.0)
-    return q[1:] * fac
-
-
-def x_to_quat(x):
-    t = np.sqrt(np.sum(x ** 2, axis=0))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        s = np.where(t > 0, np.sin(t / 2) / np.where(t > 0, t, 1), 0.5)
-    return np.concatenate([np.cos(t / 2)[None], s * x])
-
-
 # ------------------------------------------------------------ integrate
-def integrate_fast(model: NumpyModel, meth: Method, x0, pi0, t, nsteps: int, *, system: str,
-                   observe=None):
+def integrate_fast(model: NumpyModel, meth: Method, x0, pi0, t, nsteps: int | None, *, system: str,
+                   observe=None, tol: float | None = None):
     """Integrate ``N`` trajectories (``x0``, ``pi0`` of shape (n, N)) to time ``t`` in ``nsteps`` steps.
 
     Returns a dict with ``pi``, ``Gamma`` (or None), ``x`` (or None), ``Ad`` (N, n, n, or None),
-    ``quat`` (su(2) splitting only), ``rebases`` (per trajectory).
+    ``quat`` (su(2) splitting only), ``rebases`` (per trajectory). The adaptive methods
+    (``meth.adaptive``) take ``tol`` instead of ``nsteps``: a local tolerance on the body system, the
+    global one on the full state (:func:`refimpl._flow_compiled.compiled_taylor_flow`).
     """
     ok, why = meth.applies(model)
     if not ok:
         raise ValueError(f"method {meth.name} does not apply: {why}")
     n, N = pi0.shape
+    if meth.adaptive:
+        if tol is None:
+            raise ValueError(f"method {meth.name} is adaptive: give tol (a tolerance), not a step count")
+        tol = check_tolerance(tol)
+        if observe is not None:
+            raise ValueError(f"method {meth.name} is adaptive: it has no fixed steps to observe")
+        if system == "body":
+            return compiled_taylor_body(model, x0, pi0, t, tol=tol)
+        if not supports_full(model):
+            raise ValueError(f"method {meth.name} integrates the full state on su(2)/so(3) only; "
+                             "use system='body' or a re-basing method")
+        return compiled_taylor_flow(model, x0, pi0, t, tol)
+    if meth.kind == "taylor" and system == "body" and observe is None and _ct.HAVE_NUMBA:
+        return compiled_taylor_body(model, x0, pi0, t, order=meth.order, nsteps=nsteps)
     adx0 = np.einsum("aN,mab->Nmb", x0, model.f)
     Ad0 = _fast._expm_batch(adx0, su2=model.su2)
     Gamma0 = np.einsum("Nmb,m->bN", Ad0, model.gamma) if model.gravity else None
@@ -382,7 +346,7 @@ def integrate_fast(model: NumpyModel, meth: Method, x0, pi0, t, nsteps: int, *, 
         out = {"pi": pi, "Gamma": G, "x": None if quat is None else quat_to_x(quat), "quat": quat,
                "g": None if quat is None else quat_matrix(quat), "Ad": None, "rebases": np.zeros(N, dtype=int)}
         return out
-    stepper: ExplicitRK | GaussLegendre = _STEPPERS[meth.name]
+    stepper: ExplicitRK | GaussLegendre = meth.stepper
     if system == "body":
         F = model.body_rhs()
         y0 = pi0 if Gamma0 is None else np.concatenate([pi0, Gamma0])
@@ -668,7 +632,11 @@ def check_tolerance(tol) -> float:
     return v
 
 
-def _default_method(model: NumpyModel) -> Method:
+def _default_method(model: NumpyModel, *, full: bool = False) -> Method:
+    """The fastest method meeting a tolerance: the compiled adaptive Taylor method on the su(2) full
+    state (``full``) when numba is present, else DOP853 (``Upsilon = 0``) or Gauss6 (``Upsilon != 0``)."""
+    if full and _ct.HAVE_NUMBA and supports_full(model):
+        return METHODS["taylor"]
     return METHODS["dop853"] if model.upsilon_zero else METHODS["gauss6"]
 
 
@@ -676,8 +644,10 @@ def fast_flow(f, theta, upsilon, inertia, potential, x0, pi0, t, *, method_name:
               steps: int | None = None, tol: float = 1e-10, return_group: bool = False):
     """Protocol method 3, batched: ``(x, pi)`` at time ``t`` for every initial point.
 
-    ``method_name``: a key of :data:`METHODS` (default: ``dop853``, or
-    ``gauss6`` when ``Upsilon != 0``). ``steps``: a fixed step count; by
+    ``method_name``: a key of :data:`METHODS` (default: the compiled adaptive Taylor method ``taylor``
+    on su(2)/so(3) with ``Upsilon = 0`` when numba is importable -- its two-run control keeps every
+    trajectory's error in ``pi`` and ``Ad(g)`` below ``tol``, see :mod:`refimpl._flow_compiled` --
+    else ``dop853``, or ``gauss6`` when ``Upsilon != 0``). ``steps``: a fixed step count; by
     default steps are doubled from ``8 + 4 t`` until the runs with ``N`` and
     ``2N`` steps differ by at most ``tol * (2^p - 1)`` (Richardson: the
     error of the finer run is then below ``tol``) on every trajectory.
@@ -702,15 +672,19 @@ def fast_flow(f, theta, upsilon, inertia, potential, x0, pi0, t, *, method_name:
     X = np.ascontiguousarray(xa.reshape(-1, n).T)
     P = np.ascontiguousarray(pa.reshape(-1, n).T)
     _check_start(model, P)
-    meth = METHODS[method_name] if method_name is not None else _default_method(model)
     if method_name is not None:
         method(method_name)
+    meth = METHODS[method_name] if method_name is not None else _default_method(model, full=steps is None)
     if tv == 0:
         if return_group:
             g0 = _group_of(model, X)
             return xa.copy(), pa.copy(), g0.reshape(shape + g0.shape[1:])
         return xa.copy(), pa.copy()
-    if steps is not None:
+    if meth.adaptive:
+        if steps is not None:
+            raise ValueError(f"method {meth.name} is adaptive: give tol, not steps")
+        out = integrate_fast(model, meth, X, P, tv, None, system="full", tol=tol)
+    elif steps is not None:
         if not isinstance(steps, (int, np.integer)) or steps < 1:
             raise ValueError(f"steps must be a positive int, got {steps!r}")
         out = integrate_fast(model, meth, X, P, tv, int(steps), system="full")

@@ -57,7 +57,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["CHUNK", "QuadraticField", "numpy_taylor_integrator", "quadratic_field", "scalar_taylor_integrator"]
+__all__ = ["CHUNK", "QuadraticField", "numpy_taylor_integrator", "quadratic_field", "quadratic_field_su2_full",
+           "scalar_taylor_integrator"]
 
 CHUNK = 16384  # trajectories per chunk of the batched kernel (bounds the coefficient arrays' memory)
 
@@ -134,6 +135,48 @@ def quadratic_field(model) -> QuadraticField:
     quad = tuple({k: v for k, v in t.items() if v != 0} for t in quad)
     return QuadraticField(d, lin, quad)
 
+
+
+def quadratic_field_su2_full(model) -> QuadraticField:
+    """The su(2) body field extended by the group element as a unit quaternion: still quadratic.
+
+    State ``y = (pi, [Gamma,] q)`` with ``g = q_0 - i q.sigma`` (the matrix of ``exp(x^a E_a)``,
+    ``E_a = -(i/2) sigma_a``; :func:`refimpl._flow_fast.qmul` is the matching Hamilton product). The
+    left-trivialised kinematics ``g^-1 dg/dt = Omega^a E_a`` (``Omega = I^-1 pi`` for ``Upsilon = 0``,
+    vier10) read ``dq/dt = q * (0, Omega/2)``::
+
+        dq_0/dt = -1/2 q.Omega,        dq/dt = 1/2 (q_0 Omega + q x Omega),
+
+    bilinear in ``(q, pi)``. ``Gamma`` is integrated by twee17 (sign-corrected) alongside, so the body
+    block is exactly :func:`quadratic_field`; ``Gamma = Ad(g)^T gamma`` holds along the exact flow.
+    """
+    if not model.su2:
+        raise ValueError("quadratic_field_su2_full: the quaternion kinematics are written for su(2)/so(3)")
+    B = quadratic_field(model)
+    n, Ii = 3, model.Iinv
+    d = B.d + 4
+    q0 = B.d
+    lin = [dict(t) for t in B.lin] + [{} for _ in range(4)]
+    quad = [dict(t) for t in B.quad] + [{} for _ in range(4)]
+
+    def add(c, i, j, v):
+        if v != 0:
+            key = (min(i, j), max(i, j))
+            quad[c][key] = quad[c].get(key, 0.0) + float(v)
+
+    eps = {(0, 1, 2): 1, (1, 2, 0): 1, (2, 0, 1): 1, (0, 2, 1): -1, (2, 1, 0): -1, (1, 0, 2): -1}
+    for c in range(n):           # Omega_b = sum_c Ii[b, c] pi_c
+        for b in range(n):
+            add(q0, q0 + 1 + b, c, -0.5 * Ii[b, c])                  # -1/2 q_b Omega_b
+            add(q0 + 1 + b, q0, c, 0.5 * Ii[b, c])                   # 1/2 q_0 Omega_b
+            for a in range(n):
+                for e in range(n):                                   # (q x Omega)_a = eps_aeb q_e Omega_b
+                    sgn = eps.get((a, e, b), 0)
+                    if sgn:
+                        add(q0 + 1 + a, q0 + 1 + e, c, 0.5 * sgn * Ii[b, c])
+    lin = tuple({k: v for k, v in t.items() if v != 0} for t in lin)
+    quad = tuple({k: v for k, v in t.items() if v != 0} for t in quad)
+    return QuadraticField(d, lin, quad)
 
 def _lit(v: float) -> str:
     return repr(float(v))

@@ -39,6 +39,8 @@ __all__ = [
 SCIPY_SOLVERS = ("DOP853", "RK45", "Radau")
 TILED = 10_000  # points in the large fast batch of the bracket benchmark (the case's points repeated)
 ERROR_TARGETS = (1e-6, 1e-9, 1e-12)
+TOL_LADDER = (1e-4, 1e-6, 1e-8, 1e-10, 1e-12, 1e-13, 1e-14, 1e-15, 1e-16)  # adaptive methods (tstarg, heyoka)
+TOL_LADDER_QUICK = (1e-6, 1e-10)
 
 
 # ------------------------------------------------------------------ Pareto front and curves
@@ -243,8 +245,64 @@ def step_ladder(order: int | None, N0: int, N_max: int) -> list[int]:
     return out
 
 
-def run_fast(problem: FlowProblem, model, name: str, nsteps: int, y0=None) -> np.ndarray:
-    """End state(s) ``(d, N)`` of the fast method ``name`` with ``nsteps`` fixed steps."""
+def tol_ladder(quick: bool) -> list[float]:
+    """Tolerances walked by the adaptive methods (tstarg ``taylor``, heyoka ``taylor_adaptive``)."""
+    return list(TOL_LADDER_QUICK if quick else TOL_LADDER)
+
+
+def have_heyoka() -> bool:
+    try:
+        import heyoka  # noqa: F401 - optional contender (the bench extra)
+    except ImportError:
+        return False
+    return True
+
+
+_HEYOKA: dict = {}
+HEYOKA_COMPILE: dict = {}  # (problem, tol) -> CPU seconds of heyoka's JIT compilation (reported apart)
+
+
+def heyoka_integrator(problem: FlowProblem, model, tol: float):
+    """heyoka's ``taylor_adaptive`` on the same body field (the polynomial of
+    :func:`refimpl._taylor.quadratic_field`, ``Upsilon = 0``), built and JIT-compiled once per tolerance;
+    the compile time is recorded in :data:`HEYOKA_COMPILE`, apart from the run times."""
+    import heyoka as hy  # optional contender
+
+    from tstarg.refimpl._taylor import quadratic_field
+
+    key = (problem.name, problem.T, float(tol))
+    if key in _HEYOKA:
+        return _HEYOKA[key]
+    F = quadratic_field(model)
+    ys = hy.make_vars(*[f"y{c}" for c in range(F.d)])
+    rhs = []
+    for c in range(F.d):
+        e = 0.0 * ys[0]
+        for (i, j), q in F.quad[c].items():
+            e = e + float(q) * ys[i] * ys[j]
+        for i, q in F.lin[c].items():
+            e = e + float(q) * ys[i]
+        rhs.append(e)
+    y0 = problem.y0()
+    t0 = time.process_time()
+    ta = hy.taylor_adaptive(list(zip(ys, rhs)), y0.tolist(), tol=float(tol))
+    HEYOKA_COMPILE[key] = time.process_time() - t0
+    _HEYOKA[key] = (ta, y0)
+    return _HEYOKA[key]
+
+
+def run_heyoka(problem: FlowProblem, model, tol: float) -> np.ndarray:
+    """End state ``(d, 1)`` of heyoka's adaptive Taylor integrator at tolerance ``tol`` (reset, propagate)."""
+    ta, y0 = heyoka_integrator(problem, model, tol)
+    ta.time = 0.0
+    ta.state[:] = y0
+    ta.propagate_until(float(problem.T))
+    return np.array(ta.state)[:, None]
+
+
+def run_fast(problem: FlowProblem, model, name: str, nsteps, y0=None) -> np.ndarray:
+    """End state(s) ``(d, N)`` of the fast method ``name`` with ``nsteps`` fixed steps (for an adaptive
+    method: ``nsteps`` is its tolerance)."""
     from tstarg.refimpl.flows import METHODS, integrate_fast
 
     n = model.n
@@ -253,8 +311,12 @@ def run_fast(problem: FlowProblem, model, name: str, nsteps: int, y0=None) -> np
         pi0 = np.array(problem.pi0, dtype=float)[:, None]
     else:
         x0, pi0 = y0
+    meth = METHODS[name]
     with np.errstate(over="ignore", invalid="ignore"):  # a too coarse step may diverge: error inf, recorded
-        out = integrate_fast(model, METHODS[name], x0, pi0, problem.T, int(nsteps), system="body")
+        if meth.adaptive:
+            out = integrate_fast(model, meth, x0, pi0, problem.T, None, system="body", tol=float(nsteps))
+        else:
+            out = integrate_fast(model, meth, x0, pi0, problem.T, int(nsteps), system="body")
     return out["pi"] if out["Gamma"] is None else np.concatenate([out["pi"], out["Gamma"]])[: 2 * n]
 
 
@@ -311,6 +373,8 @@ def ladder_task(item) -> dict:
         try:
             if kind == "fast":
                 y = run_fast(p, model, meth, s)[:, 0]
+            elif kind == "heyoka":
+                y = run_heyoka(p, model, s)[:, 0]
             else:
                 sol = run_scipy(p, rhs, meth, s)
                 if not sol.success:

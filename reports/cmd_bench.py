@@ -46,6 +46,8 @@ def add_arguments(p) -> None:
     p.add_argument("--batch-method", default="taylor20", help="tstarg method of the batch-throughput part (default taylor20: generated scalar code up to 16 trajectories, numpy beyond)")
     p.add_argument("--no-brackets", action="store_true", help="skip the Poisson-tensor work-precision part")
     p.add_argument("--no-batch", action="store_true", help="skip the batch-throughput part")
+    p.add_argument("--no-heyoka", action="store_true",
+                   help="leave out the heyoka contender (included when heyoka is importable: pip install .[bench])")
     add_parallel_arguments(p)
 
 
@@ -148,6 +150,11 @@ def main(args) -> int:
 
     # ---- 1. flows: references, error ladders (parallel), timings (serial)
     refs = map_tasks(wp.reference_task, [(n, args.quick, S["ref_dps"], S["ref_check"]) for n in problems], **opts)
+    heyoka = wp.have_heyoka() and not args.no_heyoka
+    from tstarg.refimpl import _compiled_taylor as _ct
+
+    report["compiled_path"] = _ct.PATH
+    report["heyoka"] = ("heyoka " + __import__("heyoka").__version__) if heyoka else "not included"
     from tstarg.refimpl.flows import METHODS
 
     items, skipped = [], {}
@@ -164,9 +171,15 @@ def main(args) -> int:
                 return 2
             names = [m for m in names if m in wanted]
         for m in names:
-            ladder = wp.step_ladder(getattr(METHODS[m], "order", None), n0, n_max)
+            if METHODS[m].adaptive:
+                ladder = wp.tol_ladder(args.quick)
+            else:
+                ladder = wp.step_ladder(getattr(METHODS[m], "order", None), n0, n_max)
             items.append((name, args.quick, "fast", m, ladder, ref["values"], S["floor"], S["nfev_cap"],
                           S["target_cap"]))
+        if heyoka and p.model().upsilon_zero:
+            items.append((name, args.quick, "heyoka", "taylor_adaptive", wp.tol_ladder(args.quick), ref["values"],
+                          S["floor"], S["nfev_cap"], S["target_cap"]))
         for s in wp.SCIPY_SOLVERS:
             items.append((name, args.quick, "scipy", s, S["rtols"], ref["values"], S["floor"], S["nfev_cap"],
                           S["target_cap"]))
@@ -177,6 +190,10 @@ def main(args) -> int:
         report["flows"][name] = _time_flow(wp, np, name, args.quick, ref, [l for l in ladders if l["problem"] == name],
                                            skipped[name], out, S["rounds"])
         _print_flow(report["flows"][name])
+    report["compile"] = {"tstarg": {**_ct.compile_count(), "path": _ct.PATH,
+                                    "note": "numba kernels per field structure and order, cached on disk: "
+                                            "'compiled' were built in this run, 'loaded' came from the cache"},
+                         "heyoka": {f"{k[0]} tol={k[2]:g}": v for k, v in wp.HEYOKA_COMPILE.items()}}
 
     # ---- 2. brackets
     if not args.no_brackets:
@@ -238,6 +255,8 @@ def _json_default(o):
 
 
 def _time_flow(wp, np, name, quick, ref, ladders, skipped, out, rounds) -> dict:
+    from tstarg.refimpl.flows import METHODS
+
     p = wp.flow_problem(name, quick)
     model = p.model()
     rhs, rhs_how = wp.scipy_rhs(model)
@@ -248,7 +267,12 @@ def _time_flow(wp, np, name, quick, ref, ladders, skipped, out, rounds) -> dict:
         for pt in lad["points"]:
             if lad["kind"] == "fast":
                 calls.append(lambda m=lad["method"], s=pt["setting"]: wp.run_fast(p, model, m, s))
-                rows.append({"method": lad["method"], "family": "tstarg", "setting_name": "steps", **pt})
+                rows.append({"method": lad["method"], "family": "tstarg",
+                             "setting_name": "tol" if METHODS[lad["method"]].adaptive else "steps", **pt})
+            elif lad["kind"] == "heyoka":
+                wp.heyoka_integrator(p, model, pt["setting"])   # JIT-compile before timing (reported apart)
+                calls.append(lambda s=pt["setting"]: wp.run_heyoka(p, model, s))
+                rows.append({"method": "heyoka taylor_adaptive", "family": "heyoka", "setting_name": "tol", **pt})
             else:
                 calls.append(lambda m=lad["method"], s=pt["setting"]: wp.run_scipy(p, rhs, m, s))
                 rows.append({"method": f"scipy {lad['method']}", "family": "scipy", "setting_name": "rtol=atol",
@@ -275,15 +299,18 @@ def _time_flow(wp, np, name, quick, ref, ladders, skipped, out, rounds) -> dict:
         targets.append((min(dop_errors), f"{min(dop_errors):.2e} (DOP853's finest)"))
     for tgt, label in targets:
         per = {}
-        for m in tstarg + [f"scipy {s}" for s in wp.SCIPY_SOLVERS]:
+        for m in tstarg + [f"scipy {s}" for s in wp.SCIPY_SOLVERS] + ["heyoka taylor_adaptive"]:
             pts = [r for r in rows if r["method"] == m]
             per[m] = wp.time_at_error([r["time"] for r in pts], [r["error"] for r in pts], tgt)
         reached = {m: t for m, t in per.items() if m in tstarg and math.isfinite(t)}
         best = min(reached, key=reached.get) if reached else None
         t_dop = per.get("scipy DOP853", math.nan)
         ratio = reached[best] / t_dop if best and math.isfinite(t_dop) else None
+        t_hy = per.get("heyoka taylor_adaptive", math.nan)
+        ratio_hy = reached[best] / t_hy if best and math.isfinite(t_hy) else None
         ratios.append({"target": tgt, "label": label, "best_tstarg": best, "t_best": reached.get(best) if best else None,
                        "t_dop853": t_dop if math.isfinite(t_dop) else None, "ratio_best_over_dop853": ratio,
+                       "t_heyoka": t_hy if math.isfinite(t_hy) else None, "ratio_best_over_heyoka": ratio_hy,
                        "times": {m: (t if math.isfinite(t) else None) for m, t in per.items()},
                        "note": "" if ratio is not None else
                        ("not reached by tstarg" if best is None else "not reached by DOP853")})
@@ -302,8 +329,10 @@ def _print_flow(res) -> None:
           f"{sum(r['on_front'] for r in res['points'])} on the Pareto front")
     for r in res["ratios"]:
         if r["ratio_best_over_dop853"] is not None:
+            hy = "" if r.get("ratio_best_over_heyoka") is None else (
+                f"; heyoka {fmt_time(r['t_heyoka'])}: ratio {r['ratio_best_over_heyoka']:.3g}")
             print(f"    error {r['label']}: best tstarg {r['best_tstarg']} {fmt_time(r['t_best'])}, "
-                  f"scipy DOP853 {fmt_time(r['t_dop853'])}: ratio {r['ratio_best_over_dop853']:.3g}")
+                  f"scipy DOP853 {fmt_time(r['t_dop853'])}: ratio {r['ratio_best_over_dop853']:.3g}{hy}")
         else:
             print(f"    error {r['label']}: {r['note']}")
 
@@ -419,7 +448,11 @@ def render_markdown(rep: dict) -> str:
           f"{rep['loadavg_start'][0]:.2f} at start, {rep.get('loadavg_end', [math.nan])[0]:.2f} at the end "
           "(other processes share the cores: ratios from the same run are the comparable numbers)"),
          f"- BLAS threads: {rep['environment']['blas_threads']}",
-         f"- wall time of the run: {rep.get('seconds', math.nan):.0f} s", ""]
+         f"- wall time of the run: {rep.get('seconds', math.nan):.0f} s",
+         f"- compiled path: {rep.get('compiled_path', 'numpy')}; peer: {rep.get('heyoka', 'not included')}",
+         (f"- compile times (apart from the run times): tstarg {rep['compile']['tstarg']}; heyoka JIT per "
+          f"tolerance [s] {rep['compile']['heyoka']}" if "compile" in rep else "- compile times: not recorded"),
+         ""]
     for name, f in rep["flows"].items():
         L += [f"## Flow: {f['title']}, t = {f['T']:g}", "",
               f"![work-precision {name}]({f['figure']})", "",
@@ -434,16 +467,21 @@ def render_markdown(rep: dict) -> str:
               "### Time of the best tstarg method over scipy DOP853's at equal error", "",
               ("Times interpolated (log-log) on each method's own front (a method whose cheapest point already "
                "meets the error is charged that point's time, an upper bound); ratio < 1: tstarg is faster."), "",
-              "| error | best tstarg method | its time | scipy DOP853 time | ratio tstarg / DOP853 |",
-              "|---|---|---|---|---|"]
+              ("| error | best tstarg method | its time | scipy DOP853 time | ratio tstarg / DOP853 | heyoka time | "
+               "ratio tstarg / heyoka |"),
+              "|---|---|---|---|---|---|---|"]
         for r in f["ratios"]:
             ratio = f"{r['ratio_best_over_dop853']:.3g}" if r["ratio_best_over_dop853"] is not None else r["note"]
+            rh = r.get("ratio_best_over_heyoka")
             L.append(f"| {r['label']} | {r['best_tstarg'] or 'not reached'} | {fmt_time(r['t_best'])} | "
-                     f"{fmt_time(r['t_dop853']) if r['t_dop853'] else 'not reached'} | {ratio} |")
+                     f"{fmt_time(r['t_dop853']) if r['t_dop853'] else 'not reached'} | {ratio} | "
+                     f"{fmt_time(r['t_heyoka']) if r.get('t_heyoka') else '-'} | "
+                     f"{f'{rh:.3g}' if rh is not None else '-'} |")
         L += ["", "### All points (Pareto table)", "",
               "| method | setting | error | CPU time | wall time | repeats | on front |", "|---|---|---|---|---|---|---|"]
         for r in sorted(f["points"], key=lambda r: (r["method"], r["time"])):
-            st = f"N = {r['setting']}" if r["setting_name"] == "steps" else f"rtol = {r['setting']:.1e}"
+            st = {"steps": f"N = {r['setting']}", "tol": f"tol = {r['setting']:.0e}"}.get(
+                r["setting_name"], f"rtol = {r['setting']:.1e}")
             if "nfev" in r:
                 st += f" ({r['nfev']} rhs evals)"
             L.append(f"| {r['method']} | {st} | {fmt_err(r['error'])} | {fmt_time(r['time'])} | "

@@ -58,7 +58,7 @@ def _fit(errs, hs):
 
 CASES = [(name, lab) for name in METHODS for lab in ("U=0", "U!=0")
          if not (lab == "U!=0" and METHODS[name].kind in ("splitting", "scalar", "taylor"))
-         and METHODS[name].kind != "taylor"]
+         and METHODS[name].kind not in ("taylor", "taylor-adaptive")]
 TAYLOR = [name for name in METHODS if METHODS[name].kind == "taylor"]
 
 

@@ -1,0 +1,637 @@
+"""Compiled (numba) Taylor kernels for quadratic polynomial fields, fixed-step and adaptive.
+
+What is compiled
+    One machine-code kernel for *every* quadratic field ``ydot_c = sum_m Q_cm u_m(y) + sum_i
+    Lin_ci y_i`` with monomials ``u_m = y_i y_j`` (:class:`refimpl._taylor.QuadraticField`): the
+    field's structure (dimension, monomial list, which terms are present, constant components) and
+    its numbers (``f``, ``Theta``, ``I``, ``L``, ``gamma`` folded into ``Q`` and ``Lin``) are array
+    *arguments* in a sparse (CSR) form, never literals. numba therefore compiles each kernel once per
+    argument type signature -- once in total for float64 -- and ``cache=True`` stores the machine code
+    on disk so that a second process loads it instead of compiling (:func:`compile_count` reports the
+    signatures compiled in this process).
+
+The recurrence (Jorba and Zou 2005, Experimental Mathematics 14, 99-117)
+    With ``y(t0 + s) = sum_k Y_k s^k`` (unscaled Taylor coefficients, ``Y_0 = y(t0)``) the
+    coefficients of a product are the Cauchy product, so
+
+        Y_{k+1,c} = 1/(k+1) * ( sum_m Q_cm sum_{a=0}^{k} Y_{a,i_m} Y_{k-a,j_m} + sum_i Lin_ci Y_{k,i} ),
+
+    exact (no truncation). A constant component (identically zero field) keeps ``Y_{k>=1} = 0``, so
+    a Cauchy product with a constant factor has the single term ``a = 0``; a square sums half the
+    terms twice. ``y(t0 + h) ~ sum_{k<=P} Y_k h^k`` by Horner's rule.
+
+Adaptive order and step (Jorba and Zou 2005, section 3.2; the control heyoka uses)
+    For a tolerance ``eps`` the order is ``P = ceil(-ln(eps)/2 + 1)``, and with the scale
+    ``s = max(1, ||y||_inf)`` (absolute error control below 1, relative above) the step is
+
+        h = exp(-0.7 / (P - 1)) * min( (eps s / ||Y_{P-1}||_inf)^(1/(P-1)), (eps s / ||Y_P||_inf)^(1/P) ),
+
+    (with the Jorba-Zou order ``eps^(1/P) ~ e^-2``, their ``rho / e^2``; written with ``eps`` so that
+    a caller-chosen order keeps the tolerance), which makes the last terms of the series, an estimate of the remainder, about ``eps * s``
+    (a local error per step). Each trajectory of a batch runs its own control (its own steps),
+    so no trajectory's step is set by another's; the global error is checked by the callers
+    (:func:`refimpl._flow_fast.fast_flow` compares two tolerances).
+
+Without numba (``HAVE_NUMBA`` False) the same functions run as plain Python (slow but exact same
+arithmetic); :data:`PATH` says which path ran.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import math
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+
+try:  # numba is a core dependency; the plain-Python path keeps the package usable without it
+    import numba
+
+    HAVE_NUMBA = True
+except ImportError:  # pragma: no cover - exercised only where numba is missing
+    numba = None
+    HAVE_NUMBA = False
+
+__all__ = [
+    "HAVE_NUMBA",
+    "PATH",
+    "CompiledField",
+    "adaptive_order",
+    "compile_count",
+    "compiled_field",
+    "taylor_adaptive",
+    "taylor_fixed",
+]
+
+PATH = "numba" if HAVE_NUMBA else "python"
+
+
+class CompiledField:
+    """The sparse arrays of a quadratic field (kernel arguments; see the module docstring)."""
+
+    __slots__ = ("_key", "const", "d", "lcoef", "lidx", "lptr", "mcls", "mons", "qcoef", "qmon", "qptr")
+
+    def __init__(self, F):
+        d = F.d
+        mons = F.monomials()
+        slot = {ij: m for m, ij in enumerate(mons)}
+        const = F.constant_components()
+        self.d = d
+        self.mons = np.array(mons, dtype=np.int64).reshape(-1, 2)
+        # monomial class: 0 general, 1 square, 2 first factor constant, 3 second constant, 4 both constant
+        cls = []
+        for i, j in mons:
+            if i in const and j in const:
+                cls.append(4)
+            elif i in const:
+                cls.append(2)
+            elif j in const:
+                cls.append(3)
+            else:
+                cls.append(1 if i == j else 0)
+        self.mcls = np.array(cls, dtype=np.int64)
+        qptr, qmon, qcoef, lptr, lidx, lcoef = [0], [], [], [0], [], []
+        for c in range(d):
+            for ij, q in F.quad[c].items():
+                qmon.append(slot[ij])
+                qcoef.append(q)
+            qptr.append(len(qmon))
+            for i, q in F.lin[c].items():
+                lidx.append(i)
+                lcoef.append(q)
+            lptr.append(len(lidx))
+        self.qptr = np.array(qptr, dtype=np.int64)
+        self.qmon = np.array(qmon, dtype=np.int64)
+        self.qcoef = np.array(qcoef, dtype=float)
+        self.lptr = np.array(lptr, dtype=np.int64)
+        self.lidx = np.array(lidx, dtype=np.int64)
+        self.lcoef = np.array(lcoef, dtype=float)
+        self.const = np.array([c in const for c in range(d)], dtype=np.bool_)
+
+    def structure_key(self) -> tuple:
+        """What decides the generated code (never the numbers): monomials, their classes, the term
+        pattern per component, the constant components."""
+        if getattr(self, "_key", None) is None:
+            self._key = self._structure()
+        return self._key
+
+    def _structure(self) -> tuple:
+        return (
+            self.d,
+            self.mons.tobytes(),
+            self.mcls.tobytes(),
+            self.qptr.tobytes(),
+            self.qmon.tobytes(),
+            self.lptr.tobytes(),
+            self.lidx.tobytes(),
+            self.const.tobytes(),
+        )
+
+    def args(self):
+        return (
+            self.mons,
+            self.mcls,
+            self.qptr,
+            self.qmon,
+            self.qcoef,
+            self.lptr,
+            self.lidx,
+            self.lcoef,
+            self.const,
+        )
+
+
+def compiled_field(F) -> CompiledField:
+    return CompiledField(F)
+
+
+def adaptive_order(tol: float) -> int:
+    """Jorba-Zou order for a tolerance: ``P = ceil(-ln(tol)/2 + 1)``, at least 2."""
+    return max(2, math.ceil(-math.log(tol) / 2.0 + 1.0))
+
+
+# ---------------------------------------------------------------- per-structure kernels
+# The generic kernels below interpret the sparse arrays (one loop per term, branches per monomial). The
+# fast path writes, once per *structure*, a small module whose loops are unrolled over the monomials and
+# components (loops over the order stay loops: the order is an argument), with the coefficients read
+# from the arrays ``q`` (quadratic terms) and ``l`` (linear terms). The module is a file in the cache
+# directory named by the structure's hash, imported and compiled with ``cache=True``: the next process
+# (or the next model with the same structure) loads machine code instead of compiling.
+_TEMPLATE = """
+import math
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, nogil=True)
+def coefficients(Y, P, q, l):
+{COEFF}
+
+
+@njit(cache=True, nogil=True)
+def horner(Y, P, h):
+    for c in range(Y.shape[0]):
+        s = Y[c, P]
+        for k in range(P - 1, -1, -1):
+            s = s * h + Y[c, k]
+        Y[c, 0] = s
+
+
+@njit(cache=True, nogil=True)
+def fixed(y0, h, nsteps, P, q, l, out):
+    N, d = y0.shape
+    Y = np.zeros((d, P + 1))
+    for n in range(N):
+        for c in range(d):
+            Y[c, 0] = y0[n, c]
+        for _ in range(nsteps):
+            coefficients(Y, P, q, l)
+            horner(Y, P, h)
+        for c in range(d):
+            out[n, c] = Y[c, 0]
+
+
+@njit(cache=True, nogil=True)
+def adaptive(y0, T, tol, P, max_steps, q, l, out, nsteps):
+    N, d = y0.shape
+    Y = np.zeros((d, P + 1))
+    sgn = 1.0 if T >= 0 else -1.0
+    Tabs = abs(T)
+    damp = math.exp(-0.7 / (P - 1))
+    e1 = 1.0 / (P - 1)
+    e2 = 1.0 / P
+    for n in range(N):
+        for c in range(d):
+            Y[c, 0] = y0[n, c]
+        t = 0.0
+        k = 0
+        ok = True
+        while t < Tabs:
+            coefficients(Y, P, q, l)
+            xn = 0.0
+            a1 = 0.0
+            a2 = 0.0
+            for c in range(d):
+                xn = max(xn, abs(Y[c, 0]))
+                a1 = max(a1, abs(Y[c, P - 1]))
+                a2 = max(a2, abs(Y[c, P]))
+            s = tol * max(1.0, xn)
+            h = np.inf
+            if a1 > 0.0:
+                h = (s / a1) ** e1
+            if a2 > 0.0:
+                h = min(h, (s / a2) ** e2)
+            h *= damp
+            if not (h > 0.0):
+                ok = False
+                break
+            if t + h >= Tabs:
+                h = Tabs - t
+                t = Tabs
+            else:
+                t += h
+            horner(Y, P, sgn * h)
+            k += 1
+            fin = True
+            for c in range(d):
+                if not math.isfinite(Y[c, 0]):
+                    fin = False
+            if not fin or k > max_steps:
+                ok = False
+                break
+        for c in range(d):
+            out[n, c] = Y[c, 0] if ok else np.nan
+        nsteps[n] = k if ok else -1
+"""
+
+
+def _coefficient_source(cf: CompiledField) -> str:
+    """The unrolled body of ``coefficients(Y, P, q, l)`` for the structure of ``cf``."""
+    d = cf.d
+    ind = "    "
+    src = [ind + f"y{c} = Y[{c}]" for c in range(d)]
+    src.append(ind + "for k in range(P):")
+    i2 = ind * 2
+    i3 = ind * 3
+    for m, ((i, j), c) in enumerate(zip(cf.mons.tolist(), cf.mcls.tolist())):
+        if c == 0:
+            src += [
+                i2 + f"m{m} = 0.0",
+                i2 + "for a in range(k + 1):",
+                i3 + f"m{m} += y{i}[a] * y{j}[k - a]",
+            ]
+        elif c == 1:
+            src += [
+                i2 + f"m{m} = 0.0",
+                i2 + "for a in range((k + 1) // 2):",
+                i3 + f"m{m} += y{i}[a] * y{i}[k - a]",
+                i2 + f"m{m} *= 2.0",
+                i2 + "if k % 2 == 0:",
+                i3 + f"m{m} += y{i}[k // 2] * y{i}[k // 2]",
+            ]
+        elif c == 2:
+            src.append(i2 + f"m{m} = y{i}[0] * y{j}[k]")
+        elif c == 3:
+            src.append(i2 + f"m{m} = y{i}[k] * y{j}[0]")
+        else:
+            src.append(i2 + f"m{m} = y{i}[0] * y{j}[0] if k == 0 else 0.0")
+    src.append(i2 + "inv = 1.0 / (k + 1)")
+    for c in range(d):
+        if cf.const[c]:
+            src.append(i2 + f"y{c}[k + 1] = 0.0")
+            continue
+        terms = [f"q[{t}] * m{cf.qmon[t]}" for t in range(cf.qptr[c], cf.qptr[c + 1])]
+        terms += [f"l[{t}] * y{cf.lidx[t]}[k]" for t in range(cf.lptr[c], cf.lptr[c + 1])]
+        src.append(i2 + f"y{c}[k + 1] = ({' + '.join(terms) if terms else '0.0'}) * inv")
+    return "\n".join(src)
+
+
+def cache_dir() -> Path:
+    """Where the per-structure kernel modules live: ``$TSTARG_CACHE_DIR`` or ``~/.cache/tstarg``."""
+    root = os.environ.get("TSTARG_CACHE_DIR") or os.path.join(
+        os.path.expanduser("~"), ".cache", "tstarg"
+    )
+    return Path(root) / "taylor_kernels"
+
+
+_MODULES: dict = {}
+
+
+def _unrolled_source(cf: CompiledField, P: int) -> str:
+    """A module with ``adaptive`` and ``fixed`` for the structure of ``cf`` at order ``P``, unrolled.
+
+    Every coefficient is a local scalar ``y{c}_{k}``; the Cauchy products are written out (a square
+    sums half its terms twice, a constant factor keeps its ``k = 0`` term) and the field's numbers
+    are read once per call from ``q`` and ``l`` into locals. Same recurrence and control as the loop
+    kernels of :data:`_TEMPLATE`; only the summation order of a product may differ, and the update
+    ``y <- y + sum_{k>=1} Y_k h^k`` is a compensated (Kahan) sum, which keeps the rounding of ``10^3``
+    steps near one ulp instead of growing with the step count.
+    """
+    d = cf.d
+    const = set(np.flatnonzero(cf.const).tolist())
+    mons = [tuple(m) for m in cf.mons.tolist()]
+
+    def z(c, k):
+        return k >= 1 and c in const
+
+    body = []
+    for k in range(P):
+        for m, (i, j) in enumerate(mons):
+            if i == j:
+                terms = [
+                    f"y{i}_{a}*y{i}_{k - a}"
+                    for a in range((k + 1) // 2)
+                    if not z(i, a) and not z(i, k - a)
+                ]
+                expr = f"2.0*({' + '.join(terms)})" if terms else ""
+                if k % 2 == 0 and not z(i, k // 2):
+                    expr = (expr + " + " if expr else "") + f"y{i}_{k // 2}*y{i}_{k // 2}"
+            else:
+                terms = [
+                    f"y{i}_{a}*y{j}_{k - a}"
+                    for a in range(k + 1)
+                    if not z(i, a) and not z(j, k - a)
+                ]
+                expr = " + ".join(terms)
+            body.append(f"m{m} = {expr or '0.0'}")
+        for c in range(d):
+            if c in const:
+                continue
+            terms = [f"q{t}*m{cf.qmon[t]}" for t in range(cf.qptr[c], cf.qptr[c + 1])]
+            terms += [
+                f"l{t}*y{cf.lidx[t]}_{k}"
+                for t in range(cf.lptr[c], cf.lptr[c + 1])
+                if not z(int(cf.lidx[t]), k)
+            ]
+            body.append(
+                f"y{c}_{k + 1} = ({' + '.join(terms) if terms else '0.0'})*{1.0 / (k + 1)!r}"
+            )
+    var = [c for c in range(d) if c not in const]
+
+    def horner(hname):
+        # increment sum_{k>=1} Y_k h^k by Horner, added to y with Kahan's compensated summation (the
+        # carry e{c} keeps the low-order bits lost in y + increment: no drift of rounding over many steps)
+        out = []
+        for c in var:
+            e = f"y{c}_{P}"
+            for k in range(P - 1, 0, -1):
+                e = f"({e})*{hname} + y{c}_{k}"
+            out += [
+                f"z = ({e})*{hname} - e{c}",
+                f"w = y{c}_0 + z",
+                f"e{c} = (w - y{c}_0) - z",
+                f"y{c}_0 = w",
+            ]
+        return out
+
+    def amax(k):
+        terms = [f"abs(y{c}_{k})" for c in (range(d) if k == 0 else var)]
+        if not terms:
+            return "0.0"
+        e = terms[0]
+        for t in terms[1:]:  # pairwise max: numba's variadic max builds a tuple per call
+            e = f"max({e}, {t})"
+        return e
+
+    load = [f"q{t} = q[{t}]" for t in range(len(cf.qcoef))] + [
+        f"l{t} = l[{t}]" for t in range(len(cf.lcoef))
+    ]
+    unpack = [f"y{c}_0 = y0[n, {c}]" for c in range(d)] + [f"e{c} = 0.0" for c in var]
+    store_ok = [f"out[n, {c}] = y{c}_0" for c in range(d)]
+    fin = " and ".join(f"math.isfinite(y{c}_0)" for c in var) or "True"
+    I1, I2, I3, I4 = "    ", "        ", "            ", "                "
+    src = [
+        "import math",
+        "import numpy as np",
+        "from numba import njit",
+        "",
+        "",
+        "@njit(cache=True, nogil=True)",
+        "def adaptive(y0, T, tol, max_steps, q, l, out, nsteps):",
+    ]
+    src += [I1 + x for x in load]
+    src += [
+        I1 + "N = y0.shape[0]",
+        I1 + "sgn = 1.0 if T >= 0 else -1.0",
+        I1 + "Tabs = abs(T)",
+        I1 + f"damp = {math.exp(-0.7 / (P - 1))!r}",
+        I1 + "for n in range(N):",
+    ]
+    src += [I2 + x for x in unpack]
+    src += [I2 + "t = 0.0", I2 + "k = 0", I2 + "ok = True", I2 + "while t < Tabs:"]
+    src += [I3 + x for x in body] + [I3 + "pass"]
+    src += [
+        I3 + f"s = tol * max(1.0, {amax(0)})",
+        I3 + f"a1 = {amax(P - 1)}",
+        I3 + f"a2 = {amax(P)}",
+        I3 + "h = np.inf",
+        I3 + "if a1 > 0.0:",
+        I4 + f"h = (s / a1) ** {1.0 / (P - 1)!r}",
+        I3 + "if a2 > 0.0:",
+        I4 + f"h = min(h, (s / a2) ** {1.0 / P!r})",
+        I3 + "h *= damp",
+        I3 + "if not (h > 0.0):",
+        I4 + "ok = False",
+        I4 + "break",
+        I3 + "if t + h >= Tabs:",
+        I4 + "h = Tabs - t",
+        I4 + "t = Tabs",
+        I3 + "else:",
+        I4 + "t += h",
+        I3 + "hs = sgn * h",
+    ]
+    src += [I3 + x for x in horner("hs")]
+    src += [
+        I3 + "k += 1",
+        I3 + f"if not ({fin}) or k > max_steps:",
+        I4 + "ok = False",
+        I4 + "break",
+    ]
+    src += [I2 + "if ok:"] + [I3 + x for x in store_ok]
+    src += [I2 + "else:", I3 + "for c in range(y0.shape[1]):", I4 + "out[n, c] = np.nan"]
+    src += [
+        I2 + "nsteps[n] = k if ok else -1",
+        "",
+        "",
+        "@njit(cache=True, nogil=True)",
+        "def fixed(y0, h, nsteps, q, l, out):",
+    ]
+    src += [I1 + x for x in load]
+    src += [I1 + "for n in range(y0.shape[0]):"] + [I2 + x for x in unpack]
+    src += (
+        [I2 + "for _ in range(nsteps):"]
+        + [I3 + x for x in body]
+        + [I3 + x for x in horner("h")]
+        + [I3 + "pass"]
+    )
+    src += [I2 + x for x in store_ok]
+    return "\n".join(src) + "\n"
+
+
+MAX_UNROLLED_ORDER = 30  # beyond this the loop kernels of _TEMPLATE run (order an argument)
+UNROLL_BUDGET = (
+    4500  # unrolled Cauchy-product terms (monomials * P(P+1)/2) above which the loop kernel
+)
+# runs instead: LLVM's compile time grows with the straight-line code (a heavy top's full state at order 20
+# has about 4200 and compiles in ~2 s; larger structures would take tens of seconds once)
+
+
+def _unrolls(cf: CompiledField, order) -> bool:
+    return (
+        order is not None
+        and order <= MAX_UNROLLED_ORDER
+        and len(cf.mons) * order * (order + 1) // 2 <= UNROLL_BUDGET
+    )
+
+
+def _import_kernel_module(src: str):
+    """Write ``src`` once into the cache directory under its hash and import it (numba then caches the
+    machine code beside it)."""
+    key = hashlib.sha1(src.encode()).hexdigest()[:20]
+    if key in _MODULES:
+        return _MODULES[key]
+    folder = cache_dir()
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"taylor_{key}.py"
+    if (
+        not path.exists() or path.read_text() != src
+    ):  # never rewrite an existing file: numba keys on mtime
+        tmp = folder / f".taylor_{key}.{os.getpid()}.tmp"
+        tmp.write_text(src)
+        os.replace(tmp, path)
+    # an importable module (numba's disk cache re-imports the module by name when loading machine code)
+    if str(folder) not in sys.path:
+        sys.path.append(str(folder))
+    mod = importlib.import_module(f"taylor_{key}")
+    _MODULES[key] = mod
+    return mod
+
+
+def structure_kernels(cf: CompiledField, order: int | None = None):
+    """The compiled module for the structure of ``cf``: unrolled at ``order`` (``adaptive(y0, T, tol,
+    max_steps, q, l, out, nsteps)``, ``fixed(y0, h, nsteps, q, l, out)``) when ``order`` is given and at
+    most :data:`MAX_UNROLLED_ORDER`, else the loop kernels (order an argument). None without numba."""
+    if not HAVE_NUMBA:
+        return None
+    skey = (cf.structure_key(), order if _unrolls(cf, order) else None)
+    if skey in _BY_STRUCTURE:
+        return _BY_STRUCTURE[skey]
+    _BY_STRUCTURE[skey] = mod = _structure_module(cf, order)
+    return mod
+
+
+_BY_STRUCTURE: dict = {}
+
+
+def _structure_module(cf: CompiledField, order):
+    if _unrolls(cf, order):
+        return _import_kernel_module(_unrolled_source(cf, int(order)))
+    return _import_kernel_module(_TEMPLATE.replace("{COEFF}", _coefficient_source(cf)))
+
+
+def taylor_fixed(cf: CompiledField, y0, h: float, nsteps: int, order: int) -> np.ndarray:
+    """``nsteps`` Taylor steps of order ``order`` and size ``h`` for every row of ``y0`` (N, d)."""
+    y = np.ascontiguousarray(y0, dtype=float)
+    out = np.empty_like(y)
+    order = int(order)
+    mod = structure_kernels(cf, order)
+    if mod is not None and _unrolls(cf, order):
+        mod.fixed(y, float(h), int(nsteps), cf.qcoef, cf.lcoef, out)
+    elif mod is not None:
+        mod.fixed(y, float(h), int(nsteps), order, cf.qcoef, cf.lcoef, out)
+    else:
+        _py_fixed(cf, y, float(h), int(nsteps), int(order), out)
+    return out
+
+
+def taylor_adaptive(
+    cf: CompiledField,
+    y0,
+    T: float,
+    tol: float,
+    order: int | None = None,
+    max_steps: int = 10_000_000,
+):
+    """Adaptive Taylor over ``[0, T]`` for every row of ``y0`` (N, d): ``(y(T), steps)``.
+
+    ``order`` defaults to :func:`adaptive_order` of ``tol``; ``steps[n] = -1`` marks a trajectory that
+    became non-finite or exceeded ``max_steps`` (its row is NaN; callers raise naming it).
+    """
+    P = adaptive_order(tol) if order is None else int(order)
+    y = np.ascontiguousarray(y0, dtype=float)
+    out = np.empty_like(y)
+    steps = np.zeros(y.shape[0], dtype=np.int64)
+    mod = structure_kernels(cf, P)
+    if mod is not None and _unrolls(cf, P):
+        mod.adaptive(y, float(T), float(tol), int(max_steps), cf.qcoef, cf.lcoef, out, steps)
+    elif mod is not None:
+        mod.adaptive(y, float(T), float(tol), P, int(max_steps), cf.qcoef, cf.lcoef, out, steps)
+    else:
+        _py_adaptive(cf, y, float(T), float(tol), P, int(max_steps), out, steps)
+    return out, steps
+
+
+def compile_count() -> dict:
+    """Kernels of this process by outcome: ``compiled`` (machine code made here), ``loaded`` (from the
+    disk cache), ``structures`` (distinct field structures seen). numba path only (zeros otherwise)."""
+    out = {"compiled": 0, "loaded": 0, "structures": len(_MODULES)}
+    for mod in _MODULES.values():
+        for name in ("coefficients", "horner", "fixed", "adaptive"):
+            disp = getattr(mod, name, None)
+            if disp is None:
+                continue
+            out["compiled"] += sum(disp._cache_misses.values())
+            out["loaded"] += sum(disp._cache_hits.values())
+    return out
+
+
+# ---------------------------------------------------------------- plain-Python path (no numba)
+def _py_coefficients(cf: CompiledField, Y, P):
+    """The recurrence of the module docstring over the sparse arrays (reference path without numba)."""
+    for k in range(P):
+        pr = []
+        for (i, j), c in zip(cf.mons.tolist(), cf.mcls.tolist()):
+            if c in (0, 1):
+                pr.append(float(np.dot(Y[i, : k + 1], Y[j, k::-1])))
+            elif c == 2:
+                pr.append(Y[i, 0] * Y[j, k])
+            elif c == 3:
+                pr.append(Y[i, k] * Y[j, 0])
+            else:
+                pr.append(Y[i, 0] * Y[j, 0] if k == 0 else 0.0)
+        for c in range(cf.d):
+            if cf.const[c]:
+                Y[c, k + 1] = 0.0
+                continue
+            acc = sum(cf.qcoef[t] * pr[cf.qmon[t]] for t in range(cf.qptr[c], cf.qptr[c + 1]))
+            acc += sum(cf.lcoef[t] * Y[cf.lidx[t], k] for t in range(cf.lptr[c], cf.lptr[c + 1]))
+            Y[c, k + 1] = acc / (k + 1)
+
+
+def _py_horner(Y, P, h):
+    s = Y[:, P].copy()
+    for k in range(P - 1, -1, -1):
+        s = s * h + Y[:, k]
+    Y[:, 0] = s
+
+
+def _py_fixed(cf, y0, h, nsteps, P, out):
+    for n in range(y0.shape[0]):
+        Y = np.zeros((cf.d, P + 1))
+        Y[:, 0] = y0[n]
+        for _ in range(nsteps):
+            _py_coefficients(cf, Y, P)
+            _py_horner(Y, P, h)
+        out[n] = Y[:, 0]
+
+
+def _py_adaptive(cf, y0, T, tol, P, max_steps, out, steps):
+    damp = math.exp(-0.7 / (P - 1))
+    sgn, Tabs = (1.0 if T >= 0 else -1.0), abs(T)
+    for n in range(y0.shape[0]):
+        Y = np.zeros((cf.d, P + 1))
+        Y[:, 0] = y0[n]
+        t, k, ok = 0.0, 0, True
+        while t < Tabs:
+            _py_coefficients(cf, Y, P)
+            s = tol * max(1.0, float(np.max(np.abs(Y[:, 0]))))
+            a1, a2 = float(np.max(np.abs(Y[:, P - 1]))), float(np.max(np.abs(Y[:, P])))
+            h = min(
+                (s / a1) ** (1 / (P - 1)) if a1 > 0 else np.inf,
+                (s / a2) ** (1 / P) if a2 > 0 else np.inf,
+            )
+            h *= damp
+            if not h > 0:
+                ok = False
+                break
+            h, t = (Tabs - t, Tabs) if t + h >= Tabs else (h, t + h)
+            _py_horner(Y, P, sgn * h)
+            k += 1
+            if not np.all(np.isfinite(Y[:, 0])) or k > max_steps:
+                ok = False
+                break
+        out[n] = Y[:, 0] if ok else np.nan
+        steps[n] = k if ok else -1
