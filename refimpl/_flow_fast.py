@@ -711,7 +711,9 @@ def fast_flow(f, theta, upsilon, inertia, potential, x0, pi0, t, *, method_name:
         raise ValueError(f"fast_flow: no logarithm x(t) of g(t) found for trajectories {bad[:10].tolist()}")
     xs, ps = x.T.reshape(shape + (n,)), out["pi"].T.reshape(shape + (n,))
     if return_group:
-        g = out["g"]
+        g = out.get("g")
+        if g is None:  # the compiled su(2) paths carry the quaternion: g is its SU(2) matrix
+            g = quat_matrix(out["quat"]) if out.get("quat") is not None else _group_of(model, x)
         return xs, ps, g.reshape(shape + g.shape[1:])
     return xs, ps
 
