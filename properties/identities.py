@@ -539,20 +539,19 @@ def jacobi_exact(f, theta, upsilon, pi) -> Measurement:
 def jacobi_float(batch: Callable[[np.ndarray, np.ndarray], tuple], z: np.ndarray, n: int) -> Measurement:
     """Jacobi identity of a float64 implementation by central differences.
 
-    ``batch(x, pi) -> (P, error_bound)`` over a leading batch axis. Steps ``h`` and ``2h``
-    with ``h = eps^(1/3) max(1, |x|_max)`` in ``x`` and ``eps^(1/3) max(1, |pi|_max)`` in
-    ``pi`` (a step scaled by large momenta would carry ``x`` out of the chart). Error model per derivative: truncation
-    ``|D_h - D_2h| / 3`` (Richardson) plus rounding ``e / h`` (``e`` the entry error
-    bound of P); ``J`` sums ``3N`` products: tolerance ``4 * 3N (max|P| dP_err + max|dP| e)``.
+    ``batch(x, pi) -> (P, error_bound)`` over a leading batch axis. Steps ``h_l`` and ``2h_l``
+    per coordinate, ``h_l = eps^(1/3) max(1, |z_l|)`` (one step for all coordinates, scaled by
+    the largest, would step a unit-size x by ~1e5 when a central x or a momentum is ~1e10 and
+    cross the chart boundary). Error model per derivative: truncation ``|D_h - D_2h| / 3``
+    (Richardson) plus rounding ``e / h_l`` (``e`` the entry error bound of P); ``J`` sums ``3N``
+    products: tolerance ``4 * 3N (max|P| dP_err + max|dP| e)``.
     """
     z = np.asarray(z, dtype=float)
     N = 2 * n
-    hx = EPS ** (1 / 3) * max(1.0, float(np.max(np.abs(z[:n]))))
-    hp = EPS ** (1 / 3) * max(1.0, float(np.max(np.abs(z[n:]))))
-    steps = [hx] * n + [hp] * n
+    hs = EPS ** (1 / 3) * np.maximum(1.0, np.abs(z))
     pts = [z]
     for l in range(N):
-        h = steps[l]
+        h = float(hs[l])
         for s in (h, -h, 2 * h, -2 * h):
             zz = z.copy()
             zz[l] += s
@@ -565,8 +564,8 @@ def jacobi_float(batch: Callable[[np.ndarray, np.ndarray], tuple], z: np.ndarray
     P0 = P[0]
     D, Derr = [], 0.0
     for l in range(N):
+        h = float(hs[l])
         p1, m1, p2, m2 = P[1 + 4 * l: 5 + 4 * l]
-        h = steps[l]
         Dh = (p1 - m1) / (2 * h)
         D2h = (p2 - m2) / (4 * h)
         D.append(Dh)

@@ -10,7 +10,8 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from tstarg.properties import REGIMES, cocycles, points, upsilons
-from tstarg.refimpl import CATALOGUE_NAMES, catalogue, su2
+from tstarg.refimpl import catalogue, su2
+from tstarg.refimpl._fast_kernels import _generic_poisson
 from tstarg.refimpl.fast import implementation as fast
 from tstarg.refimpl.reference import DegeneratePointError, Reference
 from tests._helpers import assert_within_bound, regime_cases
@@ -57,8 +58,6 @@ def test_poisson_tensor_within_error_model(name, regime, data):
 @given(data=st.data())
 def test_su2_closed_form_matches_generic_path(tau_scale, data):
     """su(2): the closed-form kernel and the generic matrix kernel agree within the sum of their bounds."""
-    from tstarg.refimpl._fast_kernels import _generic_poisson
-
     alg = su2()
     theta = data.draw(cocycles(alg, exact=False))
     ups = data.draw(upsilons(3, exact=False)) * tau_scale
