@@ -13,6 +13,7 @@ Public API:
 * :func:`oracle_checks` for ``tstarg verify`` (oracles.oracle_checks, imported lazily).
 """
 
+from .claim_checks import PAPER_CHECKS
 from .claims import CLAIMS, ERRATA, LABELS
 from .claims import evaluate as evaluate_claims
 from .closed_forms import (
@@ -25,7 +26,6 @@ from .closed_forms import (
 )
 from .gnh_examples import EXAMPLES as GNH_EXAMPLES
 from .gnh_examples import check_example as check_gnh_example
-from .claim_checks import PAPER_CHECKS
 from .published import PUBLISHED_B1, PUBLISHED_H2
 from .su2_symbolic import residuals_degenerate as su2_degenerate_residuals
 from .su2_symbolic import residuals_nondegenerate as su2_nondegenerate_residuals

@@ -214,7 +214,10 @@ def _twee17(index, label: str) -> Outcome:
     with mpmath.workdps(DPS + 15):
         Om = [mpmath.mpf(v) for v in _OMEGA]
         dG, G = _gamma_rate(Om)
-        form = [sum(G[a] * Om[b] * _eps(*index(a, b, mu)) for a in range(3) for b in range(3)) for mu in range(3)]
+        form = [
+            sum(G[a] * Om[b] * _eps(*index(a, b, mu)) for a in range(3) for b in range(3))
+            for mu in range(3)
+        ]
         err = max(abs(u - v) for u, v in zip(dG, form))
         tol = _tol(max(abs(v) for v in dG))
     return Outcome(bool(err <= tol), float(err), float(tol), label)

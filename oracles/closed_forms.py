@@ -58,6 +58,7 @@ from dataclasses import dataclass
 
 import mpmath
 import sympy as sp
+
 from tstarg.refimpl import su2
 from tstarg.refimpl.reference import Reference
 

@@ -49,13 +49,19 @@ def h2_examples(draw):
         a = draw(st.sampled_from(small), label="g")
         b = draw(st.sampled_from(small), label="h")
         g, h = catalogue(a), catalogue(b)
-        return (g.direct_sum(h), PUBLISHED_H2[a] + PUBLISHED_H2[b] + _b1(g) * _b1(h),
-                f"Kunneth for {a} + {b}")
+        return (
+            g.direct_sum(h),
+            PUBLISHED_H2[a] + PUBLISHED_H2[b] + _b1(g) * _b1(h),
+            f"Kunneth for {a} + {b}",
+        )
     typ = draw(st.sampled_from(["III", "IV", "V", "VI_h", "VII_h"]), label="type")
     if typ in ("III", "IV", "V"):
         alg = bianchi(typ)
     else:
-        a = draw(st.sampled_from([Fraction(1, 2), Fraction(2), Fraction(3, 2), Fraction(1, 3)]), label="a")
+        a = draw(
+            st.sampled_from([Fraction(1, 2), Fraction(2), Fraction(3, 2), Fraction(1, 3)]),
+            label="a",
+        )
         alg = bianchi(typ, -a * a if typ == "VI_h" else a * a)
     return alg, _b1(alg) - 1, "class B Bianchi: b2 = b1 - 1"
 
@@ -63,5 +69,9 @@ def h2_examples(draw):
 def h2_example(ex):
     alg, expected, _ = ex
     got = idn.h2_exact(alg)
-    return idn.Measurement(abs(got - expected), 0.0, math.inf if got == expected else None,
-                           f"dim H^2 = {got}, expected {expected}")
+    return idn.Measurement(
+        abs(got - expected),
+        0.0,
+        math.inf if got == expected else None,
+        f"dim H^2 = {got}, expected {expected}",
+    )

@@ -31,6 +31,7 @@ import time
 import mpmath
 import numpy as np
 from hypothesis import strategies as st
+
 from tstarg.properties.runner import CheckResult, run_property
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue, su2
 from tstarg.refimpl.reference import Reference
@@ -120,7 +121,6 @@ DPS_CF = 40
 
 def _rigid_body(example):
     """ratio = |d/dt pi_closed - reference pidot| / (10^-(DPS_CF-10) |pidot|)."""
-
 
     I, pi0, t = example
     if len({round(v, 6) for v in I}) < 3:
@@ -247,7 +247,6 @@ def _qutip_attitude():
 
 def _b1():
 
-
     bad = [
         n
         for n in CATALOGUE_NAMES
@@ -304,10 +303,24 @@ def oracle_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
         ),
         _single("detest_b5", "twee14", _b5, {"source": "Hull et al. 1972, problem B5"}),
         _single("b1_published", "zeven1", _b1, {"source": "oracles/published.py"}),
-        run_property("h2_published", "zeven1, zeven3", h2_published, st.sampled_from(list(CATALOGUE_NAMES)),
-                     max_examples=len(CATALOGUE_NAMES) * 2, seed=seed, extra={"source": "oracles/published.py"}),
-        run_property("h2_invariants", "zeven1, zeven3", _h2_invariants, h2_examples(), max_examples=max_examples,
-                     seed=seed, extra={"source": "oracles/published.py + Kunneth + class B Bianchi b2 = b1 - 1"}),
+        run_property(
+            "h2_published",
+            "zeven1, zeven3",
+            h2_published,
+            st.sampled_from(list(CATALOGUE_NAMES)),
+            max_examples=len(CATALOGUE_NAMES) * 2,
+            seed=seed,
+            extra={"source": "oracles/published.py"},
+        ),
+        run_property(
+            "h2_invariants",
+            "zeven1, zeven3",
+            _h2_invariants,
+            h2_examples(),
+            max_examples=max_examples,
+            seed=seed,
+            extra={"source": "oracles/published.py + Kunneth + class B Bianchi b2 = b1 - 1"},
+        ),
         run_property(
             "heavy_top_integrals",
             "twee15-twee18",

@@ -121,7 +121,6 @@ def linear_flow_error(
 def classical_unit_rigid_body(inertia_diag, n0, times, dps: int = 30) -> np.ndarray:
     """Unit-sphere Euler flow ``dpi/dt = pi x I^-1 pi`` from ``n0`` by the elliptic closed form."""
 
-
     with mpmath.workdps(dps):
         sol = rigid_body_solution(inertia_diag, [mpmath.mpf(float(v)) for v in n0])
         return np.array([[float(v) for v in sol(mpmath.mpf(float(t)))] for t in times])
@@ -152,7 +151,6 @@ def attitude_propagator(
     ``H(t) = -Omega(t).J`` with ``Omega = I^-1 pi(t)`` from the elliptic closed form
     (float64 evaluation of ``sn, cn, dn`` through ``scipy.special.ellipj``)."""
 
-
     with mpmath.workdps(30):
         sol = rigid_body_solution(inertia_diag, [mpmath.mpf(float(v)) for v in pi0])
         A, B, C, w, m, u0 = (float(v) for v in (sol.A, sol.B, sol.C, sol.w, sol.m, sol.u0))
@@ -174,7 +172,6 @@ def attitude_propagator(
 def attitude_classical(inertia_diag, pi0, t_end: float, *, rtol: float = 1e-13) -> np.ndarray:
     """``g(t_end)`` as a 2x2 SU(2) matrix from ``dg/dt = g Omega^a E_a``, ``E_a = -(i/2) sigma_a``,
     integrated by scipy's DOP853 (an integrator independent of qutip) along the closed-form ``Omega``."""
-
 
     with mpmath.workdps(30):
         sol = rigid_body_solution(inertia_diag, [mpmath.mpf(float(v)) for v in pi0])

@@ -35,18 +35,23 @@ import numpy as np
 from hypothesis import strategies as st
 
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue
+from tstarg.refimpl.accuracy import correct_digits as _digits
+from tstarg.refimpl.accuracy import max_abs_diff as _mp_max_abs_diff
 from tstarg.refimpl.fast import implementation as fast
 from tstarg.refimpl.reference import DegeneratePointError, Reference
 from tstarg.refimpl.rigorous import Rigorous, UndecidedError, error_bounds
 
-from tstarg.refimpl.accuracy import correct_digits as _digits
-from tstarg.refimpl.accuracy import max_abs_diff as _mp_max_abs_diff
-
 from .runner import CheckResult, run_property
 from .strategies import REGIMES, cocycles, points, rationals, upsilons
 
-__all__ = ["CORE_CHECKS", "core_checks", "routes_agree", "fast_matches_reference", "precision_ladder",
-           "reference_inside_balls"]
+__all__ = [
+    "CORE_CHECKS",
+    "core_checks",
+    "routes_agree",
+    "fast_matches_reference",
+    "precision_ladder",
+    "reference_inside_balls",
+]
 
 
 # ------------------------------------------------------------------ strategies
@@ -56,7 +61,10 @@ def _model_and_point(draw, names=CATALOGUE_NAMES, exact=True, regime="generic"):
     alg = catalogue(name)
     n = alg.dim
     theta = draw(cocycles(alg, exact=exact), label="theta")
-    ups = draw(upsilons(n, exact=exact, zero=False if regime == "near_degenerate" and n > 1 else None), label="upsilon")
+    ups = draw(
+        upsilons(n, exact=exact, zero=False if regime == "near_degenerate" and n > 1 else None),
+        label="upsilon",
+    )
     if exact:
         vec = st.lists(rationals(denominator=10), min_size=n, max_size=n)
         return name, theta, ups, draw(vec, label="x"), draw(vec, label="pi")
@@ -138,24 +146,61 @@ def core_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
     """The checks of the core issue, at a Hypothesis budget of ``max_examples`` per check."""
     small = [n for n in CATALOGUE_NAMES if catalogue(n).dim <= 6]
     out = [
-        run_property("routes_agree", "vier3, vier9", routes_agree, _model_and_point(),
-                     max_examples=max_examples, seed=seed, extra={"tolerance": "1e-40 max|P| at dps 50"}),
-        run_property("precision_ladder", "vier9", precision_ladder, _model_and_point(small),
-                     max_examples=max(3, max_examples // 4), seed=seed,
-                     extra={"tolerance": "10^-(dps-3) max|P|, dps 30/60 vs 120"}),
+        run_property(
+            "routes_agree",
+            "vier3, vier9",
+            routes_agree,
+            _model_and_point(),
+            max_examples=max_examples,
+            seed=seed,
+            extra={"tolerance": "1e-40 max|P| at dps 50"},
+        ),
+        run_property(
+            "precision_ladder",
+            "vier9",
+            precision_ladder,
+            _model_and_point(small),
+            max_examples=max(3, max_examples // 4),
+            seed=seed,
+            extra={"tolerance": "10^-(dps-3) max|P|, dps 30/60 vs 120"},
+        ),
     ]
     for regime in REGIMES:
         names = [n for n in CATALOGUE_NAMES if regime != "near_degenerate" or catalogue(n).f.any()]
-        out.append(run_property(f"fast_matches_reference[{regime}]", "vier9", fast_matches_reference,
-                                _model_and_point(names, exact=False, regime=regime),
-                                max_examples=max_examples, seed=seed,
-                                extra={"tolerance": "per-point error_bound of refimpl.fast",
-                                       "judge": f"{_JUDGE.name} (Arb balls, 200 bits): proven digits"}))
-    out.append(run_property("reference_inside_balls", "vier9", reference_inside_balls,
-                            _model_and_point(names, exact=False), max_examples=max(3, max_examples // 4), seed=seed,
-                            extra={"tolerance": "10^-45 max|P| (reference at dps 50) from the 200-bit balls",
-                                   "judge": "refimpl.rigorous; second route refimpl.reference"}))
+        out.append(
+            run_property(
+                f"fast_matches_reference[{regime}]",
+                "vier9",
+                fast_matches_reference,
+                _model_and_point(names, exact=False, regime=regime),
+                max_examples=max_examples,
+                seed=seed,
+                extra={
+                    "tolerance": "per-point error_bound of refimpl.fast",
+                    "judge": f"{_JUDGE.name} (Arb balls, 200 bits): proven digits",
+                },
+            )
+        )
+    out.append(
+        run_property(
+            "reference_inside_balls",
+            "vier9",
+            reference_inside_balls,
+            _model_and_point(names, exact=False),
+            max_examples=max(3, max_examples // 4),
+            seed=seed,
+            extra={
+                "tolerance": "10^-45 max|P| (reference at dps 50) from the 200-bit balls",
+                "judge": "refimpl.rigorous; second route refimpl.reference",
+            },
+        )
+    )
     return out
 
 
-CORE_CHECKS = ("routes_agree", "precision_ladder", "fast_matches_reference", "reference_inside_balls")
+CORE_CHECKS = (
+    "routes_agree",
+    "precision_ladder",
+    "fast_matches_reference",
+    "reference_inside_balls",
+)

@@ -44,6 +44,7 @@ from typing import Any, Callable
 import mpmath
 import numpy as np
 import sympy
+
 from tstarg.refimpl import LieAlgebra
 from tstarg.refimpl.accuracy import correct_digits as _digits
 from tstarg.refimpl.accuracy import max_abs
@@ -51,9 +52,21 @@ from tstarg.refimpl.flows import reference_flow
 from tstarg.refimpl.reference import Reference
 
 __all__ = [
-    "Measurement", "omega_holonomic", "frame_A", "closedness_mp", "closedness_exact",
-    "phi_psi_identities", "tensor_blocks", "jacobi_mp", "jacobi_exact", "jacobi_float",
-    "darboux_residual", "darboux_flow", "whitehead", "h2_exact", "EPS",
+    "Measurement",
+    "omega_holonomic",
+    "frame_A",
+    "closedness_mp",
+    "closedness_exact",
+    "phi_psi_identities",
+    "tensor_blocks",
+    "jacobi_mp",
+    "jacobi_exact",
+    "jacobi_float",
+    "darboux_residual",
+    "darboux_flow",
+    "whitehead",
+    "h2_exact",
+    "EPS",
 ]
 
 EPS = float(np.finfo(float).eps)
@@ -67,7 +80,9 @@ class Measurement:
 
     __slots__ = ("error", "tolerance", "digits", "where")
 
-    def __init__(self, error: float, tolerance: float, digits: float | None = None, where: str = ""):
+    def __init__(
+        self, error: float, tolerance: float, digits: float | None = None, where: str = ""
+    ):
         self.error = float(error)
         self.tolerance = float(tolerance)
         self.digits = digits
@@ -83,8 +98,10 @@ class Measurement:
         return iter((self.ratio, self.digits))
 
     def __repr__(self) -> str:
-        return (f"Measurement(error={self.error:.3g}, tolerance={self.tolerance:.3g}, ratio={self.ratio:.3g}, "
-                f"digits={self.digits}, where={self.where!r})")
+        return (
+            f"Measurement(error={self.error:.3g}, tolerance={self.tolerance:.3g}, ratio={self.ratio:.3g}, "
+            f"digits={self.digits}, where={self.where!r})"
+        )
 
 
 # ------------------------------------------------------------------ helpers
@@ -117,7 +134,9 @@ def _exact(v: Any) -> sympy.Expr:
         try:
             q = Fraction(v.strip())
         except (ValueError, ZeroDivisionError):
-            raise ValueError(f"{v!r:.60} is not a decimal or rational number (strings are never evaluated)") from None
+            raise ValueError(
+                f"{v!r:.60} is not a decimal or rational number (strings are never evaluated)"
+            ) from None
         return sympy.Rational(q.numerator, q.denominator)
     raise TypeError(f"cannot use {type(v).__name__} {v!r:.60} as an exact real number")
 
@@ -169,7 +188,9 @@ def frame_A(F: list, x: list) -> mpmath.matrix:
 def _F_mp(f) -> list:
     raw = _f_raw(f)
     n = raw.shape[0]
-    return [mpmath.matrix([[_mpf(raw[m, a, b]) for b in range(n)] for a in range(n)]) for m in range(n)]
+    return [
+        mpmath.matrix([[_mpf(raw[m, a, b]) for b in range(n)] for a in range(n)]) for m in range(n)
+    ]
 
 
 def _mat_mp(m, n) -> mpmath.matrix:
@@ -177,7 +198,9 @@ def _mat_mp(m, n) -> mpmath.matrix:
     return mpmath.matrix([[_mpf(arr[i, j]) for j in range(n)] for i in range(n)])
 
 
-def omega_holonomic(F: list, theta: mpmath.matrix, upsilon: mpmath.matrix, z: list) -> mpmath.matrix:
+def omega_holonomic(
+    F: list, theta: mpmath.matrix, upsilon: mpmath.matrix, z: list
+) -> mpmath.matrix:
     """``Omega(x, pi) = diag(A, 1)^T [[S, 1], [-1, Upsilon]] diag(A, 1)`` (vier3) at the current precision."""
     n = len(F)
     x, pi = z[:n], z[n:]
@@ -256,8 +279,12 @@ def _symbolic_model(f, theta, upsilon):
     up = sympy.Matrix(n, n, lambda a, b: _exact(np.asarray(upsilon, dtype=object)[a, b]))
     xs = sympy.symbols(f"x0:{n}")
     ps = sympy.symbols(f"p0:{n}")
-    S = sympy.Matrix(n, n, lambda a, b: sum((ps[m] * fe[m, a, b] for m in range(n)), sympy.Integer(0)) - th[a, b])
-    adx = sympy.Matrix(n, n, lambda m, b: sum((xs[a] * fe[m, a, b] for a in range(n)), sympy.Integer(0)))
+    S = sympy.Matrix(
+        n, n, lambda a, b: sum((ps[m] * fe[m, a, b] for m in range(n)), sympy.Integer(0)) - th[a, b]
+    )
+    adx = sympy.Matrix(
+        n, n, lambda m, b: sum((xs[a] * fe[m, a, b] for a in range(n)), sympy.Integer(0))
+    )
     A1 = sympy.eye(n) - adx / 2  # phi1(-ad_x) to first order in x
     return fe, n, th, up, xs, ps, S, A1
 
@@ -272,7 +299,9 @@ def closedness_exact(f, theta, upsilon) -> Measurement:
     z = list(xs) + list(ps)
     at0 = {v: 0 for v in xs}
     D = [Om.diff(v).subs(at0) for v in z]
-    return _exact_cyclic(lambda i, j, k: D[i][j, k] + D[j][k, i] + D[k][i, j], 2 * n, ps, "(d Omega)")
+    return _exact_cyclic(
+        lambda i, j, k: D[i][j, k] + D[j][k, i] + D[k][i, j], 2 * n, ps, "(d Omega)"
+    )
 
 
 def _exact_cyclic(entry, N, ps, label) -> Measurement:
@@ -307,7 +336,11 @@ def phi_psi_identities(f, theta, upsilon, pi, *, exact: bool = True, dps: int = 
         th = sympy.Matrix(n, n, lambda a, b: _exact(np.asarray(theta, dtype=object)[a, b]))
         up = sympy.Matrix(n, n, lambda a, b: _exact(np.asarray(upsilon, dtype=object)[a, b]))
         pv = [_exact(v) for v in pi]
-        S = sympy.Matrix(n, n, lambda a, b: sum((pv[m] * fe[m, a, b] for m in range(n)), sympy.Integer(0)) - th[a, b])
+        S = sympy.Matrix(
+            n,
+            n,
+            lambda a, b: sum((pv[m] * fe[m, a, b] for m in range(n)), sympy.Integer(0)) - th[a, b],
+        )
         Phi = sympy.eye(n) + S * up
         Psi = sympy.eye(n) + up * S
         det = Phi.det()
@@ -316,14 +349,19 @@ def phi_psi_identities(f, theta, upsilon, pi, *, exact: bool = True, dps: int = 
         Pinv, Qinv = Phi.inv(), Psi.inv()
         res = _identity_residuals(Phi, Psi, S, up, Pinv, Qinv, det, Psi.det())
         worst = max(((max((abs(v) for v in m), default=0), k) for k, m in res), key=lambda t: t[0])
-        return Measurement(float(worst[0]), 0.0, None if worst[0] else math.inf,
-                           worst[1] if worst[0] else "")
+        return Measurement(
+            float(worst[0]), 0.0, None if worst[0] else math.inf, worst[1] if worst[0] else ""
+        )
     with mpmath.workdps(dps + 10):
         F = _F_mp(f)
         th, up = _mat_mp(theta, n), _mat_mp(upsilon, n)
         pv = [_mpf(v) for v in pi]
-        S = mpmath.matrix([[mpmath.fsum(pv[m] * F[m][a, b] for m in range(n)) - th[a, b] for b in range(n)]
-                           for a in range(n)])
+        S = mpmath.matrix(
+            [
+                [mpmath.fsum(pv[m] * F[m][a, b] for m in range(n)) - th[a, b] for b in range(n)]
+                for a in range(n)
+            ]
+        )
         Phi = mpmath.eye(n) + S * up
         Psi = mpmath.eye(n) + up * S
         Pinv, Qinv = mpmath.inverse(Phi), mpmath.inverse(Psi)
@@ -335,12 +373,13 @@ def phi_psi_identities(f, theta, upsilon, pi, *, exact: bool = True, dps: int = 
                 worst, where = v, k
         scale = max(mpmath.mpf(1), mpmath.mnorm(S, 1), mpmath.mnorm(up, 1), mpmath.mnorm(Phi, 1))
         cond = mpmath.mnorm(Phi, 1) * mpmath.mnorm(Pinv, 1)
-        tol = n * mpmath.mpf(10) ** -(dps - 3) * cond * scale ** n
+        tol = n * mpmath.mpf(10) ** -(dps - 3) * cond * scale**n
         return Measurement(worst, tol, _digits(worst, scale), where)
 
 
 def _identity_residuals(Phi, Psi, S, U, Pinv, Qinv, detPhi, detPsi):
     """Residual matrices of vier6/vier7 (each must vanish)."""
+
     def flat(m):
         return [m[i, j] for i in range(m.rows) for j in range(m.cols)]
 
@@ -381,8 +420,12 @@ def tensor_blocks(P: np.ndarray, error_bound: float, f, theta, upsilon, x, pi) -
         A = frame_A(F, [_mpf(v) for v in x])
         th, up = _mat_mp(theta, n), _mat_mp(upsilon, n)
         pv = [_mpf(v) for v in pi]
-        S = mpmath.matrix([[mpmath.fsum(pv[m] * F[m][a, b] for m in range(n)) - th[a, b] for b in range(n)]
-                           for a in range(n)])
+        S = mpmath.matrix(
+            [
+                [mpmath.fsum(pv[m] * F[m][a, b] for m in range(n)) - th[a, b] for b in range(n)]
+                for a in range(n)
+            ]
+        )
         Phi = mpmath.eye(n) + S * up
         T = mpmath.zeros(2 * n, 2 * n)
         for i in range(n):
@@ -390,8 +433,10 @@ def tensor_blocks(P: np.ndarray, error_bound: float, f, theta, upsilon, x, pi) -
                 T[i, j] = A[i, j]
             T[n + i, n + i] = 1
         B = T * mpmath.matrix(P.tolist()) * T.T
-        blk = {k: mpmath.matrix([[B[r0 + i, c0 + j] for j in range(n)] for i in range(n)])
-               for k, (r0, c0) in {"xx": (0, 0), "xp": (0, n), "px": (n, 0), "pp": (n, n)}.items()}
+        blk = {
+            k: mpmath.matrix([[B[r0 + i, c0 + j] for j in range(n)] for i in range(n)])
+            for k, (r0, c0) in {"xx": (0, 0), "xp": (0, n), "px": (n, 0), "pp": (n, n)}.items()
+        }
         I = mpmath.eye(n)
         res = {
             "B_xx + B_xx^T (U Phi^-1 antisymmetric)": blk["xx"] + blk["xx"].T,
@@ -423,8 +468,10 @@ def _jacobiator(P, D, N):
     for i in range(N):
         for j in range(i + 1, N):
             for k in range(j + 1, N):
-                out[(i, j, k)] = sum(P[i, l] * D[l][j, k] + P[j, l] * D[l][k, i] + P[k, l] * D[l][i, j]
-                                     for l in range(N))
+                out[(i, j, k)] = sum(
+                    P[i, l] * D[l][j, k] + P[j, l] * D[l][k, i] + P[k, l] * D[l][i, j]
+                    for l in range(N)
+                )
     return out
 
 
@@ -475,8 +522,12 @@ def closed_form_tensor(f, theta, upsilon) -> Callable[[list], mpmath.matrix]:
         x, pi = z[:n], z[n:]
         A = frame_A(F, x)
         L = mpmath.inverse(A)
-        S = mpmath.matrix([[mpmath.fsum(pi[m] * F[m][a, b] for m in range(n)) - th[a, b] for b in range(n)]
-                           for a in range(n)])
+        S = mpmath.matrix(
+            [
+                [mpmath.fsum(pi[m] * F[m][a, b] for m in range(n)) - th[a, b] for b in range(n)]
+                for a in range(n)
+            ]
+        )
         Phi = mpmath.eye(n) + S * up
         Pi = mpmath.inverse(Phi)
         Qi = Pi.T
@@ -536,7 +587,9 @@ def jacobi_exact(f, theta, upsilon, pi) -> Measurement:
     return Measurement(float(worst), 0.0, None if worst else math.inf, where)
 
 
-def jacobi_float(batch: Callable[[np.ndarray, np.ndarray], tuple], z: np.ndarray, n: int) -> Measurement:
+def jacobi_float(
+    batch: Callable[[np.ndarray, np.ndarray], tuple], z: np.ndarray, n: int
+) -> Measurement:
     """Jacobi identity of a float64 implementation by central differences.
 
     ``batch(x, pi) -> (P, error_bound)`` over a leading batch axis. Steps ``h_l`` and ``2h_l``
@@ -565,7 +618,7 @@ def jacobi_float(batch: Callable[[np.ndarray, np.ndarray], tuple], z: np.ndarray
     D, Derr = [], 0.0
     for l in range(N):
         h = float(hs[l])
-        p1, m1, p2, m2 = P[1 + 4 * l: 5 + 4 * l]
+        p1, m1, p2, m2 = P[1 + 4 * l : 5 + 4 * l]
         Dh = (p1 - m1) / (2 * h)
         D2h = (p2 - m2) / (4 * h)
         D.append(Dh)
@@ -578,7 +631,9 @@ def jacobi_float(batch: Callable[[np.ndarray, np.ndarray], tuple], z: np.ndarray
     sP = max(1.0, float(np.max(np.abs(P0))))
     sD = max(1.0, max(float(np.max(np.abs(d))) for d in D))
     tol = 4 * 3 * N * (sP * Derr + sD * e)
-    return Measurement(worst, tol, -math.log10(worst / (sP * sD)) if worst else math.inf, f"J_{worst_key}")
+    return Measurement(
+        worst, tol, -math.log10(worst / (sP * sD)) if worst else math.inf, f"J_{worst_key}"
+    )
 
 
 # ---------------------------------------------------------------- Darboux (drie9)
@@ -605,7 +660,9 @@ def darboux_map_jacobian(f, xi, x, pi, *, dps: int = 30) -> mpmath.matrix:
         return J
 
 
-def darboux_residual(P, J: mpmath.matrix, error_bound: float | None = None, *, dps: int = 30) -> Measurement:
+def darboux_residual(
+    P, J: mpmath.matrix, error_bound: float | None = None, *, dps: int = 30
+) -> Measurement:
     """``max |J P J^T - [[0, 1], [-1, 0]]|`` (drie9: the bracket is canonical in ``(x, p')``).
 
     ``P`` an mpmath matrix (reference; tolerance ``10^-(dps-4) ||J||^2 max(1, max|P|)``) or a
@@ -614,7 +671,11 @@ def darboux_residual(P, J: mpmath.matrix, error_bound: float | None = None, *, d
     N = J.rows
     n = N // 2
     with mpmath.workdps(max(dps, 40)):
-        Pm = P if isinstance(P, mpmath.matrix) else mpmath.matrix(np.asarray(P, dtype=float).tolist())
+        Pm = (
+            P
+            if isinstance(P, mpmath.matrix)
+            else mpmath.matrix(np.asarray(P, dtype=float).tolist())
+        )
         R = J * Pm * J.T
         for i in range(n):
             R[i, n + i] -= 1
@@ -627,11 +688,11 @@ def darboux_residual(P, J: mpmath.matrix, error_bound: float | None = None, *, d
         rowsum = max(mpmath.fsum(abs(J[i, j]) for j in range(N)) for i in range(N))
         sP = max(mpmath.mpf(1), _max_abs(Pm))
         if isinstance(P, mpmath.matrix):
-            tol = mpmath.mpf(10) ** -(dps - 4) * rowsum ** 2 * sP
+            tol = mpmath.mpf(10) ** -(dps - 4) * rowsum**2 * sP
         else:
             e = float(error_bound if error_bound is not None else 0.0)
-            tol = 4 * rowsum ** 2 * (e + N * EPS * sP)
-        return Measurement(worst, tol, _digits(worst, rowsum ** 2 * sP), where)
+            tol = 4 * rowsum**2 * (e + N * EPS * sP)
+        return Measurement(worst, tol, _digits(worst, rowsum**2 * sP), where)
 
 
 # ---------------------------------------------------------------- cohomology (zeven1, zeven3)
@@ -655,7 +716,7 @@ def _delta2_rows(fe: np.ndarray) -> tuple[sympy.Matrix, list]:
         for b in range(a + 1, n):
             for c in range(b + 1, n):
                 row = [sympy.Integer(0)] * len(pairs)
-                for (p, q, r) in ((a, b, c), (b, c, a), (c, a, b)):
+                for p, q, r in ((a, b, c), (b, c, a), (c, a, b)):
                     for m in range(n):
                         if fe[m, p, q] != 0:
                             v = coef(m, r)
@@ -671,7 +732,11 @@ def h2_exact(f) -> int:
     n = fe.shape[0]
     M, pairs = _delta2_rows(fe)
     z2 = len(pairs) - (M.rank() if M.rows else 0)
-    Bm = sympy.Matrix([[-fe[m, a, b] for m in range(n)] for a, b in pairs]) if pairs else sympy.zeros(0, n)
+    Bm = (
+        sympy.Matrix([[-fe[m, a, b] for m in range(n)] for a, b in pairs])
+        if pairs
+        else sympy.zeros(0, n)
+    )
     b2 = Bm.rank() if Bm.rows else 0
     return z2 - b2
 
@@ -685,8 +750,13 @@ def whitehead(f) -> Measurement:
     fe = _f_exact(f)
     n = fe.shape[0]
     M, pairs = _delta2_rows(fe)
-    basis = M.nullspace() if M.rows else [sympy.Matrix([1 if i == t else 0 for i in range(len(pairs))])
-                                          for t in range(len(pairs))]
+    basis = (
+        M.nullspace()
+        if M.rows
+        else [
+            sympy.Matrix([1 if i == t else 0 for i in range(len(pairs))]) for t in range(len(pairs))
+        ]
+    )
     Bm = sympy.Matrix([[-fe[m, a, b] for m in range(n)] for a, b in pairs])
     missing = 0
     where = ""
@@ -720,11 +790,28 @@ def darboux_flow(f, xi, inertia, x0, pi0, t, *, dps: int = 18, shift=None) -> Me
     raw = np.asarray(_f_raw(f))
     n = raw.shape[0]
     fe = _f_exact(f)
-    theta = np.array([[-sum((_exact(xi[m]) * fe[m, a, b] for m in range(n)), sympy.Integer(0))
-                       for b in range(n)] for a in range(n)], dtype=object)
+    theta = np.array(
+        [
+            [
+                -sum((_exact(xi[m]) * fe[m, a, b] for m in range(n)), sympy.Integer(0))
+                for b in range(n)
+            ]
+            for a in range(n)
+        ],
+        dtype=object,
+    )
     I = np.asarray(inertia, dtype=float)
-    xr, pr = reference_flow(np.array(raw, dtype=float), np.array(theta, dtype=float), np.zeros((n, n)), I, None,
-                            np.asarray(x0, dtype=float), np.asarray(pi0, dtype=float), float(t), dps=20)
+    xr, pr = reference_flow(
+        np.array(raw, dtype=float),
+        np.array(theta, dtype=float),
+        np.zeros((n, n)),
+        I,
+        None,
+        np.asarray(x0, dtype=float),
+        np.asarray(pi0, dtype=float),
+        float(t),
+        dps=20,
+    )
     with mpmath.workdps(dps):
         F = _F_mp(f)
         Iinv = mpmath.inverse(mpmath.matrix(I.tolist()))
@@ -734,7 +821,10 @@ def darboux_flow(f, xi, inertia, x0, pi0, t, *, dps: int = 18, shift=None) -> Me
             x, pp = y[:n], y[n:]
             Om = Iinv * mpmath.matrix([pp[i] - xim[i] for i in range(n)])
             xd = mpmath.lu_solve(frame_A(F, x), Om)
-            pd = [mpmath.fsum(Om[a] * pp[k] * F[k][a, m] for a in range(n) for k in range(n)) for m in range(n)]
+            pd = [
+                mpmath.fsum(Om[a] * pp[k] * F[k][a, m] for a in range(n) for k in range(n))
+                for m in range(n)
+            ]
             return [xd[i] for i in range(n)] + pd
 
         y0 = [_mpf(v) for v in x0] + [_mpf(p) + s for p, s in zip(pi0, xim)]
@@ -745,4 +835,6 @@ def darboux_flow(f, xi, inertia, x0, pi0, t, *, dps: int = 18, shift=None) -> Me
         k = int(np.argmax([float(d) for d in diffs]))
         scale = max([mpmath.mpf(1)] + [abs(v) for v in ours])
         tol = 4 * EPS * scale
-        return Measurement(diffs[k], tol, _digits(diffs[k], scale), f"{'x' if k < n else 'pi'}[{k % n}]")
+        return Measurement(
+            diffs[k], tol, _digits(diffs[k], scale), f"{'x' if k < n else 'pi'}[{k % n}]"
+        )

@@ -22,6 +22,7 @@ from fractions import Fraction
 import numpy as np
 from hypothesis import assume, reject
 from hypothesis import strategies as st
+
 from tstarg.refimpl import catalogue, cocycle_basis
 from tstarg.refimpl._algebra import jacobi_residual
 from tstarg.refimpl.fast import implementation as fast
@@ -52,8 +53,17 @@ def _is_zero(m) -> bool:
 
 # ------------------------------------------------------------------ strategies
 @st.composite
-def model_points(draw, *, max_dim: int = 4, exact_point: bool = True, regime: str = "generic",
-                 coboundary=None, families=None, nontrivial: bool = False, rational: bool = False):
+def model_points(
+    draw,
+    *,
+    max_dim: int = 4,
+    exact_point: bool = True,
+    regime: str = "generic",
+    coboundary=None,
+    families=None,
+    nontrivial: bool = False,
+    rational: bool = False,
+):
     """``(model, x, pi)``: a :func:`models` draw and a point (rational when ``exact_point``).
 
     ``nontrivial=True`` (for the costly high-precision checks, which see few examples):
@@ -66,8 +76,14 @@ def model_points(draw, *, max_dim: int = 4, exact_point: bool = True, regime: st
         alg_st = alg_st.filter(lambda a: a.is_rational)
     if nontrivial:
         alg_st = alg_st.filter(lambda a: a.f.any())
-    model = draw(models(algebras=alg_st, coboundary=coboundary,
-                        upsilon_zero=False if (regime == "near_degenerate" or nontrivial) else None), label="model")
+    model = draw(
+        models(
+            algebras=alg_st,
+            coboundary=coboundary,
+            upsilon_zero=False if (regime == "near_degenerate" or nontrivial) else None,
+        ),
+        label="model",
+    )
     n = model["algebra"].dim
     if exact_point:
         vec = st.lists(rationals(denominator=10), min_size=n, max_size=n)
@@ -76,14 +92,18 @@ def model_points(draw, *, max_dim: int = 4, exact_point: bool = True, regime: st
         return model, draw(vec, label="x"), draw(vec, label="pi")
     if regime == "near_degenerate":
         assume(model["algebra"].f.any())
-    x, pi = draw(points(model["algebra"], model["theta"], model["upsilon"], regime=regime), label="point")
+    x, pi = draw(
+        points(model["algebra"], model["theta"], model["upsilon"], regime=regime), label="point"
+    )
     return model, list(x), list(pi)
 
 
 @st.composite
 def darboux_examples(draw, *, max_dim: int = 4):
     """``(algebra, xi, x, pi)``: Theta = -xi.f (zeven3), Upsilon = 0, a rational point."""
-    alg = draw(lie_algebras(max_dim=max_dim).filter(lambda a: a.f.any()), label="algebra (non-abelian)")
+    alg = draw(
+        lie_algebras(max_dim=max_dim).filter(lambda a: a.f.any()), label="algebra (non-abelian)"
+    )
     n = alg.dim
     vec = st.lists(rationals(denominator=10), min_size=n, max_size=n)
     xi = draw(st.lists(rationals(), min_size=n, max_size=n).filter(any), label="xi")
@@ -96,15 +116,25 @@ _REF30 = Reference(30)
 
 def _reference_P(f, theta, upsilon, x, pi):
     """The reference at 30 digits, rounded to float64: entry error <= eps |P| (correct rounding)."""
-    P = _REF30.poisson_tensor(np.asarray(f, dtype=float), np.array(theta, dtype=float),
-                              np.array(upsilon, dtype=float), np.asarray(x, dtype=float), np.asarray(pi, dtype=float))
+    P = _REF30.poisson_tensor(
+        np.asarray(f, dtype=float),
+        np.array(theta, dtype=float),
+        np.array(upsilon, dtype=float),
+        np.asarray(x, dtype=float),
+        np.asarray(pi, dtype=float),
+    )
     P = np.asarray(P, dtype=float)
     return P, EPS * max(1.0, float(np.max(np.abs(P))))
 
 
 def _fast_P(f, theta, upsilon, x, pi):
-    r = fast.poisson_batch(np.asarray(f, dtype=float), np.array(theta, dtype=float), np.array(upsilon, dtype=float),
-                           np.asarray(x, dtype=float), np.asarray(pi, dtype=float))
+    r = fast.poisson_batch(
+        np.asarray(f, dtype=float),
+        np.array(theta, dtype=float),
+        np.array(upsilon, dtype=float),
+        np.asarray(x, dtype=float),
+        np.asarray(pi, dtype=float),
+    )
     if np.any(r.degenerate):
         raise DegeneratePointError("fast: degenerate point")
     return r.P, float(np.max(r.error_bound))
@@ -112,9 +142,15 @@ def _fast_P(f, theta, upsilon, x, pi):
 
 def _fast_batch(f, theta, upsilon):
     def batch(X, Pi):
-        r = fast.poisson_batch(np.asarray(f, dtype=float), np.array(theta, dtype=float),
-                               np.array(upsilon, dtype=float), X, Pi)
+        r = fast.poisson_batch(
+            np.asarray(f, dtype=float),
+            np.array(theta, dtype=float),
+            np.array(upsilon, dtype=float),
+            X,
+            Pi,
+        )
         return r.P, r.error_bound
+
     return batch
 
 
@@ -122,6 +158,7 @@ def _reference_batch(f, theta, upsilon):
     def batch(X, Pi):
         Ps = [_reference_P(f, theta, upsilon, x, p) for x, p in zip(X, Pi)]
         return np.array([p for p, _ in Ps]), np.array([b for _, b in Ps])
+
     return batch
 
 
@@ -147,7 +184,9 @@ def closedness_mp_example(ex):
 def antisymmetry_example(ex):
     model, _, pi = ex
     try:
-        return idn.phi_psi_identities(model["algebra"], model["theta"], model["upsilon"], pi, exact=True)
+        return idn.phi_psi_identities(
+            model["algebra"], model["theta"], model["upsilon"], pi, exact=True
+        )
     except ValueError:  # Delta = 0 exactly: no inverse identities (vier7)
         return None
 
@@ -163,6 +202,7 @@ def tensor_blocks_example(impl: str):
         except (DegeneratePointError, ValueError):
             return None
         return idn.tensor_blocks(P, bound, alg, model["theta"], model["upsilon"], x, pi)
+
     return body
 
 
@@ -178,8 +218,11 @@ def jacobi_reference_example(ex):
     model, x, pi = ex
     alg = model["algebra"]
     try:
-        return idn.jacobi_mp(idn.reference_tensor(alg, model["theta"], model["upsilon"], dps=20),
-                             list(x) + list(pi), dps=20)
+        return idn.jacobi_mp(
+            idn.reference_tensor(alg, model["theta"], model["upsilon"], dps=20),
+            list(x) + list(pi),
+            dps=20,
+        )
     except (DegeneratePointError, ValueError):
         return None
 
@@ -193,6 +236,7 @@ def jacobi_float_example(impl: str):
             return idn.jacobi_float(batch, np.array(list(x) + list(pi), dtype=float), alg.dim)
         except (DegeneratePointError, ValueError):
             return None
+
     return body
 
 
@@ -208,6 +252,7 @@ def darboux_example(impl: str):
             return idn.darboux_residual(P, J, dps=30)
         P, bound = IMPLEMENTATIONS[impl](alg.f, theta, zero, x, pi)
         return idn.darboux_residual(P, J, bound)
+
     return body
 
 
@@ -218,13 +263,21 @@ def darboux_flow_examples(draw):
     a diagonal inertia. (The representation is needed by ``reference_flow``, which re-bases
     ``g = g_ref exp(x)`` and returns NaN coordinates without one -- even for short flows that stay
     well inside the chart, e.g. Bianchi III from x0 = (-0.7, 0, 0): reported to the flows issue.)"""
-    alg = draw(lie_algebras(min_dim=2, max_dim=3).filter(
-        lambda a: a.f.any() and a.is_rational and a.rep is not None), label="algebra")
+    alg = draw(
+        lie_algebras(min_dim=2, max_dim=3).filter(
+            lambda a: a.f.any() and a.is_rational and a.rep is not None
+        ),
+        label="algebra",
+    )
     n = alg.dim
     xi = draw(st.lists(rationals(), min_size=n, max_size=n).filter(any), label="xi")
     assume(not _is_zero(_coboundary_from(alg, xi)))  # Theta = -xi.f != 0, or xi is invisible
-    inertia = np.diag(draw(st.lists(st.sampled_from([1.0, 1.5, 2.0, 3.0]), min_size=n, max_size=n),
-                           label="principal moments"))
+    inertia = np.diag(
+        draw(
+            st.lists(st.sampled_from([1.0, 1.5, 2.0, 3.0]), min_size=n, max_size=n),
+            label="principal moments",
+        )
+    )
     vec = st.lists(rationals(denominator=10), min_size=n, max_size=n)
     return alg, xi, inertia, draw(vec, label="x0"), draw(vec.filter(any), label="pi0"), 0.25
 
@@ -257,12 +310,14 @@ def whitehead_example(alg):
 # ------------------------------------------------------------ negative controls
 def _expect_failure(measure):
     """Negative control: pass (ratio <= 1) iff the identity failed; ratio = tolerance / error."""
+
     def body(ex):
         m = measure(ex)
         if m is None:
             return None
         r = m.ratio
         return (0.0 if math.isinf(r) else (math.inf if r == 0 else 1.0 / r)), None
+
     return body
 
 
@@ -298,12 +353,20 @@ def _broken_jacobi_jacobi(ex):
 @st.composite
 def _non_cocycle_models(draw):
 
-    alg = draw(lie_algebras(max_dim=4).filter(
-        lambda a: a.is_rational and len(cocycle_basis(a)) < a.dim * (a.dim - 1) // 2), label="algebra (rational)")
+    alg = draw(
+        lie_algebras(max_dim=4).filter(
+            lambda a: a.is_rational and len(cocycle_basis(a)) < a.dim * (a.dim - 1) // 2
+        ),
+        label="algebra (rational)",
+    )
     theta = draw(non_cocycles(alg), label="theta (not a cocycle)")
     ups = draw(upsilons(alg.dim), label="upsilon")
     vec = st.lists(rationals(denominator=10), min_size=alg.dim, max_size=alg.dim)
-    return {"algebra": alg, "theta": theta, "upsilon": ups}, draw(vec, label="x"), draw(vec, label="pi")
+    return (
+        {"algebra": alg, "theta": theta, "upsilon": ups},
+        draw(vec, label="x"),
+        draw(vec, label="pi"),
+    )
 
 
 @st.composite
@@ -351,7 +414,9 @@ def _antisymmetry_nonzero_S(ex):
     hold for any Upsilon, so there is nothing to break)."""
     model, _, pi = ex
     alg = model["algebra"]
-    S = np.einsum("m,mab->ab", np.array(pi, dtype=float), alg.f) - np.array(model["theta"], dtype=float)
+    S = np.einsum("m,mab->ab", np.array(pi, dtype=float), alg.f) - np.array(
+        model["theta"], dtype=float
+    )
     if not S.any():
         return None
     return antisymmetry_example(ex)
@@ -400,13 +465,18 @@ def _scaled_pp_jacobi(ex):
         P = P.copy()
         P[..., n:, n:] *= 1 + 1e-3
         return P, b
+
     return idn.jacobi_float(batch, np.array(list(x) + list(pi), dtype=float), n)
 
 
 @st.composite
 def _h2_nonzero_algebras(draw):
-    return catalogue(draw(st.sampled_from(["R^3", "h(3)", "h(5)", "Bianchi II", "Bianchi VI0", "se(2)"]),
-                          label="algebra with H^2 != 0"))
+    return catalogue(
+        draw(
+            st.sampled_from(["R^3", "h(3)", "h(5)", "Bianchi II", "Bianchi VI0", "se(2)"]),
+            label="algebra with H^2 != 0",
+        )
+    )
 
 
 # -------------------------------------------------------------------- provider
@@ -423,56 +493,173 @@ def identity_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult
     def add(name, eqs, body, strategy, n, **extra):
         out.append(run_property(name, eqs, body, strategy, max_examples=n, seed=seed, extra=extra))
 
-    add("closedness[exact]", "vier2, vier3, zeven1", closedness_exact_example, model_points(max_dim=5), k,
-        tolerance="0 (sympy, pi symbolic, x = 0)")
-    add("closedness[mp]", "vier2, vier3", closedness_mp_example, model_points(max_dim=3, nontrivial=True), k_mp,
-        tolerance="3e-21 max(|Omega|, |dOmega|) at 25 digits")
-    add("antisymmetry[exact]", "vier6, vier7", antisymmetry_example, model_points(max_dim=5, rational=True), k,
-        tolerance="0 (sympy rationals)")
+    add(
+        "closedness[exact]",
+        "vier2, vier3, zeven1",
+        closedness_exact_example,
+        model_points(max_dim=5),
+        k,
+        tolerance="0 (sympy, pi symbolic, x = 0)",
+    )
+    add(
+        "closedness[mp]",
+        "vier2, vier3",
+        closedness_mp_example,
+        model_points(max_dim=3, nontrivial=True),
+        k_mp,
+        tolerance="3e-21 max(|Omega|, |dOmega|) at 25 digits",
+    )
+    add(
+        "antisymmetry[exact]",
+        "vier6, vier7",
+        antisymmetry_example,
+        model_points(max_dim=5, rational=True),
+        k,
+        tolerance="0 (sympy rationals)",
+    )
     for impl in ("reference", "fast"):
         for regime in ("generic", "near_degenerate"):
             if impl == "reference" and regime != "generic":
                 continue
-            add(f"tensor_blocks[{impl},{regime}]", "vier7, vier9", tensor_blocks_example(impl),
-                model_points(max_dim=4, exact_point=False, regime=regime), k if impl == "fast" else k_mp,
-                tolerance="8n(|Phi| 2n|A|^2 e + n eps |Phi||B|), e = entry error bound of P")
-    add("jacobi[exact]", "vier9", jacobi_exact_example, model_points(max_dim=5, rational=True), k,
-        tolerance="0 (sympy rationals, x = 0)")
-    add("jacobi[reference]", "vier9", jacobi_reference_example, model_points(max_dim=3, nontrivial=True), k_mp,
-        tolerance="3N 1e-16 max|P| max|dP| at 20 digits")
+            add(
+                f"tensor_blocks[{impl},{regime}]",
+                "vier7, vier9",
+                tensor_blocks_example(impl),
+                model_points(max_dim=4, exact_point=False, regime=regime),
+                k if impl == "fast" else k_mp,
+                tolerance="8n(|Phi| 2n|A|^2 e + n eps |Phi||B|), e = entry error bound of P",
+            )
+    add(
+        "jacobi[exact]",
+        "vier9",
+        jacobi_exact_example,
+        model_points(max_dim=5, rational=True),
+        k,
+        tolerance="0 (sympy rationals, x = 0)",
+    )
+    add(
+        "jacobi[reference]",
+        "vier9",
+        jacobi_reference_example,
+        model_points(max_dim=3, nontrivial=True),
+        k_mp,
+        tolerance="3N 1e-16 max|P| max|dP| at 20 digits",
+    )
     for impl in ("reference", "fast"):
-        add(f"jacobi[{impl},float64]", "vier9", jacobi_float_example(impl),
-            model_points(max_dim=4, exact_point=False), k if impl == "fast" else k_mp,
-            tolerance="12N(|P| dP_err + |dP| e), dP_err Richardson + e/h")
+        add(
+            f"jacobi[{impl},float64]",
+            "vier9",
+            jacobi_float_example(impl),
+            model_points(max_dim=4, exact_point=False),
+            k if impl == "fast" else k_mp,
+            tolerance="12N(|P| dP_err + |dP| e), dP_err Richardson + e/h",
+        )
     for impl in ("reference", "fast"):
-        add(f"darboux[{impl}]", "drie7, drie8, drie9", darboux_example(impl), darboux_examples(max_dim=4),
+        add(
+            f"darboux[{impl}]",
+            "drie7, drie8, drie9",
+            darboux_example(impl),
+            darboux_examples(max_dim=4),
             k_mp if impl == "reference" else k,
-            tolerance="reference 1e-26 |J|^2|P|; fast 4 rowsum|J|^2 (e + 2n eps |P|)")
+            tolerance="reference 1e-26 |J|^2|P|; fast 4 rowsum|J|^2 (e + 2n eps |P|)",
+        )
     if _flows_available():
-        add("darboux_flow[reference]", "drie10, drie11, drie12", darboux_flow_example, darboux_flow_examples(),
-            max(1, k // 12), tolerance="4 eps max|state| (reference_flow vs mpmath.odefun of drie11/12)")
-    add("whitehead", "zeven1, zeven3", whitehead_example, lie_algebras(semisimple=True, max_dim=6), k,
-        tolerance="0 (every cocycle solved exactly)")
+        add(
+            "darboux_flow[reference]",
+            "drie10, drie11, drie12",
+            darboux_flow_example,
+            darboux_flow_examples(),
+            max(1, k // 12),
+            tolerance="4 eps max|state| (reference_flow vs mpmath.odefun of drie11/12)",
+        )
+    add(
+        "whitehead",
+        "zeven1, zeven3",
+        whitehead_example,
+        lie_algebras(semisimple=True, max_dim=6),
+        k,
+        tolerance="0 (every cocycle solved exactly)",
+    )
     # negative controls: each identity must fail on broken input
-    add("negative[closedness: f breaks Jacobi]", "vier2", _expect_failure(_broken_jacobi_closedness),
-        _broken_jacobi_models(), k, expects="failure")
-    add("negative[closedness: Theta not a cocycle]", "zeven1", _expect_failure(closedness_exact_example),
-        _non_cocycle_models(), k, expects="failure")
-    add("negative[jacobi: f breaks Jacobi]", "vier9", _expect_failure(_broken_jacobi_jacobi),
-        _broken_jacobi_models(), k, expects="failure")
-    add("negative[jacobi: Theta not a cocycle]", "vier9", _expect_failure(jacobi_exact_example),
-        _non_cocycle_models(), k, expects="failure")
-    add("negative[jacobi_float: {pi,pi} scaled]", "vier9", _expect_failure(_scaled_pp_jacobi),
-        model_points(max_dim=4, exact_point=False), k, expects="failure")
-    add("negative[antisymmetry: Upsilon not antisymmetric]", "vier6, vier7", _expect_failure(_antisymmetry_nonzero_S),
-        _nonsymmetric_upsilon_models(), k, expects="failure")
-    add("negative[tensor_blocks: perturbed P]", "vier9", _expect_failure(_perturbed_blocks),
-        model_points(max_dim=4, exact_point=False), k, expects="failure")
-    add("negative[darboux: class of Theta != 0]", "drie9", _expect_failure(_nontrivial_darboux_body),
-        _nontrivial_darboux(), k_mp, expects="failure")
-    add("negative[whitehead: H^2 != 0]", "zeven3", _expect_failure(whitehead_example),
-        _h2_nonzero_algebras(), k, expects="failure")
+    add(
+        "negative[closedness: f breaks Jacobi]",
+        "vier2",
+        _expect_failure(_broken_jacobi_closedness),
+        _broken_jacobi_models(),
+        k,
+        expects="failure",
+    )
+    add(
+        "negative[closedness: Theta not a cocycle]",
+        "zeven1",
+        _expect_failure(closedness_exact_example),
+        _non_cocycle_models(),
+        k,
+        expects="failure",
+    )
+    add(
+        "negative[jacobi: f breaks Jacobi]",
+        "vier9",
+        _expect_failure(_broken_jacobi_jacobi),
+        _broken_jacobi_models(),
+        k,
+        expects="failure",
+    )
+    add(
+        "negative[jacobi: Theta not a cocycle]",
+        "vier9",
+        _expect_failure(jacobi_exact_example),
+        _non_cocycle_models(),
+        k,
+        expects="failure",
+    )
+    add(
+        "negative[jacobi_float: {pi,pi} scaled]",
+        "vier9",
+        _expect_failure(_scaled_pp_jacobi),
+        model_points(max_dim=4, exact_point=False),
+        k,
+        expects="failure",
+    )
+    add(
+        "negative[antisymmetry: Upsilon not antisymmetric]",
+        "vier6, vier7",
+        _expect_failure(_antisymmetry_nonzero_S),
+        _nonsymmetric_upsilon_models(),
+        k,
+        expects="failure",
+    )
+    add(
+        "negative[tensor_blocks: perturbed P]",
+        "vier9",
+        _expect_failure(_perturbed_blocks),
+        model_points(max_dim=4, exact_point=False),
+        k,
+        expects="failure",
+    )
+    add(
+        "negative[darboux: class of Theta != 0]",
+        "drie9",
+        _expect_failure(_nontrivial_darboux_body),
+        _nontrivial_darboux(),
+        k_mp,
+        expects="failure",
+    )
+    add(
+        "negative[whitehead: H^2 != 0]",
+        "zeven3",
+        _expect_failure(whitehead_example),
+        _h2_nonzero_algebras(),
+        k,
+        expects="failure",
+    )
     if _flows_available() and k >= 30:  # ~20 s per example: thorough profile only
-        add("negative[darboux_flow: xi -> -xi]", "drie11, drie12", _expect_failure(_darboux_flow_wrong_shift),
-            darboux_flow_examples(), max(1, k // 30), expects="failure")
+        add(
+            "negative[darboux_flow: xi -> -xi]",
+            "drie11, drie12",
+            _expect_failure(_darboux_flow_wrong_shift),
+            darboux_flow_examples(),
+            max(1, k // 30),
+            expects="failure",
+        )
     return out

@@ -18,17 +18,28 @@ __all__ = ["PROFILES", "register_profiles", "default_profile", "ref_examples", "
 PROFILES: dict[str, dict] = {
     "dev": {"max_examples": 15, "verify_examples": 6, "certify_examples": 8, "derandomize": False},
     "ci": {"max_examples": 25, "verify_examples": 20, "certify_examples": 15, "derandomize": True},
-    "thorough": {"max_examples": 400, "verify_examples": 60, "certify_examples": 100, "derandomize": False},
+    "thorough": {
+        "max_examples": 400,
+        "verify_examples": 60,
+        "certify_examples": 100,
+        "derandomize": False,
+    },
 }
 
 
 def register_profiles() -> None:
     """Register every profile of :data:`PROFILES` with Hypothesis (idempotent)."""
     for name, p in PROFILES.items():
-        health = [HealthCheck.too_slow] + ([HealthCheck.data_too_large] if name == "thorough" else [])
+        health = [HealthCheck.too_slow] + (
+            [HealthCheck.data_too_large] if name == "thorough" else []
+        )
         settings.register_profile(
-            name, max_examples=p["max_examples"], deadline=None, derandomize=p["derandomize"],
-            print_blob=True, suppress_health_check=health,
+            name,
+            max_examples=p["max_examples"],
+            deadline=None,
+            derandomize=p["derandomize"],
+            print_blob=True,
+            suppress_health_check=health,
         )
 
 

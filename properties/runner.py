@@ -48,7 +48,6 @@ from typing import Any
 
 import mpmath
 import numpy as np
-
 from hypothesis import HealthCheck, given, settings
 from hypothesis import seed as hyp_seed
 from hypothesis import strategies as st
@@ -186,12 +185,20 @@ LIMITS = Limits()
 
 
 @contextlib.contextmanager
-def limits(example_seconds: float | None = None, check_seconds: float | None = None,
-           shrink_seconds: float | None = None, run_seconds: float | None = None):
+def limits(
+    example_seconds: float | None = None,
+    check_seconds: float | None = None,
+    shrink_seconds: float | None = None,
+    run_seconds: float | None = None,
+):
     """Run the enclosed checks with these budgets (``tstarg verify`` / ``certify`` set them per profile);
     ``run_seconds``: a budget for everything inside the block (checks started after it is used
     up stop at once and report that nothing was verified)."""
-    new = {"example_seconds": example_seconds, "check_seconds": check_seconds, "shrink_seconds": shrink_seconds}
+    new = {
+        "example_seconds": example_seconds,
+        "check_seconds": check_seconds,
+        "shrink_seconds": shrink_seconds,
+    }
     if run_seconds is not None:  # otherwise an enclosing run's deadline stays
         new["deadline"] = run_seconds
     for what, v in new.items():
@@ -269,7 +276,9 @@ def decode(v: Any) -> Any:
     if "complex" in v:
         return complex(decode(v["complex"][0]), decode(v["complex"][1]))
     if "repr" in v:
-        raise ValueError(f"this example value cannot be replayed (only its repr was kept): {v['repr']!r}")
+        raise ValueError(
+            f"this example value cannot be replayed (only its repr was kept): {v['repr']!r}"
+        )
     return v
 
 
@@ -284,9 +293,13 @@ def _fmt(a: Any) -> str:
 
 def _is_model(v: Any) -> bool:
     """The certification/property layout ``(algebra name, f, Theta, Upsilon, x, pi)``."""
-    return (isinstance(v, tuple) and len(v) == 6 and isinstance(v[0], str)
-            and all(isinstance(a, np.ndarray) for a in v[1:])
-            and [a.ndim for a in v[1:]] == [3, 2, 2, 1, 1])
+    return (
+        isinstance(v, tuple)
+        and len(v) == 6
+        and isinstance(v[0], str)
+        and all(isinstance(a, np.ndarray) for a in v[1:])
+        and [a.ndim for a in v[1:]] == [3, 2, 2, 1, 1]
+    )
 
 
 def _label(v: Any, path: str = "example") -> list[tuple[str, Any]]:
@@ -294,10 +307,17 @@ def _label(v: Any, path: str = "example") -> list[tuple[str, Any]]:
     float beside a model is the time ``t``, a string or ``None`` beside it the potential."""
     if _is_model(v):
         name, f, theta, ups, x, pi = v
-        nz = [f"f^{m}_({a},{b}) = {float(f[m, a, b])!r}" for m, a, b in zip(*np.nonzero(f)) if a < b]
-        return [("algebra", f"{name} (dimension {f.shape[0]})"),
-                ("structure constants (nonzero, a < b)", "; ".join(nz) if nz else "abelian (all zero)"),
-                ("Theta", theta), ("Upsilon", ups), ("x", x), ("pi", pi)]
+        nz = [
+            f"f^{m}_({a},{b}) = {float(f[m, a, b])!r}" for m, a, b in zip(*np.nonzero(f)) if a < b
+        ]
+        return [
+            ("algebra", f"{name} (dimension {f.shape[0]})"),
+            ("structure constants (nonzero, a < b)", "; ".join(nz) if nz else "abelian (all zero)"),
+            ("Theta", theta),
+            ("Upsilon", ups),
+            ("x", x),
+            ("pi", pi),
+        ]
     if isinstance(v, tuple):
         has_model = any(_is_model(p) for p in v)
         out = []
@@ -326,8 +346,12 @@ def worst_entry(notes: dict, ratio: float | None) -> dict | None:
         idx = np.unravel_index(int(np.argmax(diff)), diff.shape)
     except (TypeError, ValueError):
         return None
-    out = {"index": [int(i) for i in idx], "expected": float(exp[idx]), "got": float(got[idx]),
-           "error": float(diff[idx])}
+    out = {
+        "index": [int(i) for i in idx],
+        "expected": float(exp[idx]),
+        "got": float(got[idx]),
+        "error": float(diff[idx]),
+    }
     if "tolerance" in notes:
         out["tolerance"] = float(notes["tolerance"])
     elif ratio is not None and math.isfinite(ratio) and ratio > 0 and math.isfinite(out["error"]):
@@ -339,8 +363,12 @@ def worst_entry(notes: dict, ratio: float | None) -> dict | None:
 
 
 def _record_failure(example: Any, notes: dict, ratio: float | None, error: str) -> dict:
-    data = {"values": encode(example), "ratio": encode(ratio), "error": error,
-            "notes": {k: encode(v) for k, v in notes.items()}}
+    data = {
+        "values": encode(example),
+        "ratio": encode(ratio),
+        "error": error,
+        "notes": {k: encode(v) for k, v in notes.items()},
+    }
     worst = worst_entry(notes, ratio)
     if worst is not None:
         data["worst_entry"] = worst
@@ -348,8 +376,13 @@ def _record_failure(example: Any, notes: dict, ratio: float | None, error: str) 
     return data
 
 
-def render_example(example: Any, notes: dict | None = None, ratio: float | None = None,
-                   error: str = "", worst: dict | None = None) -> str:
+def render_example(
+    example: Any,
+    notes: dict | None = None,
+    ratio: float | None = None,
+    error: str = "",
+    worst: dict | None = None,
+) -> str:
     """The failing example as text, from the drawn values (independent of Hypothesis' report)."""
     notes = notes or {}
     lines = ["falsifying example (drawn values, rendered by tstarg):"]
@@ -364,11 +397,17 @@ def render_example(example: Any, notes: dict | None = None, ratio: float | None 
         idx = ",".join(str(i) for i in worst["index"])
         what = notes.get("what", "result")
         tol = worst.get("tolerance")
-        lines.append(f"  worst entry {what}[{idx}]: expected {worst['expected']!r}, got {worst['got']!r}, "
-                     f"error {worst['error']:.3e}"
-                     + ("" if tol is None else f", tolerance {tol:.3e}"
-                        + (" (error / ratio)" if worst.get("tolerance_from") else ""))
-                     + ("" if ratio is None else f", ratio {ratio:.3g}"))
+        lines.append(
+            f"  worst entry {what}[{idx}]: expected {worst['expected']!r}, got {worst['got']!r}, "
+            f"error {worst['error']:.3e}"
+            + (
+                ""
+                if tol is None
+                else f", tolerance {tol:.3e}"
+                + (" (error / ratio)" if worst.get("tolerance_from") else "")
+            )
+            + ("" if ratio is None else f", ratio {ratio:.3g}")
+        )
     elif ratio is not None:
         lines.append(f"  error/tolerance ratio = {ratio:.3g}")
     for k, v in notes.items():
@@ -395,10 +434,19 @@ def _strip_notes(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}"[:2000]
 
 
-def run_property(name: str, equations: str, body: Callable[[Any], tuple[float, float | None]],
-                 strategy: st.SearchStrategy, *, max_examples: int, seed: int | None = 0,
-                 extra: dict | None = None, example_seconds: float | None = None,
-                 check_seconds: float | None = None, shrink_seconds: float | None = None) -> CheckResult:
+def run_property(
+    name: str,
+    equations: str,
+    body: Callable[[Any], tuple[float, float | None]],
+    strategy: st.SearchStrategy,
+    *,
+    max_examples: int,
+    seed: int | None = 0,
+    extra: dict | None = None,
+    example_seconds: float | None = None,
+    check_seconds: float | None = None,
+    shrink_seconds: float | None = None,
+) -> CheckResult:
     """Run ``body`` over ``strategy`` with Hypothesis; a ratio above 1 is a failure, shrunk to a minimal example.
 
     ``body`` may return ``None`` to skip an example (e.g. a point exactly on the degenerate set).
@@ -412,7 +460,13 @@ def run_property(name: str, equations: str, body: Callable[[Any], tuple[float, f
         ck_s = left if ck_s is None else min(ck_s, left)
     sh_s = shrink_seconds if shrink_seconds is not None else LIMITS.shrink_seconds
     t0 = time.perf_counter()
-    state = {"failure": None, "over": 0, "stopped": False, "example_seconds": ex_s, "first_failure": None}
+    state = {
+        "failure": None,
+        "over": 0,
+        "stopped": False,
+        "example_seconds": ex_s,
+        "first_failure": None,
+    }
     if REPLAY and name not in REPLAY:
         res.extra["not_replayed"] = True
         return res
@@ -438,7 +492,9 @@ def run_property(name: str, equations: str, body: Callable[[Any], tuple[float, f
             ratio = float(ratio)
             res.examples += 1
             _report("example", name, res.examples, max_examples)
-            res.worst_ratio = max(res.worst_ratio, ratio if ratio <= 1.0 or ratio > 1.0 else math.inf)
+            res.worst_ratio = max(
+                res.worst_ratio, ratio if ratio <= 1.0 or ratio > 1.0 else math.inf
+            )
             if digits is not None:
                 res.min_digits = digits if res.min_digits is None else min(res.min_digits, digits)
             assert ratio <= 1.0, f"{name}: error/tolerance ratio {ratio:.3g} > 1"
@@ -448,7 +504,9 @@ def run_property(name: str, equations: str, body: Callable[[Any], tuple[float, f
             state["failure"] = _record_failure(example, notes, ratio, _strip_notes(exc))
             if state["first_failure"] is None:
                 state["first_failure"] = time.perf_counter()
-            if isinstance(exc, SystemExit):  # Hypothesis treats it as a failure: keep it one, clearly
+            if isinstance(
+                exc, SystemExit
+            ):  # Hypothesis treats it as a failure: keep it one, clearly
                 raise AssertionError(f"the check called sys.exit({exc.code!r})") from exc  # noqa: TRY004
             raise
         finally:
@@ -465,15 +523,24 @@ def run_property(name: str, equations: str, body: Callable[[Any], tuple[float, f
             res.detail = _strip_notes(exc)
         return _finish(res, state, t0, max_examples)
 
-    @settings(max_examples=max_examples, deadline=None, database=None,
-              suppress_health_check=list(HealthCheck), print_blob=False)
+    @settings(
+        max_examples=max_examples,
+        deadline=None,
+        database=None,
+        suppress_health_check=list(HealthCheck),
+        print_blob=False,
+    )
     @given(strategy)
     def inner(example):
         now = time.perf_counter()
         if ck_s is not None and now - t0 > ck_s:
             state["stopped"] = True
             raise _Stop(f"the check's budget of {ck_s:g} s")
-        if sh_s is not None and state["first_failure"] is not None and now - state["first_failure"] > sh_s:
+        if (
+            sh_s is not None
+            and state["first_failure"] is not None
+            and now - state["first_failure"] > sh_s
+        ):
             raise _Stop(f"the shrinking budget of {sh_s:g} s")
         one(example)
 
@@ -486,8 +553,10 @@ def run_property(name: str, equations: str, body: Callable[[Any], tuple[float, f
     except _Stop as stop:
         if state["failure"] is not None:
             res.passed = False
-            res.detail = (f"{state['failure']['error']} (shrinking stopped at {stop}: "
-                          "the example below is the smallest failing one found by then)")
+            res.detail = (
+                f"{state['failure']['error']} (shrinking stopped at {stop}: "
+                "the example below is the smallest failing one found by then)"
+            )
     except KeyboardInterrupt:
         raise
     except Unsatisfiable as exc:
@@ -501,15 +570,20 @@ def run_property(name: str, equations: str, body: Callable[[Any], tuple[float, f
         res.detail = _strip_notes(exc)
         if state["failure"] is None:  # raised outside the body: while drawing the example
             tb = "".join(traceback.format_exception(type(exc), exc, exc.__traceback__)[-6:])
-            res.falsifying_example = ("no example to show: this was raised outside the check's body, while "
-                                      "drawing an example (in the strategy) or inside Hypothesis itself:\n"
-                                      + tb)[:8000]
+            res.falsifying_example = (
+                "no example to show: this was raised outside the check's body, while "
+                "drawing an example (in the strategy) or inside Hypothesis itself:\n" + tb
+            )[:8000]
     if buf.getvalue():
-        res.extra["hypothesis_output"] = ("(Hypothesis' own report, not the example) " + buf.getvalue())[:4000]
+        res.extra["hypothesis_output"] = (
+            "(Hypothesis' own report, not the example) " + buf.getvalue()
+        )[:4000]
     return _finish(res, state, t0, max_examples, ck_s)
 
 
-def _finish(res: CheckResult, state: dict, t0: float, max_examples: int, ck_s: float | None = None) -> CheckResult:
+def _finish(
+    res: CheckResult, state: dict, t0: float, max_examples: int, ck_s: float | None = None
+) -> CheckResult:
     if state["over"]:
         res.extra["over_budget"] = state["over"]
     if state["stopped"]:
@@ -520,13 +594,17 @@ def _finish(res: CheckResult, state: dict, t0: float, max_examples: int, ck_s: f
     if res.passed and res.examples == 0 and state["stopped"] and not state["over"]:
         res.passed = False
         res.worst_ratio = math.inf
-        res.detail = (f"nothing verified: the budget left for this check ({ck_s:.3g} s, the check's own or what "
-                      "remained of the run's) was used up before any example finished")
+        res.detail = (
+            f"nothing verified: the budget left for this check ({ck_s:.3g} s, the check's own or what "
+            "remained of the run's) was used up before any example finished"
+        )
     if res.passed and res.examples == 0 and state["over"]:
         res.passed = False
         res.worst_ratio = math.inf
-        res.detail = (f"nothing verified: all {state['over']} examples ran over the per-example budget "
-                      f"({state['example_seconds']} s)")
+        res.detail = (
+            f"nothing verified: all {state['over']} examples ran over the per-example budget "
+            f"({state['example_seconds']} s)"
+        )
     res.seconds = time.perf_counter() - t0
     _report("done", res.name, res.examples, max_examples, res)
     return res

@@ -21,6 +21,7 @@ import numpy as np
 import sympy
 from hypothesis import assume, reject
 from hypothesis import strategies as st
+
 from tstarg.refimpl import (
     CATALOGUE_NAMES,
     LieAlgebra,
@@ -34,9 +35,23 @@ from tstarg.refimpl import (
 from tstarg.refimpl._algebra import jacobi_residual
 
 __all__ = [
-    "catalogue_algebras", "lie_algebras", "basis_changes", "FAMILIES", "is_solvable", "is_nilpotent",
-    "cocycles", "upsilons", "points", "models", "scenes", "rationals", "REGIMES", "phi_condition",
-    "jacobi_breaking_constants", "non_cocycles", "degeneracy_condition",
+    "catalogue_algebras",
+    "lie_algebras",
+    "basis_changes",
+    "FAMILIES",
+    "is_solvable",
+    "is_nilpotent",
+    "cocycles",
+    "upsilons",
+    "points",
+    "models",
+    "scenes",
+    "rationals",
+    "REGIMES",
+    "phi_condition",
+    "jacobi_breaking_constants",
+    "non_cocycles",
+    "degeneracy_condition",
 ]
 
 EPS = float(np.finfo(float).eps)
@@ -54,14 +69,30 @@ def rationals(*, max_numerator: int = 9, denominator: int = 8) -> st.SearchStrat
 # Fractions -> sympy Rationals), so exact checks can run on them and the
 # float64 constants are correctly rounded.
 
-FAMILIES = ("bianchi_class_b", "catalogue", "basis_changed", "solvable", "nilpotent", "semidirect",
-            "direct_sum", "bianchi_class_a")
+FAMILIES = (
+    "bianchi_class_b",
+    "catalogue",
+    "basis_changed",
+    "solvable",
+    "nilpotent",
+    "semidirect",
+    "direct_sum",
+    "bianchi_class_a",
+)
 """Families :func:`lie_algebras` draws from. Class B Bianchi algebras come first (shrinking
 goes there) and are drawn as often as the catalogue: algebras that only look like so(3)
 hide mistakes (the so(3) trap)."""
 
-_WEIGHTS = {"bianchi_class_b": 3, "catalogue": 2, "basis_changed": 2, "solvable": 2, "nilpotent": 2,
-            "semidirect": 2, "direct_sum": 2, "bianchi_class_a": 1}
+_WEIGHTS = {
+    "bianchi_class_b": 3,
+    "catalogue": 2,
+    "basis_changed": 2,
+    "solvable": 2,
+    "nilpotent": 2,
+    "semidirect": 2,
+    "direct_sum": 2,
+    "bianchi_class_a": 1,
+}
 
 
 def _check_bound(name, value, *, low=None, allow_none=True):
@@ -139,7 +170,7 @@ def _from_matrix_units(k: int, diag: list, positions: list, name: str, tags) -> 
     rep = []
     for d in diag:
         rep.append(np.diag([float(v) for v in d]))
-    for (i, j) in positions:
+    for i, j in positions:
         m = np.zeros((k, k))
         m[i, j] = 1.0
         rep.append(m)
@@ -151,8 +182,8 @@ def _close_positions(k: int, chosen) -> list:
     changed = True
     while changed:
         changed = False
-        for (i, j) in list(pos):
-            for (j2, l) in list(pos):
+        for i, j in list(pos):
+            for j2, l in list(pos):
                 if j == j2 and (i, l) not in pos:
                     pos.add((i, l))
                     changed = True
@@ -163,27 +194,36 @@ def _close_positions(k: int, chosen) -> list:
 def _nilpotent(draw, max_dim):
     k = draw(st.integers(3, 4), label="matrix size k")
     upper = [(i, j) for i in range(k) for j in range(i + 1, k)]
-    chosen = draw(st.lists(st.sampled_from(upper), min_size=2, max_size=len(upper), unique=True),
-                  label="matrix units")
+    chosen = draw(
+        st.lists(st.sampled_from(upper), min_size=2, max_size=len(upper), unique=True),
+        label="matrix units",
+    )
     pos = _close_positions(k, chosen)
     if len(pos) > max_dim:
         pos = pos[:max_dim]
         pos = [p for p in pos if all(q in pos for q in _close_positions(k, [p]))]
         pos = _close_positions(k, pos)
     assume(1 <= len(pos) <= max_dim)
-    return _from_matrix_units(k, [], pos, f"n({k})[{','.join(f'{i}{j}' for i, j in pos)}]", ("nilpotent",))
+    return _from_matrix_units(
+        k, [], pos, f"n({k})[{','.join(f'{i}{j}' for i, j in pos)}]", ("nilpotent",)
+    )
 
 
 @st.composite
 def _solvable(draw, max_dim):
     k = draw(st.integers(2, 3), label="matrix size k")
     upper = [(i, j) for i in range(k) for j in range(i + 1, k)]
-    chosen = draw(st.lists(st.sampled_from(upper), min_size=1, max_size=len(upper), unique=True),
-                  label="matrix units")
+    chosen = draw(
+        st.lists(st.sampled_from(upper), min_size=1, max_size=len(upper), unique=True),
+        label="matrix units",
+    )
     pos = _close_positions(k, chosen)
     r = draw(st.integers(1, k), label="diagonal directions")
     assume(r + len(pos) <= max_dim)
-    diag = [draw(st.lists(st.integers(-2, 2), min_size=k, max_size=k), label=f"diagonal {t}") for t in range(r)]
+    diag = [
+        draw(st.lists(st.integers(-2, 2), min_size=k, max_size=k), label=f"diagonal {t}")
+        for t in range(r)
+    ]
     dm = np.array(diag, dtype=float)
     assume(np.linalg.matrix_rank(dm) == r)  # independent diagonals: a basis
     return _from_matrix_units(k, diag, pos, f"b({k})[d={diag},{pos}]", ("solvable",))
@@ -205,7 +245,10 @@ def _bianchi_b(draw):
     if kind in ("III", "IV", "V"):
         return bianchi(kind)
     # a = p/q rational so that the constants stay rational: h = -a^2 (VI_h), a^2 (VII_h)
-    a = draw(st.sampled_from([Fraction(1, 2), Fraction(1, 3), Fraction(2), Fraction(3, 2), Fraction(3)]), label="a")
+    a = draw(
+        st.sampled_from([Fraction(1, 2), Fraction(1, 3), Fraction(2), Fraction(3, 2), Fraction(3)]),
+        label="a",
+    )
     if kind == "VI_h":
         assume(a != 1)
         return bianchi("VI_h", -a * a)
@@ -224,12 +267,22 @@ def basis_changes(n: int, *, max_entry: int = 1):
 
 @st.composite
 def _basis_changes(draw, n, max_entry):
-    vals = st.sampled_from([Fraction(0), Fraction(1, 2), Fraction(-1, 2), Fraction(1), Fraction(-1)][:2 * max_entry + 1])
+    vals = st.sampled_from(
+        [Fraction(0), Fraction(1, 2), Fraction(-1, 2), Fraction(1), Fraction(-1)][
+            : 2 * max_entry + 1
+        ]
+    )
     m = n * (n - 1) // 2
     lo = draw(st.lists(vals, min_size=m, max_size=m), label="lower entries")
     up = draw(st.lists(vals, min_size=m, max_size=m), label="upper entries")
-    dg = draw(st.lists(st.sampled_from([Fraction(1), Fraction(2), Fraction(-1), Fraction(1, 2)]), min_size=n,
-                       max_size=n), label="diagonal")
+    dg = draw(
+        st.lists(
+            st.sampled_from([Fraction(1), Fraction(2), Fraction(-1), Fraction(1, 2)]),
+            min_size=n,
+            max_size=n,
+        ),
+        label="diagonal",
+    )
     L = np.array([[Fraction(int(i == j)) for j in range(n)] for i in range(n)], dtype=object)
     U = L.copy()
     t = 0
@@ -259,8 +312,15 @@ def _pool(*, max_dim, semisimple=None):
     return out
 
 
-def lie_algebras(*, min_dim: int = 1, max_dim: int = 6, semisimple: bool | None = None,
-                 solvable: bool | None = None, nilpotent: bool | None = None, families=None):
+def lie_algebras(
+    *,
+    min_dim: int = 1,
+    max_dim: int = 6,
+    semisimple: bool | None = None,
+    solvable: bool | None = None,
+    nilpotent: bool | None = None,
+    families=None,
+):
     """Real Lie algebras with exact rational (or exact algebraic, for the catalogue) constants.
 
     Families (:data:`FAMILIES`): the catalogue; class A and class B Bianchi
@@ -287,12 +347,25 @@ def lie_algebras(*, min_dim: int = 1, max_dim: int = 6, semisimple: bool | None 
     if bad:
         raise ValueError(f"unknown families {bad}; expected a subset of {FAMILIES}")
     if semisimple:
-        fams = tuple(f for f in fams if f in ("catalogue", "basis_changed", "direct_sum", "bianchi_class_a"))
+        fams = tuple(
+            f for f in fams if f in ("catalogue", "basis_changed", "direct_sum", "bianchi_class_a")
+        )
         if max_dim < 3:
             raise ValueError("semisimple algebras have dimension >= 3: max_dim must be >= 3")
     if nilpotent:
-        fams = tuple(f for f in fams if f in ("catalogue", "basis_changed", "nilpotent", "semidirect",
-                                               "bianchi_class_a", "direct_sum"))
+        fams = tuple(
+            f
+            for f in fams
+            if f
+            in (
+                "catalogue",
+                "basis_changed",
+                "nilpotent",
+                "semidirect",
+                "bianchi_class_a",
+                "direct_sum",
+            )
+        )
     if not fams:
         raise ValueError("lie_algebras: the filters leave no family to draw from")
     weighted = [f for f in fams for _ in range(_WEIGHTS[f])]
@@ -312,8 +385,11 @@ def _lie_algebras(draw, weighted, min_dim, max_dim, semisimple, solvable, nilpot
     elif fam == "bianchi_class_b":
         alg = draw(_bianchi_b(), label="Bianchi class B")
     elif fam == "basis_changed":
-        pool = [a for a in _pool(max_dim=min(max_dim, 6), semisimple=True if semisimple else None)
-                if a.is_rational]
+        pool = [
+            a
+            for a in _pool(max_dim=min(max_dim, 6), semisimple=True if semisimple else None)
+            if a.is_rational
+        ]
         assume(pool)
         base = draw(st.sampled_from(pool), label="algebra to change basis of")
         c = draw(basis_changes(base.dim), label="change of basis C")
@@ -326,8 +402,15 @@ def _lie_algebras(draw, weighted, min_dim, max_dim, semisimple, solvable, nilpot
         assume(max_dim >= 2)
         alg = draw(_semidirect(max_dim), label="R |x R^m")
     else:  # direct_sum
-        small = [a for a in _pool(max_dim=min(3, max_dim - 1), semisimple=True if semisimple else None)
-                 if a.is_rational] if max_dim >= 2 else []
+        small = (
+            [
+                a
+                for a in _pool(max_dim=min(3, max_dim - 1), semisimple=True if semisimple else None)
+                if a.is_rational
+            ]
+            if max_dim >= 2
+            else []
+        )
         assume(small)
         g = draw(st.sampled_from(small), label="first summand")
         rest = [a for a in small if a.dim <= max_dim - g.dim]
@@ -360,8 +443,12 @@ def catalogue_algebras(*, names=None, max_dim: int | None = None, semisimple: bo
 
 
 def _exact_matrix(m) -> sympy.Matrix:
-    return sympy.Matrix([[sympy.nsimplify(v) if isinstance(v, float) else sympy.sympify(v) for v in row]
-                         for row in np.asarray(m, dtype=object)])
+    return sympy.Matrix(
+        [
+            [sympy.nsimplify(v) if isinstance(v, float) else sympy.sympify(v) for v in row]
+            for row in np.asarray(m, dtype=object)
+        ]
+    )
 
 
 def _in_span(basis, theta) -> bool:
@@ -380,12 +467,22 @@ def _coboundary_from(algebra: LieAlgebra, xi) -> np.ndarray:
     """``Theta_ab = -xi_m f^m_ab`` (zeven3), exact."""
     f = algebra.f_exact
     n = algebra.dim
-    return np.array([[-sum((xi[m] * f[m, a, b] for m in range(n)), sympy.Integer(0)) for b in range(n)]
-                     for a in range(n)], dtype=object)
+    return np.array(
+        [
+            [-sum((xi[m] * f[m, a, b] for m in range(n)), sympy.Integer(0)) for b in range(n)]
+            for a in range(n)
+        ],
+        dtype=object,
+    )
 
 
-def cocycles(algebra: LieAlgebra, *, exact: bool = True, zero: bool | None = None,
-             coboundary: bool | None = None):
+def cocycles(
+    algebra: LieAlgebra,
+    *,
+    exact: bool = True,
+    zero: bool | None = None,
+    coboundary: bool | None = None,
+):
     """A random 2-cocycle of ``algebra``: a rational combination of an exact basis of Z^2.
 
     ``exact=True`` returns an object array of exact numbers; ``False`` floats.
@@ -398,17 +495,20 @@ def cocycles(algebra: LieAlgebra, *, exact: bool = True, zero: bool | None = Non
         raise ValueError(f"algebra must be a LieAlgebra, got {type(algebra).__name__}")
     _check_flag("zero", zero)
     _check_flag("coboundary", coboundary)
-    n = algebra.dim
     if coboundary is False and zero is True:
         raise ValueError("zero=True and coboundary=False contradict: 0 is a coboundary")
     if coboundary is True and not algebra.is_exact:
-        raise ValueError(f"cocycles(coboundary=True) needs exact structure constants ({algebra.name})")
+        raise ValueError(
+            f"cocycles(coboundary=True) needs exact structure constants ({algebra.name})"
+        )
     basis = cocycle_basis(algebra, exact=algebra.is_exact)
     b2 = None
     if coboundary is False:
         b2 = coboundary_basis(algebra, exact=algebra.is_exact)
         if len(b2) == len(basis):
-            raise ValueError(f"{algebra.name} has H^2 = 0: no cocycle with a non-zero class (coboundary=False)")
+            raise ValueError(
+                f"{algebra.name} has H^2 = 0: no cocycle with a non-zero class (coboundary=False)"
+            )
     if zero is False and not basis:
         raise ValueError(f"{algebra.name} has no non-zero cocycle")
     return _cocycles(algebra, exact, zero, coboundary, basis, b2)
@@ -427,8 +527,12 @@ def _cocycles(draw, algebra, exact, zero, coboundary, basis, b2):
         t = np.zeros((n, n), dtype=object)
         t[:, :] = 0
         return t if exact else np.zeros((n, n))
-    coefs = draw(st.lists(rationals(), min_size=len(basis), max_size=len(basis)).filter(
-        lambda c: zero is not False or any(c)), label="cocycle coefficients")
+    coefs = draw(
+        st.lists(rationals(), min_size=len(basis), max_size=len(basis)).filter(
+            lambda c: zero is not False or any(c)
+        ),
+        label="cocycle coefficients",
+    )
     t = sum((c * b for c, b in zip(coefs, basis)), np.zeros((n, n), dtype=object))
     if coboundary is False:
         assume(not _in_span(b2, t))
@@ -437,7 +541,9 @@ def _cocycles(draw, algebra, exact, zero, coboundary, basis, b2):
     return np.array(t, dtype=float)
 
 
-def upsilons(n: int, *, exact: bool = True, zero: bool | None = None, scale: Fraction = Fraction(1, 2)):
+def upsilons(
+    n: int, *, exact: bool = True, zero: bool | None = None, scale: Fraction = Fraction(1, 2)
+):
     """A random antisymmetric ``(n, n)`` Upsilon with rational entries of size ``<= 9/8 * scale``."""
     _check_bound("n", n, low=1, allow_none=False)
     _check_flag("zero", zero)
@@ -454,8 +560,12 @@ def _upsilons(draw, n, exact, zero, scale):
     u[:, :] = Fraction(0)
     if zero is True:
         return u if exact else np.zeros((n, n))
-    vals = draw(st.lists(rationals(), min_size=n * (n - 1) // 2, max_size=n * (n - 1) // 2).filter(
-        lambda v: zero is not False or any(v)), label="upsilon entries")
+    vals = draw(
+        st.lists(rationals(), min_size=n * (n - 1) // 2, max_size=n * (n - 1) // 2).filter(
+            lambda v: zero is not False or any(v)
+        ),
+        label="upsilon entries",
+    )
     k = 0
     for i in range(n):
         for j in range(i + 1, n):
@@ -500,7 +610,11 @@ def _degenerate_roots(f, theta, upsilon, pi0, d):  # candidates only: points() v
         lam = np.linalg.eigvals(np.linalg.solve(Phi0, B))
     except np.linalg.LinAlgError:
         return []
-    roots = [-1.0 / complex(v).real for v in lam if abs(complex(v).imag) < 1e-12 * max(1, abs(v)) and abs(v) > 1e-12]
+    roots = [
+        -1.0 / complex(v).real
+        for v in lam
+        if abs(complex(v).imag) < 1e-12 * max(1, abs(v)) and abs(v) > 1e-12
+    ]
     return [r for r in roots if np.isfinite(r) and abs(r) < 1e6]
 
 
@@ -555,7 +669,6 @@ def _points(draw, algebra, theta, upsilon, regime):
     d = draw(vec, label="line direction")
     roots = _degenerate_roots(algebra.f, th, up, pi, d) if np.any(d) and np.any(up) else []
     if not roots:
-
         reject()
     t0 = roots[int(draw(st.integers(0, len(roots) - 1), label="root"))]
     target = 10.0 ** draw(st.integers(2, 12), label="log10 cond target")
@@ -575,15 +688,23 @@ def _points(draw, algebra, theta, upsilon, regime):
 
 
 # ======================================================================= models
-def models(*, algebras=None, exact: bool = True, coboundary: bool | None = None,
-           upsilon_zero: bool | None = None, theta_zero: bool | None = None):
+def models(
+    *,
+    algebras=None,
+    exact: bool = True,
+    coboundary: bool | None = None,
+    upsilon_zero: bool | None = None,
+    theta_zero: bool | None = None,
+):
     """A model ``{"algebra", "theta", "upsilon"}``: a Lie algebra (default :func:`lie_algebras`),
     a 2-cocycle Theta (zeven1) and an antisymmetric Upsilon (vier1)."""
     _check_flag("upsilon_zero", upsilon_zero)
     _check_flag("theta_zero", theta_zero)
     _check_flag("coboundary", coboundary)
     if algebras is not None and not isinstance(algebras, st.SearchStrategy):
-        raise ValueError(f"algebras must be a strategy of LieAlgebra, got {type(algebras).__name__}")
+        raise ValueError(
+            f"algebras must be a strategy of LieAlgebra, got {type(algebras).__name__}"
+        )
     return _models(algebras, exact, coboundary, upsilon_zero, theta_zero)
 
 
@@ -619,7 +740,9 @@ def scenes(*, names=None, potential: bool | None = None, batch: bool | None = No
     """
     _check_flag("potential", potential)
     _check_flag("batch", batch)
-    pool = list(names) if names is not None else [n for n in CATALOGUE_NAMES if catalogue(n).dim <= 6]
+    pool = (
+        list(names) if names is not None else [n for n in CATALOGUE_NAMES if catalogue(n).dim <= 6]
+    )
     unknown = [n for n in pool if n not in CATALOGUE_NAMES]
     if unknown:
         raise ValueError(f"scenes: unknown algebra names {unknown}")
@@ -657,8 +780,10 @@ def _scenes(draw, pool, potential, batch):
     if draw(st.booleans(), label="diagonal inertia"):
         scene["inertia_diagonal"] = [float(d) for d in diag]
     else:
-        off = draw(st.lists(st.integers(-1, 1), min_size=n * (n - 1) // 2, max_size=n * (n - 1) // 2),
-                   label="inertia off-diagonal")
+        off = draw(
+            st.lists(st.integers(-1, 1), min_size=n * (n - 1) // 2, max_size=n * (n - 1) // 2),
+            label="inertia off-diagonal",
+        )
         inertia = np.diag([float(d) + n for d in diag])  # diagonally dominant: SPD
         t = 0
         for i in range(n):
@@ -675,7 +800,9 @@ def _scenes(draw, pool, potential, batch):
     scene["t_end"] = float(draw(st.sampled_from([1, 2, 5, 10]), label="t_end"))
     scene["samples"] = draw(st.integers(2, 200), label="samples")
     scene["tol"] = 10.0 ** -draw(st.integers(4, 12), label="digits")
-    scene["outputs"] = draw(st.lists(st.sampled_from(SCENE_OUTPUTS), min_size=1, unique=True), label="outputs")
+    scene["outputs"] = draw(
+        st.lists(st.sampled_from(SCENE_OUTPUTS), min_size=1, unique=True), label="outputs"
+    )
     return scene
 
 
@@ -720,7 +847,10 @@ def non_cocycles(algebra: LieAlgebra):
 def _non_cocycles(draw, algebra):
 
     n = algebra.dim
-    vals = draw(st.lists(rationals(), min_size=n * (n - 1) // 2, max_size=n * (n - 1) // 2), label="theta entries")
+    vals = draw(
+        st.lists(rationals(), min_size=n * (n - 1) // 2, max_size=n * (n - 1) // 2),
+        label="theta entries",
+    )
     t = np.full((n, n), Fraction(0), dtype=object)
     k = 0
     for a in range(n):

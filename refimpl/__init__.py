@@ -26,27 +26,79 @@ Rigorous (Arb balls, python-flint; :mod:`refimpl.rigorous`)
 
 from ._algebra import LieAlgebra
 from ._catalogue import (
-    BIANCHI_TYPES, CATALOGUE_NAMES, abelian, aff1, bianchi, catalogue, heisenberg, se2, se3, sl2r, sl3r,
-    so3_other_basis, so4, su2, su3,
+    BIANCHI_TYPES,
+    CATALOGUE_NAMES,
+    abelian,
+    aff1,
+    bianchi,
+    catalogue,
+    heisenberg,
+    se2,
+    se3,
+    sl2r,
+    sl3r,
+    so3_other_basis,
+    so4,
+    su2,
+    su3,
 )
 from ._cohomology import (
-    Cohomology, check_cocycle, coboundary_basis, cocycle_basis, cocycle_residual, cohomology, delta1, delta2,
-    h2_dim, solve_coboundary,
+    Cohomology,
+    check_cocycle,
+    coboundary_basis,
+    cocycle_basis,
+    cocycle_residual,
+    cohomology,
+    delta1,
+    delta2,
+    h2_dim,
+    solve_coboundary,
 )
+from ._errors import ChartError, DegeneratePointError
 from ._frames import frames
 from ._protocol import Implementation
-from ._errors import ChartError, DegeneratePointError
 from .fast import Fast
 from .reference import Reference
 from .scenes import Plan, Scene, load_scene, plan, run_scene
 
 __all__ = [
-    "LieAlgebra", "BIANCHI_TYPES", "CATALOGUE_NAMES", "abelian", "aff1", "bianchi", "catalogue", "heisenberg",
-    "se2", "se3", "sl2r", "sl3r", "so3_other_basis", "so4", "su2", "su3",
-    "Cohomology", "check_cocycle", "coboundary_basis", "cocycle_basis", "cocycle_residual", "cohomology",
-    "delta1", "delta2", "h2_dim", "solve_coboundary",
-    "frames", "Implementation", "Fast", "Reference", "DegeneratePointError", "ChartError",
-    "Scene", "Plan", "load_scene", "plan", "run_scene",
+    "LieAlgebra",
+    "BIANCHI_TYPES",
+    "CATALOGUE_NAMES",
+    "abelian",
+    "aff1",
+    "bianchi",
+    "catalogue",
+    "heisenberg",
+    "se2",
+    "se3",
+    "sl2r",
+    "sl3r",
+    "so3_other_basis",
+    "so4",
+    "su2",
+    "su3",
+    "Cohomology",
+    "check_cocycle",
+    "coboundary_basis",
+    "cocycle_basis",
+    "cocycle_residual",
+    "cohomology",
+    "delta1",
+    "delta2",
+    "h2_dim",
+    "solve_coboundary",
+    "frames",
+    "Implementation",
+    "Fast",
+    "Reference",
+    "DegeneratePointError",
+    "ChartError",
+    "Scene",
+    "Plan",
+    "load_scene",
+    "plan",
+    "run_scene",
 ]
 
 from .rigorous import (
@@ -61,6 +113,12 @@ from .rigorous import (
 )
 
 __all__ += [
-    "Balls", "Rigorous", "UndecidedError", "body_flow_enclosure", "distance_to_ball",
-    "error_bounds", "judge_poisson", "judge_vector_field",
+    "Balls",
+    "Rigorous",
+    "UndecidedError",
+    "body_flow_enclosure",
+    "distance_to_ball",
+    "error_bounds",
+    "judge_poisson",
+    "judge_vector_field",
 ]

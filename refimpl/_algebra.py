@@ -121,12 +121,8 @@ class LieAlgebra:
         """
         arr = np.asarray(f, dtype=object)
         if arr.ndim != 3 or not (arr.shape[0] == arr.shape[1] == arr.shape[2]):
-            raise ValueError(
-                f"structure constants f must have shape (n, n, n), got {arr.shape}"
-            )
-        all_exact = all(
-            not isinstance(v, (float, np.floating)) for v in arr.flat
-        )
+            raise ValueError(f"structure constants f must have shape (n, n, n), got {arr.shape}")
+        all_exact = all(not isinstance(v, (float, np.floating)) for v in arr.flat)
         if exact is None:
             exact = all_exact
         f_exact = _exact_array(arr) if exact else None
@@ -193,7 +189,11 @@ class LieAlgebra:
                     f"|f[m,a,b] + f[m,b,a]| = {worst:.3g} at (m, a, b) = {idx}"
                 )
             jac = jacobi_residual(self.f_exact) if n else np.zeros((0,))
-            jac = np.vectorize(lambda v: sympy.simplify(sympy.expand(v)), otypes=[object])(jac) if n else jac
+            jac = (
+                np.vectorize(lambda v: sympy.simplify(sympy.expand(v)), otypes=[object])(jac)
+                if n
+                else jac
+            )
             if any(v != 0 for v in jac.flat):
                 worst, idx = _worst(np.vectorize(lambda v: float(sympy.N(v)), otypes=[float])(jac))
                 raise ValueError(
@@ -227,7 +227,9 @@ class LieAlgebra:
         rep = np.asarray(self.rep)
         n = self.dim
         if rep.ndim != 3 or rep.shape[0] != n or rep.shape[1] != rep.shape[2]:
-            raise ValueError(f"{self.name}: rep must have shape (n, d, d) with n = {n}, got {rep.shape}")
+            raise ValueError(
+                f"{self.name}: rep must have shape (n, d, d) with n = {n}, got {rep.shape}"
+            )
         comm = np.einsum("aij,bjk->abik", rep, rep) - np.einsum("bij,ajk->abik", rep, rep)
         rhs = np.einsum("mab,mij->abij", self.f, rep)
         scale = max(1.0, float(np.max(np.abs(rep)))) ** 2 * max(1.0, float(np.max(np.abs(self.f))))
@@ -309,7 +311,11 @@ class LieAlgebra:
             raise ValueError(f"change of basis C must have shape ({n}, {n}), got {c_obj.shape}")
         exact_c = all(not isinstance(v, (float, np.floating)) for v in c_obj.flat)
         label = name or f"{self.name}[basis changed]"
-        rep = None if self.rep is None else np.einsum("ba,bij->aij", np.array(c_obj, dtype=float), self.rep)
+        rep = (
+            None
+            if self.rep is None
+            else np.einsum("ba,bij->aij", np.array(c_obj, dtype=float), self.rep)
+        )
         if self.is_exact and exact_c:
             cm = sympy.Matrix(_exact_array(c_obj).tolist())
             if cm.det() == 0:
@@ -321,7 +327,10 @@ class LieAlgebra:
             rep_exact = None
             if self.rep_exact is not None:
                 rep_exact = [
-                    sum((ce[b, a] * self.rep_exact[b] for b in range(n)), sympy.zeros(*self.rep_exact[0].shape))
+                    sum(
+                        (ce[b, a] * self.rep_exact[b] for b in range(n)),
+                        sympy.zeros(*self.rep_exact[0].shape),
+                    )
                     for a in range(n)
                 ]
             return LieAlgebra.from_structure_constants(
@@ -334,7 +343,9 @@ class LieAlgebra:
             raise ValueError(f"change of basis C is singular (cond = {np.linalg.cond(cf):.3g})")
         fn = np.einsum("km,mcd,ca,db->kab", np.linalg.inv(cf), self.f, cf, cf)
         fn = 0.5 * (fn - fn.transpose(0, 2, 1))  # exact antisymmetry of the stored numbers
-        return LieAlgebra.from_structure_constants(fn, name=label, rep=rep, tags=self.tags - {"orthonormal"})
+        return LieAlgebra.from_structure_constants(
+            fn, name=label, rep=rep, tags=self.tags - {"orthonormal"}
+        )
 
     def direct_sum(self, other: "LieAlgebra", *, name: str | None = None) -> "LieAlgebra":
         """``g (+) h``: basis of g first, then of h; the two commute."""
@@ -359,8 +370,12 @@ class LieAlgebra:
                 rep_exact = [sympy.diag(r, sympy.zeros(d2, d2)) for r in self.rep_exact] + [
                     sympy.diag(sympy.zeros(d1, d1), r) for r in other.rep_exact
                 ]
-        tags = {"direct_sum"} | ({"semisimple"} if "semisimple" in self.tags and "semisimple" in other.tags else set())
-        return LieAlgebra.from_structure_constants(f, name=label, rep=rep, rep_exact=rep_exact, tags=tags)
+        tags = {"direct_sum"} | (
+            {"semisimple"} if "semisimple" in self.tags and "semisimple" in other.tags else set()
+        )
+        return LieAlgebra.from_structure_constants(
+            f, name=label, rep=rep, rep_exact=rep_exact, tags=tags
+        )
 
     def semidirect(self, rho: Any, *, name: str | None = None) -> "LieAlgebra":
         """``g |x_rho V``: ``rho[a]`` is the (k, k) matrix of ``e_a`` acting on ``V = R^k``.

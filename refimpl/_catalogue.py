@@ -25,8 +25,20 @@ import sympy
 from ._algebra import LieAlgebra, to_exact
 
 __all__ = [
-    "su2", "so3_other_basis", "sl2r", "abelian", "heisenberg", "bianchi", "aff1",
-    "se2", "se3", "so4", "su3", "sl3r", "catalogue", "CATALOGUE_NAMES",
+    "su2",
+    "so3_other_basis",
+    "sl2r",
+    "abelian",
+    "heisenberg",
+    "bianchi",
+    "aff1",
+    "se2",
+    "se3",
+    "so4",
+    "su3",
+    "sl3r",
+    "catalogue",
+    "CATALOGUE_NAMES",
 ]
 
 I = sympy.I
@@ -35,7 +47,12 @@ I = sympy.I
 def _eps3() -> np.ndarray:
     f = np.full((3, 3, 3), sympy.Integer(0), dtype=object)
     for (a, b, c), s in {
-        (0, 1, 2): 1, (1, 2, 0): 1, (2, 0, 1): 1, (0, 2, 1): -1, (2, 1, 0): -1, (1, 0, 2): -1,
+        (0, 1, 2): 1,
+        (1, 2, 0): 1,
+        (2, 0, 1): 1,
+        (0, 2, 1): -1,
+        (2, 1, 0): -1,
+        (1, 0, 2): -1,
     }.items():
         f[a, b, c] = sympy.Integer(s)
     return f
@@ -44,10 +61,21 @@ def _eps3() -> np.ndarray:
 @lru_cache(maxsize=None)
 def su2() -> LieAlgebra:
     """su(2): ``f^m_ab = eps_mab``; representation ``E_a = -(i/2) sigma_a``."""
-    sig = [sympy.Matrix([[0, 1], [1, 0]]), sympy.Matrix([[0, -I], [I, 0]]), sympy.Matrix([[1, 0], [0, -1]])]
+    sig = [
+        sympy.Matrix([[0, 1], [1, 0]]),
+        sympy.Matrix([[0, -I], [I, 0]]),
+        sympy.Matrix([[1, 0], [0, -1]]),
+    ]
     mats = [-(I / 2) * s for s in sig]
-    alg = LieAlgebra.from_matrix_basis(mats, name="su(2)", tags=("semisimple", "compact", "orthonormal"))
-    assert all(alg.f_exact[m, a, b] == _eps3()[m, a, b] for m in range(3) for a in range(3) for b in range(3))
+    alg = LieAlgebra.from_matrix_basis(
+        mats, name="su(2)", tags=("semisimple", "compact", "orthonormal")
+    )
+    assert all(
+        alg.f_exact[m, a, b] == _eps3()[m, a, b]
+        for m in range(3)
+        for a in range(3)
+        for b in range(3)
+    )
     return alg
 
 
@@ -61,7 +89,9 @@ def so3_other_basis() -> LieAlgebra:
     eps = _eps3()
     ls = [sympy.Matrix(3, 3, lambda b, c: -eps[a, b, c]) for a in range(3)]
     mats = [ls[0] + ls[1], ls[1], ls[0] + 2 * ls[2]]
-    return LieAlgebra.from_matrix_basis(mats, name="so(3)[other basis]", tags=("semisimple", "compact"))
+    return LieAlgebra.from_matrix_basis(
+        mats, name="so(3)[other basis]", tags=("semisimple", "compact")
+    )
 
 
 @lru_cache(maxsize=None)
@@ -83,7 +113,9 @@ def abelian(n: int) -> LieAlgebra:
         m = sympy.zeros(n + 1, n + 1)
         m[i, n] = 1
         mats.append(m)
-    return LieAlgebra.from_matrix_basis(mats, name=f"R^{n}", tags=("abelian", "solvable", "nilpotent"))
+    return LieAlgebra.from_matrix_basis(
+        mats, name=f"R^{n}", tags=("abelian", "solvable", "nilpotent")
+    )
 
 
 @lru_cache(maxsize=None)
@@ -108,7 +140,9 @@ def heisenberg(k: int = 1) -> LieAlgebra:
     z = sympy.zeros(d, d)
     z[0, d - 1] = 1
     mats.append(z)
-    return LieAlgebra.from_matrix_basis(mats, name=f"h({2 * k + 1})", tags=("solvable", "nilpotent"))
+    return LieAlgebra.from_matrix_basis(
+        mats, name=f"h({2 * k + 1})", tags=("solvable", "nilpotent")
+    )
 
 
 _BIANCHI_CLASS_A = {
@@ -145,7 +179,9 @@ def bianchi(kind: str, h: object = None) -> LieAlgebra:
             raise ValueError(f"Bianchi {kind} needs the parameter h")
         he = to_exact(h)
         if kind == "VI_h" and not (he < 0 and he != -1):
-            raise ValueError(f"Bianchi VI_h needs h < 0 and h != -1 (h = -1 is type III), got h = {h}")
+            raise ValueError(
+                f"Bianchi VI_h needs h < 0 and h != -1 (h = -1 is type III), got h = {h}"
+            )
         if kind == "VII_h" and not he > 0:
             raise ValueError(f"Bianchi VII_h needs h > 0 (h = 0 is VII0), got h = {h}")
         a = sympy.sqrt(abs(he))
@@ -159,8 +195,8 @@ def bianchi(kind: str, h: object = None) -> LieAlgebra:
             f[k, i, j] = v
             f[k, j, i] = -v
 
-    put(0, 1, (0, a, n3))   # [e1, e2] = a e2 + n3 e3
-    put(1, 2, (n1, 0, 0))   # [e2, e3] = n1 e1
+    put(0, 1, (0, a, n3))  # [e1, e2] = a e2 + n3 e3
+    put(1, 2, (n1, 0, 0))  # [e2, e3] = n1 e1
     put(2, 0, (0, n2, -a))  # [e3, e1] = n2 e2 - a e3
     label = f"Bianchi {kind}" + (f"(h={h})" if h is not None else "")
     tags = ["bianchi", "class A" if a == 0 else "class B"]
@@ -175,16 +211,17 @@ def bianchi(kind: str, h: object = None) -> LieAlgebra:
     if np.linalg.matrix_rank(adj.reshape(3, -1)) == 3:
         mats = [sympy.Matrix(3, 3, lambda m, b, i=i: f[m, i, b]) for i in range(3)]
     else:
+
         def E(i, j, d):
             m = sympy.zeros(d, d)
             m[i, j] = 1
             return m
 
-        if kind == "I":      # translations of R^3
+        if kind == "I":  # translations of R^3
             mats = [E(0, 3, 4), E(1, 3, 4), E(2, 3, 4)]
-        elif kind == "II":   # Heisenberg: [e2, e3] = e1 with e2 = E01, e3 = E12, e1 = E02
+        elif kind == "II":  # Heisenberg: [e2, e3] = e1 with e2 = E01, e3 = E12, e1 = E02
             mats = [E(0, 2, 3), E(0, 1, 3), E(1, 2, 3)]
-        else:                # III = R |x R^2: ad_e1 on (e2, e3) is [[1, -1], [-1, 1]]; affine matrices
+        else:  # III = R |x R^2: ad_e1 on (e2, e3) is [[1, -1], [-1, 1]]; affine matrices
             mats = [sympy.Matrix([[1, -1, 0], [-1, 1, 0], [0, 0, 0]]), E(0, 2, 3), E(1, 2, 3)]
     rep = np.array([np.array(m.tolist(), dtype=float) for m in mats])
     return LieAlgebra.from_structure_constants(f, name=label, rep=rep, rep_exact=mats, tags=tags)
@@ -194,7 +231,9 @@ def bianchi(kind: str, h: object = None) -> LieAlgebra:
 def aff1() -> LieAlgebra:
     """aff(1): ``[e_0, e_1] = e_1``; e_0 = diag(1, 0), e_1 = E_01."""
     return LieAlgebra.from_matrix_basis(
-        [sympy.Matrix([[1, 0], [0, 0]]), sympy.Matrix([[0, 1], [0, 0]])], name="aff(1)", tags=("solvable",)
+        [sympy.Matrix([[1, 0], [0, 0]]), sympy.Matrix([[0, 1], [0, 0]])],
+        name="aff(1)",
+        tags=("solvable",),
     )
 
 
@@ -233,7 +272,9 @@ def so4() -> LieAlgebra:
             m[i, j] = 1
             m[j, i] = -1
             mats.append(m)
-    return LieAlgebra.from_matrix_basis(mats, name="so(4)", tags=("semisimple", "compact", "orthonormal"))
+    return LieAlgebra.from_matrix_basis(
+        mats, name="so(4)", tags=("semisimple", "compact", "orthonormal")
+    )
 
 
 @lru_cache(maxsize=None)
@@ -255,7 +296,9 @@ def su3() -> LieAlgebra:
         [[1 / s3, 0, 0], [0, 1 / s3, 0], [0, 0, -2 / s3]],
     ]
     mats = [-(I / 2) * sympy.Matrix(m) for m in lam]
-    return LieAlgebra.from_matrix_basis(mats, name="su(3)", tags=("semisimple", "compact", "orthonormal"))
+    return LieAlgebra.from_matrix_basis(
+        mats, name="su(3)", tags=("semisimple", "compact", "orthonormal")
+    )
 
 
 @lru_cache(maxsize=None)
@@ -282,7 +325,10 @@ def _entries() -> dict:
         "R^3": lambda: abelian(3),
         "h(3)": lambda: heisenberg(1),
         "h(5)": lambda: heisenberg(2),
-        **{f"Bianchi {k}": (lambda k=k: bianchi(k)) for k in ("I", "II", "III", "IV", "V", "VI0", "VII0", "VIII", "IX")},
+        **{
+            f"Bianchi {k}": (lambda k=k: bianchi(k))
+            for k in ("I", "II", "III", "IV", "V", "VI0", "VII0", "VIII", "IX")
+        },
         "Bianchi VI_h(h=-1/4)": lambda: bianchi("VI_h", "-1/4"),
         "Bianchi VI_h(h=-2)": lambda: bianchi("VI_h", -2),
         "Bianchi VII_h(h=1/9)": lambda: bianchi("VII_h", "1/9"),
@@ -307,4 +353,6 @@ def catalogue(name: str | None = None):
     try:
         return entries[name]()
     except KeyError:
-        raise ValueError(f"unknown algebra {name!r}; the catalogue has {', '.join(entries)}") from None
+        raise ValueError(
+            f"unknown algebra {name!r}; the catalogue has {', '.join(entries)}"
+        ) from None

@@ -24,8 +24,16 @@ import sympy
 from ._algebra import EPS, LieAlgebra, to_exact
 
 __all__ = [
-    "delta1", "delta2", "cocycle_basis", "coboundary_basis", "h2_dim", "cohomology",
-    "cocycle_residual", "check_cocycle", "solve_coboundary", "Cohomology",
+    "delta1",
+    "delta2",
+    "cocycle_basis",
+    "coboundary_basis",
+    "h2_dim",
+    "cohomology",
+    "cocycle_residual",
+    "check_cocycle",
+    "solve_coboundary",
+    "Cohomology",
 ]
 
 
@@ -38,7 +46,9 @@ def delta1(alg: LieAlgebra, xi: Any, exact: bool = False) -> np.ndarray:
     if exact:
         alg._need_exact("delta1(exact=True)")
         xe = np.array([to_exact(v) for v in xi], dtype=object)
-        return np.vectorize(sympy.simplify, otypes=[object])(-np.einsum("m,mab->ab", xe, alg.f_exact))
+        return np.vectorize(sympy.simplify, otypes=[object])(
+            -np.einsum("m,mab->ab", xe, alg.f_exact)
+        )
     return -np.einsum("m,mab->ab", np.asarray(xi, dtype=float), alg.f)
 
 
@@ -75,7 +85,9 @@ def _delta2_matrix(alg: LieAlgebra, exact: bool):
             t[a, b], t[b, a] = 1.0, -1.0
         cols.append(delta2(alg, t, exact=exact).reshape(-1))
     if exact:
-        return sympy.Matrix(np.array(cols, dtype=object).T.tolist()) if pairs else sympy.zeros(n**3, 0)
+        return (
+            sympy.Matrix(np.array(cols, dtype=object).T.tolist()) if pairs else sympy.zeros(n**3, 0)
+        )
     return np.array(cols).T if pairs else np.zeros((n**3, 0))
 
 
@@ -117,10 +129,16 @@ def coboundary_basis(alg: LieAlgebra, exact: bool | None = None) -> list[np.ndar
     n = alg.dim
     cols = [delta1(alg, np.eye(n, dtype=int)[m].tolist(), exact=exact) for m in range(n)]
     if exact:
-        mat = sympy.Matrix([[c[a, b] for c in cols] for a, b in pair_index(n)]) if n > 1 else sympy.zeros(0, n)
+        mat = (
+            sympy.Matrix([[c[a, b] for c in cols] for a, b in pair_index(n)])
+            if n > 1
+            else sympy.zeros(0, n)
+        )
         basis = mat.columnspace(simplify=True) if mat.rows else []
         return [_unpack(alg, list(v), True) for v in basis]
-    mat = np.array([[c[a, b] for c in cols] for a, b in pair_index(n)]) if n > 1 else np.zeros((0, n))
+    mat = (
+        np.array([[c[a, b] for c in cols] for a, b in pair_index(n)]) if n > 1 else np.zeros((0, n))
+    )
     if mat.size == 0:
         return []
     u, s, vt = np.linalg.svd(mat)
@@ -177,7 +195,9 @@ def check_cocycle(alg: LieAlgebra, theta: Any, *, name: str = "Theta") -> None:
         te = np.vectorize(to_exact, otypes=[object])(t_obj)
         asym = te + te.T
         if any(v != 0 for v in asym.flat):
-            raise ValueError(f"{name} is not antisymmetric: max |{name} + {name}^T| = {np.max(np.abs(t + t.T)):.3g}")
+            raise ValueError(
+                f"{name} is not antisymmetric: max |{name} + {name}^T| = {np.max(np.abs(t + t.T)):.3g}"
+            )
         res = delta2(alg, te, exact=True)
         if any(v != 0 for v in res.flat):
             worst = float(np.max(np.abs(np.array(res, dtype=float))))
@@ -186,7 +206,9 @@ def check_cocycle(alg: LieAlgebra, theta: Any, *, name: str = "Theta") -> None:
             )
         return
     if np.any(t + t.T != 0):
-        raise ValueError(f"{name} is not antisymmetric: max |{name} + {name}^T| = {np.max(np.abs(t + t.T)):.3g}")
+        raise ValueError(
+            f"{name} is not antisymmetric: max |{name} + {name}^T| = {np.max(np.abs(t + t.T)):.3g}"
+        )
     res = cocycle_residual(alg, t)
     tol = 24 * n * EPS * max(1.0, float(np.max(np.abs(alg.f)))) * max(1.0, float(np.max(np.abs(t))))
     if res > tol:

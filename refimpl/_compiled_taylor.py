@@ -72,7 +72,19 @@ PATH = "numba" if HAVE_NUMBA else "python"
 class CompiledField:
     """The sparse arrays of a quadratic field (kernel arguments; see the module docstring)."""
 
-    __slots__ = ("_key", "const", "d", "lcoef", "lidx", "lptr", "mcls", "mons", "qcoef", "qmon", "qptr")
+    __slots__ = (
+        "_key",
+        "const",
+        "d",
+        "lcoef",
+        "lidx",
+        "lptr",
+        "mcls",
+        "mons",
+        "qcoef",
+        "qmon",
+        "qptr",
+    )
 
     def __init__(self, F):
         d = F.d

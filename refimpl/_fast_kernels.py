@@ -8,21 +8,23 @@ from functools import lru_cache
 
 import numpy as np
 
-from ._errors import DegeneratePointError
-from ._errors import ChartError
+from ._errors import ChartError, DegeneratePointError
 from ._validate import (
-    check_inertia, check_points, check_potential, check_structure_constants, check_theta, check_upsilon,
+    check_inertia,
+    check_points,
+    check_potential,
+    check_structure_constants,
+    check_theta,
+    check_upsilon,
     outside_chart,
 )
 
 __all__ = ["FastCore", "PoissonBatch", "FieldBatch", "DegeneratePointError", "C_P"]
 
 EPS = np.finfo(float).eps
-C_P = 16.0          # constant of the error model, see the module docstring
-CHUNK = 16384       # points per chunk of the su(2) kernel (arrays of 128 KiB stay in cache)
+C_P = 16.0  # constant of the error model, see the module docstring
+CHUNK = 16384  # points per chunk of the su(2) kernel (arrays of 128 KiB stay in cache)
 TWO_PI = 2 * np.pi
-
-
 
 
 @dataclass(frozen=True)
@@ -39,7 +41,9 @@ class PoissonBatch:
     error_bound: np.ndarray
     degenerate: np.ndarray
     path: str
-    outside_chart: np.ndarray | None = None  # points at or past the chart edge: NaN, bound inf (issue 15)
+    outside_chart: np.ndarray | None = (
+        None  # points at or past the chart edge: NaN, bound inf (issue 15)
+    )
 
 
 @dataclass(frozen=True)
@@ -51,7 +55,9 @@ class FieldBatch:
     error_bound: np.ndarray
     degenerate: np.ndarray
     path: str
-    outside_chart: np.ndarray | None = None  # points at or past the chart edge: NaN, bound inf (issue 15)
+    outside_chart: np.ndarray | None = (
+        None  # points at or past the chart edge: NaN, bound inf (issue 15)
+    )
 
 
 def _chart_hook(f, xa_pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -95,7 +101,9 @@ def _bernoulli_even(k_max: int) -> np.ndarray:
     """``b_k = B_2k / (2k)!`` for ``k = 1..k_max`` (exact rationals rounded once)."""
     import sympy
 
-    return np.array([float(sympy.bernoulli(2 * k) / sympy.factorial(2 * k)) for k in range(1, k_max + 1)])
+    return np.array(
+        [float(sympy.bernoulli(2 * k) / sympy.factorial(2 * k)) for k in range(1, k_max + 1)]
+    )
 
 
 def _series_terms(r: float) -> int:
@@ -140,12 +148,20 @@ def _su2_frame_coeffs(t2: np.ndarray, need_k: bool = True):
         w = t2[small]
         # Taylor series at t = 0 in w = t^2 (sympy's exact coefficients; the
         # first omitted term is below 1e-18 for t < 1/4):
-        c[small] = 1 / 12 + w * (1 / 720 + w * (1 / 30240 + w * (1 / 1209600 + w * (1 / 47900160 + w * (691 / 1307674368000)))))
+        c[small] = 1 / 12 + w * (
+            1 / 720
+            + w * (1 / 30240 + w * (1 / 1209600 + w * (1 / 47900160 + w * (691 / 1307674368000))))
+        )
         # lam^2 = ((t/2)/sin(t/2))^2
-        lam[small] = np.sqrt(1 + w * (1 / 12 + w * (1 / 240 + w * (1 / 6048 + w * (1 / 172800 + w * (1 / 5322240))))))
+        lam[small] = np.sqrt(
+            1 + w * (1 / 12 + w * (1 / 240 + w * (1 / 6048 + w * (1 / 172800 + w * (1 / 5322240)))))
+        )
         if need_k:
             # (t - sin t) / (2 t (1 - cos t))
-            k[small] = 1 / 6 + w * (1 / 180 + w * (1 / 5040 + w * (1 / 151200 + w * (1 / 4790016 + w * (691 / 108972864000)))))
+            k[small] = 1 / 6 + w * (
+                1 / 180
+                + w * (1 / 5040 + w * (1 / 151200 + w * (1 / 4790016 + w * (691 / 108972864000))))
+            )
     return c, lam, k, t
 
 
@@ -174,7 +190,7 @@ def _su2_poisson_chunk(x, p, xi, tau, out, cond, sens, bound, degen):
     d = 1.0 - c * t2
     if tau is not None:
         tv = np.asarray(tau, dtype=float)
-        qt = tv @ qv                                   # q.tau
+        qt = tv @ qv  # q.tau
         c1 = 1.0 - qt
         ic = 1.0 / c1
         dd, cc, hh = d * ic, c * ic, 0.5 * ic
@@ -225,8 +241,8 @@ def _su2_poisson_chunk(x, p, xi, tau, out, cond, sens, bound, degen):
         return
     # ---- Upsilon = tau.eps: Phi = C1 + tau q^T, Psi^-1 = (1 - q tau^T)/C1 (section cinq)
     aic = np.abs(ic)
-    Lb = out[:3, 3:]                                   # (3, 3, m) view holding L / C1
-    lq = Lb[:, 0] * q0                                 # (L q) / C1
+    Lb = out[:3, 3:]  # (3, 3, m) view holding L / C1
+    lq = Lb[:, 0] * q0  # (L q) / C1
     lq += Lb[:, 1] * q1
     lq += Lb[:, 2] * q2
     # P_xp = (L - (L q) tau^T) / C1 ; P_px = -P_xp^T
@@ -240,7 +256,9 @@ def _su2_poisson_chunk(x, p, xi, tau, out, cond, sens, bound, degen):
     #   det(L) phi1(K) tau = d tau + k (x.tau) x + (x*tau)/2,
     # since lam^2 (1 - a2 t^2) = lam^2 sin t / t = (t/2) cot(t/2) = d and k = lam^2 a2.
     xv = x
-    cross = np.array([[0.0, tv[2], -tv[1]], [-tv[2], 0.0, tv[0]], [tv[1], -tv[0], 0.0]])  # cross @ x = x * tau
+    cross = np.array(
+        [[0.0, tv[2], -tv[1]], [-tv[2], 0.0, tv[0]], [tv[1], -tv[0], 0.0]]
+    )  # cross @ x = x * tau
     w = (0.5 * cross) @ xv
     k *= tv @ xv
     w += k * xv
@@ -430,7 +448,9 @@ def _generic_poisson(f, theta, upsilon, x, p, out=None):
     cond, sens, bound, degen = np.empty(N), np.empty(N), np.empty(N), np.empty(N, dtype=bool)
     for s in range(0, N, GENERIC_CHUNK):
         e = min(N, s + GENERIC_CHUNK)
-        _generic_poisson_chunk(f, theta, upsilon, x[s:e], p[s:e], P[s:e], cond[s:e], sens[s:e], bound[s:e], degen[s:e])
+        _generic_poisson_chunk(
+            f, theta, upsilon, x[s:e], p[s:e], P[s:e], cond[s:e], sens[s:e], bound[s:e], degen[s:e]
+        )
     return P, cond, sens, bound, degen
 
 
@@ -473,7 +493,7 @@ def _generic_poisson_chunk(f, theta, upsilon, x, p, P, cond_out, sens_out, bound
         scale = np.maximum(pmax, 1.0)
         eff = np.maximum(cond, sens)
         if upsilon is None:
-            data = n * Sabs                                # G = [[0], [1]]: P_pp = -S
+            data = n * Sabs  # G = [[0], [1]]: P_pp = -S
         else:
             # first order in dS: dP = G dS G^T, G = T (-W^-1)[:, :n] = -[[L U Phi^-1], [Phi^-1]] (vier9)
             Phi_inv = Psi_inv.transpose(0, 2, 1)
@@ -516,7 +536,9 @@ class FastCore:
         up = check_upsilon(upsilon, n)
         return f, (None if not th.any() else th), (None if not up.any() else up)
 
-    def poisson_batch(self, f, theta, upsilon, x, pi, *, layout: str = "points", out: np.ndarray | None = None) -> PoissonBatch:
+    def poisson_batch(
+        self, f, theta, upsilon, x, pi, *, layout: str = "points", out: np.ndarray | None = None
+    ) -> PoissonBatch:
         """Poisson tensors of a batch with ``cond_phi``, ``error_bound`` and ``degenerate`` per point.
 
         ``layout="points"``: ``x``, ``pi`` of shape ``(..., n)``, ``P`` of shape
@@ -533,8 +555,12 @@ class FastCore:
         if layout == "components":
             xa, pa = np.asarray(x), np.asarray(pi)
             if xa.ndim == 0 or pa.ndim == 0:
-                raise ValueError(f"x and pi must have shape (n, ...) for layout='components', got {xa.shape} and {pa.shape}")
-            xa_pts, pa_pts = check_points(np.moveaxis(xa, 0, -1), np.moveaxis(pa, 0, -1), n, batched=True)
+                raise ValueError(
+                    f"x and pi must have shape (n, ...) for layout='components', got {xa.shape} and {pa.shape}"
+                )
+            xa_pts, pa_pts = check_points(
+                np.moveaxis(xa, 0, -1), np.moveaxis(pa, 0, -1), n, batched=True
+            )
             outside, xa_pts = _chart_hook(f, xa_pts)
             xa, pa = np.moveaxis(xa_pts, -1, 0), np.moveaxis(pa_pts, -1, 0)
             batch_shape = xa.shape[1:]
@@ -546,20 +572,47 @@ class FastCore:
             raise ValueError(f"layout must be 'points' or 'components', got {layout!r}")
         N = int(np.prod(batch_shape, dtype=int))
         if _is_su2(f):
-            xc = np.ascontiguousarray(xa.reshape(3, N)) if layout == "components" else np.ascontiguousarray(xa_pts.reshape(N, 3).T)
-            pc = np.ascontiguousarray(pa.reshape(3, N)) if layout == "components" else np.ascontiguousarray(pa_pts.reshape(N, 3).T)
+            xc = (
+                np.ascontiguousarray(xa.reshape(3, N))
+                if layout == "components"
+                else np.ascontiguousarray(xa_pts.reshape(N, 3).T)
+            )
+            pc = (
+                np.ascontiguousarray(pa.reshape(3, N))
+                if layout == "components"
+                else np.ascontiguousarray(pa_pts.reshape(N, 3).T)
+            )
             if layout == "components" and out is not None:
                 P = self._check_out(out, (6, 6) + batch_shape).reshape(6, 6, N)
             else:
                 P = np.empty((6, 6, N))
-            cond, sens, bound, degen = np.empty(N), np.empty(N), np.empty(N), np.empty(N, dtype=bool)
+            cond, sens, bound, degen = (
+                np.empty(N),
+                np.empty(N),
+                np.empty(N),
+                np.empty(N, dtype=bool),
+            )
             xi, tau = _su2_theta_to_xi(th), _su2_upsilon_to_tau(up)
             with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
                 for s in range(0, N, CHUNK):
                     e = min(N, s + CHUNK)
-                    _su2_poisson_chunk(xc[:, s:e], pc[:, s:e], xi, tau, P[:, :, s:e], cond[s:e], sens[s:e], bound[s:e], degen[s:e])
+                    _su2_poisson_chunk(
+                        xc[:, s:e],
+                        pc[:, s:e],
+                        xi,
+                        tau,
+                        P[:, :, s:e],
+                        cond[s:e],
+                        sens[s:e],
+                        bound[s:e],
+                        degen[s:e],
+                    )
             if layout == "points":
-                Pp = np.empty((N, 6, 6)) if out is None else self._check_out(out, batch_shape + (6, 6)).reshape(N, 6, 6)
+                Pp = (
+                    np.empty((N, 6, 6))
+                    if out is None
+                    else self._check_out(out, batch_shape + (6, 6)).reshape(N, 6, 6)
+                )
                 np.copyto(Pp, np.moveaxis(P, -1, 0))
                 P = Pp.reshape(batch_shape + (6, 6))
             else:
@@ -570,7 +623,9 @@ class FastCore:
             if out is not None and layout == "points":
                 buf = self._check_out(out, batch_shape + (2 * n, 2 * n)).reshape(N, 2 * n, 2 * n)
             with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-                P, cond, sens, bound, degen = _generic_poisson(f, th, up, xa_pts.reshape(N, n), pa_pts.reshape(N, n), out=buf)
+                P, cond, sens, bound, degen = _generic_poisson(
+                    f, th, up, xa_pts.reshape(N, n), pa_pts.reshape(N, n), out=buf
+                )
             if layout == "points":
                 P = P.reshape(batch_shape + (2 * n, 2 * n))
             elif out is not None:
@@ -580,15 +635,29 @@ class FastCore:
             else:
                 P = np.moveaxis(P, 0, -1).reshape((2 * n, 2 * n) + batch_shape)
             path = "generic" + ("" if up is not None else ", Upsilon = 0: no Phi")
-        return _mark_outside(PoissonBatch(
-            P=P, cond_phi=cond.reshape(batch_shape), cond_data=sens.reshape(batch_shape),
-            error_bound=bound.reshape(batch_shape),
-            degenerate=degen.reshape(batch_shape), path=path, outside_chart=outside,
-        ), outside, (P,), layout == "points")
+        return _mark_outside(
+            PoissonBatch(
+                P=P,
+                cond_phi=cond.reshape(batch_shape),
+                cond_data=sens.reshape(batch_shape),
+                error_bound=bound.reshape(batch_shape),
+                degenerate=degen.reshape(batch_shape),
+                path=path,
+                outside_chart=outside,
+            ),
+            outside,
+            (P,),
+            layout == "points",
+        )
 
     @staticmethod
     def _check_out(out: np.ndarray, shape: tuple) -> np.ndarray:
-        if not isinstance(out, np.ndarray) or out.dtype != np.float64 or out.shape != shape or not out.flags.c_contiguous:
+        if (
+            not isinstance(out, np.ndarray)
+            or out.dtype != np.float64
+            or out.shape != shape
+            or not out.flags.c_contiguous
+        ):
             raise ValueError(f"out must be a C-contiguous float64 array of shape {shape}")
         return out
 
@@ -661,12 +730,14 @@ class FastCore:
                 d_omega = kappa_I * nd
             else:
                 pn, un, Sn = _frob(Psi_inv), float(np.linalg.norm(up)), _frob(S)
-                d_pidot = pn * (Sabs * nd + Sn * kappa_I * nd) + pn ** 2 * un * Sabs * (Sn * nd + 1)
-                d_omega = pn * kappa_I * nd + pn ** 2 * un * Sabs * nd
+                d_pidot = pn * (Sabs * nd + Sn * kappa_I * nd) + pn**2 * un * Sabs * (Sn * nd + 1)
+                d_omega = pn * kappa_I * nd + pn**2 * un * Sabs * nd
             d_xdot = _frob(L) * d_omega + Aabs * np.linalg.norm(Omega, axis=1)
             extra = C_P * n * EPS * frame * (d_pidot + d_xdot)
         with np.errstate(invalid="ignore", over="ignore"):
-            scale = np.maximum(np.maximum(np.max(np.abs(xdot), axis=1), np.max(np.abs(pidot), axis=1)), 1.0)
+            scale = np.maximum(
+                np.maximum(np.max(np.abs(xdot), axis=1), np.max(np.abs(pidot), axis=1)), 1.0
+            )
             scale = scale * np.maximum(1.0, np.max(np.abs(L), axis=(1, 2)))
             eff = np.maximum(cond, sens)
             bound = C_P * n * EPS * eff * frame * scale + extra
@@ -676,10 +747,14 @@ class FastCore:
             pidot[degen] = np.nan
             bound[degen] = np.inf
         res = FieldBatch(
-            xdot=xdot.reshape(batch_shape + (n,)), pidot=pidot.reshape(batch_shape + (n,)),
-            cond_phi=cond.reshape(batch_shape), cond_data=sens.reshape(batch_shape),
+            xdot=xdot.reshape(batch_shape + (n,)),
+            pidot=pidot.reshape(batch_shape + (n,)),
+            cond_phi=cond.reshape(batch_shape),
+            cond_data=sens.reshape(batch_shape),
             error_bound=bound.reshape(batch_shape),
-            degenerate=degen.reshape(batch_shape), path="su2" if _is_su2(f) else "generic", outside_chart=outside,
+            degenerate=degen.reshape(batch_shape),
+            path="su2" if _is_su2(f) else "generic",
+            outside_chart=outside,
         )
         return _mark_outside(res, outside, (res.xdot, res.pidot), True)
 
@@ -688,7 +763,9 @@ class FastCore:
     def _raise_degenerate(degen: np.ndarray, what: str) -> None:
         if np.any(degen):
             idx = [tuple(int(i) for i in b) for b in np.argwhere(degen)]
-            shown = ", ".join(str(i) for i in idx[:10]) + (f" and {len(idx) - 10} more" if len(idx) > 10 else "")
+            shown = ", ".join(str(i) for i in idx[:10]) + (
+                f" and {len(idx) - 10} more" if len(idx) > 10 else ""
+            )
             raise DegeneratePointError(
                 f"{what}: {len(idx)} point(s) on the degenerate set Pi_1 (Delta = det Phi = 0 to float64 "
                 f"accuracy, vier12): batch indices {shown}"
@@ -698,7 +775,9 @@ class FastCore:
     def _raise_outside(out, what: str) -> None:
         if out is not None and np.any(out):
             idx = [tuple(int(i) for i in b) for b in np.argwhere(out)]
-            shown = ", ".join(str(i) for i in idx[:10]) + (f" and {len(idx) - 10} more" if len(idx) > 10 else "")
+            shown = ", ".join(str(i) for i in idx[:10]) + (
+                f" and {len(idx) - 10} more" if len(idx) > 10 else ""
+            )
             raise ChartError(
                 f"{what}: {len(idx)} point(s) x outside the chart of exponential coordinates (max |Im eigenvalue "
                 f"of ad_x| >= 2 pi, twee1; su(2): |x| >= 2 pi): {'batch indices ' + shown if shown != '()' else 'the point given'}"
@@ -738,5 +817,3 @@ def _expm_batch(A: np.ndarray, su2: bool) -> np.ndarray:
     for _ in range(s):
         E = E @ E
     return E
-
-

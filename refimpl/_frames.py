@@ -54,5 +54,7 @@ def frames(f: Any, x: Any, *, dps: int | None = None, route: str = "series") -> 
         out = {}
         for key in ("A", "L", "Ad", "K"):
             m = fr[key]
-            out[key] = np.array([[m[i, j] for j in range(m.cols)] for i in range(m.rows)], dtype=object)
+            out[key] = np.array(
+                [[m[i, j] for j in range(m.cols)] for i in range(m.rows)], dtype=object
+            )
         return out

@@ -31,7 +31,15 @@ from typing import Callable, Sequence
 import mpmath
 import numpy as np
 
-__all__ = ["gbs_mp", "GBSResult", "ExplicitRK", "GaussLegendre", "triple_jump_weights", "DOP853", "RK4"]
+__all__ = [
+    "gbs_mp",
+    "GBSResult",
+    "ExplicitRK",
+    "GaussLegendre",
+    "triple_jump_weights",
+    "DOP853",
+    "RK4",
+]
 
 
 # ------------------------------------------------------------------ mpmath
@@ -74,8 +82,18 @@ def _gbs_step(F, t, y, h, k):
     return best, err / scale, evals
 
 
-def gbs_mp(F: Callable, y0: Sequence, t_end, *, tol, k: int, h0=None, t0=0,
-           after_step: Callable | None = None, max_steps: int = 200000) -> GBSResult:
+def gbs_mp(
+    F: Callable,
+    y0: Sequence,
+    t_end,
+    *,
+    tol,
+    k: int,
+    h0=None,
+    t0=0,
+    after_step: Callable | None = None,
+    max_steps: int = 200000,
+) -> GBSResult:
     """Integrate ``y' = F(t, y)`` (lists of mpf) from ``t0`` to ``t_end`` at the current precision.
 
     ``after_step(t, y) -> y`` may replace the state between steps (re-basing
@@ -103,7 +121,9 @@ def gbs_mp(F: Callable, y0: Sequence, t_end, *, tol, k: int, h0=None, t0=0,
                 y = after_step(t, y)
         else:
             rejected += 1
-        fac = mpmath.mpf("0.9") * (tol / max(err, tol * mpmath.mpf(10) ** -12)) ** (mpmath.mpf(1) / order)
+        fac = mpmath.mpf("0.9") * (tol / max(err, tol * mpmath.mpf(10) ** -12)) ** (
+            mpmath.mpf(1) / order
+        )
         h = h * min(mpmath.mpf(3), max(mpmath.mpf("0.2"), fac))
     return GBSResult(y=y, steps=steps, rejected=rejected, evaluations=evals, max_local_error=worst)
 
@@ -113,7 +133,11 @@ def _dop853_tableau():
     from scipy.integrate._ivp import dop853_coefficients as d
 
     s = d.N_STAGES
-    return np.array(d.A[:s, :s], dtype=float), np.array(d.B, dtype=float), np.array(d.C[:s], dtype=float)
+    return (
+        np.array(d.A[:s, :s], dtype=float),
+        np.array(d.B, dtype=float),
+        np.array(d.C[:s], dtype=float),
+    )
 
 
 def _rk4_tableau():
@@ -190,7 +214,7 @@ def _gauss_tableau(s: int):
     """
     x, _ = np.polynomial.legendre.leggauss(s)
     c = (x + 1) / 2
-    V = np.vander(c, s, increasing=True).T            # V[q, j] = c_j^q
+    V = np.vander(c, s, increasing=True).T  # V[q, j] = c_j^q
     q = np.arange(1, s + 1)
     b = np.linalg.solve(V, 1.0 / q)
     A = np.linalg.solve(V, (c[None, :] ** q[:, None] / q[:, None])).T

@@ -52,7 +52,13 @@ def momentum_map(f, theta, x, pi, *, dps: int | None = None):
         x = np.asarray(x, dtype=float)
         return fr["K"] @ np.asarray(pi, dtype=float) - fr["A"].T @ (th @ x)
     with mpmath.workdps(dps):
-        model = ModelMP(f, theta, np.zeros_like(np.asarray(theta, dtype=object)), np.eye(len(np.asarray(x))), None)
+        model = ModelMP(
+            f,
+            theta,
+            np.zeros_like(np.asarray(theta, dtype=object)),
+            np.eye(len(np.asarray(x))),
+            None,
+        )
         xv = mpmath.matrix([mpmath.mpf(v) if not isinstance(v, str) else mpmath.mpf(v) for v in x])
         pv = mpmath.matrix([mpmath.mpf(v) for v in pi])
         K = mpmath.expm(-model.ad(xv)).T

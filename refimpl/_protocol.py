@@ -44,4 +44,3 @@ class Implementation(abc.ABC):
     @abc.abstractmethod
     def flow(self, f, theta, upsilon, inertia, potential, x0, pi0, t):
         """Obligation 3 of the module docstring."""
-

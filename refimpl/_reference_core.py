@@ -14,11 +14,24 @@ import sympy
 from ._algebra import LieAlgebra
 from ._errors import ChartError, DegeneratePointError
 from ._validate import (
-    TWO_PI, ad_chart_radius, check_inertia, check_potential, check_structure_constants, check_theta, check_upsilon,
+    TWO_PI,
+    ad_chart_radius,
+    check_inertia,
+    check_potential,
+    check_structure_constants,
+    check_theta,
+    check_upsilon,
 )
 
-__all__ = ["ReferenceCore", "DegeneratePointError", "ChartError", "GUARD_DIGITS", "MAX_DPS", "MAX_AD_NORM",
-           "MAX_MAGNITUDE"]
+__all__ = [
+    "ReferenceCore",
+    "DegeneratePointError",
+    "ChartError",
+    "GUARD_DIGITS",
+    "MAX_DPS",
+    "MAX_AD_NORM",
+    "MAX_MAGNITUDE",
+]
 
 GUARD_DIGITS = 12
 MAX_DPS = 5000
@@ -32,8 +45,6 @@ MAX_MAGNITUDE = mpmath.mpf("1e300")
 """Inputs are real numbers of magnitude below 1e300 (the float64 range, with room)."""
 
 
-
-
 def _as_float(v: Any, name: str) -> np.ndarray:
     """Any accepted input (float, exact numbers, strings) as float64, for the float-side validation."""
     arr = np.asarray(v, dtype=object)
@@ -45,7 +56,9 @@ def _as_float(v: Any, name: str) -> np.ndarray:
 
 
 def _is_exact_scalar(v: Any) -> bool:
-    return isinstance(v, (int, np.integer, Fraction, str, sympy.Basic, mpmath.mpf)) and not isinstance(v, bool)
+    return isinstance(
+        v, (int, np.integer, Fraction, str, sympy.Basic, mpmath.mpf)
+    ) and not isinstance(v, bool)
 
 
 def _to_mpf(v: Any) -> mpmath.mpf:
@@ -106,8 +119,14 @@ class ReferenceCore:
     batched = False
 
     def __init__(self, dps: int = 50):
-        if isinstance(dps, bool) or not isinstance(dps, (int, np.integer)) or not 15 <= dps <= MAX_DPS:
-            raise ValueError(f"dps must be an int in [15, {MAX_DPS}] (the precision cap), got {dps!r}")
+        if (
+            isinstance(dps, bool)
+            or not isinstance(dps, (int, np.integer))
+            or not 15 <= dps <= MAX_DPS
+        ):
+            raise ValueError(
+                f"dps must be an int in [15, {MAX_DPS}] (the precision cap), got {dps!r}"
+            )
         self.dps = int(dps)
 
     def __repr__(self) -> str:
@@ -128,7 +147,10 @@ class ReferenceCore:
             arr = np.asarray(f, dtype=object)
             check_structure_constants(_as_float(arr, "structure constants f"))
         n = arr.shape[0]
-        return [mpmath.matrix([[_to_mpf(arr[m, a, b]) for b in range(n)] for a in range(n)]) for m in range(n)]
+        return [
+            mpmath.matrix([[_to_mpf(arr[m, a, b]) for b in range(n)] for a in range(n)])
+            for m in range(n)
+        ]
 
     @staticmethod
     def _vec(v: Any, n: int, name: str) -> mpmath.matrix:
@@ -170,13 +192,20 @@ class ReferenceCore:
     def ad(F: list, x: mpmath.matrix) -> mpmath.matrix:
         """``ad_x[m, b] = x^a f^m_ab``."""
         n = len(F)
-        return mpmath.matrix([[mpmath.fsum(x[a] * F[m][a, b] for a in range(n)) for b in range(n)] for m in range(n)])
+        return mpmath.matrix(
+            [[mpmath.fsum(x[a] * F[m][a, b] for a in range(n)) for b in range(n)] for m in range(n)]
+        )
 
     @staticmethod
     def S(F: list, theta: mpmath.matrix, pi: mpmath.matrix) -> mpmath.matrix:
         """``S_ab = pi_m f^m_ab - Theta_ab`` (vier3)."""
         n = len(F)
-        return mpmath.matrix([[mpmath.fsum(pi[m] * F[m][a, b] for m in range(n)) - theta[a, b] for b in range(n)] for a in range(n)])
+        return mpmath.matrix(
+            [
+                [mpmath.fsum(pi[m] * F[m][a, b] for m in range(n)) - theta[a, b] for b in range(n)]
+                for a in range(n)
+            ]
+        )
 
     # -------------------------------------------------------------- frames
     @staticmethod
@@ -276,7 +305,9 @@ class ReferenceCore:
         Psi = mpmath.eye(n) + upsilon * S
         try:
             delta = mpmath.det(Phi)
-        except TypeError:  # mpmath 1.3 (#542): its LU meets an exactly zero pivot column, Phi is singular
+        except (
+            TypeError
+        ):  # mpmath 1.3 (#542): its LU meets an exactly zero pivot column, Phi is singular
             delta = mpmath.mpf(0)
         return {"S": S, "Phi": Phi, "Psi": Psi, "Delta": delta}
 
@@ -336,7 +367,9 @@ class ReferenceCore:
             T[n + i, n + i] = 1
         return T.T * self.omega_body_mp(F, theta, upsilon, pi) * T
 
-    def poisson_tensor_mp(self, f, theta, upsilon, x, pi, *, route: str = "closed", frame: str = "holonomic") -> mpmath.matrix:
+    def poisson_tensor_mp(
+        self, f, theta, upsilon, x, pi, *, route: str = "closed", frame: str = "holonomic"
+    ) -> mpmath.matrix:
         """``P[i, j] = {z_i, z_j}`` at working precision (mpmath matrix, ``2n x 2n``).
 
         ``frame="holonomic"``: ``z = (x, pi)``; ``frame="body"``: components on
@@ -388,13 +421,21 @@ class ReferenceCore:
                 def g(*z):
                     return fun(mpmath.matrix(z[:n]), mpmath.matrix(z[n:]))
 
-                parts = [mpmath.diff(g, z0, tuple(1 if k == i else 0 for k in range(2 * n))) for i in range(2 * n)]
+                parts = [
+                    mpmath.diff(g, z0, tuple(1 if k == i else 0 for k in range(2 * n)))
+                    for i in range(2 * n)
+                ]
                 return mpmath.matrix(parts[:n]), mpmath.matrix(parts[n:])
 
             ax, ap = grad(A)
             bx, bp = grad(B)
             a, b = L.T * ax, L.T * bx
-            val = (a.T * (-up * Phi_inv) * b + a.T * Psi_inv * bp - ap.T * Phi_inv * b - ap.T * q["S"] * Psi_inv * bp)[0]
+            val = (
+                a.T * (-up * Phi_inv) * b
+                + a.T * Psi_inv * bp
+                - ap.T * Phi_inv * b
+                - ap.T * q["S"] * Psi_inv * bp
+            )[0]
             return +val
 
     # ---------------------------------------------------- vector fields
@@ -404,15 +445,25 @@ class ReferenceCore:
         Iinv = mpmath.inverse(I_mp)
         if potential is None:
             return Iinv, None
-        return Iinv, (self._vec(potential["L"], n, "potential['L']"), self._vec(potential["gamma"], n, "potential['gamma']"))
+        return Iinv, (
+            self._vec(potential["L"], n, "potential['L']"),
+            self._vec(potential["gamma"], n, "potential['gamma']"),
+        )
 
     def gravity_frame_gradient(self, F, Ad, Lvec, gamma) -> mpmath.matrix:
         """``<dV|e^L_b> = -Gamma_m f^m_bc L^c`` with ``Gamma = K(g^-1) gamma = Ad(g)^T gamma`` (twee16)."""
         n = len(F)
         Gamma = Ad.T * gamma
-        return mpmath.matrix([-mpmath.fsum(Gamma[m] * F[m][b, c] * Lvec[c] for m in range(n) for c in range(n)) for b in range(n)])
+        return mpmath.matrix(
+            [
+                -mpmath.fsum(Gamma[m] * F[m][b, c] * Lvec[c] for m in range(n) for c in range(n))
+                for b in range(n)
+            ]
+        )
 
-    def hamiltonian_vector_field_mp(self, f, theta, upsilon, inertia, potential, x, pi, *, route: str = "closed"):
+    def hamiltonian_vector_field_mp(
+        self, f, theta, upsilon, inertia, potential, x, pi, *, route: str = "closed"
+    ):
         """``(xdot, pidot)`` for ``H = 1/2 pi.I^-1 pi + V`` (vier10, vier11); mpmath vectors."""
         with self._prec():
             F, th, up = self._model(f, theta, upsilon)
@@ -421,9 +472,14 @@ class ReferenceCore:
             if potential is not None and not isinstance(potential, dict):
                 check_potential(potential, n)  # raises, naming the input
             pot = check_potential(
-                None if potential is None else {
-                    k: (_as_float(v, f"potential[{k!r}]") if k != "kind" else v) for k, v in potential.items()
-                }, n)
+                None
+                if potential is None
+                else {
+                    k: (_as_float(v, f"potential[{k!r}]") if k != "kind" else v)
+                    for k, v in potential.items()
+                },
+                n,
+            )
             if pot is not None:
                 pot = {"kind": "gravity", "L": potential["L"], "gamma": potential["gamma"]}
             xv, pv = self._vec(x, n, "x"), self._vec(pi, n, "pi")
@@ -433,7 +489,11 @@ class ReferenceCore:
                 fr = self.frames_mp(F, xv)
                 q = self.phi_psi_delta(F, th, up, pv)
                 self._check_nondegenerate(q["Phi"], q["Delta"], pv)
-                dV = mpmath.zeros(n, 1) if grav is None else self.gravity_frame_gradient(F, fr["Ad"], *grav)
+                dV = (
+                    mpmath.zeros(n, 1)
+                    if grav is None
+                    else self.gravity_frame_gradient(F, fr["Ad"], *grav)
+                )
                 # Row-vector forms of vier10 / vier11, written as columns:
                 # Omega = Psi^-1 (dK - U dV), pidot = Phi^-1 (-dV - S dK).
                 Omega = mpmath.lu_solve(q["Psi"], dK - up * dV)
@@ -451,7 +511,12 @@ class ReferenceCore:
                         Ad = mpmath.expm(self.ad(F, mpmath.matrix(xs)))
                         return -(gamma.T * Ad * Lvec)[0]
 
-                    dVdx = mpmath.matrix([mpmath.diff(V, list(xv), tuple(1 if k == i else 0 for k in range(n))) for i in range(n)])
+                    dVdx = mpmath.matrix(
+                        [
+                            mpmath.diff(V, list(xv), tuple(1 if k == i else 0 for k in range(n)))
+                            for i in range(n)
+                        ]
+                    )
                 grad = mpmath.matrix(list(dVdx) + list(dK))
                 zdot = P * grad
                 return mpmath.matrix(list(zdot)[:n]), mpmath.matrix(list(zdot)[n:])
@@ -476,7 +541,11 @@ class ReferenceCore:
 
     @staticmethod
     def _out(m: mpmath.matrix, shape, exact: bool):
-        vals = [m[i] for i in range(len(m))] if m.cols == 1 else [m[i, j] for i in range(m.rows) for j in range(m.cols)]
+        vals = (
+            [m[i] for i in range(len(m))]
+            if m.cols == 1
+            else [m[i, j] for i in range(m.rows) for j in range(m.cols)]
+        )
         arr = np.array(vals, dtype=object).reshape(shape)
         if exact:
             return arr

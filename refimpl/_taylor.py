@@ -57,10 +57,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["CHUNK", "QuadraticField", "numpy_taylor_integrator", "quadratic_field", "quadratic_field_su2_full",
-           "scalar_taylor_integrator"]
+__all__ = [
+    "CHUNK",
+    "QuadraticField",
+    "numpy_taylor_integrator",
+    "quadratic_field",
+    "quadratic_field_su2_full",
+    "scalar_taylor_integrator",
+]
 
-CHUNK = 16384  # trajectories per chunk of the batched kernel (bounds the coefficient arrays' memory)
+CHUNK = (
+    16384  # trajectories per chunk of the batched kernel (bounds the coefficient arrays' memory)
+)
 
 
 @dataclass(frozen=True)
@@ -101,7 +109,9 @@ def quadratic_field(model) -> QuadraticField:
     * ``Gammadot_mu``: ``sum_b (I^-1)_bc f^a_{b mu}`` on ``pi_c Gamma_a``.
     """
     if not model.upsilon_zero:
-        raise ValueError("quadratic_field: the body field is a polynomial only for Upsilon = 0 (Phi = 1, vier6)")
+        raise ValueError(
+            "quadratic_field: the body field is a polynomial only for Upsilon = 0 (Phi = 1, vier6)"
+        )
     n, f, Ii = model.n, model.f, model.Iinv
     d = 2 * n if model.gravity else n
     lin: list[dict] = [{} for _ in range(d)]
@@ -111,7 +121,7 @@ def quadratic_field(model) -> QuadraticField:
         if v != 0:
             table[key] = table.get(key, 0.0) + float(v)
 
-    fI = np.einsum("mab,bc->mac", f, Ii)           # f^m_ab (I^-1)_bc
+    fI = np.einsum("mab,bc->mac", f, Ii)  # f^m_ab (I^-1)_bc
     for a in range(n):
         for m in range(n):
             for c in range(n):
@@ -126,7 +136,7 @@ def quadratic_field(model) -> QuadraticField:
         for a in range(n):
             for m in range(n):
                 add(lin[a], n + m, fL[a, m])
-        IF = np.einsum("bc,abu->uca", Ii, f)        # sum_b (I^-1)_bc f^a_{b mu}
+        IF = np.einsum("bc,abu->uca", Ii, f)  # sum_b (I^-1)_bc f^a_{b mu}
         for mu in range(n):
             for c in range(n):
                 for a in range(n):
@@ -134,7 +144,6 @@ def quadratic_field(model) -> QuadraticField:
     lin = tuple({k: v for k, v in t.items() if v != 0} for t in lin)
     quad = tuple({k: v for k, v in t.items() if v != 0} for t in quad)
     return QuadraticField(d, lin, quad)
-
 
 
 def quadratic_field_su2_full(model) -> QuadraticField:
@@ -151,7 +160,9 @@ def quadratic_field_su2_full(model) -> QuadraticField:
     block is exactly :func:`quadratic_field`; ``Gamma = Ad(g)^T gamma`` holds along the exact flow.
     """
     if not model.su2:
-        raise ValueError("quadratic_field_su2_full: the quaternion kinematics are written for su(2)/so(3)")
+        raise ValueError(
+            "quadratic_field_su2_full: the quaternion kinematics are written for su(2)/so(3)"
+        )
     B = quadratic_field(model)
     n, Ii = 3, model.Iinv
     d = B.d + 4
@@ -165,18 +176,19 @@ def quadratic_field_su2_full(model) -> QuadraticField:
             quad[c][key] = quad[c].get(key, 0.0) + float(v)
 
     eps = {(0, 1, 2): 1, (1, 2, 0): 1, (2, 0, 1): 1, (0, 2, 1): -1, (2, 1, 0): -1, (1, 0, 2): -1}
-    for c in range(n):           # Omega_b = sum_c Ii[b, c] pi_c
+    for c in range(n):  # Omega_b = sum_c Ii[b, c] pi_c
         for b in range(n):
-            add(q0, q0 + 1 + b, c, -0.5 * Ii[b, c])                  # -1/2 q_b Omega_b
-            add(q0 + 1 + b, q0, c, 0.5 * Ii[b, c])                   # 1/2 q_0 Omega_b
+            add(q0, q0 + 1 + b, c, -0.5 * Ii[b, c])  # -1/2 q_b Omega_b
+            add(q0 + 1 + b, q0, c, 0.5 * Ii[b, c])  # 1/2 q_0 Omega_b
             for a in range(n):
-                for e in range(n):                                   # (q x Omega)_a = eps_aeb q_e Omega_b
+                for e in range(n):  # (q x Omega)_a = eps_aeb q_e Omega_b
                     sgn = eps.get((a, e, b), 0)
                     if sgn:
                         add(q0 + 1 + a, q0 + 1 + e, c, 0.5 * sgn * Ii[b, c])
     lin = tuple({k: v for k, v in t.items() if v != 0} for t in lin)
     quad = tuple({k: v for k, v in t.items() if v != 0} for t in quad)
     return QuadraticField(d, lin, quad)
+
 
 def _lit(v: float) -> str:
     return repr(float(v))
@@ -198,8 +210,14 @@ def _linear(terms) -> str:
 
 
 def _key(model, order, kind):
-    return (kind, order, model.f.tobytes(), model.theta.tobytes(), model.Iinv.tobytes(),
-            None if not model.gravity else (model.Lvec.tobytes(), model.gamma.tobytes()))
+    return (
+        kind,
+        order,
+        model.f.tobytes(),
+        model.theta.tobytes(),
+        model.Iinv.tobytes(),
+        None if not model.gravity else (model.Lvec.tobytes(), model.gamma.tobytes()),
+    )
 
 
 _CACHE: dict = {}
@@ -223,22 +241,32 @@ def scalar_taylor_integrator(model, order: int):
     def zero(c, k):
         return k >= 1 and c in const
 
-    src = ["def run(yinit, h, nsteps, observe=None):",
-           "    " + "".join(f"y{c}_0, " for c in range(d)) + "= yinit"]
+    src = [
+        "def run(yinit, h, nsteps, observe=None):",
+        "    " + "".join(f"y{c}_0, " for c in range(d)) + "= yinit",
+    ]
     for k in range(P):
         src.append(f"    r{k} = h / {float(k + 1)!r}")
     src.append("    for step in range(nsteps):")
     ind = "        "
     for k in range(P):
         # Cauchy products (coefficient k of y_i y_j); squares summed over half the terms
-        for (i, j) in mons:
+        for i, j in mons:
             if i == j:
-                terms = [f"y{i}_{a}*y{i}_{k - a}" for a in range((k + 1) // 2) if not zero(i, a) and not zero(i, k - a)]
+                terms = [
+                    f"y{i}_{a}*y{i}_{k - a}"
+                    for a in range((k + 1) // 2)
+                    if not zero(i, a) and not zero(i, k - a)
+                ]
                 expr = f"2.0*({' + '.join(terms)})" if terms else ""
                 if k % 2 == 0 and not zero(i, k // 2):
                     expr = (expr + " + " if expr else "") + f"y{i}_{k // 2}*y{i}_{k // 2}"
             else:
-                terms = [f"y{i}_{a}*y{j}_{k - a}" for a in range(k + 1) if not zero(i, a) and not zero(j, k - a)]
+                terms = [
+                    f"y{i}_{a}*y{j}_{k - a}"
+                    for a in range(k + 1)
+                    if not zero(i, a) and not zero(j, k - a)
+                ]
                 expr = " + ".join(terms)
             src.append(f"{ind}m{i}_{j} = {expr or '0.0'}")
         for c in range(d):
@@ -297,17 +325,21 @@ def numpy_taylor_integrator(model, order: int):
             if i in const and j in const:
                 src.append(f"{ind}pr[{s}] = " + (f"Y[0, {i}] * Y[0, {j}]" if k == 0 else "0.0"))
             elif i in const or j in const:
-                u, v = (i, j) if i in const else (j, i)      # u constant: only Y_{0,u} Y_{k,v}
+                u, v = (i, j) if i in const else (j, i)  # u constant: only Y_{0,u} Y_{k,v}
                 src.append(f"{ind}_np.multiply(Y[0, {u}], Y[{k}, {v}], out=pr[{s}])")
             elif k == 0:
                 src.append(f"{ind}_np.multiply(Y[0, {i}], Y[0, {j}], out=pr[{s}])")
             else:
-                src.append(f"{ind}_np.einsum('an,an->n', Y[:{k + 1}, {i}], Y[{k}::-1, {j}], out=pr[{s}])")
+                src.append(
+                    f"{ind}_np.einsum('an,an->n', Y[:{k + 1}, {i}], Y[{k}::-1, {j}], out=pr[{s}])"
+                )
         for c in range(d):
             if c in const:
                 continue
             terms = [(q, f"pr[{slot[ij]}]") for ij, q in F.quad[c].items()]
-            terms += [(q, f"Y[{k}, {i}]") for i, q in F.lin[c].items() if not (k >= 1 and i in const)]
+            terms += [
+                (q, f"Y[{k}, {i}]") for i, q in F.lin[c].items() if not (k >= 1 and i in const)
+            ]
             o = f"Y[{k + 1}, {c}]"
             if not terms:
                 src.append(f"{ind}{o} = 0.0")
@@ -334,8 +366,10 @@ def numpy_taylor_integrator(model, order: int):
         for lo in range(0, N, chunk):
             m = min(chunk, N - lo)
             Y = np.zeros((P + 1, d, m))
-            Y[0] = y[:, lo:lo + m]
-            work.append((Y, np.empty((max(rows, 1), m)), np.empty(m), np.ones(P + 1), np.empty(d * m)))
+            Y[0] = y[:, lo : lo + m]
+            work.append(
+                (Y, np.empty((max(rows, 1), m)), np.empty(m), np.ones(P + 1), np.empty(d * m))
+            )
         for step in range(nsteps):
             for Y, pr, tmp, ones, flat in work:
                 kernel(Y, pr, tmp, ones, flat, h)

@@ -17,10 +17,27 @@ from ._algebra import EPS, LieAlgebra, jacobi_residual
 from ._errors import ChartError
 
 __all__ = [
-    "check_structure_constants", "check_theta", "check_upsilon", "check_inertia",
-    "check_potential", "check_points", "as_float_array", "chart_radius", "outside_chart", "check_chart",
-    "check_flow_request", "TWO_PI", "MAX_ELEMENTS", "INERTIA_RANGE", "INERTIA_MAX_COND", "MAX_FLOW_STEPS",
-    "MAX_FLOW_TIME", "MIN_FLOW_TOL", "MAX_REFERENCE_FLOW_TIME", "ad_chart_radius", "check_flow_rates",
+    "check_structure_constants",
+    "check_theta",
+    "check_upsilon",
+    "check_inertia",
+    "check_potential",
+    "check_points",
+    "as_float_array",
+    "chart_radius",
+    "outside_chart",
+    "check_chart",
+    "check_flow_request",
+    "TWO_PI",
+    "MAX_ELEMENTS",
+    "INERTIA_RANGE",
+    "INERTIA_MAX_COND",
+    "MAX_FLOW_STEPS",
+    "MAX_FLOW_TIME",
+    "MIN_FLOW_TOL",
+    "MAX_REFERENCE_FLOW_TIME",
+    "ad_chart_radius",
+    "check_flow_rates",
 ]
 
 TWO_PI = 2 * np.pi
@@ -75,14 +92,20 @@ def as_float_array(value: Any, name: str) -> np.ndarray:
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{name} is not a numeric array: {exc}") from None
     if raw.size > MAX_ELEMENTS:
-        raise ValueError(f"{name} has {raw.size} numbers, over the budget of {MAX_ELEMENTS} per input array")
+        raise ValueError(
+            f"{name} has {raw.size} numbers, over the budget of {MAX_ELEMENTS} per input array"
+        )
     if raw.dtype.kind == "c":
-        raise ValueError(f"{name} is complex (dtype {raw.dtype}); real numbers are expected, "
-                         f"the imaginary part is not dropped silently")
+        raise ValueError(
+            f"{name} is complex (dtype {raw.dtype}); real numbers are expected, "
+            f"the imaginary part is not dropped silently"
+        )
     if raw.dtype.kind == "b":
         raise ValueError(f"{name} is a boolean array; real numbers are expected")
     if raw.dtype.kind in "USV":
-        raise ValueError(f"{name} is an array of {raw.dtype} (strings or bytes); real numbers are expected")
+        raise ValueError(
+            f"{name} is an array of {raw.dtype} (strings or bytes); real numbers are expected"
+        )
     if raw.dtype.kind == "O":
         for e in raw.flat:
             why = _element_kind_error(e, name)
@@ -94,7 +117,9 @@ def as_float_array(value: Any, name: str) -> np.ndarray:
         with np.errstate(over="raise"):
             arr = np.asarray(raw, dtype=float)
     except (TypeError, ValueError, ArithmeticError, OverflowError) as exc:
-        raise ValueError(f"{name} is not an array of real numbers representable in float64: {exc}") from None
+        raise ValueError(
+            f"{name} is not an array of real numbers representable in float64: {exc}"
+        ) from None
     return arr
 
 
@@ -133,7 +158,9 @@ def _check_f_cached(data: bytes, n: int) -> None:
 def check_structure_constants(f: Any) -> np.ndarray:
     arr = as_float_array(f, "structure constants f")
     if arr.ndim != 3 or not (arr.shape[0] == arr.shape[1] == arr.shape[2]) or arr.shape[0] == 0:
-        raise ValueError(f"structure constants f must have shape (n, n, n) with n >= 1, got {arr.shape}")
+        raise ValueError(
+            f"structure constants f must have shape (n, n, n) with n >= 1, got {arr.shape}"
+        )
     _finite(arr, "structure constants f")
     arr = np.ascontiguousarray(arr)
     _check_f_cached(arr.tobytes(), arr.shape[0])
@@ -160,7 +187,9 @@ def _check_theta_cached(fdata: bytes, tdata: bytes, n: int) -> None:
     f = np.frombuffer(fdata, dtype=float).reshape(n, n, n)
     t = np.frombuffer(tdata, dtype=float).reshape(n, n)
     res = (
-        -np.einsum("kc,kab->abc", t, f) + np.einsum("kb,kac->abc", t, f) - np.einsum("ka,kbc->abc", t, f)
+        -np.einsum("kc,kab->abc", t, f)
+        + np.einsum("kb,kac->abc", t, f)
+        - np.einsum("ka,kbc->abc", t, f)
     )
     worst = float(np.max(np.abs(res)))
     # delta_2 Theta sums 3n products: 3 n eps max|f| max|Theta|, x8 slack.
@@ -194,8 +223,10 @@ def check_inertia(inertia: Any, n: int) -> np.ndarray:
     _finite(arr, "inertia")
     scale = float(np.max(np.abs(arr)))
     if scale > INERTIA_RANGE[1]:
-        raise ValueError(f"inertia has an entry of magnitude {scale:.3g}, outside the accepted range "
-                         f"[{INERTIA_RANGE[0]:g}, {INERTIA_RANGE[1]:g}]")
+        raise ValueError(
+            f"inertia has an entry of magnitude {scale:.3g}, outside the accepted range "
+            f"[{INERTIA_RANGE[0]:g}, {INERTIA_RANGE[1]:g}]"
+        )
     asym = float(np.max(np.abs(arr - arr.T)))
     if asym > 4 * EPS * scale:
         raise ValueError(f"inertia is not symmetric: max |I - I^T| = {asym:.3g}")
@@ -252,11 +283,15 @@ def check_points(x: Any, pi: Any, n: int, *, batched: bool) -> tuple[np.ndarray,
     xa = as_float_array(x, "x")
     pa = as_float_array(pi, "pi")
     if xa.shape[-1:] != (n,) or pa.shape[-1:] != (n,):
-        raise ValueError(f"x and pi must have last axis {n} to match f, got {xa.shape} and {pa.shape}")
+        raise ValueError(
+            f"x and pi must have last axis {n} to match f, got {xa.shape} and {pa.shape}"
+        )
     if xa.shape != pa.shape:
         raise ValueError(f"x and pi must have the same shape, got {xa.shape} and {pa.shape}")
     if not batched and xa.ndim != 1:
-        raise ValueError(f"x and pi must have shape ({n},) for an unbatched implementation, got {xa.shape}")
+        raise ValueError(
+            f"x and pi must have shape ({n},) for an unbatched implementation, got {xa.shape}"
+        )
     for arr, name in ((xa, "x"), (pa, "pi")):
         ok = np.all(np.isfinite(arr), axis=-1)
         if not np.all(ok):
@@ -354,8 +389,11 @@ def check_chart(f: np.ndarray, x: np.ndarray, *, name: str = "x", strict: bool =
     if bad.any():
         idx = np.flatnonzero(bad)
         k = int(idx[0])
-        where = "" if x.shape[0] == 1 else f" at batch index {k}" + (
-            f" and {len(idx) - 1} more" if len(idx) > 1 else "")
+        where = (
+            ""
+            if x.shape[0] == 1
+            else f" at batch index {k}" + (f" and {len(idx) - 1} more" if len(idx) > 1 else "")
+        )
         raise ChartError(
             f"{name} = {np.array2string(x[k], precision=6)}{where} is outside the chart of exponential "
             f"coordinates: max |Im eigenvalue of ad_x| = {rho[k]:.6g} >= 2 pi (the frame phi1(-ad_x) "
@@ -371,11 +409,17 @@ def check_flow_request(t: float, tol: float, steps: Any, method_name: Any, known
     ``[1, MAX_FLOW_STEPS]``; ``method_name`` ``None`` or a key of ``known``.
     """
     if method_name is not None and (not isinstance(method_name, str) or method_name not in known):
-        raise ValueError(f"method_name {method_name!r} is not a flow method; known: {sorted(known)}")
+        raise ValueError(
+            f"method_name {method_name!r} is not a flow method; known: {sorted(known)}"
+        )
     if not abs(t) <= MAX_FLOW_TIME:
-        raise ValueError(f"t = {t!r} exceeds the flow budget |t| <= {MAX_FLOW_TIME:g} (split the span, or rescale time)")
+        raise ValueError(
+            f"t = {t!r} exceeds the flow budget |t| <= {MAX_FLOW_TIME:g} (split the span, or rescale time)"
+        )
     if not tol >= MIN_FLOW_TOL:
-        raise ValueError(f"tol = {tol!r} is below {MIN_FLOW_TOL:g}: float64 rounding of the steps alone exceeds it")
+        raise ValueError(
+            f"tol = {tol!r} is below {MIN_FLOW_TOL:g}: float64 rounding of the steps alone exceeds it"
+        )
     if steps is not None:
         if isinstance(steps, (bool, np.bool_)) or not isinstance(steps, (int, np.integer)):
             raise ValueError(f"steps must be None or a positive int, got {steps!r}")
@@ -383,7 +427,9 @@ def check_flow_request(t: float, tol: float, steps: Any, method_name: Any, known
             raise ValueError(f"steps = {steps} is outside the budget [1, {MAX_FLOW_STEPS}]")
 
 
-def check_flow_rates(f: np.ndarray, inertia: np.ndarray, pi: np.ndarray, t: float, *, name: str = "pi0") -> None:
+def check_flow_rates(
+    f: np.ndarray, inertia: np.ndarray, pi: np.ndarray, t: float, *, name: str = "pi0"
+) -> None:
     """Refuse starting points whose rotation is too fast for the step budget, naming them.
 
     The body angular velocity is ``I^-1 pi``; the rate of the flow is estimated by
@@ -398,7 +444,11 @@ def check_flow_rates(f: np.ndarray, inertia: np.ndarray, pi: np.ndarray, t: floa
     inv_norm = 1.0 / float(np.linalg.eigvalsh(0.5 * (inertia + inertia.T))[0])
     fmax = max(1.0, float(np.max(np.abs(f)))) if f.size else 1.0
     with np.errstate(over="ignore"):
-        size = np.max(np.abs(pts), axis=1) * np.sqrt(pts.shape[1]) if pts.size else np.zeros(pts.shape[0])
+        size = (
+            np.max(np.abs(pts), axis=1) * np.sqrt(pts.shape[1])
+            if pts.size
+            else np.zeros(pts.shape[0])
+        )
         rate = inv_norm * np.maximum(1.0, size) * fmax
     limit = 2.0**14 * (2 + abs(t))
     bad = np.flatnonzero(~(abs(t) * rate <= limit))

@@ -76,7 +76,10 @@ import mpmath
 import numpy as np
 import sympy
 
+from . import fast as _fast_module
 from ._algebra import LieAlgebra
+from ._errors import DegeneratePointError
+from ._reference_core import MAX_DPS
 from ._validate import (
     check_inertia,
     check_points,
@@ -86,16 +89,20 @@ from ._validate import (
     check_upsilon,
     outside_chart,
 )
-from . import fast as _fast_module
-from ._errors import DegeneratePointError
-from ._reference_core import MAX_DPS
 from .reference import Reference
 
-__all__ = ["LADDER_STEP", "FieldWithin", "PoissonWithin", "delta_exact", "poisson_within", "vector_field_within"]
+__all__ = [
+    "LADDER_STEP",
+    "FieldWithin",
+    "PoissonWithin",
+    "delta_exact",
+    "poisson_within",
+    "vector_field_within",
+]
 
 EPS = float(np.finfo(float).eps)
-LADDER_STEP = 16        # digits between the two rungs of the precision ladder
-DEFAULT_MAX_DPS = 400   # the ladder gives up (flags the point) beyond this precision
+LADDER_STEP = 16  # digits between the two rungs of the precision ladder
+DEFAULT_MAX_DPS = 400  # the ladder gives up (flags the point) beyond this precision
 
 
 @dataclass(frozen=True)
@@ -146,17 +153,28 @@ def _check_tol(tol) -> float:
 
 
 def _check_dps(dps, max_dps) -> None:
-    if dps is not None and (not isinstance(dps, (int, np.integer)) or isinstance(dps, bool)
-                            or not 15 <= dps <= MAX_DPS):
-        raise ValueError(f"dps must be None or an int in [15, {MAX_DPS}] (the reference's cap), got {dps!r}")
-    if not isinstance(max_dps, (int, np.integer)) or isinstance(max_dps, bool) or not 30 <= max_dps <= MAX_DPS:
-        raise ValueError(f"max_dps must be an int in [30, {MAX_DPS}] (the reference's cap), got {max_dps!r}")
+    if dps is not None and (
+        not isinstance(dps, (int, np.integer)) or isinstance(dps, bool) or not 15 <= dps <= MAX_DPS
+    ):
+        raise ValueError(
+            f"dps must be None or an int in [15, {MAX_DPS}] (the reference's cap), got {dps!r}"
+        )
+    if (
+        not isinstance(max_dps, (int, np.integer))
+        or isinstance(max_dps, bool)
+        or not 30 <= max_dps <= MAX_DPS
+    ):
+        raise ValueError(
+            f"max_dps must be an int in [30, {MAX_DPS}] (the reference's cap), got {max_dps!r}"
+        )
 
 
 def _fast_impl(fast):
     if fast is not None:
         return fast
-    return _fast_module.implementation  # looked up at call time: a replaced implementation is honoured
+    return (
+        _fast_module.implementation
+    )  # looked up at call time: a replaced implementation is honoured
 
 
 def _model(f, theta, upsilon):
@@ -177,8 +195,14 @@ def delta_exact(f, theta, upsilon, pi) -> sympy.Rational:
     ff, th, up = _model(f, theta, upsilon)
     n = ff.shape[0]
     p = [sympy.Rational(float(v)) for v in np.asarray(pi, dtype=float).reshape(n)]
-    F = [[[sympy.Rational(float(ff[m, a, b])) for b in range(n)] for a in range(n)] for m in range(n)]
-    S = sympy.Matrix(n, n, lambda a, b: sum(p[m] * F[m][a][b] for m in range(n)) - sympy.Rational(float(th[a, b])))
+    F = [
+        [[sympy.Rational(float(ff[m, a, b])) for b in range(n)] for a in range(n)] for m in range(n)
+    ]
+    S = sympy.Matrix(
+        n,
+        n,
+        lambda a, b: sum(p[m] * F[m][a][b] for m in range(n)) - sympy.Rational(float(th[a, b])),
+    )
     U = sympy.Matrix(n, n, lambda a, b: sympy.Rational(float(up[a, b])))
     return (sympy.eye(n) + S * U).det(method="bareiss")
 
@@ -233,7 +257,12 @@ def _ladder(evaluate: Callable[[int], list], d0: int, max_dps: int, tol: float, 
             allowed = tol * float(scale) if relative else tol
             rounding = EPS / 2 * float(scale)
             if rounding > allowed:
-                return None, math.inf, 0, f"float64 rounding {rounding:.2g} alone exceeds the allowed {allowed:.2g}"
+                return (
+                    None,
+                    math.inf,
+                    0,
+                    f"float64 rounding {rounding:.2g} alone exceeds the allowed {allowed:.2g}",
+                )
             if float(diff) <= allowed / 8:
                 out = np.array([float(v) for v in vals])
                 return out, float(diff) + rounding, d, ""
@@ -243,10 +272,21 @@ def _ladder(evaluate: Callable[[int], list], d0: int, max_dps: int, tol: float, 
     return None, math.inf, 0, f"precision ladder reached max_dps = {max_dps} ({last_reason})"
 
 
-def _resolve(n_points: int, values: np.ndarray, bound: np.ndarray, degenerate: np.ndarray, cond: np.ndarray,
-             tol: float, relative: bool, escalate: bool, dps: int | None, max_dps: int,
-             evaluate_point: Callable[[int, int], list], exact_cond: Callable[[int], float],
-             outside: np.ndarray | None = None):
+def _resolve(
+    n_points: int,
+    values: np.ndarray,
+    bound: np.ndarray,
+    degenerate: np.ndarray,
+    cond: np.ndarray,
+    tol: float,
+    relative: bool,
+    escalate: bool,
+    dps: int | None,
+    max_dps: int,
+    evaluate_point: Callable[[int, int], list],
+    exact_cond: Callable[[int], float],
+    outside: np.ndarray | None = None,
+):
     """Shared logic: decide ok / escalated / flagged per point. ``values``: (N, m) float64, modified in place.
     ``outside``: points outside the chart, flagged at once (NaN, bound inf)."""
     with np.errstate(invalid="ignore", over="ignore"):
@@ -263,23 +303,36 @@ def _resolve(n_points: int, values: np.ndarray, bound: np.ndarray, degenerate: n
         values[outside] = np.nan
         bound[outside] = np.inf
         flagged[outside] = True
-        reason[outside] = "outside the chart of exponential coordinates (max |Im eig ad_x| >= 2 pi, twee1)"
+        reason[outside] = (
+            "outside the chart of exponential coordinates (max |Im eig ad_x| >= 2 pi, twee1)"
+        )
         over &= ~outside
     for k in np.flatnonzero(over):
         if not escalate:
             flagged[k] = True
-            reason[k] = "degenerate to float64 accuracy" if degenerate[k] else "error bound exceeds the tolerance"
+            reason[k] = (
+                "degenerate to float64 accuracy"
+                if degenerate[k]
+                else "error bound exceeds the tolerance"
+            )
             continue
         if degenerate[k] or not math.isfinite(float(cond[k])):
             c = exact_cond(k)
             if c == math.inf:
-                flagged[k], reason[k] = True, "Delta = 0 exactly: on the degenerate set Pi_1 (vier12)"
+                flagged[k], reason[k] = (
+                    True,
+                    "Delta = 0 exactly: on the degenerate set Pi_1 (vier12)",
+                )
                 values[k] = np.nan
                 bound[k] = np.inf
                 continue
         else:
             c = float(cond[k])
-        d0 = _start_dps(c, tol if relative else tol / max(1.0, float(scale[k]) if np.isfinite(scale[k]) else 1.0), dps)
+        d0 = _start_dps(
+            c,
+            tol if relative else tol / max(1.0, float(scale[k]) if np.isfinite(scale[k]) else 1.0),
+            dps,
+        )
         out, b, d, why = _ladder(lambda d, k=k: evaluate_point(k, d), d0, max_dps, tol, relative)
         if out is None:
             flagged[k], reason[k] = True, why
@@ -310,8 +363,20 @@ def _exact_cond_fn(ff, th, up, pi_pts):
 
 
 # ------------------------------------------------------------ Poisson tensor
-def poisson_within(f, theta, upsilon, x, pi, tol, *, escalate: bool = True, dps: int | None = None,
-                   relative: bool = True, max_dps: int = DEFAULT_MAX_DPS, fast=None) -> PoissonWithin:
+def poisson_within(
+    f,
+    theta,
+    upsilon,
+    x,
+    pi,
+    tol,
+    *,
+    escalate: bool = True,
+    dps: int | None = None,
+    relative: bool = True,
+    max_dps: int = DEFAULT_MAX_DPS,
+    fast=None,
+) -> PoissonWithin:
     """Holonomic Poisson tensors ``P[..., i, j] = {z_i, z_j}`` (vier9) within ``tol``, or flagged.
 
     Calls ``fast.poisson_batch`` (default :data:`refimpl.fast.implementation`,
@@ -332,28 +397,60 @@ def poisson_within(f, theta, upsilon, x, pi, tol, *, escalate: bool = True, dps:
     values = np.array(res.P, dtype=float).reshape(N, 4 * n * n)
     X, Pm = xa.reshape(N, n), pa.reshape(N, n)
     with np.errstate(invalid="ignore", over="ignore"):
-        cond = (np.maximum(np.asarray(res.cond_phi, dtype=float), np.asarray(res.cond_data, dtype=float))
-                .reshape(N))
+        cond = np.maximum(
+            np.asarray(res.cond_phi, dtype=float), np.asarray(res.cond_data, dtype=float)
+        ).reshape(N)
 
     def evaluate(k: int, d: int) -> list:
         M = Reference(d).poisson_tensor_mp(ff, th, up, X[k], Pm[k])
         return [M[i, j] for i in range(2 * n) for j in range(2 * n)]
 
     values, bound, allowed, flagged, escalated, used, reason = _resolve(
-        N, values, np.asarray(res.error_bound, dtype=float).reshape(N).copy(),
-        np.asarray(res.degenerate, dtype=bool).reshape(N), cond, tol, relative, escalate, dps, max_dps,
-        evaluate, _exact_cond_fn(ff, th, up, Pm), outside_chart(ff, X))
+        N,
+        values,
+        np.asarray(res.error_bound, dtype=float).reshape(N).copy(),
+        np.asarray(res.degenerate, dtype=bool).reshape(N),
+        cond,
+        tol,
+        relative,
+        escalate,
+        dps,
+        max_dps,
+        evaluate,
+        _exact_cond_fn(ff, th, up, Pm),
+        outside_chart(ff, X),
+    )
     return PoissonWithin(
-        P=values.reshape(shape + (2 * n, 2 * n)), error_bound=bound.reshape(shape), allowed=allowed.reshape(shape),
-        flagged=flagged.reshape(shape), escalated=escalated.reshape(shape), dps=used.reshape(shape),
-        reason=reason.reshape(shape), fast=res, tol=tol, relative=relative,
+        P=values.reshape(shape + (2 * n, 2 * n)),
+        error_bound=bound.reshape(shape),
+        allowed=allowed.reshape(shape),
+        flagged=flagged.reshape(shape),
+        escalated=escalated.reshape(shape),
+        dps=used.reshape(shape),
+        reason=reason.reshape(shape),
+        fast=res,
+        tol=tol,
+        relative=relative,
     )
 
 
 # -------------------------------------------------------------- vector field
-def vector_field_within(f, theta, upsilon, inertia, potential, x, pi, tol, *, escalate: bool = True,
-                        dps: int | None = None, relative: bool = True, max_dps: int = DEFAULT_MAX_DPS,
-                        fast=None) -> FieldWithin:
+def vector_field_within(
+    f,
+    theta,
+    upsilon,
+    inertia,
+    potential,
+    x,
+    pi,
+    tol,
+    *,
+    escalate: bool = True,
+    dps: int | None = None,
+    relative: bool = True,
+    max_dps: int = DEFAULT_MAX_DPS,
+    fast=None,
+) -> FieldWithin:
     """``(xdot, pidot)`` of vier10/vier11 within ``tol``, or flagged (module docstring).
 
     The allowed error of point ``k`` is ``tol * max(1, |xdot_k|_max, |pidot_k|_max)``
@@ -371,24 +468,48 @@ def vector_field_within(f, theta, upsilon, inertia, potential, x, pi, tol, *, es
     N = int(np.prod(shape, dtype=int))
     fast = _fast_impl(fast)
     res = fast.vector_field_batch(ff, th, up, inertia, pot, xa, pa)
-    values = np.concatenate([np.asarray(res.xdot, dtype=float).reshape(N, n),
-                             np.asarray(res.pidot, dtype=float).reshape(N, n)], axis=1)
+    values = np.concatenate(
+        [
+            np.asarray(res.xdot, dtype=float).reshape(N, n),
+            np.asarray(res.pidot, dtype=float).reshape(N, n),
+        ],
+        axis=1,
+    )
     X, Pm = xa.reshape(N, n), pa.reshape(N, n)
     with np.errstate(invalid="ignore", over="ignore"):
-        cond = (np.maximum(np.asarray(res.cond_phi, dtype=float), np.asarray(res.cond_data, dtype=float))
-                .reshape(N))
+        cond = np.maximum(
+            np.asarray(res.cond_phi, dtype=float), np.asarray(res.cond_data, dtype=float)
+        ).reshape(N)
 
     def evaluate(k: int, d: int) -> list:
         xd, pd = Reference(d).hamiltonian_vector_field_mp(ff, th, up, inertia, pot, X[k], Pm[k])
         return [xd[i] for i in range(n)] + [pd[i] for i in range(n)]
 
     values, bound, allowed, flagged, escalated, used, reason = _resolve(
-        N, values, np.asarray(res.error_bound, dtype=float).reshape(N).copy(),
-        np.asarray(res.degenerate, dtype=bool).reshape(N), cond, tol, relative, escalate, dps, max_dps,
-        evaluate, _exact_cond_fn(ff, th, up, Pm), outside_chart(ff, X))
+        N,
+        values,
+        np.asarray(res.error_bound, dtype=float).reshape(N).copy(),
+        np.asarray(res.degenerate, dtype=bool).reshape(N),
+        cond,
+        tol,
+        relative,
+        escalate,
+        dps,
+        max_dps,
+        evaluate,
+        _exact_cond_fn(ff, th, up, Pm),
+        outside_chart(ff, X),
+    )
     return FieldWithin(
-        xdot=values[:, :n].reshape(shape + (n,)), pidot=values[:, n:].reshape(shape + (n,)),
-        error_bound=bound.reshape(shape), allowed=allowed.reshape(shape), flagged=flagged.reshape(shape),
-        escalated=escalated.reshape(shape), dps=used.reshape(shape), reason=reason.reshape(shape),
-        fast=res, tol=tol, relative=relative,
+        xdot=values[:, :n].reshape(shape + (n,)),
+        pidot=values[:, n:].reshape(shape + (n,)),
+        error_bound=bound.reshape(shape),
+        allowed=allowed.reshape(shape),
+        flagged=flagged.reshape(shape),
+        escalated=escalated.reshape(shape),
+        dps=used.reshape(shape),
+        reason=reason.reshape(shape),
+        fast=res,
+        tol=tol,
+        relative=relative,
     )

@@ -186,7 +186,9 @@ def _expr(v) -> sp.Expr:
         fv = float(v)
         if not math.isfinite(fv):
             raise ValueError(f"non-finite number {v!r}")
-        return sp.nsimplify(sp.Float(fv, 17), rational=True) if fv != int(fv) else sp.Integer(int(fv))
+        return (
+            sp.nsimplify(sp.Float(fv, 17), rational=True) if fv != int(fv) else sp.Integer(int(fv))
+        )
     raise TypeError(f"cannot use {type(v).__name__} {v!r:.60} as a sympy expression")
 
 
@@ -504,7 +506,9 @@ def lie_poisson_model(
     Gam = None
     if potential is not None:
         if not isinstance(potential, dict):
-            raise ValueError(f"potential must be None or a dict with kind 'gravity', L and gamma, got {potential!r:.60}")
+            raise ValueError(
+                f"potential must be None or a dict with kind 'gravity', L and gamma, got {potential!r:.60}"
+            )
         if potential.get("kind") != "gravity":
             raise ValueError(f"potential['kind'] must be 'gravity', got {potential.get('kind')!r}")
         L = _matrix([[v] for v in potential["L"]], "potential['L']")

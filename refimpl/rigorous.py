@@ -66,7 +66,6 @@ import numpy as np
 import sympy
 from flint import arb, arb_mat
 
-from ._errors import DegeneratePointError
 from ._arb import (
     Balls,
     algebra_balls,
@@ -78,6 +77,7 @@ from ._arb import (
     upper,
     workprec,
 )
+from ._errors import DegeneratePointError
 from ._rigorous_flow import body_flow_enclosure
 from ._validate import (
     check_inertia,

@@ -36,10 +36,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._catalogue import catalogue
+from ._fast_kernels import FastCore
 from ._flow_fast import METHODS, NumpyModel, check_tolerance, fast_trajectory, integrate_fast
 from ._flow_reference import check_time
 from ._invariants import casimirs, energy, momentum_map
-from ._fast_kernels import FastCore
 from ._validate import MAX_FLOW_TIME, MIN_FLOW_TOL, as_float_array, check_flow_rates, check_inertia
 
 MAX_SAMPLES = 10**6
@@ -54,8 +54,25 @@ MAX_NAME = 200
 __all__ = ["Scene", "Plan", "load_scene", "parse_scene", "plan", "run_scene", "OUTPUTS"]
 
 OUTPUTS = ("pi", "x", "Gamma", "energy", "casimirs", "momentum_map")
-KEYS = {"name", "algebra", "f", "theta", "xi", "upsilon", "tau", "inertia", "inertia_diagonal", "potential",
-        "x0", "pi0", "t_end", "samples", "tol", "method", "outputs"}
+KEYS = {
+    "name",
+    "algebra",
+    "f",
+    "theta",
+    "xi",
+    "upsilon",
+    "tau",
+    "inertia",
+    "inertia_diagonal",
+    "potential",
+    "x0",
+    "pi0",
+    "t_end",
+    "samples",
+    "tol",
+    "method",
+    "outputs",
+}
 
 
 @dataclass
@@ -86,7 +103,10 @@ class Plan:
     reasons: list = field(default_factory=list)
 
     def describe(self) -> str:
-        lines = [f"system: {self.system}", f"method: {self.method} ({self.steps_per_sample} steps per sample)"]
+        lines = [
+            f"system: {self.system}",
+            f"method: {self.method} ({self.steps_per_sample} steps per sample)",
+        ]
         lines += [f"chose: {r}" for r in self.reasons]
         lines += [f"skipped: {s}" for s in self.skipped]
         return "\n".join(lines)
@@ -112,10 +132,14 @@ def parse_scene(d: dict) -> Scene:
     if unknown:
         raise ValueError(f"unknown scene key(s) {unknown}; allowed: {sorted(KEYS)}")
     if ("algebra" in d) == ("f" in d):
-        raise ValueError("a scene needs exactly one of 'algebra' (catalogue name) or 'f' (structure constants)")
+        raise ValueError(
+            "a scene needs exactly one of 'algebra' (catalogue name) or 'f' (structure constants)"
+        )
     if "algebra" in d:
         if not isinstance(d["algebra"], str):
-            raise ValueError(f"scene key 'algebra' must be a catalogue name (a string), got {d['algebra']!r:.60}")
+            raise ValueError(
+                f"scene key 'algebra' must be a catalogue name (a string), got {d['algebra']!r:.60}"
+            )
         try:
             alg = catalogue(d["algebra"])
         except (KeyError, ValueError) as exc:
@@ -129,13 +153,18 @@ def parse_scene(d: dict) -> Scene:
     n = f.shape[0]
     if "theta" in d and "xi" in d:
         raise ValueError("give 'theta' or 'xi', not both")
-    theta = _arr(d, "theta", (n, n)) if "theta" in d else (
-        -np.einsum("k,kab->ab", _arr(d, "xi", (n,)), f) if "xi" in d else np.zeros((n, n)))
+    theta = (
+        _arr(d, "theta", (n, n))
+        if "theta" in d
+        else (-np.einsum("k,kab->ab", _arr(d, "xi", (n,)), f) if "xi" in d else np.zeros((n, n)))
+    )
     if "upsilon" in d and "tau" in d:
         raise ValueError("give 'upsilon' or 'tau', not both")
     if "tau" in d:
         if n != 3:
-            raise ValueError("scene key 'tau' is for 3-dimensional algebras (su(2)); give 'upsilon' of shape (n, n)")
+            raise ValueError(
+                "scene key 'tau' is for 3-dimensional algebras (su(2)); give 'upsilon' of shape (n, n)"
+            )
         eps = np.zeros((3, 3, 3))
         for a, b, c in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
             eps[a, b, c], eps[a, c, b] = 1.0, -1.0
@@ -143,8 +172,12 @@ def parse_scene(d: dict) -> Scene:
     else:
         upsilon = _arr(d, "upsilon", (n, n)) if "upsilon" in d else np.zeros((n, n))
     if ("inertia" in d) == ("inertia_diagonal" in d):
-        raise ValueError("a scene needs exactly one of 'inertia' ((n, n)) or 'inertia_diagonal' ((n,))")
-    inertia = _arr(d, "inertia", (n, n)) if "inertia" in d else np.diag(_arr(d, "inertia_diagonal", (n,)))
+        raise ValueError(
+            "a scene needs exactly one of 'inertia' ((n, n)) or 'inertia_diagonal' ((n,))"
+        )
+    inertia = (
+        _arr(d, "inertia", (n, n)) if "inertia" in d else np.diag(_arr(d, "inertia_diagonal", (n,)))
+    )
     pot = None
     if "potential" in d:
         p = d["potential"]
@@ -152,7 +185,9 @@ def parse_scene(d: dict) -> Scene:
             raise ValueError("scene key 'potential' must be a table with 'L' and 'gamma'")
         extra = sorted(set(p) - {"L", "gamma"})
         if extra:
-            raise ValueError(f"unknown key(s) {extra} in scene table 'potential' (allowed: L, gamma)")
+            raise ValueError(
+                f"unknown key(s) {extra} in scene table 'potential' (allowed: L, gamma)"
+            )
         for k in ("L", "gamma"):
             if k not in p:
                 raise ValueError(f"scene table 'potential' needs {k!r} of shape ({n},)")
@@ -167,8 +202,10 @@ def parse_scene(d: dict) -> Scene:
         if x0.shape[0] == 1:
             x0 = np.repeat(x0, pi0.shape[0], axis=0)
         else:
-            raise ValueError(f"scene keys 'x0' and 'pi0' must have the same number of points, "
-                             f"got {x0.shape} and {pi0.shape}")
+            raise ValueError(
+                f"scene keys 'x0' and 'pi0' must have the same number of points, "
+                f"got {x0.shape} and {pi0.shape}"
+            )
 
     if isinstance(d["t_end"], (bool, str)):
         raise ValueError(f"scene key 't_end' must be a number > 0, got {d['t_end']!r}")
@@ -176,20 +213,30 @@ def parse_scene(d: dict) -> Scene:
     if t_end == 0:
         raise ValueError("scene key 't_end' must be > 0")
     if t_end > MAX_FLOW_TIME:
-        raise ValueError(f"scene key 't_end' = {t_end:g} exceeds the budget t_end <= {MAX_FLOW_TIME:g}")
+        raise ValueError(
+            f"scene key 't_end' = {t_end:g} exceeds the budget t_end <= {MAX_FLOW_TIME:g}"
+        )
     samples = d.get("samples", 101)
     if isinstance(samples, bool) or not isinstance(samples, int) or not 2 <= samples <= MAX_SAMPLES:
-        raise ValueError(f"scene key 'samples' must be an int in [2, {MAX_SAMPLES}], got {samples!r}")
+        raise ValueError(
+            f"scene key 'samples' must be an int in [2, {MAX_SAMPLES}], got {samples!r}"
+        )
     if x0.shape[0] > MAX_POINTS:
-        raise ValueError(f"scene has {x0.shape[0]} starting points, over the budget of {MAX_POINTS}")
+        raise ValueError(
+            f"scene has {x0.shape[0]} starting points, over the budget of {MAX_POINTS}"
+        )
     if samples * x0.shape[0] * n > MAX_SAMPLE_VALUES:
-        raise ValueError(f"scene asks for samples x points x n = {samples * x0.shape[0] * n} numbers per output, "
-                         f"over the budget of {MAX_SAMPLE_VALUES}")
+        raise ValueError(
+            f"scene asks for samples x points x n = {samples * x0.shape[0] * n} numbers per output, "
+            f"over the budget of {MAX_SAMPLE_VALUES}"
+        )
     if isinstance(d.get("tol", 1e-9), (bool, str)):
         raise ValueError(f"scene key 'tol' must be a number, got {d['tol']!r}")
     tol = check_tolerance(d.get("tol", 1e-9))
     if tol < MIN_FLOW_TOL:
-        raise ValueError(f"scene key 'tol' = {tol:g} is below {MIN_FLOW_TOL:g} (float64 rounding alone exceeds it)")
+        raise ValueError(
+            f"scene key 'tol' = {tol:g} is below {MIN_FLOW_TOL:g} (float64 rounding alone exceeds it)"
+        )
     try:
         inertia = check_inertia(inertia, n)
         check_flow_rates(f, inertia, pi0, t_end, name="scene key 'pi0'")
@@ -201,17 +248,22 @@ def parse_scene(d: dict) -> Scene:
         raise ValueError(f"scene key 'method' must be one of {sorted(METHODS)}, got {method!r}")
     outputs = d.get("outputs", ["pi", "energy"])
     if not isinstance(outputs, list) or not all(isinstance(o, str) for o in outputs):
-        raise ValueError(f"scene key 'outputs' must be a list of strings from {list(OUTPUTS)}, got {outputs!r:.80}")
+        raise ValueError(
+            f"scene key 'outputs' must be a list of strings from {list(OUTPUTS)}, got {outputs!r:.80}"
+        )
     outputs = tuple(outputs)
     bad = [o for o in outputs if o not in OUTPUTS]
     if bad:
         raise ValueError(f"scene key 'outputs' has unknown entries {bad}; allowed: {list(OUTPUTS)}")
     name = d.get("name", "scene")
     if not isinstance(name, str) or not name.strip() or len(name) > MAX_NAME:
-        raise ValueError(f"scene key 'name' must be a non-empty string of at most {MAX_NAME} characters, "
-                         f"got {name!r:.80}")
-    return Scene(name, f, alg, theta, upsilon, inertia, pot, x0, pi0, t_end, samples, tol,
-                 method, outputs)
+        raise ValueError(
+            f"scene key 'name' must be a non-empty string of at most {MAX_NAME} characters, "
+            f"got {name!r:.80}"
+        )
+    return Scene(
+        name, f, alg, theta, upsilon, inertia, pot, x0, pi0, t_end, samples, tol, method, outputs
+    )
 
 
 def _check_start(f, theta, upsilon, x0, pi0) -> None:
@@ -221,12 +273,19 @@ def _check_start(f, theta, upsilon, x0, pi0) -> None:
         res = FastCore().poisson_batch(f, theta, upsilon, x0, pi0)
     except ValueError as exc:
         raise ValueError(f"scene: {exc}") from None
-    for mask, what in ((res.outside_chart, "x0 outside the chart of exponential coordinates (|Im eig ad_x| >= 2 pi)"),
-                       (res.degenerate, "a start on the degenerate set Pi_1 (Delta = det Phi = 0, vier12)")):
+    for mask, what in (
+        (
+            res.outside_chart,
+            "x0 outside the chart of exponential coordinates (|Im eig ad_x| >= 2 pi)",
+        ),
+        (res.degenerate, "a start on the degenerate set Pi_1 (Delta = det Phi = 0, vier12)"),
+    ):
         if mask is not None and np.any(mask):
             k = int(np.flatnonzero(mask)[0])
-            raise ValueError(f"scene starting point {k} (x0 = {x0[k].tolist()}, pi0 = {pi0[k].tolist()}) is {what}; "
-                             f"{int(np.sum(mask))} such point(s)")
+            raise ValueError(
+                f"scene starting point {k} (x0 = {x0[k].tolist()}, pi0 = {pi0[k].tolist()}) is {what}; "
+                f"{int(np.sum(mask))} such point(s)"
+            )
 
 
 MAX_SCENE_BYTES = 10 * 2**20
@@ -240,7 +299,9 @@ def load_scene(path) -> Scene:
     except OSError as exc:
         raise ValueError(f"{path}: cannot read the scene file: {exc.strerror}") from None
     if size > MAX_SCENE_BYTES:
-        raise ValueError(f"{path}: scene file of {size} bytes, over the budget of {MAX_SCENE_BYTES}")
+        raise ValueError(
+            f"{path}: scene file of {size} bytes, over the budget of {MAX_SCENE_BYTES}"
+        )
     with open(path, "rb") as fh:
         try:
             d = tomllib.load(fh)
@@ -252,8 +313,13 @@ def load_scene(path) -> Scene:
 
 
 def _model(scene: Scene) -> NumpyModel:
-    return NumpyModel(scene.algebra if scene.algebra is not None else scene.f, scene.theta, scene.upsilon,
-                      scene.inertia, scene.potential)
+    return NumpyModel(
+        scene.algebra if scene.algebra is not None else scene.f,
+        scene.theta,
+        scene.upsilon,
+        scene.inertia,
+        scene.potential,
+    )
 
 
 def plan(scene: Scene) -> Plan:
@@ -263,15 +329,21 @@ def plan(scene: Scene) -> Plan:
     needs_config = any(o in scene.outputs for o in ("x", "momentum_map"))
     if needs_config:
         system = "full"
-        reasons.append("configuration integrated: outputs ask for " +
-                       ", ".join(o for o in ("x", "momentum_map") if o in scene.outputs))
+        reasons.append(
+            "configuration integrated: outputs ask for "
+            + ", ".join(o for o in ("x", "momentum_map") if o in scene.outputs)
+        )
     else:
         system = "body"
         if model.gravity:
-            skipped.append("configuration integration: gravity enters only through Gamma = Ad(g)^T gamma, "
-                           "so the reduced Euler-Poisson system (pi, Gamma) is integrated (twee17, twee18)")
+            skipped.append(
+                "configuration integration: gravity enters only through Gamma = Ad(g)^T gamma, "
+                "so the reduced Euler-Poisson system (pi, Gamma) is integrated (twee17, twee18)"
+            )
         else:
-            skipped.append("configuration integration: V = 0, the body equations for pi are closed (twee14/drie6)")
+            skipped.append(
+                "configuration integration: V = 0, the body equations for pi are closed (twee14/drie6)"
+            )
     phi = not model.upsilon_zero
     if not phi:
         skipped.append("Phi solve: Upsilon = 0 gives Phi = 1 (vier6), Omega = dK/dpi")
@@ -286,17 +358,23 @@ def plan(scene: Scene) -> Plan:
         reasons.append("Upsilon != 0: Gauss-Legendre (order 6) keeps omega_L's structure")
     elif METHODS["splitting4"].applies(model)[0] and scene.tol >= 1e-6:
         name = "splitting4"
-        reasons.append("su(2), Upsilon = 0, principal axes, loose tolerance: Lie-Poisson splitting (exact "
-                       "Casimirs, cheapest steps)")
+        reasons.append(
+            "su(2), Upsilon = 0, principal axes, loose tolerance: Lie-Poisson splitting (exact "
+            "Casimirs, cheapest steps)"
+        )
     elif system == "body" and scene.pi0.shape[0] <= 16 and METHODS["taylor20"].applies(model)[0]:
         name = "taylor20"
-        reasons.append("few trajectories of a quadratic body system (Upsilon = 0): Taylor series of order 20 "
-                       "from exact Cauchy-product recurrences, generated straight-line scalar code (fewest "
-                       "operations per digit; numpy's per-call overhead would dominate arrays of 6 numbers)")
+        reasons.append(
+            "few trajectories of a quadratic body system (Upsilon = 0): Taylor series of order 20 "
+            "from exact Cauchy-product recurrences, generated straight-line scalar code (fewest "
+            "operations per digit; numpy's per-call overhead would dominate arrays of 6 numbers)"
+        )
     elif system == "body" and scene.pi0.shape[0] == 1:
         name = "dop853-scalar"
-        reasons.append("one trajectory of a polynomial body system: DOP853 as generated straight-line scalar "
-                       "code (numpy's per-call overhead would dominate arrays of 6 numbers)")
+        reasons.append(
+            "one trajectory of a polynomial body system: DOP853 as generated straight-line scalar "
+            "code (numpy's per-call overhead would dominate arrays of 6 numbers)"
+        )
     else:
         name = "dop853"
         reasons.append("explicit 8th-order RK (DOP853 tableau), batched over the trajectories")
@@ -312,7 +390,7 @@ def _pilot_steps(model, meth, scene, system) -> int:
     prev = integrate_fast(model, meth, X, P, tp, N, system=system)
     for _ in range(16):
         cur = integrate_fast(model, meth, X, P, tp, 2 * N, system=system)
-        est = float(np.max(np.abs(cur["pi"] - prev["pi"]))) / (2 ** meth.order - 1)
+        est = float(np.max(np.abs(cur["pi"] - prev["pi"]))) / (2**meth.order - 1)
         if est <= scene.tol * tp / scene.t_end:
             break
         prev, N = cur, 2 * N
@@ -325,9 +403,21 @@ def run_scene(scene: Scene, the_plan: Plan | None = None, progress=None) -> dict
 
     p = the_plan or plan(scene)
     f_in = scene.algebra if scene.algebra is not None else scene.f
-    tr = fast_trajectory(f_in, scene.theta, scene.upsilon, scene.inertia, scene.potential, scene.x0,
-                         scene.pi0, scene.t_end, scene.samples, p.steps_per_sample, method_name=p.method,
-                         system=p.system, progress=progress)
+    tr = fast_trajectory(
+        f_in,
+        scene.theta,
+        scene.upsilon,
+        scene.inertia,
+        scene.potential,
+        scene.x0,
+        scene.pi0,
+        scene.t_end,
+        scene.samples,
+        p.steps_per_sample,
+        method_name=p.method,
+        system=p.system,
+        progress=progress,
+    )
     out = {"times": tr["times"], "pi": tr["pi"]}
     if tr["Gamma"] is not None:
         out["Gamma"] = tr["Gamma"]
@@ -343,7 +433,9 @@ def run_scene(scene: Scene, the_plan: Plan | None = None, progress=None) -> dict
             out["note casimirs"] = str(exc)
     if "momentum_map" in scene.outputs:
         if scene.potential is not None:
-            out["note momentum_map"] = "the momentum map is conserved only for V = 0; reported anyway"
+            out["note momentum_map"] = (
+                "the momentum map is conserved only for V = 0; reported anyway"
+            )
         T, N, n = tr["pi"].shape
         J = np.full((T, N, n), np.nan)
         for i in range(T):

@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
 from tstarg.properties import runner
 from tstarg.properties.runner import CheckAborted, TimeLimitExceeded, note, time_limit
 

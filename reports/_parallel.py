@@ -26,7 +26,14 @@ import traceback
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any, Callable, Iterable, Sequence
 
-__all__ = ["map_tasks", "TaskError", "add_parallel_arguments", "parallel_options", "usable_cores", "describe"]
+__all__ = [
+    "map_tasks",
+    "TaskError",
+    "add_parallel_arguments",
+    "parallel_options",
+    "usable_cores",
+    "describe",
+]
 
 
 class TaskError(RuntimeError):
@@ -80,7 +87,9 @@ def _collect(items: Sequence, outcomes: Iterable) -> list:
     return results
 
 
-def map_tasks(fn: Callable, items: Iterable, *, workers: int | None = None, scheduler: Any = None) -> list:
+def map_tasks(
+    fn: Callable, items: Iterable, *, workers: int | None = None, scheduler: Any = None
+) -> list:
     """``[fn(item) for item in items]``, computed serially, over local processes or on Dask.
 
     ``fn`` must be importable by name (a module-level function or a picklable callable
@@ -104,15 +113,23 @@ def _map_dask(guarded: _Guarded, items: list, scheduler, workers: int | None) ->
     try:
         from distributed import Client, LocalCluster
     except ImportError as exc:  # pragma: no cover - dask is a dependency
-        raise RuntimeError("a Dask scheduler was given but dask.distributed is not installed") from exc
+        raise RuntimeError(
+            "a Dask scheduler was given but dask.distributed is not installed"
+        ) from exc
     if isinstance(scheduler, Client):
         return _collect(items, scheduler.gather(scheduler.map(guarded, items, pure=False)))
     if not isinstance(scheduler, str) or not scheduler:
-        raise ValueError(f"scheduler must be an address like 'tcp://host:8786', 'local' or a Client, got {scheduler!r}")
+        raise ValueError(
+            f"scheduler must be an address like 'tcp://host:8786', 'local' or a Client, got {scheduler!r}"
+        )
     if scheduler == "local":
         n = workers or usable_cores()
-        with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
-                Client(cluster) as client:
+        with (
+            LocalCluster(
+                n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None
+            ) as cluster,
+            Client(cluster) as client,
+        ):
             return _collect(items, client.gather(client.map(guarded, items, pure=False)))
     with Client(scheduler) as client:
         return _collect(items, client.gather(client.map(guarded, items, pure=False)))
@@ -120,11 +137,19 @@ def _map_dask(guarded: _Guarded, items: list, scheduler, workers: int | None) ->
 
 def add_parallel_arguments(parser) -> None:
     """``--workers N`` and ``--scheduler ADDRESS`` for a sweep command."""
-    parser.add_argument("--workers", type=int, default=None,
-                        help="local worker processes (default: usable cores; 1 = serial, in-process)")
-    parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                        help="run the sweep on a Dask distributed scheduler (tcp://host:port), or 'local' to "
-                             "start a local Dask cluster")
+    parser.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        help="local worker processes (default: usable cores; 1 = serial, in-process)",
+    )
+    parser.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="run the sweep on a Dask distributed scheduler (tcp://host:port), or 'local' to "
+        "start a local Dask cluster",
+    )
 
 
 def parallel_options(args) -> dict:

@@ -29,17 +29,53 @@ from dataclasses import dataclass, field
 import numpy as np
 
 __all__ = [
-    "ERROR_TARGETS", "EXTRA_PROBLEMS", "FLOW_PROBLEMS", "SCIPY_SOLVERS", "TILED", "FlowProblem", "batch_error_task",
-    "batch_initial", "bracket_call", "bracket_cases", "bracket_error_task", "fast_methods",
-    "flow_error", "flow_problem", "fmt_err", "fmt_time", "ladder_task", "own_front", "pareto_front",
-    "plot_batch", "plot_work_precision", "reference_task", "run_fast", "run_scipy", "scipy_initial",
-    "scipy_rhs", "step_ladder", "time_at_error", "time_points",
+    "ERROR_TARGETS",
+    "EXTRA_PROBLEMS",
+    "FLOW_PROBLEMS",
+    "SCIPY_SOLVERS",
+    "TILED",
+    "FlowProblem",
+    "batch_error_task",
+    "batch_initial",
+    "bracket_call",
+    "bracket_cases",
+    "bracket_error_task",
+    "fast_methods",
+    "flow_error",
+    "flow_problem",
+    "fmt_err",
+    "fmt_time",
+    "ladder_task",
+    "own_front",
+    "pareto_front",
+    "plot_batch",
+    "plot_work_precision",
+    "reference_task",
+    "run_fast",
+    "run_scipy",
+    "scipy_initial",
+    "scipy_rhs",
+    "step_ladder",
+    "time_at_error",
+    "time_points",
 ]
 
 SCIPY_SOLVERS = ("DOP853", "RK45", "Radau")
-TILED = 10_000  # points in the large fast batch of the bracket benchmark (the case's points repeated)
+TILED = (
+    10_000  # points in the large fast batch of the bracket benchmark (the case's points repeated)
+)
 ERROR_TARGETS = (1e-6, 1e-9, 1e-12)
-TOL_LADDER = (1e-4, 1e-6, 1e-8, 1e-10, 1e-12, 1e-13, 1e-14, 1e-15, 1e-16)  # adaptive methods (tstarg, heyoka)
+TOL_LADDER = (
+    1e-4,
+    1e-6,
+    1e-8,
+    1e-10,
+    1e-12,
+    1e-13,
+    1e-14,
+    1e-15,
+    1e-16,
+)  # adaptive methods (tstarg, heyoka)
 TOL_LADDER_QUICK = (1e-6, 1e-10)
 
 
@@ -120,7 +156,9 @@ class FlowProblem:
     T: float
     reference: str  # "gbs" (GBS with precision ladder) or "closed" (Jacobi elliptic functions)
     theta_xi: list | None = None  # Theta = -xi.f (a coboundary, zeven3)
-    upsilon_tau: list | None = None  # Upsilon^mn = tau_l f^l_mn (su(2): tau_l epsilon_lmn, section cinq)
+    upsilon_tau: list | None = (
+        None  # Upsilon^mn = tau_l f^l_mn (su(2): tau_l epsilon_lmn, section cinq)
+    )
     notes: list = field(default_factory=list)
 
     def arrays(self):
@@ -128,11 +166,25 @@ class FlowProblem:
 
         alg = catalogue(self.algebra)
         n = alg.f.shape[0]
-        theta = np.zeros((n, n)) if self.theta_xi is None else -np.einsum("k,kab->ab", np.array(self.theta_xi), alg.f)
-        pot = None if self.potential is None else {
-            "kind": self.potential["kind"], "L": np.array(self.potential["L"], dtype=float),
-            "gamma": np.array(self.potential["gamma"], dtype=float)}
-        up = np.zeros((n, n)) if self.upsilon_tau is None else np.einsum("l,lmn->mn", np.array(self.upsilon_tau), alg.f)
+        theta = (
+            np.zeros((n, n))
+            if self.theta_xi is None
+            else -np.einsum("k,kab->ab", np.array(self.theta_xi), alg.f)
+        )
+        pot = (
+            None
+            if self.potential is None
+            else {
+                "kind": self.potential["kind"],
+                "L": np.array(self.potential["L"], dtype=float),
+                "gamma": np.array(self.potential["gamma"], dtype=float),
+            }
+        )
+        up = (
+            np.zeros((n, n))
+            if self.upsilon_tau is None
+            else np.einsum("l,lmn->mn", np.array(self.upsilon_tau), alg.f)
+        )
         return alg, theta, up, np.array(self.inertia, dtype=float), pot
 
     def model(self):
@@ -157,31 +209,56 @@ def flow_problem(name: str, quick: bool = False) -> FlowProblem:
     """The named problem; ``quick`` shortens the time span (t = 10) for test runs."""
     if name == "heavy_top":
         p = FlowProblem(
-            "heavy_top", "heavy symmetric top (su(2), I = diag(1, 1, 0.5), L = e3, gamma = -e3)", "su(2)",
+            "heavy_top",
+            "heavy symmetric top (su(2), I = diag(1, 1, 0.5), L = e3, gamma = -e3)",
+            "su(2)",
             [[1.0, 0, 0], [0, 1.0, 0], [0, 0, 0.5]],
             {"kind": "gravity", "L": [0.0, 0.0, 1.0], "gamma": [0.0, 0.0, -1.0]},
-            [0.1, 0.2, 0.0], [0.3, 0.2, 2.0], 100.0, "gbs")
+            [0.1, 0.2, 0.0],
+            [0.3, 0.2, 2.0],
+            100.0,
+            "gbs",
+        )
     elif name == "free_top":
         p = FlowProblem(
-            "free_top", "free asymmetric top (su(2), I = diag(1, 2, 3), V = 0, near the separatrix)", "su(2)",
-            [[1.0, 0, 0], [0, 2.0, 0], [0, 0, 3.0]], None,
-            [0.0, 0.0, 0.0], [1.0, 0.5, 2.0], 100.0, "closed")
+            "free_top",
+            "free asymmetric top (su(2), I = diag(1, 2, 3), V = 0, near the separatrix)",
+            "su(2)",
+            [[1.0, 0, 0], [0, 2.0, 0], [0, 0, 3.0]],
+            None,
+            [0.0, 0.0, 0.0],
+            [1.0, 0.5, 2.0],
+            100.0,
+            "closed",
+        )
     elif name == "modified_top":
         p = FlowProblem(
-            "modified_top", "heavy asymmetric top under omega_L (su(2), Theta = -xi.f, xi = (0.1, -0.2, 0.3), "
-            "Upsilon = tau.eps, tau = (0.05, 0.1, -0.05), I = diag(1, 2, 3), L = e3, gamma = -e3)", "su(2)",
+            "modified_top",
+            "heavy asymmetric top under omega_L (su(2), Theta = -xi.f, xi = (0.1, -0.2, 0.3), "
+            "Upsilon = tau.eps, tau = (0.05, 0.1, -0.05), I = diag(1, 2, 3), L = e3, gamma = -e3)",
+            "su(2)",
             [[1.0, 0, 0], [0, 2.0, 0], [0, 0, 3.0]],
             {"kind": "gravity", "L": [0.0, 0.0, 1.0], "gamma": [0.0, 0.0, -1.0]},
-            [0.1, 0.2, 0.0], [0.3, 0.2, 1.0], 20.0, "gbs", theta_xi=[0.1, -0.2, 0.3], upsilon_tau=[0.05, 0.1, -0.05])
+            [0.1, 0.2, 0.0],
+            [0.3, 0.2, 1.0],
+            20.0,
+            "gbs",
+            theta_xi=[0.1, -0.2, 0.3],
+            upsilon_tau=[0.05, 0.1, -0.05],
+        )
     else:
-        raise ValueError(f"unknown flow problem {name!r}; known: {', '.join(FLOW_PROBLEMS + EXTRA_PROBLEMS)}")
+        raise ValueError(
+            f"unknown flow problem {name!r}; known: {', '.join(FLOW_PROBLEMS + EXTRA_PROBLEMS)}"
+        )
     if quick:
         p.T = 10.0
     return p
 
 
 FLOW_PROBLEMS = ("heavy_top", "free_top")  # the default run
-EXTRA_PROBLEMS = ("modified_top",)  # on request (--problems): Upsilon != 0, vier10/vier11 with Phi solves
+EXTRA_PROBLEMS = (
+    "modified_top",
+)  # on request (--problems): Upsilon != 0, vier10/vier11 with Phi solves
 
 
 def reference_task(item) -> dict:
@@ -201,17 +278,29 @@ def reference_task(item) -> dict:
         with mpmath.workdps(dps + 10):
             y = euler_top_closed_form(np.diag(inertia).tolist(), p.pi0, p.T)
             vals = [mpmath.nstr(v, dps + 5) for v in y]
-        digits, how = None, f"Jacobi elliptic functions (refimpl.flows.euler_top_closed_form) at {dps + 10} digits"
+        digits, how = (
+            None,
+            f"Jacobi elliptic functions (refimpl.flows.euler_top_closed_form) at {dps + 10} digits",
+        )
     else:
-        tr = reference_trajectory(alg, th, up, inertia, pot, p.x0, p.pi0, [0, p.T], dps=dps, system="body",
-                                  check=check)
+        tr = reference_trajectory(
+            alg, th, up, inertia, pot, p.x0, p.pi0, [0, p.T], dps=dps, system="body", check=check
+        )
         comps = list(tr.pi[-1]) + ([] if tr.Gamma is None else list(tr.Gamma[-1]))
         with mpmath.workdps(dps + 15):
             vals = [mpmath.nstr(v, dps + 5) for v in comps]
         digits = tr.digits
-        how = (f"Gragg-Bulirsch-Stoer at {dps} digits (refimpl.flows.reference_trajectory, body system)"
-               + (f"; a run at {dps + 15} digits agrees to {digits:.1f} digits" if check else ""))
-    return {"problem": name, "values": vals, "digits": digits, "how": how, "seconds": time.perf_counter() - t0}
+        how = (
+            f"Gragg-Bulirsch-Stoer at {dps} digits (refimpl.flows.reference_trajectory, body system)"
+            + (f"; a run at {dps + 15} digits agrees to {digits:.1f} digits" if check else "")
+        )
+    return {
+        "problem": name,
+        "values": vals,
+        "digits": digits,
+        "how": how,
+        "seconds": time.perf_counter() - t0,
+    }
 
 
 def fast_methods(model) -> tuple[list[str], dict[str, str]]:
@@ -228,7 +317,9 @@ def fast_methods(model) -> tuple[list[str], dict[str, str]]:
         if not ok:
             skipped[name] = why
         elif getattr(meth, "rkmk", False):
-            skipped[name] = "RKMK re-bases the configuration only: on the body system it equals its base RK"
+            skipped[name] = (
+                "RKMK re-bases the configuration only: on the body system it equals its base RK"
+            )
         else:
             names.append(name)
     return names, skipped
@@ -312,9 +403,13 @@ def run_fast(problem: FlowProblem, model, name: str, nsteps, y0=None) -> np.ndar
     else:
         x0, pi0 = y0
     meth = METHODS[name]
-    with np.errstate(over="ignore", invalid="ignore"):  # a too coarse step may diverge: error inf, recorded
+    with np.errstate(
+        over="ignore", invalid="ignore"
+    ):  # a too coarse step may diverge: error inf, recorded
         if meth.adaptive:
-            out = integrate_fast(model, meth, x0, pi0, problem.T, None, system="body", tol=float(nsteps))
+            out = integrate_fast(
+                model, meth, x0, pi0, problem.T, None, system="body", tol=float(nsteps)
+            )
         else:
             out = integrate_fast(model, meth, x0, pi0, problem.T, int(nsteps), system="body")
     return out["pi"] if out["Gamma"] is None else np.concatenate([out["pi"], out["Gamma"]])[: 2 * n]
@@ -326,7 +421,9 @@ def scipy_rhs(model):
     if model.upsilon_zero:
         from tstarg.refimpl._flow_fast import scalar_rhs
 
-        return scalar_rhs(model), "generated scalar Python body field (refimpl._flow_fast.scalar_rhs)"
+        return scalar_rhs(
+            model
+        ), "generated scalar Python body field (refimpl._flow_fast.scalar_rhs)"
     F = model.body_rhs()
     return (lambda t, y: F(y[:, None])[:, 0]), "numpy body field (NumpyModel.body_rhs)"
 
@@ -404,15 +501,30 @@ def ladder_task(item) -> dict:
             break
         order = getattr(METHODS.get(meth), "order", None) if kind == "fast" else None
         if order and k + 1 < len(ladder) and err * (s / ladder[-1]) ** order > target_cap:
-            stop = (f"order-{order} extrapolation to {ladder[-1]} steps predicts error "
-                    f"{err * (s / ladder[-1]) ** order:.1e} > {target_cap:g}")
+            stop = (
+                f"order-{order} extrapolation to {ladder[-1]} steps predicts error "
+                f"{err * (s / ladder[-1]) ** order:.1e} > {target_cap:g}"
+            )
             break
-    return {"problem": name, "kind": kind, "method": meth, "ladder": list(ladder), "points": points, "stop": stop}
+    return {
+        "problem": name,
+        "kind": kind,
+        "method": meth,
+        "ladder": list(ladder),
+        "points": points,
+        "stop": stop,
+    }
 
 
 # ------------------------------------------------------------------ timing
-def time_points(calls: list, *, groups: list | None = None, max_rounds: int = 7, slow: float = 1.0,
-                medium: float = 0.1) -> list[dict]:
+def time_points(
+    calls: list,
+    *,
+    groups: list | None = None,
+    max_rounds: int = 7,
+    slow: float = 1.0,
+    medium: float = 0.1,
+) -> list[dict]:
     """Best run time of each zero-argument callable, serially in this process.
 
     Warm-up: before any timing, the first call of each group (``groups[i]`` names call ``i``'s
@@ -429,7 +541,9 @@ def time_points(calls: list, *, groups: list | None = None, max_rounds: int = 7,
     """
     groups = list(range(len(calls))) if groups is None else list(groups)
     if len(groups) != len(calls):
-        raise ValueError(f"groups must name one group per call: {len(groups)} groups for {len(calls)} calls")
+        raise ValueError(
+            f"groups must name one group per call: {len(groups)} groups for {len(calls)} calls"
+        )
     seen = set()
     for g, fn in zip(groups, calls):
         if g not in seen:
@@ -477,7 +591,9 @@ def bracket_cases(quick: bool = False) -> list[dict]:
             if not r.degenerate[0] and r.cond_phi[0] < 1e3:
                 xs.append(x)
                 ps.append(pi)
-        out.append({"algebra": name, "theta": th, "upsilon": U, "x": np.array(xs), "pi": np.array(ps)})
+        out.append(
+            {"algebra": name, "theta": th, "upsilon": U, "x": np.array(xs), "pi": np.array(ps)}
+        )
     return out
 
 
@@ -509,7 +625,11 @@ def bracket_error_task(item) -> float:
         P = _ref_P(alg, case["theta"], case["upsilon"], x, pi, dps, route)
     with mpmath.workdps(high + 10):
         nrm = max(abs(Pref[i, j]) for i in range(Pref.rows) for j in range(Pref.cols))
-        num = max(abs(mpmath.mpf(P[i, j]) - Pref[i, j]) for i in range(Pref.rows) for j in range(Pref.cols))
+        num = max(
+            abs(mpmath.mpf(P[i, j]) - Pref[i, j])
+            for i in range(Pref.rows)
+            for j in range(Pref.cols)
+        )
         return float(num / nrm)
 
 
@@ -531,9 +651,13 @@ def bracket_call(case: dict, kind: str, dps: int | None, route: str):
         return lambda: F.poisson_batch(alg.f, th, U, Xt, Pt)
     if kind == "fast-single":
         F = Fast()
-        return lambda: [F.poisson_batch(alg.f, th, U, X[i:i + 1], Pi[i:i + 1]) for i in range(len(X))]
+        return lambda: [
+            F.poisson_batch(alg.f, th, U, X[i : i + 1], Pi[i : i + 1]) for i in range(len(X))
+        ]
     R = Reference(dps)
-    return lambda: [R.poisson_tensor_mp(alg.f, th, U, X[i], Pi[i], route=route) for i in range(len(X))]
+    return lambda: [
+        R.poisson_tensor_mp(alg.f, th, U, X[i], Pi[i], route=route) for i in range(len(X))
+    ]
 
 
 # ------------------------------------------------------------------ batch throughput
@@ -570,8 +694,13 @@ def batch_error_task(item) -> dict:
     for j in range(sub):
         sol = run_scipy(p, rhs, "DOP853", rtol, Y0[:, j])
         s_err = max(s_err, float(np.max(np.abs(sol.y[:, -1] - fine[:, j]))))
-    return {"M": M, "worst_vs_fine": worst, "traj0_vs_reference": err0, "scipy_worst_vs_fine": s_err,
-            "fine_order_factor": 4.0 ** -METHODS[meth].order}
+    return {
+        "M": M,
+        "worst_vs_fine": worst,
+        "traj0_vs_reference": err0,
+        "scipy_worst_vs_fine": s_err,
+        "fine_order_factor": 4.0 ** -METHODS[meth].order,
+    }
 
 
 def scipy_initial(problem: FlowProblem, x0, pi0, count: int) -> np.ndarray:
@@ -598,8 +727,14 @@ def _plt():
     return plt
 
 
-def plot_work_precision(points: list[dict], path, title: str, *, xlabel: str = "CPU time per run [s]",
-                        targets=ERROR_TARGETS) -> None:
+def plot_work_precision(
+    points: list[dict],
+    path,
+    title: str,
+    *,
+    xlabel: str = "CPU time per run [s]",
+    targets=ERROR_TARGETS,
+) -> None:
     """Error against time, log-log, one line per method (tstarg solid, scipy dashed), the Pareto
     front circled and joined by a grey staircase."""
     plt = _plt()
@@ -609,21 +744,37 @@ def plot_work_precision(points: list[dict], path, title: str, *, xlabel: str = "
     others = plt.get_cmap("Dark2").colors
     counters = {"tstarg": 0, "other": 0}
     for m in methods:
-        pts = sorted((p for p in points if p["method"] == m and math.isfinite(p["error"]) and p["error"] > 0),
-                     key=lambda p: p["time"])
+        pts = sorted(
+            (
+                p
+                for p in points
+                if p["method"] == m and math.isfinite(p["error"]) and p["error"] > 0
+            ),
+            key=lambda p: p["time"],
+        )
         if not pts:
             continue
         family = "tstarg" if pts[0].get("family", "tstarg") == "tstarg" else "other"
         k = counters[family]
         counters[family] += 1
-        ax.loglog([p["time"] for p in pts], [p["error"] for p in pts], ls="-" if family == "tstarg" else "--",
-                  marker=("o", "^", "v", "D")[k // 10 % 4] if family == "tstarg" else "s", ms=4,
-                  color=colors[k % 10] if family == "tstarg" else others[(k * 3 + 1) % 8], label=m)
-    front = sorted((p for p in points if p.get("on_front") and p["error"] > 0), key=lambda p: p["time"])
+        ax.loglog(
+            [p["time"] for p in pts],
+            [p["error"] for p in pts],
+            ls="-" if family == "tstarg" else "--",
+            marker=("o", "^", "v", "D")[k // 10 % 4] if family == "tstarg" else "s",
+            ms=4,
+            color=colors[k % 10] if family == "tstarg" else others[(k * 3 + 1) % 8],
+            label=m,
+        )
+    front = sorted(
+        (p for p in points if p.get("on_front") and p["error"] > 0), key=lambda p: p["time"]
+    )
     if front:
         ft, fe = [p["time"] for p in front], [p["error"] for p in front]
         ax.step(ft, fe, where="post", color="0.4", lw=1, zorder=0)
-        ax.scatter(ft, fe, s=110, facecolors="none", edgecolors="k", lw=1.3, label="Pareto front", zorder=5)
+        ax.scatter(
+            ft, fe, s=110, facecolors="none", edgecolors="k", lw=1.3, label="Pareto front", zorder=5
+        )
     for tgt in targets:
         ax.axhline(tgt, color="0.8", lw=0.8, ls=":")
     ax.set_xlabel(xlabel)

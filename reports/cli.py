@@ -28,7 +28,9 @@ def _modules():
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="tstarg", description="Verification and reference oracles for omega_L on T*G.")
+    p = argparse.ArgumentParser(
+        prog="tstarg", description="Verification and reference oracles for omega_L on T*G."
+    )
     sub = p.add_subparsers(dest="command", required=True)
     for name, mod in _modules():
         sp = sub.add_parser(name, help=mod.HELP)

@@ -34,20 +34,47 @@ HELP = "work-precision benchmarks: flows and brackets vs scipy and the mpmath re
 def add_arguments(p) -> None:
     from ._parallel import add_parallel_arguments
 
-    p.add_argument("--out", default="reports/bench/latest", help="output folder (default: reports/bench/latest)")
-    p.add_argument("--quick", action="store_true",
-                   help="tiny run (t = 10, short ladders, small batches) for tests; seconds")
-    p.add_argument("--problems", default=None,
-                   help="comma-separated flow problems (default: heavy_top,free_top; also: modified_top, "
-                        "Theta and Upsilon != 0)")
-    p.add_argument("--methods", default=None,
-                   help="comma-separated tstarg flow methods (default: every method of METHODS that applies)")
-    p.add_argument("--ref-dps", type=int, default=None, help="digits of the GBS reference (default 20; quick 16)")
-    p.add_argument("--batch-method", default="taylor20", help="tstarg method of the batch-throughput part (default taylor20: generated scalar code up to 16 trajectories, numpy beyond)")
-    p.add_argument("--no-brackets", action="store_true", help="skip the Poisson-tensor work-precision part")
+    p.add_argument(
+        "--out",
+        default="reports/bench/latest",
+        help="output folder (default: reports/bench/latest)",
+    )
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help="tiny run (t = 10, short ladders, small batches) for tests; seconds",
+    )
+    p.add_argument(
+        "--problems",
+        default=None,
+        help="comma-separated flow problems (default: heavy_top,free_top; also: modified_top, "
+        "Theta and Upsilon != 0)",
+    )
+    p.add_argument(
+        "--methods",
+        default=None,
+        help="comma-separated tstarg flow methods (default: every method of METHODS that applies)",
+    )
+    p.add_argument(
+        "--ref-dps",
+        type=int,
+        default=None,
+        help="digits of the GBS reference (default 20; quick 16)",
+    )
+    p.add_argument(
+        "--batch-method",
+        default="taylor20",
+        help="tstarg method of the batch-throughput part (default taylor20: generated scalar code up to 16 trajectories, numpy beyond)",
+    )
+    p.add_argument(
+        "--no-brackets", action="store_true", help="skip the Poisson-tensor work-precision part"
+    )
     p.add_argument("--no-batch", action="store_true", help="skip the batch-throughput part")
-    p.add_argument("--no-heyoka", action="store_true",
-                   help="leave out the heyoka contender (included when heyoka is importable: pip install .[bench])")
+    p.add_argument(
+        "--no-heyoka",
+        action="store_true",
+        help="leave out the heyoka contender (included when heyoka is importable: pip install .[bench])",
+    )
     add_parallel_arguments(p)
 
 
@@ -59,9 +86,14 @@ def _env() -> dict:
     from threadpoolctl import threadpool_info
 
     return {
-        "python": sys.version.split()[0], "platform": platform.platform(), "cpu_count": os.cpu_count(),
-        "numpy": numpy.__version__, "scipy": scipy.__version__, "mpmath": mpmath.__version__,
-        "mpmath_backend": mpmath.libmp.BACKEND, "matplotlib": matplotlib.__version__,
+        "python": sys.version.split()[0],
+        "platform": platform.platform(),
+        "cpu_count": os.cpu_count(),
+        "numpy": numpy.__version__,
+        "scipy": scipy.__version__,
+        "mpmath": mpmath.__version__,
+        "mpmath_backend": mpmath.libmp.BACKEND,
+        "matplotlib": matplotlib.__version__,
         "blas_threads": [(i.get("internal_api"), i.get("num_threads")) for i in threadpool_info()],
         "git_commit": _git_commit(),
         "git_uncommitted_changes": _git_dirty(),
@@ -73,8 +105,14 @@ def _git_dirty() -> bool | None:
     import subprocess
 
     try:
-        r = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True, text=True,
-                           timeout=20, check=False, cwd=Path(__file__).resolve().parent)
+        r = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"],
+            capture_output=True,
+            text=True,
+            timeout=20,
+            check=False,
+            cwd=Path(__file__).resolve().parent,
+        )
     except (OSError, subprocess.SubprocessError):
         return None
     return bool(r.stdout.strip()) if r.returncode == 0 else None
@@ -85,8 +123,14 @@ def _git_commit() -> str | None:
     import subprocess
 
     try:
-        r = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, timeout=10, check=False,
-                           cwd=Path(__file__).resolve().parent)
+        r = subprocess.run(
+            ["git", "rev-parse", "HEAD"],
+            capture_output=True,
+            text=True,
+            timeout=10,
+            check=False,
+            cwd=Path(__file__).resolve().parent,
+        )
     except (OSError, subprocess.SubprocessError):
         return None
     return r.stdout.strip() or None
@@ -94,22 +138,49 @@ def _git_commit() -> str | None:
 
 def _settings(quick: bool) -> dict:
     if quick:
-        return {"steps_per_time": 1.25, "doublings": 3, "rtols": [1e-3, 1e-5, 1e-7, 1e-9], "floor": 1e-11, "nfev_cap": 20000,
-                "target_cap": 1e-3, "ref_dps": 16, "ref_check": False, "batch_sizes": [1, 10, 100],
-                "batch_target": 1e-6, "scipy_sub": 3, "bracket_dps": [15], "bracket_high": 30, "rounds": 3}
-    return {"steps_per_time": 1.25, "doublings": 6, "rtols": [10.0 ** -k for k in range(3, 14)] + [2.5e-14], "floor": 1e-13,
-            "nfev_cap": 60000, "target_cap": 1e-6, "ref_dps": 20, "ref_check": True,
-            "batch_sizes": [1, 100, 10000], "batch_target": 1e-8, "scipy_sub": 20,
-            "bracket_dps": [15, 30, 50, 100], "bracket_high": 150, "rounds": 7}
+        return {
+            "steps_per_time": 1.25,
+            "doublings": 3,
+            "rtols": [1e-3, 1e-5, 1e-7, 1e-9],
+            "floor": 1e-11,
+            "nfev_cap": 20000,
+            "target_cap": 1e-3,
+            "ref_dps": 16,
+            "ref_check": False,
+            "batch_sizes": [1, 10, 100],
+            "batch_target": 1e-6,
+            "scipy_sub": 3,
+            "bracket_dps": [15],
+            "bracket_high": 30,
+            "rounds": 3,
+        }
+    return {
+        "steps_per_time": 1.25,
+        "doublings": 6,
+        "rtols": [10.0**-k for k in range(3, 14)] + [2.5e-14],
+        "floor": 1e-13,
+        "nfev_cap": 60000,
+        "target_cap": 1e-6,
+        "ref_dps": 20,
+        "ref_check": True,
+        "batch_sizes": [1, 100, 10000],
+        "batch_target": 1e-8,
+        "scipy_sub": 20,
+        "bracket_dps": [15, 30, 50, 100],
+        "bracket_high": 150,
+        "rounds": 7,
+    }
 
 
-TIMING_NOTE = ("timings run serially in the main process (never in parallel: two processes on two shared "
-               "cores would distort each other); each method warmed up by one untimed run, then the minimum "
-               "of 7 repeats (runs < 0.1 s; 3 with --quick), 3 (< 1 s) or 1, rounds interleaved over all points; "
-               "time = CPU "
-               "time of the process (time.process_time: single-threaded runs, so equal to the wall time on an "
-               "idle machine, and undisturbed by other processes on a shared one), wall-clock minima recorded "
-               "too; BLAS pinned to 1 thread")
+TIMING_NOTE = (
+    "timings run serially in the main process (never in parallel: two processes on two shared "
+    "cores would distort each other); each method warmed up by one untimed run, then the minimum "
+    "of 7 repeats (runs < 0.1 s; 3 with --quick), 3 (< 1 s) or 1, rounds interleaved over all points; "
+    "time = CPU "
+    "time of the process (time.process_time: single-threaded runs, so equal to the wall time on an "
+    "idle machine, and undisturbed by other processes on a shared one), wall-clock minima recorded "
+    "too; BLAS pinned to 1 thread"
+)
 
 
 def main(args) -> int:
@@ -141,15 +212,28 @@ def main(args) -> int:
         S["ref_dps"] = args.ref_dps
     out = claim_output(Path(args.out))  # a concurrent run gets its own folder and says so
     out.mkdir(parents=True, exist_ok=True)
-    print(f"tstarg bench{' --quick' if args.quick else ''}: references and error ladders on {describe(**opts)}; "
-          f"{TIMING_NOTE}", flush=True)
-    report = {"command": "tstarg " + " ".join(sys.argv[1:]) if sys.argv and Path(sys.argv[0]).name == "tstarg"
-              else "tstarg bench " + " ".join(_argv(args)),
-              "quick": bool(args.quick), "settings": S, "parallel": describe(**opts), "timing": TIMING_NOTE,
-              "loadavg_start": list(os.getloadavg()), "environment": _env(), "flows": {}}
+    print(
+        f"tstarg bench{' --quick' if args.quick else ''}: references and error ladders on {describe(**opts)}; "
+        f"{TIMING_NOTE}",
+        flush=True,
+    )
+    report = {
+        "command": "tstarg " + " ".join(sys.argv[1:])
+        if sys.argv and Path(sys.argv[0]).name == "tstarg"
+        else "tstarg bench " + " ".join(_argv(args)),
+        "quick": bool(args.quick),
+        "settings": S,
+        "parallel": describe(**opts),
+        "timing": TIMING_NOTE,
+        "loadavg_start": list(os.getloadavg()),
+        "environment": _env(),
+        "flows": {},
+    }
 
     # ---- 1. flows: references, error ladders (parallel), timings (serial)
-    refs = map_tasks(wp.reference_task, [(n, args.quick, S["ref_dps"], S["ref_check"]) for n in problems], **opts)
+    refs = map_tasks(
+        wp.reference_task, [(n, args.quick, S["ref_dps"], S["ref_check"]) for n in problems], **opts
+    )
     heyoka = wp.have_heyoka() and not args.no_heyoka
     from tstarg.refimpl import _compiled_taylor as _ct
 
@@ -175,49 +259,120 @@ def main(args) -> int:
                 ladder = wp.tol_ladder(args.quick)
             else:
                 ladder = wp.step_ladder(getattr(METHODS[m], "order", None), n0, n_max)
-            items.append((name, args.quick, "fast", m, ladder, ref["values"], S["floor"], S["nfev_cap"],
-                          S["target_cap"]))
+            items.append(
+                (
+                    name,
+                    args.quick,
+                    "fast",
+                    m,
+                    ladder,
+                    ref["values"],
+                    S["floor"],
+                    S["nfev_cap"],
+                    S["target_cap"],
+                )
+            )
         if heyoka and p.model().upsilon_zero:
-            items.append((name, args.quick, "heyoka", "taylor_adaptive", wp.tol_ladder(args.quick), ref["values"],
-                          S["floor"], S["nfev_cap"], S["target_cap"]))
+            items.append(
+                (
+                    name,
+                    args.quick,
+                    "heyoka",
+                    "taylor_adaptive",
+                    wp.tol_ladder(args.quick),
+                    ref["values"],
+                    S["floor"],
+                    S["nfev_cap"],
+                    S["target_cap"],
+                )
+            )
         for s in wp.SCIPY_SOLVERS:
-            items.append((name, args.quick, "scipy", s, S["rtols"], ref["values"], S["floor"], S["nfev_cap"],
-                          S["target_cap"]))
+            items.append(
+                (
+                    name,
+                    args.quick,
+                    "scipy",
+                    s,
+                    S["rtols"],
+                    ref["values"],
+                    S["floor"],
+                    S["nfev_cap"],
+                    S["target_cap"],
+                )
+            )
         print(f"  {name}: reference {ref['how']} ({ref['seconds']:.1f} s)", flush=True)
     ladders = map_tasks(wp.ladder_task, items, **opts)
-    print(f"  error ladders done ({sum(len(l['points']) for l in ladders)} runs); timing serially...", flush=True)
+    print(
+        f"  error ladders done ({sum(len(l['points']) for l in ladders)} runs); timing serially...",
+        flush=True,
+    )
     for name, ref in zip(problems, refs):
-        report["flows"][name] = _time_flow(wp, np, name, args.quick, ref, [l for l in ladders if l["problem"] == name],
-                                           skipped[name], out, S["rounds"])
+        report["flows"][name] = _time_flow(
+            wp,
+            np,
+            name,
+            args.quick,
+            ref,
+            [l for l in ladders if l["problem"] == name],
+            skipped[name],
+            out,
+            S["rounds"],
+        )
         _print_flow(report["flows"][name])
-    report["compile"] = {"tstarg": {**_ct.compile_count(), "path": _ct.PATH,
-                                    "note": "numba kernels per field structure and order, cached on disk: "
-                                            "'compiled' were built in this run, 'loaded' came from the cache"},
-                         "heyoka": {f"{k[0]} tol={k[2]:g}": v for k, v in wp.HEYOKA_COMPILE.items()}}
+    report["compile"] = {
+        "tstarg": {
+            **_ct.compile_count(),
+            "path": _ct.PATH,
+            "note": "numba kernels per field structure and order, cached on disk: "
+            "'compiled' were built in this run, 'loaded' came from the cache",
+        },
+        "heyoka": {f"{k[0]} tol={k[2]:g}": v for k, v in wp.HEYOKA_COMPILE.items()},
+    }
 
     # ---- 2. brackets
     if not args.no_brackets:
         report["brackets"] = _brackets(wp, np, args.quick, S, opts, out, map_tasks)
         for row in report["brackets"]["summary"]:
-            print(f"  brackets {row['algebra']:6s} {row['method']:28s} worst error {wp.fmt_err(row['error'])} "
-                  f"time/point {wp.fmt_time(row['time_per_point'])}")
+            print(
+                f"  brackets {row['algebra']:6s} {row['method']:28s} worst error {wp.fmt_err(row['error'])} "
+                f"time/point {wp.fmt_time(row['time_per_point'])}"
+            )
 
     # ---- 3. batch throughput
     if not args.no_batch and "heavy_top" in report["flows"]:
         if args.batch_method not in {r["method"] for r in report["flows"]["heavy_top"]["points"]}:
-            print(f"  batch throughput skipped: --batch-method {args.batch_method} was not benchmarked on the heavy top")
+            print(
+                f"  batch throughput skipped: --batch-method {args.batch_method} was not benchmarked on the heavy top"
+            )
         else:
-            report["batch"] = _batch(wp, np, args.quick, S, opts, report["flows"]["heavy_top"],
-                                     refs[problems.index("heavy_top")], out, map_tasks, args.batch_method)
+            report["batch"] = _batch(
+                wp,
+                np,
+                args.quick,
+                S,
+                opts,
+                report["flows"]["heavy_top"],
+                refs[problems.index("heavy_top")],
+                out,
+                map_tasks,
+                args.batch_method,
+            )
             for r in report["batch"]["rows"]:
-                print(f"  batch M={r['M']:>6d}: ours {wp.fmt_time(r['ours_per_traj'])}/traj, scipy DOP853 loop "
-                      f"{wp.fmt_time(r['scipy_per_traj'])}/traj, time ratio ours/scipy {r['ratio']:.3g}")
+                print(
+                    f"  batch M={r['M']:>6d}: ours {wp.fmt_time(r['ours_per_traj'])}/traj, scipy DOP853 loop "
+                    f"{wp.fmt_time(r['scipy_per_traj'])}/traj, time ratio ours/scipy {r['ratio']:.3g}"
+                )
 
     report["loadavg_end"] = list(os.getloadavg())
     report["seconds"] = time.perf_counter() - t_start
-    write_text(out / "report.json", json.dumps(_finite(report), indent=1, default=_json_default, allow_nan=False))
+    write_text(
+        out / "report.json",
+        json.dumps(_finite(report), indent=1, default=_json_default, allow_nan=False),
+    )
     write_text(out / "report.md", render_markdown(report))
-    print(f"wrote {out / 'report.json'}, {out / 'report.md'} and figures ({report['seconds']:.0f} s)")
+    print(
+        f"wrote {out / 'report.json'}, {out / 'report.md'} and figures ({report['seconds']:.0f} s)"
+    )
     return 0
 
 
@@ -261,39 +416,79 @@ def _time_flow(wp, np, name, quick, ref, ladders, skipped, out, rounds) -> dict:
     model = p.model()
     rhs, rhs_how = wp.scipy_rhs(model)
     fast_ladders = [l["ladder"] for l in ladders if l["kind"] == "fast" and l["ladder"]]
-    ladder_range = [min(x[0] for x in fast_ladders), max(x[-1] for x in fast_ladders)] if fast_ladders else [0, 0]
+    ladder_range = (
+        [min(x[0] for x in fast_ladders), max(x[-1] for x in fast_ladders)]
+        if fast_ladders
+        else [0, 0]
+    )
     calls, rows = [], []
     for lad in ladders:
         for pt in lad["points"]:
             if lad["kind"] == "fast":
                 calls.append(lambda m=lad["method"], s=pt["setting"]: wp.run_fast(p, model, m, s))
-                rows.append({"method": lad["method"], "family": "tstarg",
-                             "setting_name": "tol" if METHODS[lad["method"]].adaptive else "steps", **pt})
+                rows.append(
+                    {
+                        "method": lad["method"],
+                        "family": "tstarg",
+                        "setting_name": "tol" if METHODS[lad["method"]].adaptive else "steps",
+                        **pt,
+                    }
+                )
             elif lad["kind"] == "heyoka":
-                wp.heyoka_integrator(p, model, pt["setting"])   # JIT-compile before timing (reported apart)
+                wp.heyoka_integrator(
+                    p, model, pt["setting"]
+                )  # JIT-compile before timing (reported apart)
                 calls.append(lambda s=pt["setting"]: wp.run_heyoka(p, model, s))
-                rows.append({"method": "heyoka taylor_adaptive", "family": "heyoka", "setting_name": "tol", **pt})
+                rows.append(
+                    {
+                        "method": "heyoka taylor_adaptive",
+                        "family": "heyoka",
+                        "setting_name": "tol",
+                        **pt,
+                    }
+                )
             else:
                 calls.append(lambda m=lad["method"], s=pt["setting"]: wp.run_scipy(p, rhs, m, s))
-                rows.append({"method": f"scipy {lad['method']}", "family": "scipy", "setting_name": "rtol=atol",
-                             **pt})
-    for row, tm in zip(rows, wp.time_points(calls, groups=[r["method"] for r in rows], max_rounds=rounds)):
+                rows.append(
+                    {
+                        "method": f"scipy {lad['method']}",
+                        "family": "scipy",
+                        "setting_name": "rtol=atol",
+                        **pt,
+                    }
+                )
+    for row, tm in zip(
+        rows, wp.time_points(calls, groups=[r["method"] for r in rows], max_rounds=rounds)
+    ):
         row.update(tm)
     race = None
-    if model.upsilon_zero:  # is the scalar rhs really scipy's best? race it against the numpy body field
+    if (
+        model.upsilon_zero
+    ):  # is the scalar rhs really scipy's best? race it against the numpy body field
         F = model.body_rhs()
 
         def numpy_rhs(t, y):
             return F(y[:, None])[:, 0]
-        tr = wp.time_points([lambda: wp.run_scipy(p, rhs, "DOP853", 1e-8),
-                             lambda: wp.run_scipy(p, numpy_rhs, "DOP853", 1e-8)])
-        race = {"scalar": tr[0]["time"], "numpy": tr[1]["time"], "setting": "DOP853, rtol = atol = 1e-8"}
+
+        tr = wp.time_points(
+            [
+                lambda: wp.run_scipy(p, rhs, "DOP853", 1e-8),
+                lambda: wp.run_scipy(p, numpy_rhs, "DOP853", 1e-8),
+            ]
+        )
+        race = {
+            "scalar": tr[0]["time"],
+            "numpy": tr[1]["time"],
+            "setting": "DOP853, rtol = atol = 1e-8",
+        }
     front = wp.pareto_front([r["time"] for r in rows], [r["error"] for r in rows])
     for row, f in zip(rows, front):
         row["on_front"] = bool(f)
     ratios = []
     tstarg = sorted({r["method"] for r in rows if r["family"] == "tstarg"})
-    dop_errors = [r["error"] for r in rows if r["method"] == "scipy DOP853" and math.isfinite(r["error"])]
+    dop_errors = [
+        r["error"] for r in rows if r["method"] == "scipy DOP853" and math.isfinite(r["error"])
+    ]
     targets = [(t, f"{t:.0e}") for t in wp.ERROR_TARGETS]
     if dop_errors:
         targets.append((min(dop_errors), f"{min(dop_errors):.2e} (DOP853's finest)"))
@@ -308,49 +503,99 @@ def _time_flow(wp, np, name, quick, ref, ladders, skipped, out, rounds) -> dict:
         ratio = reached[best] / t_dop if best and math.isfinite(t_dop) else None
         t_hy = per.get("heyoka taylor_adaptive", math.nan)
         ratio_hy = reached[best] / t_hy if best and math.isfinite(t_hy) else None
-        ratios.append({"target": tgt, "label": label, "best_tstarg": best, "t_best": reached.get(best) if best else None,
-                       "t_dop853": t_dop if math.isfinite(t_dop) else None, "ratio_best_over_dop853": ratio,
-                       "t_heyoka": t_hy if math.isfinite(t_hy) else None, "ratio_best_over_heyoka": ratio_hy,
-                       "times": {m: (t if math.isfinite(t) else None) for m, t in per.items()},
-                       "note": "" if ratio is not None else
-                       ("not reached by tstarg" if best is None else "not reached by DOP853")})
+        ratios.append(
+            {
+                "target": tgt,
+                "label": label,
+                "best_tstarg": best,
+                "t_best": reached.get(best) if best else None,
+                "t_dop853": t_dop if math.isfinite(t_dop) else None,
+                "ratio_best_over_dop853": ratio,
+                "t_heyoka": t_hy if math.isfinite(t_hy) else None,
+                "ratio_best_over_heyoka": ratio_hy,
+                "times": {m: (t if math.isfinite(t) else None) for m, t in per.items()},
+                "note": ""
+                if ratio is not None
+                else ("not reached by tstarg" if best is None else "not reached by DOP853"),
+            }
+        )
     fig = f"{name}_wp.png"
-    wp.plot_work_precision(rows, out / fig, f"{p.title}, t = {p.T:g}: error vs time (one trajectory)")
-    return {"title": p.title, "T": p.T, "reference": {k: ref[k] for k in ("how", "values", "digits", "seconds")},
-            "scipy_rhs": rhs_how, "scipy_rhs_race": race, "radau_jacobian": "none supplied (scipy's finite-difference Jacobian)",
-            "skipped": skipped, "ladder": ladder_range, "stops": {f"{l['kind']} {l['method']}": l["stop"] for l in ladders},
-            "points": rows, "ratios": ratios, "figure": fig}
+    wp.plot_work_precision(
+        rows, out / fig, f"{p.title}, t = {p.T:g}: error vs time (one trajectory)"
+    )
+    return {
+        "title": p.title,
+        "T": p.T,
+        "reference": {k: ref[k] for k in ("how", "values", "digits", "seconds")},
+        "scipy_rhs": rhs_how,
+        "scipy_rhs_race": race,
+        "radau_jacobian": "none supplied (scipy's finite-difference Jacobian)",
+        "skipped": skipped,
+        "ladder": ladder_range,
+        "stops": {f"{l['kind']} {l['method']}": l["stop"] for l in ladders},
+        "points": rows,
+        "ratios": ratios,
+        "figure": fig,
+    }
 
 
 def _print_flow(res) -> None:
     from ._workprecision import fmt_time
 
-    print(f"  {res['title']}: {len(res['points'])} points, "
-          f"{sum(r['on_front'] for r in res['points'])} on the Pareto front")
+    print(
+        f"  {res['title']}: {len(res['points'])} points, "
+        f"{sum(r['on_front'] for r in res['points'])} on the Pareto front"
+    )
     for r in res["ratios"]:
         if r["ratio_best_over_dop853"] is not None:
-            hy = "" if r.get("ratio_best_over_heyoka") is None else (
-                f"; heyoka {fmt_time(r['t_heyoka'])}: ratio {r['ratio_best_over_heyoka']:.3g}")
-            print(f"    error {r['label']}: best tstarg {r['best_tstarg']} {fmt_time(r['t_best'])}, "
-                  f"scipy DOP853 {fmt_time(r['t_dop853'])}: ratio {r['ratio_best_over_dop853']:.3g}{hy}")
+            hy = (
+                ""
+                if r.get("ratio_best_over_heyoka") is None
+                else (
+                    f"; heyoka {fmt_time(r['t_heyoka'])}: ratio {r['ratio_best_over_heyoka']:.3g}"
+                )
+            )
+            print(
+                f"    error {r['label']}: best tstarg {r['best_tstarg']} {fmt_time(r['t_best'])}, "
+                f"scipy DOP853 {fmt_time(r['t_dop853'])}: ratio {r['ratio_best_over_dop853']:.3g}{hy}"
+            )
         else:
             print(f"    error {r['label']}: {r['note']}")
 
 
 def _brackets(wp, np, quick, S, opts, out, map_tasks) -> dict:
     cases = wp.bracket_cases(quick)
-    methods = [("fast batch", "fast", None, "closed"), ("fast, one call per point", "fast-single", None, "closed"),
-               (f"fast batch of {wp.TILED} (points tiled)", "fast-tiled", None, "closed")]
+    methods = [
+        ("fast batch", "fast", None, "closed"),
+        ("fast, one call per point", "fast-single", None, "closed"),
+        (f"fast batch of {wp.TILED} (points tiled)", "fast-tiled", None, "closed"),
+    ]
     methods += [(f"reference closed dps={d}", "reference", d, "closed") for d in S["bracket_dps"]]
-    methods += [(f"reference first_principles dps={S['bracket_dps'][0]}", "reference", S["bracket_dps"][0],
-                 "first_principles")]
+    methods += [
+        (
+            f"reference first_principles dps={S['bracket_dps'][0]}",
+            "reference",
+            S["bracket_dps"][0],
+            "first_principles",
+        )
+    ]
     items, keys = [], []
     for ci, case in enumerate(cases):
         for label, kind, dps, route in methods:
             if kind in ("fast-single", "fast-tiled"):
                 continue  # the same numbers as the batch at the same points
             for j in range(len(case["x"])):
-                items.append((ci, quick, j, "fast" if kind == "fast" else "reference", dps, route, S["bracket_high"]))
+                items.append(
+                    (
+                        ci,
+                        quick,
+                        j,
+                        "fast" if kind == "fast" else "reference",
+                        dps,
+                        route,
+                        S["bracket_high"],
+                    )
+                )
                 keys.append((ci, label))
     errs = map_tasks(wp.bracket_error_task, items, **opts)
     worst: dict = {}
@@ -361,29 +606,55 @@ def _brackets(wp, np, quick, S, opts, out, map_tasks) -> dict:
         for label, kind, dps, route in methods:
             calls.append(wp.bracket_call(case, kind, dps, route))
             err = worst[(ci, "fast batch" if kind in ("fast-single", "fast-tiled") else label)]
-            rows.append({"algebra": case["algebra"], "method": label, "dps": dps, "route": route, "error": err,
-                         "points": wp.TILED if kind == "fast-tiled" else len(case["x"]),
-                         "family": "tstarg" if kind.startswith("fast") else "reference"})
+            rows.append(
+                {
+                    "algebra": case["algebra"],
+                    "method": label,
+                    "dps": dps,
+                    "route": route,
+                    "error": err,
+                    "points": wp.TILED if kind == "fast-tiled" else len(case["x"]),
+                    "family": "tstarg" if kind.startswith("fast") else "reference",
+                }
+            )
     for row, tm in zip(rows, wp.time_points(calls, max_rounds=min(5, S["rounds"]))):
         row.update(tm)
         row["time_per_point"] = tm["time"] / row["points"]
     figs = []
     for case in cases:
-        pts = [{**r, "time": r["time_per_point"], "method": r["method"].split(" dps=")[0]}
-               for r in rows if r["algebra"] == case["algebra"]]
+        pts = [
+            {**r, "time": r["time_per_point"], "method": r["method"].split(" dps=")[0]}
+            for r in rows
+            if r["algebra"] == case["algebra"]
+        ]
         front = wp.pareto_front([r["time"] for r in pts], [max(r["error"], 1e-300) for r in pts])
         for r, r0, f in zip(pts, [r for r in rows if r["algebra"] == case["algebra"]], front):
             r["on_front"] = r0["on_front"] = bool(f)
         fig = f"brackets_{case['algebra'].replace('(', '').replace(')', '')}_wp.png"
-        wp.plot_work_precision(pts, out / fig, f"Poisson tensor on {case['algebra']} (vier9, holonomic): error "
-                               f"vs time per point, {len(case['x'])} points", xlabel="CPU time per point [s]",
-                               targets=())
+        wp.plot_work_precision(
+            pts,
+            out / fig,
+            f"Poisson tensor on {case['algebra']} (vier9, holonomic): error "
+            f"vs time per point, {len(case['x'])} points",
+            xlabel="CPU time per point [s]",
+            targets=(),
+        )
         figs.append(fig)
-    return {"error": f"max_ij |P - Pref| / max_ij |Pref| per point, worst over the points; Pref: mpmath reference "
-                     f"(closed route) at {S['bracket_high']} digits",
-            "cases": [{"algebra": c["algebra"], "points": len(c["x"]), "xi_theta": "coboundary -xi.f",
-                       "upsilon": np.asarray(c["upsilon"]).tolist()} for c in cases],
-            "summary": rows, "figures": figs}
+    return {
+        "error": f"max_ij |P - Pref| / max_ij |Pref| per point, worst over the points; Pref: mpmath reference "
+        f"(closed route) at {S['bracket_high']} digits",
+        "cases": [
+            {
+                "algebra": c["algebra"],
+                "points": len(c["x"]),
+                "xi_theta": "coboundary -xi.f",
+                "upsilon": np.asarray(c["upsilon"]).tolist(),
+            }
+            for c in cases
+        ],
+        "summary": rows,
+        "figures": figs,
+    }
 
 
 def _batch(wp, np, quick, S, opts, flow, ref, out, map_tasks, batch_method) -> dict:
@@ -394,10 +665,14 @@ def _batch(wp, np, quick, S, opts, flow, ref, out, map_tasks, batch_method) -> d
     tgt = S["batch_target"]
     ours = sorted((r for r in flow["points"] if r["method"] == meth), key=lambda r: r["setting"])
     steps = next((r["setting"] for r in ours if r["error"] <= tgt), ours[-1]["setting"])
-    dop = sorted((r for r in flow["points"] if r["method"] == "scipy DOP853"), key=lambda r: -r["setting"])
+    dop = sorted(
+        (r for r in flow["points"] if r["method"] == "scipy DOP853"), key=lambda r: -r["setting"]
+    )
     rtol = next((r["setting"] for r in dop if r["error"] <= tgt), dop[-1]["setting"])
     sub = S["scipy_sub"]
-    items = [(name, quick, meth, steps, M, 3, ref["values"], rtol, min(sub, M)) for M in S["batch_sizes"]]
+    items = [
+        (name, quick, meth, steps, M, 3, ref["values"], rtol, min(sub, M)) for M in S["batch_sizes"]
+    ]
     errs = map_tasks(wp.batch_error_task, items, **opts)
     rhs = wp.scipy_rhs(model)[0]
     calls, rows = [], []
@@ -406,7 +681,9 @@ def _batch(wp, np, quick, S, opts, flow, ref, out, map_tasks, batch_method) -> d
         k = min(sub, M)
         Y0 = wp.scipy_initial(p, x0, pi0, k)
         calls.append(lambda x0=x0, pi0=pi0: wp.run_fast(p, model, meth, steps, (x0, pi0)))
-        calls.append(lambda Y0=Y0, k=k: [wp.run_scipy(p, rhs, "DOP853", rtol, Y0[:, j]) for j in range(k)])
+        calls.append(
+            lambda Y0=Y0, k=k: [wp.run_scipy(p, rhs, "DOP853", rtol, Y0[:, j]) for j in range(k)]
+        )
         rows.append({"M": M, "scipy_sample": k, **e})
     tms = wp.time_points(calls, groups=["ours", "scipy"] * len(rows), max_rounds=3, slow=5.0)
     for i, row in enumerate(rows):
@@ -418,13 +695,22 @@ def _batch(wp, np, quick, S, opts, flow, ref, out, map_tasks, batch_method) -> d
         row["scipy_label"] = f"scipy DOP853 looped (rtol = atol = {rtol:g})"
     fig = "batch_throughput.png"
     wp.plot_batch(rows, out / fig, f"{p.title}, t = {p.T:g}: time per trajectory")
-    return {"method": meth, "steps": steps, "scipy_rtol": rtol, "target": tgt, "rows": rows, "figure": fig,
-            "note": ("initial momenta pi0 + 0.01 N(0,1) (seed 3), trajectory 0 = the reference trajectory; "
-                     "steps and rtol: the cheapest settings of the single-trajectory ladders reaching the "
-                     "target on the reference trajectory; scipy timed on a subsample and scaled per trajectory; "
-                     "batch errors: worst trajectory against a run with 4x the steps; for a single trajectory the "
-                     "batched numpy method pays its per-step overhead alone: the single-trajectory methods "
-                     "(dop853-scalar, taylor*) in the flow diagrams are the ones to compare there")}
+    return {
+        "method": meth,
+        "steps": steps,
+        "scipy_rtol": rtol,
+        "target": tgt,
+        "rows": rows,
+        "figure": fig,
+        "note": (
+            "initial momenta pi0 + 0.01 N(0,1) (seed 3), trajectory 0 = the reference trajectory; "
+            "steps and rtol: the cheapest settings of the single-trajectory ladders reaching the "
+            "target on the reference trajectory; scipy timed on a subsample and scaled per trajectory; "
+            "batch errors: worst trajectory against a run with 4x the steps; for a single trajectory the "
+            "batched numpy method pays its per-step overhead alone: the single-trajectory methods "
+            "(dop853-scalar, taylor*) in the flow diagrams are the ones to compare there"
+        ),
+    }
 
 
 # ------------------------------------------------------------------ markdown
@@ -433,87 +719,147 @@ def _race_line(race) -> str:
 
     if not race:
         return "- scipy's right-hand side was not raced (Upsilon != 0: numpy body field only)"
-    return (f"- scipy's right-hand side, raced on {race['setting']}: scalar {fmt_time(race['scalar'])}, "
-            f"numpy body field {fmt_time(race['numpy'])} (time ratio numpy / scalar "
-            f"{race['numpy'] / race['scalar']:.2f})")
+    return (
+        f"- scipy's right-hand side, raced on {race['setting']}: scalar {fmt_time(race['scalar'])}, "
+        f"numpy body field {fmt_time(race['numpy'])} (time ratio numpy / scalar "
+        f"{race['numpy'] / race['scalar']:.2f})"
+    )
 
 
 def render_markdown(rep: dict) -> str:
     from ._workprecision import fmt_err, fmt_time
 
-    L = ["# tstarg bench: work-precision", "",
-         f"- command: `{rep['command']}`",
-         f"- references and error evaluations: {rep['parallel']}; {rep['timing']}",
-         (f"- machine: {rep['environment']['platform']}, {rep['environment']['cpu_count']} cores, load average "
-          f"{rep['loadavg_start'][0]:.2f} at start, {rep.get('loadavg_end', [math.nan])[0]:.2f} at the end "
-          "(other processes share the cores: ratios from the same run are the comparable numbers)"),
-         f"- BLAS threads: {rep['environment']['blas_threads']}",
-         f"- wall time of the run: {rep.get('seconds', math.nan):.0f} s",
-         f"- compiled path: {rep.get('compiled_path', 'numpy')}; peer: {rep.get('heyoka', 'not included')}",
-         (f"- compile times (apart from the run times): tstarg {rep['compile']['tstarg']}; heyoka JIT per "
-          f"tolerance [s] {rep['compile']['heyoka']}" if "compile" in rep else "- compile times: not recorded"),
-         ""]
+    L = [
+        "# tstarg bench: work-precision",
+        "",
+        f"- command: `{rep['command']}`",
+        f"- references and error evaluations: {rep['parallel']}; {rep['timing']}",
+        (
+            f"- machine: {rep['environment']['platform']}, {rep['environment']['cpu_count']} cores, load average "
+            f"{rep['loadavg_start'][0]:.2f} at start, {rep.get('loadavg_end', [math.nan])[0]:.2f} at the end "
+            "(other processes share the cores: ratios from the same run are the comparable numbers)"
+        ),
+        f"- BLAS threads: {rep['environment']['blas_threads']}",
+        f"- wall time of the run: {rep.get('seconds', math.nan):.0f} s",
+        f"- compiled path: {rep.get('compiled_path', 'numpy')}; peer: {rep.get('heyoka', 'not included')}",
+        (
+            f"- compile times (apart from the run times): tstarg {rep['compile']['tstarg']}; heyoka JIT per "
+            f"tolerance [s] {rep['compile']['heyoka']}"
+            if "compile" in rep
+            else "- compile times: not recorded"
+        ),
+        "",
+    ]
     for name, f in rep["flows"].items():
-        L += [f"## Flow: {f['title']}, t = {f['T']:g}", "",
-              f"![work-precision {name}]({f['figure']})", "",
-              f"- reference: {f['reference']['how']}",
-              ("- error: worst component of |y(T) - y_ref(T)| over the body state "
-               "(pi and Gamma with gravity, pi alone for the free top), one trajectory"),
-              f"- scipy `solve_ivp` gets the {f['scipy_rhs']}, rtol = atol; Radau: {f['radau_jacobian']}",
-              _race_line(f.get("scipy_rhs_race")),
-              (f"- tstarg methods: fixed step counts N, a geometric ladder from N0 = {f['ladder'][0]} to at most "
-               f"{f['ladder'][1]} growing by 2^min(1, 8/order) per rung (see the ladder stops below); skipped: ")
-              + ("; ".join(f"`{k}` ({v})" for k, v in f["skipped"].items()) or "none"), "",
-              "### Time of the best tstarg method over scipy DOP853's at equal error", "",
-              ("Times interpolated (log-log) on each method's own front (a method whose cheapest point already "
-               "meets the error is charged that point's time, an upper bound); ratio < 1: tstarg is faster."), "",
-              ("| error | best tstarg method | its time | scipy DOP853 time | ratio tstarg / DOP853 | heyoka time | "
-               "ratio tstarg / heyoka |"),
-              "|---|---|---|---|---|---|---|"]
+        L += [
+            f"## Flow: {f['title']}, t = {f['T']:g}",
+            "",
+            f"![work-precision {name}]({f['figure']})",
+            "",
+            f"- reference: {f['reference']['how']}",
+            (
+                "- error: worst component of |y(T) - y_ref(T)| over the body state "
+                "(pi and Gamma with gravity, pi alone for the free top), one trajectory"
+            ),
+            f"- scipy `solve_ivp` gets the {f['scipy_rhs']}, rtol = atol; Radau: {f['radau_jacobian']}",
+            _race_line(f.get("scipy_rhs_race")),
+            (
+                f"- tstarg methods: fixed step counts N, a geometric ladder from N0 = {f['ladder'][0]} to at most "
+                f"{f['ladder'][1]} growing by 2^min(1, 8/order) per rung (see the ladder stops below); skipped: "
+            )
+            + ("; ".join(f"`{k}` ({v})" for k, v in f["skipped"].items()) or "none"),
+            "",
+            "### Time of the best tstarg method over scipy DOP853's at equal error",
+            "",
+            (
+                "Times interpolated (log-log) on each method's own front (a method whose cheapest point already "
+                "meets the error is charged that point's time, an upper bound); ratio < 1: tstarg is faster."
+            ),
+            "",
+            (
+                "| error | best tstarg method | its time | scipy DOP853 time | ratio tstarg / DOP853 | heyoka time | "
+                "ratio tstarg / heyoka |"
+            ),
+            "|---|---|---|---|---|---|---|",
+        ]
         for r in f["ratios"]:
-            ratio = f"{r['ratio_best_over_dop853']:.3g}" if r["ratio_best_over_dop853"] is not None else r["note"]
+            ratio = (
+                f"{r['ratio_best_over_dop853']:.3g}"
+                if r["ratio_best_over_dop853"] is not None
+                else r["note"]
+            )
             rh = r.get("ratio_best_over_heyoka")
-            L.append(f"| {r['label']} | {r['best_tstarg'] or 'not reached'} | {fmt_time(r['t_best'])} | "
-                     f"{fmt_time(r['t_dop853']) if r['t_dop853'] else 'not reached'} | {ratio} | "
-                     f"{fmt_time(r['t_heyoka']) if r.get('t_heyoka') else '-'} | "
-                     f"{f'{rh:.3g}' if rh is not None else '-'} |")
-        L += ["", "### All points (Pareto table)", "",
-              "| method | setting | error | CPU time | wall time | repeats | on front |", "|---|---|---|---|---|---|---|"]
+            L.append(
+                f"| {r['label']} | {r['best_tstarg'] or 'not reached'} | {fmt_time(r['t_best'])} | "
+                f"{fmt_time(r['t_dop853']) if r['t_dop853'] else 'not reached'} | {ratio} | "
+                f"{fmt_time(r['t_heyoka']) if r.get('t_heyoka') else '-'} | "
+                f"{f'{rh:.3g}' if rh is not None else '-'} |"
+            )
+        L += [
+            "",
+            "### All points (Pareto table)",
+            "",
+            "| method | setting | error | CPU time | wall time | repeats | on front |",
+            "|---|---|---|---|---|---|---|",
+        ]
         for r in sorted(f["points"], key=lambda r: (r["method"], r["time"])):
             st = {"steps": f"N = {r['setting']}", "tol": f"tol = {r['setting']:.0e}"}.get(
-                r["setting_name"], f"rtol = {r['setting']:.1e}")
+                r["setting_name"], f"rtol = {r['setting']:.1e}"
+            )
             if "nfev" in r:
                 st += f" ({r['nfev']} rhs evals)"
-            L.append(f"| {r['method']} | {st} | {fmt_err(r['error'])} | {fmt_time(r['time'])} | "
-                     f"{fmt_time(r['wall'])} | {r['repeats']} | "
-                     f"{'**yes**' if r['on_front'] else ''} |")
+            L.append(
+                f"| {r['method']} | {st} | {fmt_err(r['error'])} | {fmt_time(r['time'])} | "
+                f"{fmt_time(r['wall'])} | {r['repeats']} | "
+                f"{'**yes**' if r['on_front'] else ''} |"
+            )
         L += ["", "Ladder stops: " + "; ".join(f"{k}: {v}" for k, v in f["stops"].items()), ""]
     if "brackets" in rep:
         b = rep["brackets"]
-        L += ["## Brackets: the Poisson tensor (vier9, holonomic coordinates)", "",
-              "".join(f"![brackets]({fig}) " for fig in b["figures"]), "",
-              f"- error: {b['error']}",
-              "- Theta = -xi.f (a coboundary, zeven3), Upsilon random antisymmetric, points with cond(Phi) < 1e3",
-              "- the mpmath reference works at dps + 12 guard digits, so its errors lie far below 10^-dps", "",
-              "| algebra | method | points | worst error | time per point | on front |", "|---|---|---|---|---|---|"]
+        L += [
+            "## Brackets: the Poisson tensor (vier9, holonomic coordinates)",
+            "",
+            "".join(f"![brackets]({fig}) " for fig in b["figures"]),
+            "",
+            f"- error: {b['error']}",
+            "- Theta = -xi.f (a coboundary, zeven3), Upsilon random antisymmetric, points with cond(Phi) < 1e3",
+            "- the mpmath reference works at dps + 12 guard digits, so its errors lie far below 10^-dps",
+            "",
+            "| algebra | method | points | worst error | time per point | on front |",
+            "|---|---|---|---|---|---|",
+        ]
         for r in b["summary"]:
-            L.append(f"| {r['algebra']} | {r['method']} | {r['points']} | {fmt_err(r['error'])} | "
-                     f"{fmt_time(r['time_per_point'])} | {'**yes**' if r.get('on_front') else ''} |")
+            L.append(
+                f"| {r['algebra']} | {r['method']} | {r['points']} | {fmt_err(r['error'])} | "
+                f"{fmt_time(r['time_per_point'])} | {'**yes**' if r.get('on_front') else ''} |"
+            )
         L.append("")
     if "batch" in rep:
         b = rep["batch"]
-        L += ["## Batch throughput (heavy top)", "", f"![batch]({b['figure']})", "",
-              f"- {b['note']}",
-              (f"- target error {b['target']:.0e}: tstarg `{b['method']}` with {b['steps']} steps, "
-               f"scipy DOP853 with rtol = atol = {b['scipy_rtol']:.1e}"), "",
-              ("| trajectories | tstarg per trajectory | scipy DOP853 per trajectory (sample) | "
-               "ratio tstarg / scipy | worst error (batch, vs 4x steps) | trajectory 0 vs mpmath | "
-               "scipy worst (sample) |"),
-              "|---|---|---|---|---|---|---|"]
+        L += [
+            "## Batch throughput (heavy top)",
+            "",
+            f"![batch]({b['figure']})",
+            "",
+            f"- {b['note']}",
+            (
+                f"- target error {b['target']:.0e}: tstarg `{b['method']}` with {b['steps']} steps, "
+                f"scipy DOP853 with rtol = atol = {b['scipy_rtol']:.1e}"
+            ),
+            "",
+            (
+                "| trajectories | tstarg per trajectory | scipy DOP853 per trajectory (sample) | "
+                "ratio tstarg / scipy | worst error (batch, vs 4x steps) | trajectory 0 vs mpmath | "
+                "scipy worst (sample) |"
+            ),
+            "|---|---|---|---|---|---|---|",
+        ]
         for r in b["rows"]:
-            L.append(f"| {r['M']} | {fmt_time(r['ours_per_traj'])} | {fmt_time(r['scipy_per_traj'])} "
-                     f"({r['scipy_sample']}) | {r['ratio']:.3g} | {fmt_err(r['worst_vs_fine'])} | "
-                     f"{fmt_err(r['traj0_vs_reference'])} | {fmt_err(r['scipy_worst_vs_fine'])} |")
+            L.append(
+                f"| {r['M']} | {fmt_time(r['ours_per_traj'])} | {fmt_time(r['scipy_per_traj'])} "
+                f"({r['scipy_sample']}) | {r['ratio']:.3g} | {fmt_err(r['worst_vs_fine'])} | "
+                f"{fmt_err(r['traj0_vs_reference'])} | {fmt_err(r['scipy_worst_vs_fine'])} |"
+            )
         L.append("")
     L += ["## Environment", "", "```", json.dumps(rep["environment"], indent=1), "```", ""]
     return "\n".join(L)

@@ -42,35 +42,88 @@ from .junit import write_junit
 HELP = "certify an implementation (module, module:object or --cmd PROGRAM) against the reference"
 PROFILES = {name: p["certify_examples"] for name, p in _PROFILES.items()}  # properties.profiles
 BUDGETS = {
-    "dev": {"example_seconds": 30.0, "check_seconds": 120.0, "shrink_seconds": 30.0, "budget": 900.0},
-    "ci": {"example_seconds": 60.0, "check_seconds": 300.0, "shrink_seconds": 60.0, "budget": 1800.0},
-    "thorough": {"example_seconds": 120.0, "check_seconds": 1200.0, "shrink_seconds": 300.0, "budget": 7200.0},
+    "dev": {
+        "example_seconds": 30.0,
+        "check_seconds": 120.0,
+        "shrink_seconds": 30.0,
+        "budget": 900.0,
+    },
+    "ci": {
+        "example_seconds": 60.0,
+        "check_seconds": 300.0,
+        "shrink_seconds": 60.0,
+        "budget": 1800.0,
+    },
+    "thorough": {
+        "example_seconds": 120.0,
+        "check_seconds": 1200.0,
+        "shrink_seconds": 300.0,
+        "budget": 7200.0,
+    },
 }
 """Seconds (wall clock) per example, per check (each regime of a check id), for shrinking a failure
 (after the first failing example) and per run, by profile."""
 
 
 def add_arguments(p) -> None:
-    p.add_argument("target", nargs="?", help="module or module:object implementing the protocol (DESIGN.md)")
-    p.add_argument("--cmd", help='an external program speaking JSON lines, e.g. --cmd "julia impl.jl"')
-    p.add_argument("--timeout", type=float, default=10.0,
-                   help="seconds per call to the implementation (module or program), in (0, 3600]")
-    p.add_argument("--startup-timeout", type=float, default=30.0,
-                   help="--cmd: seconds the first request after a (re)start may take (program start-up), in (0, 3600]")
+    p.add_argument(
+        "target", nargs="?", help="module or module:object implementing the protocol (DESIGN.md)"
+    )
+    p.add_argument(
+        "--cmd", help='an external program speaking JSON lines, e.g. --cmd "julia impl.jl"'
+    )
+    p.add_argument(
+        "--timeout",
+        type=float,
+        default=10.0,
+        help="seconds per call to the implementation (module or program), in (0, 3600]",
+    )
+    p.add_argument(
+        "--startup-timeout",
+        type=float,
+        default=30.0,
+        help="--cmd: seconds the first request after a (re)start may take (program start-up), in (0, 3600]",
+    )
     p.add_argument("--profile", choices=sorted(PROFILES), default="ci")
     p.add_argument("--max-examples", type=int, default=None)
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--example-seconds", type=float, default=None, help="time limit per example (default: profile)")
-    p.add_argument("--check-seconds", type=float, default=None, help="budget per check id (default: profile)")
-    p.add_argument("--shrink-seconds", type=float, default=None,
-                   help="time for shrinking a failure to a smaller example (default: profile)")
-    p.add_argument("--budget", type=float, default=None, help="budget of the whole run in seconds (default: profile)")
-    p.add_argument("--check", action="append", default=None, metavar="ID",
-                   help="run only this check id (repeatable; default: all)")
-    p.add_argument("--skips-file", help="check ids to skip, one per line, optional reason after a space")
+    p.add_argument(
+        "--example-seconds",
+        type=float,
+        default=None,
+        help="time limit per example (default: profile)",
+    )
+    p.add_argument(
+        "--check-seconds", type=float, default=None, help="budget per check id (default: profile)"
+    )
+    p.add_argument(
+        "--shrink-seconds",
+        type=float,
+        default=None,
+        help="time for shrinking a failure to a smaller example (default: profile)",
+    )
+    p.add_argument(
+        "--budget",
+        type=float,
+        default=None,
+        help="budget of the whole run in seconds (default: profile)",
+    )
+    p.add_argument(
+        "--check",
+        action="append",
+        default=None,
+        metavar="ID",
+        help="run only this check id (repeatable; default: all)",
+    )
+    p.add_argument(
+        "--skips-file", help="check ids to skip, one per line, optional reason after a space"
+    )
     p.add_argument("--xfails-file", help="check ids expected to fail, one per line")
-    p.add_argument("--replay", metavar="CERTIFICATE_JSON",
-                   help="re-run the failing examples stored in a certificate.json (no search), print the verdicts")
+    p.add_argument(
+        "--replay",
+        metavar="CERTIFICATE_JSON",
+        help="re-run the failing examples stored in a certificate.json (no search), print the verdicts",
+    )
     p.add_argument("--out", default="reports/latest/certificate")
     add_parallel_arguments(p)
 
@@ -101,9 +154,15 @@ def main(args) -> int:
         prof = BUDGETS[args.profile]
         budget = {
             "call_timeout": timeout,
-            "example_seconds": _positive("--example-seconds", args.example_seconds or prof["example_seconds"]),
-            "check_seconds": _positive("--check-seconds", args.check_seconds or prof["check_seconds"]),
-            "shrink_seconds": _positive("--shrink-seconds", args.shrink_seconds or prof["shrink_seconds"]),
+            "example_seconds": _positive(
+                "--example-seconds", args.example_seconds or prof["example_seconds"]
+            ),
+            "check_seconds": _positive(
+                "--check-seconds", args.check_seconds or prof["check_seconds"]
+            ),
+            "shrink_seconds": _positive(
+                "--shrink-seconds", args.shrink_seconds or prof["shrink_seconds"]
+            ),
         }
         run_budget = _positive("--budget", args.budget or prof["budget"])
         if args.max_examples is not None and args.max_examples < 1:
@@ -116,11 +175,17 @@ def main(args) -> int:
 
         unknown = [c for c in args.check or [] if c not in CHECKS]
         if unknown:
-            raise ValueError(f"--check {unknown[0]!r}: unknown check id (known: {', '.join(CHECKS)})")
+            raise ValueError(
+                f"--check {unknown[0]!r}: unknown check id (known: {', '.join(CHECKS)})"
+            )
     except (ValueError, OSError) as exc:
         return _fail(str(exc))
     out = Path(args.out)
-    spec = {"cmd": args.cmd, "timeout": timeout, "startup_timeout": startup} if args.cmd else args.target
+    spec = (
+        {"cmd": args.cmd, "timeout": timeout, "startup_timeout": startup}
+        if args.cmd
+        else args.target
+    )
     target = f"--cmd {args.cmd!r}" if args.cmd else args.target
     # pre-flight in this process: a clear error before any worker starts
     try:
@@ -132,9 +197,12 @@ def main(args) -> int:
     if args.replay:
         return _replay(args, spec, target, budget)
     n = args.max_examples or PROFILES[args.profile]
-    print(f"tstarg certify {target}: {n} examples per check, seed {args.seed}; {describe(**par)}; "
-          f"provides {', '.join(provided)}; per call {timeout:g} s, per example {budget['example_seconds']:g} s, "
-          f"per check {budget['check_seconds']:g} s, run budget {run_budget:g} s; BLAS pinned to 1 thread", flush=True)
+    print(
+        f"tstarg certify {target}: {n} examples per check, seed {args.seed}; {describe(**par)}; "
+        f"provides {', '.join(provided)}; per call {timeout:g} s, per example {budget['example_seconds']:g} s, "
+        f"per check {budget['check_seconds']:g} s, run budget {run_budget:g} s; BLAS pinned to 1 thread",
+        flush=True,
+    )
     stderr_dir = None
     if args.cmd:
         stderr_dir = out / "program-stderr.parts"
@@ -146,10 +214,16 @@ def main(args) -> int:
     cert = _run(spec, par, budget, dict(kw, checks=args.check, provided=provided))
     if cert is None:
         return 1
-    cert.command = "tstarg " + " ".join(shlex.quote(a) for a in sys.argv[2:]) if len(sys.argv) > 2 else cert.command
+    cert.command = (
+        "tstarg " + " ".join(shlex.quote(a) for a in sys.argv[2:])
+        if len(sys.argv) > 2
+        else cert.command
+    )
     _require_a_run(cert)
-    replay = f"tstarg certify {shlex.quote(args.target) if args.target else '--cmd ' + shlex.quote(args.cmd)} " \
-             f"--replay {shlex.quote(str(out / 'certificate.json'))}"
+    replay = (
+        f"tstarg certify {shlex.quote(args.target) if args.target else '--cmd ' + shlex.quote(args.cmd)} "
+        f"--replay {shlex.quote(str(out / 'certificate.json'))}"
+    )
     for c in cert.checks:
         if not c.passed and "example" in c.extra:
             c.extra["example"]["replay"] = replay
@@ -186,10 +260,15 @@ def _run(spec, par, budget, kw):
                 runner.PROGRESS.pop()
         return certify_target(spec, **par, budget=budget, **kw)
     except TaskError as exc:
-        print(f"tstarg certify: a worker failed on check task {exc.index}; no certificate.\n{exc.text[-3000:]}",
-              file=sys.stderr)
+        print(
+            f"tstarg certify: a worker failed on check task {exc.index}; no certificate.\n{exc.text[-3000:]}",
+            file=sys.stderr,
+        )
     except Exception as exc:  # noqa: BLE001 - a broken run is a failure with its reason, never a pass
-        print(f"tstarg certify: the run broke ({type(exc).__name__}: {exc}); no certificate", file=sys.stderr)
+        print(
+            f"tstarg certify: the run broke ({type(exc).__name__}: {exc}); no certificate",
+            file=sys.stderr,
+        )
     return None
 
 
@@ -198,9 +277,15 @@ def _require_a_run(cert) -> None:
     from tstarg.properties.runner import CheckResult
 
     if not any(c.examples > 0 for c in cert.checks):
-        cert.checks.append(CheckResult(
-            name="certificate.nonempty", equations="-", passed=False, worst_ratio=math.inf,
-            detail="no check ran a single example (all skipped, not provided or out of budget): nothing is certified"))
+        cert.checks.append(
+            CheckResult(
+                name="certificate.nonempty",
+                equations="-",
+                passed=False,
+                worst_ratio=math.inf,
+                detail="no check ran a single example (all skipped, not provided or out of budget): nothing is certified",
+            )
+        )
 
 
 def _merge_stderr(parts: Path, log: Path) -> None:
@@ -214,13 +299,24 @@ def _merge_stderr(parts: Path, log: Path) -> None:
 
 
 def _append_incident_tails(cert, out: Path) -> None:
-    lines = ["", "## Program stderr", "", "The program's stderr is kept in [program-stderr.log](program-stderr.log)."]
+    lines = [
+        "",
+        "## Program stderr",
+        "",
+        "The program's stderr is kept in [program-stderr.log](program-stderr.log).",
+    ]
     tails = [i for i in cert.incidents if i.get("stderr_tail")]
     if tails:
         lines += ["Its last lines before each incident:", ""]
         for i in tails:
-            lines += [f"- request {i['id']} ({i['method']}), {i['kind']}:", "", "  ```",
-                      *[f"  {s}" for s in i["stderr_tail"]], "  ```", ""]
+            lines += [
+                f"- request {i['id']} ({i['method']}), {i['kind']}:",
+                "",
+                "  ```",
+                *[f"  {s}" for s in i["stderr_tail"]],
+                "  ```",
+                "",
+            ]
     with open(out / "certificate.md", "a", encoding="utf-8") as fh:
         fh.write("\n".join(lines) + "\n")
 
@@ -232,10 +328,15 @@ def _replay(args, spec, target, budget) -> int:
 
     try:
         data = json.loads(Path(args.replay).read_text())
-        examples = {c["name"]: runner.decode(c["extra"]["example"]["values"])
-                    for c in data.get("checks", []) if not c.get("passed", True) and "example" in c.get("extra", {})}
+        examples = {
+            c["name"]: runner.decode(c["extra"]["example"]["values"])
+            for c in data.get("checks", [])
+            if not c.get("passed", True) and "example" in c.get("extra", {})
+        }
     except (OSError, ValueError, KeyError, TypeError) as exc:
-        return _fail(f"--replay {args.replay}: not a certificate with stored examples ({type(exc).__name__}: {exc})")
+        return _fail(
+            f"--replay {args.replay}: not a certificate with stored examples ({type(exc).__name__}: {exc})"
+        )
     if not examples:
         print(f"--replay {args.replay}: no failing example stored; nothing to replay")
         return 0
@@ -243,15 +344,25 @@ def _replay(args, spec, target, budget) -> int:
     budget["deadline"] = time.time() + 3600.0
     runner.REPLAY.update(examples)
     try:
-        cert = certify_target(spec, workers=1, budget=budget, checks=ids, max_examples=1, seed=args.seed,
-                              target=target)
+        cert = certify_target(
+            spec,
+            workers=1,
+            budget=budget,
+            checks=ids,
+            max_examples=1,
+            seed=args.seed,
+            target=target,
+        )
     finally:
         runner.REPLAY.clear()
     bad = 0
     for c in cert.checks:
         if c.extra.get("not_replayed"):
             continue
-        print(f"{c.name}: {'PASS' if c.passed else 'FAIL'} on the stored example" + ("" if c.passed else f"\n  {c.detail}"))
+        print(
+            f"{c.name}: {'PASS' if c.passed else 'FAIL'} on the stored example"
+            + ("" if c.passed else f"\n  {c.detail}")
+        )
         if not c.passed:
             bad += 1
             print(c.falsifying_example)

@@ -26,21 +26,37 @@ def _destinations(args) -> tuple[Path, Path]:
     """Where to write: under reports/latest/claims unless ``--write`` (the tracked files) or
     ``--out``/``--figures`` say otherwise."""
     write = getattr(args, "write", False)
-    out = Path(args.out) if args.out else Path("reports/claims.md" if write else "reports/latest/claims/claims.md")
-    figures = Path(args.figures) if getattr(args, "figures", None) else (
-        Path("reports/figures") if write else out.parent / "figures")
+    out = (
+        Path(args.out)
+        if args.out
+        else Path("reports/claims.md" if write else "reports/latest/claims/claims.md")
+    )
+    figures = (
+        Path(args.figures)
+        if getattr(args, "figures", None)
+        else (Path("reports/figures") if write else out.parent / "figures")
+    )
     return out, figures
 
 
 def add_arguments(p) -> None:
-    p.add_argument("--out", default=None,
-                   help="Markdown file to write (default reports/latest/claims/claims.md; with --write "
-                        "the committed reports/claims.md)")
-    p.add_argument("--figures", default=None,
-                   help="folder for the Bloch-sphere figures (default beside --out; with --write the "
-                        "committed reports/figures)")
-    p.add_argument("--write", action="store_true",
-                   help="rewrite the committed table reports/claims.md and reports/figures")
+    p.add_argument(
+        "--out",
+        default=None,
+        help="Markdown file to write (default reports/latest/claims/claims.md; with --write "
+        "the committed reports/claims.md)",
+    )
+    p.add_argument(
+        "--figures",
+        default=None,
+        help="folder for the Bloch-sphere figures (default beside --out; with --write the "
+        "committed reports/figures)",
+    )
+    p.add_argument(
+        "--write",
+        action="store_true",
+        help="rewrite the committed table reports/claims.md and reports/figures",
+    )
     p.add_argument(
         "--no-quantum", action="store_true", help="skip the qutip comparisons and figures"
     )

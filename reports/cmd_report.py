@@ -22,11 +22,21 @@ HELP = "render a verification report, or compare two runs (--compare A B)"
 def add_arguments(p) -> None:
     p.add_argument("run", nargs="?", help="a run folder (or report.json) to re-render")
     p.add_argument("--compare", nargs=2, metavar=("A", "B"), help="compare run B with run A")
-    p.add_argument("--out", default=None,
-                   help="output folder for compare.md (default reports/latest/compare), or for the re-rendered "
-                        "report.md (default: the run's folder; never the committed baseline's)")
-    p.add_argument("--digits-slack", type=float, default=None, help="digits a check may lose (default 2)")
-    p.add_argument("--speed-factor", type=float, default=None, help="allowed slowdown of a speed-up (default 2)")
+    p.add_argument(
+        "--out",
+        default=None,
+        help="output folder for compare.md (default reports/latest/compare), or for the re-rendered "
+        "report.md (default: the run's folder; never the committed baseline's)",
+    )
+    p.add_argument(
+        "--digits-slack", type=float, default=None, help="digits a check may lose (default 2)"
+    )
+    p.add_argument(
+        "--speed-factor",
+        type=float,
+        default=None,
+        help="allowed slowdown of a speed-up (default 2)",
+    )
 
 
 def main(args) -> int:
@@ -51,14 +61,18 @@ def main(args) -> int:
         try:
             md = render_markdown(rep)
         except (KeyError, TypeError, ValueError, AttributeError) as exc:
-            print(f"tstarg report: {folder}: not a complete tstarg verify report ({type(exc).__name__}: {exc})",
-                  file=sys.stderr)
+            print(
+                f"tstarg report: {folder}: not a complete tstarg verify report ({type(exc).__name__}: {exc})",
+                file=sys.stderr,
+            )
             return 2
         if args.out:
             folder = Path(args.out)
         elif folder.resolve() == regression.BASELINE.parent.resolve():
             print(md)
-            print(f"(not written: {folder} is the committed baseline; give --out FOLDER to write report.md)")
+            print(
+                f"(not written: {folder} is the committed baseline; give --out FOLDER to write report.md)"
+            )
             return 0
         if rep.get("comparison"):
             regression.plot(rep["comparison"], folder / "figures" / "compare.png")

@@ -14,7 +14,9 @@ HELP = "integrate a scene (TOML): prints the plan and what it skipped, writes np
 
 def add_arguments(parser) -> None:
     parser.add_argument("scene", help="scene TOML file (see refimpl/scenes/)")
-    parser.add_argument("--out", default=None, help="output folder (default: reports/runs/<scene stem>)")
+    parser.add_argument(
+        "--out", default=None, help="output folder (default: reports/runs/<scene stem>)"
+    )
     parser.add_argument("--no-plot", action="store_true", help="skip the PNG")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -58,7 +60,9 @@ def _plot(out: dict, path: Path, title: str) -> None:
             arr = np.asarray(v)
             d = np.abs(arr - arr[0])
             d = d.reshape(d.shape[0], -1)
-            worst = np.max(np.where(np.isfinite(d), d, -np.inf), axis=1)  # NaN rows: outside the chart
+            worst = np.max(
+                np.where(np.isfinite(d), d, -np.inf), axis=1
+            )  # NaN rows: outside the chart
             worst = np.where(np.isfinite(worst), worst, np.nan)
             axes[1].semilogy(t, np.maximum(worst, 1e-17), label=key)
             drawn = True
@@ -90,7 +94,11 @@ def main(args) -> int:
     out = run_scene(scene, the_plan, progress=_Progress(long_run and not args.quiet))
     # the default folder is named from the scene file, sanitised: a file named "...toml" must not
     # resolve to reports/ itself (issue 15); a concurrent run on the same folder gets its own
-    folder = Path(args.out) if args.out else Path("reports") / "runs" / safe_name(Path(args.scene).stem, default="scene")
+    folder = (
+        Path(args.out)
+        if args.out
+        else Path("reports") / "runs" / safe_name(Path(args.scene).stem, default="scene")
+    )
     folder = claim_output(folder)
     arrays = {k: np.asarray(v) for k, v in out.items() if not k.startswith("note")}
     buf = io.BytesIO()
@@ -123,5 +131,8 @@ def main(args) -> int:
             print(f"drift of {k} (worst trajectory): {np.nanmax(d):.3g}")
     if not args.no_plot:
         _plot(out, folder / "trajectory.png", scene.name)
-    print(f"wrote {folder}/trajectory.npz, trajectory.csv" + ("" if args.no_plot else ", trajectory.png"))
+    print(
+        f"wrote {folder}/trajectory.npz, trajectory.csv"
+        + ("" if args.no_plot else ", trajectory.png")
+    )
     return 0

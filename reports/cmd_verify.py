@@ -40,9 +40,24 @@ from .junit import write_junit
 
 PROFILES = {name: p["verify_examples"] for name, p in _PROFILES.items()}  # properties.profiles
 BUDGETS = {
-    "dev": {"example_seconds": 20.0, "check_seconds": 60.0, "shrink_seconds": 20.0, "run_seconds": 1800.0},
-    "ci": {"example_seconds": 30.0, "check_seconds": 120.0, "shrink_seconds": 30.0, "run_seconds": 5400.0},
-    "thorough": {"example_seconds": 60.0, "check_seconds": 600.0, "shrink_seconds": 120.0, "run_seconds": 21600.0},
+    "dev": {
+        "example_seconds": 20.0,
+        "check_seconds": 60.0,
+        "shrink_seconds": 20.0,
+        "run_seconds": 1800.0,
+    },
+    "ci": {
+        "example_seconds": 30.0,
+        "check_seconds": 120.0,
+        "shrink_seconds": 30.0,
+        "run_seconds": 5400.0,
+    },
+    "thorough": {
+        "example_seconds": 60.0,
+        "check_seconds": 600.0,
+        "shrink_seconds": 120.0,
+        "run_seconds": 21600.0,
+    },
 }
 """Wall-clock budgets by profile (:mod:`properties.runner` limits): one example (reference
 computation included; longer ones are drawn again and counted as ``over_budget``), one check,
@@ -65,22 +80,60 @@ PROVIDERS = (
 
 def add_arguments(v) -> None:
     v.add_argument("--profile", choices=sorted(PROFILES), default="ci")
-    v.add_argument("--max-examples", type=int, default=None, help="Hypothesis examples per check (overrides the profile)")
+    v.add_argument(
+        "--max-examples",
+        type=int,
+        default=None,
+        help="Hypothesis examples per check (overrides the profile)",
+    )
     v.add_argument("--seed", type=int, default=0, help="Hypothesis seed (reproducible runs)")
-    v.add_argument("--out", default="reports/latest", help="output folder for report.json and report.md")
-    v.add_argument("--provider", action="append", default=None, metavar="MODULE:FUNCTION",
-                   help=f"run only these check providers (repeatable; default: {', '.join(PROVIDERS)})")
+    v.add_argument(
+        "--out", default="reports/latest", help="output folder for report.json and report.md"
+    )
+    v.add_argument(
+        "--provider",
+        action="append",
+        default=None,
+        metavar="MODULE:FUNCTION",
+        help=f"run only these check providers (repeatable; default: {', '.join(PROVIDERS)})",
+    )
     v.add_argument("--quiet", action="store_true", help="no progress output")
-    v.add_argument("--baseline", default=None, metavar="REPORT",
-                   help="baseline report.json (or run folder) to compare with (default: reports/baseline/report.json)")
+    v.add_argument(
+        "--baseline",
+        default=None,
+        metavar="REPORT",
+        help="baseline report.json (or run folder) to compare with (default: reports/baseline/report.json)",
+    )
     v.add_argument("--no-baseline", action="store_true", help="do not compare with a baseline")
-    v.add_argument("--digits-slack", type=float, default=None, help="digits a check may lose before it is a regression (default 2)")
-    v.add_argument("--speed-factor", type=float, default=None, help="slowdown factor of a speed-up that is a regression (default 2)")
-    v.add_argument("--write-baseline", action="store_true", help="also store this run as the committed baseline")
-    for name, what in (("example", "one example"), ("check", "one check"), ("shrink", "shrinking a failure"),
-                       ("run", "the whole run")):
-        v.add_argument(f"--{name}-seconds", type=float, default=None,
-                       help=f"wall-clock budget of {what} (default: the profile's, see BUDGETS)")
+    v.add_argument(
+        "--digits-slack",
+        type=float,
+        default=None,
+        help="digits a check may lose before it is a regression (default 2)",
+    )
+    v.add_argument(
+        "--speed-factor",
+        type=float,
+        default=None,
+        help="slowdown factor of a speed-up that is a regression (default 2)",
+    )
+    v.add_argument(
+        "--write-baseline",
+        action="store_true",
+        help="also store this run as the committed baseline",
+    )
+    for name, what in (
+        ("example", "one example"),
+        ("check", "one check"),
+        ("shrink", "shrinking a failure"),
+        ("run", "the whole run"),
+    ):
+        v.add_argument(
+            f"--{name}-seconds",
+            type=float,
+            default=None,
+            help=f"wall-clock budget of {what} (default: the profile's, see BUDGETS)",
+        )
 
 
 def _load_provider(spec: str):
@@ -122,14 +175,18 @@ class Progress:
         elif event == "done":
             verdict = "PASS" if result is None or result.passed else "FAIL"
             over = (result.extra.get("over_budget", 0) if result else 0) or 0
-            line = (f"[{self.count:3d}] {name[:52]:52s} {done:4d} ex {result.seconds if result else 0:6.1f}s {verdict}"
-                    + (f" ({over} examples over the per-example budget, drawn again)" if over else ""))
+            line = (
+                f"[{self.count:3d}] {name[:52]:52s} {done:4d} ex {result.seconds if result else 0:6.1f}s {verdict}"
+                + (f" ({over} examples over the per-example budget, drawn again)" if over else "")
+            )
             self.stream.write(("\r\033[K" if self.tty else "") + line + "\n")
             self.stream.flush()
 
     def _bar(self, name, done, total):
         k = min(self.width, int(self.width * done / max(total, 1)))
-        self.stream.write(f"\r\033[K[{self.count:3d}] {name[:40]:40s} [{'#' * k}{'.' * (self.width - k)}] {done}/{total}")
+        self.stream.write(
+            f"\r\033[K[{self.count:3d}] {name[:40]:40s} [{'#' * k}{'.' * (self.width - k)}] {done}/{total}"
+        )
         self.stream.flush()
 
 
@@ -142,9 +199,14 @@ def _env() -> dict:
     from threadpoolctl import threadpool_info
 
     return {
-        "python": sys.version.split()[0], "platform": platform.platform(), "numpy": numpy.__version__,
-        "scipy": scipy.__version__, "mpmath": mpmath.__version__, "mpmath_backend": mpmath.libmp.BACKEND,
-        "sympy": sympy.__version__, "hypothesis": hypothesis.__version__,
+        "python": sys.version.split()[0],
+        "platform": platform.platform(),
+        "numpy": numpy.__version__,
+        "scipy": scipy.__version__,
+        "mpmath": mpmath.__version__,
+        "mpmath_backend": mpmath.libmp.BACKEND,
+        "sympy": sympy.__version__,
+        "hypothesis": hypothesis.__version__,
         "blas_threads": [(i.get("internal_api"), i.get("num_threads")) for i in threadpool_info()],
     }
 
@@ -163,42 +225,69 @@ def render_table(results) -> str:
     """The summary table: check, equations, examples, worst error/tolerance ratio, digits, time, verdict."""
     w = max([5] + [len(r.name) for r in results])
     we = max([9] + [len(r.equations) for r in results])
-    head = (f"{'check':{w}s} {'equations':{we}s} {'examples':>8s} {'skipped':>7s} {'worst ratio':>12s} "
-            f"{'digits':>7s} {'time':>7s}  verdict")
+    head = (
+        f"{'check':{w}s} {'equations':{we}s} {'examples':>8s} {'skipped':>7s} {'worst ratio':>12s} "
+        f"{'digits':>7s} {'time':>7s}  verdict"
+    )
     lines = [head, "-" * len(head)]
     for r in results:
         verdict = "PASS" if r.passed else "FAIL"
-        lines.append(f"{r.name:{w}s} {r.equations:{we}s} {r.examples:8d} {r.skipped:7d} {_fmt_ratio(r.worst_ratio):>12s} "
-                     f"{_fmt_digits(r.min_digits):>7s} {r.seconds:6.1f}s  {verdict}")
+        lines.append(
+            f"{r.name:{w}s} {r.equations:{we}s} {r.examples:8d} {r.skipped:7d} {_fmt_ratio(r.worst_ratio):>12s} "
+            f"{_fmt_digits(r.min_digits):>7s} {r.seconds:6.1f}s  {verdict}"
+        )
     return "\n".join(lines)
 
 
 def render_markdown(report: dict) -> str:
-    out = ["# tstarg verification report", "",
-           f"- profile: `{report['profile']}`, max examples per check: {report['max_examples']}, seed: {report['seed']}",
-           f"- verdict: **{'PASS' if report['passed'] else 'FAIL'}** ({report['n_failed']} failed of {len(report['checks'])})",
-           f"- wall time: {report['seconds']:.1f} s; BLAS pinned to one thread ({report['environment']['blas_threads']})",
-           *[f"- provider `{k}`: {v}" for k, v in report.get("providers", {}).items()],
-           *([(f"- slowest check: `{report['slowest_check']['name']}` ({report['slowest_check']['seconds']:.1f} s); "
-               f"examples over the per-example budget (drawn again): {report.get('over_budget_examples', 0)}")]
-             if report.get("slowest_check") else []),
-           "", "| check | equations | examples | skipped | worst error/tolerance | min digits | verdict |",
-           "|---|---|---:|---:|---:|---:|---|"]
+    out = [
+        "# tstarg verification report",
+        "",
+        f"- profile: `{report['profile']}`, max examples per check: {report['max_examples']}, seed: {report['seed']}",
+        f"- verdict: **{'PASS' if report['passed'] else 'FAIL'}** ({report['n_failed']} failed of {len(report['checks'])})",
+        f"- wall time: {report['seconds']:.1f} s; BLAS pinned to one thread ({report['environment']['blas_threads']})",
+        *[f"- provider `{k}`: {v}" for k, v in report.get("providers", {}).items()],
+        *(
+            [
+                (
+                    f"- slowest check: `{report['slowest_check']['name']}` ({report['slowest_check']['seconds']:.1f} s); "
+                    f"examples over the per-example budget (drawn again): {report.get('over_budget_examples', 0)}"
+                )
+            ]
+            if report.get("slowest_check")
+            else []
+        ),
+        "",
+        "| check | equations | examples | skipped | worst error/tolerance | min digits | verdict |",
+        "|---|---|---:|---:|---:|---:|---|",
+    ]
     for c in report["checks"]:
         ratio = float(c["worst_ratio"])  # "inf" is stored as a string in JSON
         digits = None if c["min_digits"] is None else float(c["min_digits"])
-        out.append(f"| {c['name']} | {c['equations']} | {c['examples']} | {c['skipped']} | {_fmt_ratio(ratio)} | "
-                   f"{_fmt_digits(digits)} | {'PASS' if c['passed'] else 'FAIL'} |")
+        out.append(
+            f"| {c['name']} | {c['equations']} | {c['examples']} | {c['skipped']} | {_fmt_ratio(ratio)} | "
+            f"{_fmt_digits(digits)} | {'PASS' if c['passed'] else 'FAIL'} |"
+        )
     cmp = report.get("comparison")
     if cmp:
-        out += ["", "## Against the baseline", "",
-                f"Baseline `{cmp['base']}`: {'**REGRESSED**' if cmp['regressed'] else 'no regression'} "
-                f"(accuracy slack {cmp['digits_slack']:g} digits, speed factor {cmp['speed_factor']:g}x"
-                + ("" if cmp["same_sampling"] else "; different samples, digits not enforced") + "). "
-                "Full table: [compare.md](compare.md).", "", "![base vs this run](figures/compare.png)", ""]
+        out += [
+            "",
+            "## Against the baseline",
+            "",
+            f"Baseline `{cmp['base']}`: {'**REGRESSED**' if cmp['regressed'] else 'no regression'} "
+            f"(accuracy slack {cmp['digits_slack']:g} digits, speed factor {cmp['speed_factor']:g}x"
+            + ("" if cmp["same_sampling"] else "; different samples, digits not enforced")
+            + "). "
+            "Full table: [compare.md](compare.md).",
+            "",
+            "![base vs this run](figures/compare.png)",
+            "",
+        ]
         changed = [r for r in cmp["rows"] if r["status"]]
         if changed:
-            out += ["| check | status |", "|---|---|"] + [f"| {r['name']} | {'; '.join(r['status'])} |" for r in changed]
+            out += ["| check | status |", "|---|---|"] + [
+                f"| {r['name']} | {'; '.join(r['status'])} |" for r in changed
+            ]
     elif report.get("baseline_note"):
         out += ["", f"Baseline: {report['baseline_note']}"]
     fails = [c for c in report["checks"] if not c["passed"]]
@@ -228,21 +317,33 @@ def run_providers(specs, max_examples: int, seed, progress=None, optional=PROVID
             t0 = time.perf_counter()
             try:
                 if fn is None:
-                    raise ModuleNotFoundError(f"provider {spec}: module {spec.split(':')[0]} not found")
+                    raise ModuleNotFoundError(
+                        f"provider {spec}: module {spec.split(':')[0]} not found"
+                    )
                 got = list(fn(max_examples, seed))
             except Exception as exc:  # noqa: BLE001 - a crashing provider is a failed check
-                got = [_checks.CheckResult(name=f"provider[{spec}]", equations="-", passed=False,
-                                           worst_ratio=math.inf,
-                                           detail=f"{type(exc).__name__}: {exc}"[:2000],
-                                           falsifying_example=traceback.format_exc()[-4000:])]
+                got = [
+                    _checks.CheckResult(
+                        name=f"provider[{spec}]",
+                        equations="-",
+                        passed=False,
+                        worst_ratio=math.inf,
+                        detail=f"{type(exc).__name__}: {exc}"[:2000],
+                        falsifying_example=traceback.format_exc()[-4000:],
+                    )
+                ]
             bad = [r for r in got if not isinstance(r, _checks.CheckResult)]
             if bad:
-                raise TypeError(f"provider {spec} returned {type(bad[0]).__name__}, expected CheckResult")
+                raise TypeError(
+                    f"provider {spec} returned {type(bad[0]).__name__}, expected CheckResult"
+                )
             for r in got:
                 r.extra.setdefault("provider", spec)
                 if not r.passed and isinstance(r.extra.get("example"), dict):
-                    r.extra["example"]["replay"] = (f"tstarg verify --provider {spec} --seed {seed} "
-                                                    f"--max-examples {max_examples} --no-baseline")
+                    r.extra["example"]["replay"] = (
+                        f"tstarg verify --provider {spec} --seed {seed} "
+                        f"--max-examples {max_examples} --no-baseline"
+                    )
             results.extend(got)
             status[spec] = f"ran {len(got)} checks in {time.perf_counter() - t0:.1f} s"
     finally:
@@ -257,7 +358,9 @@ def _budget(args) -> dict:
         v = getattr(args, k, None)
         if v is not None:
             if not (math.isfinite(v) and v > 0):
-                raise ValueError(f"--{k.replace('_', '-')} must be a positive number of seconds, got {v}")
+                raise ValueError(
+                    f"--{k.replace('_', '-')} must be a positive number of seconds, got {v}"
+                )
             out[k] = float(v)
     return out
 
@@ -274,10 +377,12 @@ def main(args) -> int:
         if spec.count(":") != 1:
             raise ValueError(f"--provider must be 'module:function', got {spec!r}")
     budget = _budget(args)
-    print(f"tstarg verify: profile {args.profile}, {max_examples} examples per check, seed {args.seed}; "
-          f"budgets: example {budget['example_seconds']:g} s, check {budget['check_seconds']:g} s, "
-          f"shrinking {budget['shrink_seconds']:g} s, run {budget['run_seconds']:g} s; BLAS pinned to 1 thread",
-          flush=True)
+    print(
+        f"tstarg verify: profile {args.profile}, {max_examples} examples per check, seed {args.seed}; "
+        f"budgets: example {budget['example_seconds']:g} s, check {budget['check_seconds']:g} s, "
+        f"shrinking {budget['shrink_seconds']:g} s, run {budget['run_seconds']:g} s; BLAS pinned to 1 thread",
+        flush=True,
+    )
     t0 = time.perf_counter()
     progress = None if getattr(args, "quiet", False) else Progress()
     from tstarg.properties import runner
@@ -290,10 +395,19 @@ def main(args) -> int:
     for spec, st in status.items():
         print(f"provider {spec}: {st}")
     report = {
-        "tool": "tstarg verify", "profile": args.profile, "max_examples": max_examples, "seed": args.seed,
-        "seconds": total, "providers": status, "checks": [r.to_json() for r in results], "environment": _env(),
-        "budgets": budget, "over_budget_examples": over,
-        "slowest_check": None if slowest is None else {"name": slowest.name, "seconds": slowest.seconds},
+        "tool": "tstarg verify",
+        "profile": args.profile,
+        "max_examples": max_examples,
+        "seed": args.seed,
+        "seconds": total,
+        "providers": status,
+        "checks": [r.to_json() for r in results],
+        "environment": _env(),
+        "budgets": budget,
+        "over_budget_examples": over,
+        "slowest_check": None
+        if slowest is None
+        else {"name": slowest.name, "seconds": slowest.seconds},
         "command": " ".join(["tstarg"] + sys.argv[1:]),
     }
     out = claim_output(Path(args.out))  # issue 15: a concurrent run gets its own folder and says so
@@ -308,15 +422,23 @@ def main(args) -> int:
         from .regression import BASELINE
 
         BASELINE.parent.mkdir(parents=True, exist_ok=True)
-        kept = dict(report, checks=[c for c in report["checks"] if not c["name"].startswith("regression.")])
+        kept = dict(
+            report, checks=[c for c in report["checks"] if not c["name"].startswith("regression.")]
+        )
         kept.pop("comparison", None)
         kept.pop("baseline_note", None)
-        write_text(BASELINE, json.dumps(kept, indent=2))  # atomic: the old baseline stays until this is whole
+        write_text(
+            BASELINE, json.dumps(kept, indent=2)
+        )  # atomic: the old baseline stays until this is whole
         print(f"baseline written: {BASELINE}")
-    print(f"\n{len(results) - len(failed)} passed, {len(failed)} failed in {total:.1f} s; report: {out / 'report.md'}")
+    print(
+        f"\n{len(results) - len(failed)} passed, {len(failed)} failed in {total:.1f} s; report: {out / 'report.md'}"
+    )
     if slowest is not None:
-        print(f"slowest check: {slowest.name} ({slowest.seconds:.1f} s); examples over the per-example budget "
-              f"(drawn again): {over}")
+        print(
+            f"slowest check: {slowest.name} ({slowest.seconds:.1f} s); examples over the per-example budget "
+            f"(drawn again): {over}"
+        )
     for r in failed:
         print(f"\nFAILED {r.name}: {r.detail}\n{r.falsifying_example}")
     return 1 if failed else 0
@@ -340,13 +462,20 @@ def _compare_with_baseline(args, report: dict, results: list, out: Path) -> None
     factor = getattr(args, "speed_factor", None)
     factor = regression.SPEED_FACTOR if factor is None else factor
     base = regression.load_report(path)
-    cmp = regression.compare(base, dict(report, _path=str(out / "report.json")), digits_slack=slack,
-                             speed_factor=factor)
+    cmp = regression.compare(
+        base, dict(report, _path=str(out / "report.json")), digits_slack=slack, speed_factor=factor
+    )
     rows = regression.regression_checks(cmp)
     results.extend(rows)
     report["checks"].extend(r.to_json() for r in rows)
     report["comparison"] = cmp
     regression.plot(cmp, out / "figures" / "compare.png")
     write_text(out / "compare.md", regression.render_markdown(cmp, figure="figures/compare.png"))
-    print(f"against baseline {path}: {'REGRESSED' if cmp['regressed'] else 'no regression'}"
-          + (f" (accuracy: {cmp['accuracy_regressions']}; speed: {cmp['speed_regressions']})" if cmp["regressed"] else ""))
+    print(
+        f"against baseline {path}: {'REGRESSED' if cmp['regressed'] else 'no regression'}"
+        + (
+            f" (accuracy: {cmp['accuracy_regressions']}; speed: {cmp['speed_regressions']})"
+            if cmp["regressed"]
+            else ""
+        )
+    )

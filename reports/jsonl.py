@@ -97,13 +97,16 @@ def check_timeout(timeout: Any, what: str = "timeout") -> float:
 
 def _real_array(value: Any, what: str) -> np.ndarray:
     """Nested lists of real numbers (bool and strings refused) -> float array, else ProgramFailure."""
+
     def ok(v):
         if isinstance(v, list):
             return all(ok(x) for x in v)
         return isinstance(v, (int, float)) and not isinstance(v, bool)
 
     if not ok(value):
-        raise ProgramFailure(f"{what}: expected nested lists of numbers, got {json.dumps(value)[:200]}")
+        raise ProgramFailure(
+            f"{what}: expected nested lists of numbers, got {json.dumps(value)[:200]}"
+        )
     try:
         return np.asarray(value, dtype=float)
     except ValueError:  # ragged
@@ -114,20 +117,28 @@ def parse_result(method: str, result: Any, args: dict) -> Any:
     """Validate a reply's ``result`` against the method's shapes; returns arrays (or raises ProgramFailure)."""
     if method == "capabilities":
         if not isinstance(result, dict):
-            raise ProgramFailure(f"capabilities result must be an object, got {json.dumps(result)[:200]}")
+            raise ProgramFailure(
+                f"capabilities result must be an object, got {json.dumps(result)[:200]}"
+            )
         return result
     n = len(args["f"])
     lead = np.shape(args.get("x", args.get("x0")))[:-1]
     if method == "poisson_tensor":
         P = _real_array(result, "poisson_tensor result")
         if P.shape != (*lead, 2 * n, 2 * n):
-            raise ProgramFailure(f"poisson_tensor result has shape {P.shape}, expected {(*lead, 2 * n, 2 * n)}")
+            raise ProgramFailure(
+                f"poisson_tensor result has shape {P.shape}, expected {(*lead, 2 * n, 2 * n)}"
+            )
         return P
     if not isinstance(result, list) or len(result) != 2:
-        raise ProgramFailure(f"{method} result must be a list [a, b] of two vectors, got {json.dumps(result)[:200]}")
+        raise ProgramFailure(
+            f"{method} result must be a list [a, b] of two vectors, got {json.dumps(result)[:200]}"
+        )
     a, b = (_real_array(r, f"{method} result[{k}]") for k, r in enumerate(result))
     if a.shape != (*lead, n) or b.shape != (*lead, n):
-        raise ProgramFailure(f"{method} result has shapes {a.shape}, {b.shape}, expected two of {(*lead, n)}")
+        raise ProgramFailure(
+            f"{method} result has shapes {a.shape}, {b.shape}, expected two of {(*lead, n)}"
+        )
     return a, b
 
 
@@ -136,9 +147,16 @@ class CommandImplementation:
 
     batched = False
 
-    def __init__(self, command: str, *, timeout: float = 10.0, probe: bool = True,
-                 stderr_log: str | os.PathLike | None = None, max_failures: int = 3,
-                 startup_timeout: float = 30.0):
+    def __init__(
+        self,
+        command: str,
+        *,
+        timeout: float = 10.0,
+        probe: bool = True,
+        stderr_log: str | os.PathLike | None = None,
+        max_failures: int = 3,
+        startup_timeout: float = 30.0,
+    ):
         self.command = command
         self.timeout = check_timeout(timeout)
         self.startup_timeout = max(self.timeout, check_timeout(startup_timeout, "startup timeout"))
@@ -154,7 +172,9 @@ class CommandImplementation:
         self._lines: queue.Queue = queue.Queue()
         self._missing: set[str] = set()
         self._tail: collections.deque = collections.deque(maxlen=STDERR_TAIL)
-        self._log = open(stderr_log, "a", encoding="utf-8", errors="replace") if stderr_log else None  # noqa: SIM115
+        self._log = (
+            open(stderr_log, "a", encoding="utf-8", errors="replace") if stderr_log else None
+        )  # noqa: SIM115
         argv = shlex.split(command)
         if not argv:
             raise ValueError("--cmd: the program command is empty")
@@ -166,11 +186,20 @@ class CommandImplementation:
     # ------------------------------------------------------------ process
     def _start(self) -> None:
         try:
-            self._proc = subprocess.Popen(self._argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                          stderr=subprocess.PIPE, text=True, bufsize=1, errors="replace",
-                                          start_new_session=True)
+            self._proc = subprocess.Popen(
+                self._argv,
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE,
+                text=True,
+                bufsize=1,
+                errors="replace",
+                start_new_session=True,
+            )
         except OSError as exc:
-            raise ProgramFailure(f"cannot start the program {self._argv[0]!r}: {exc.strerror or exc}") from None
+            raise ProgramFailure(
+                f"cannot start the program {self._argv[0]!r}: {exc.strerror or exc}"
+            ) from None
         self._fresh = True
         self._lines = queue.Queue(maxsize=10000)
         self._tail = collections.deque(maxlen=STDERR_TAIL)  # this run of the program only
@@ -232,11 +261,15 @@ class CommandImplementation:
         if restart:
             time.sleep(0.05)  # the last words of a crashing program reach the stderr reader
         tail = list(self._tail)
-        self.incidents.append({"id": rid, "method": method, "kind": kind, "detail": detail, "stderr_tail": tail})
+        self.incidents.append(
+            {"id": rid, "method": method, "kind": kind, "detail": detail, "stderr_tail": tail}
+        )
         self._failures_in_a_row += 1
         if self._failures_in_a_row >= self.max_failures:
-            self._broken = (f"{self._failures_in_a_row} requests in a row failed (last: {kind}, {detail}); "
-                            "the program is not restarted again")
+            self._broken = (
+                f"{self._failures_in_a_row} requests in a row failed (last: {kind}, {detail}); "
+                "the program is not restarted again"
+            )
             self._kill()
         elif restart:
             self._restart()
@@ -257,8 +290,11 @@ class CommandImplementation:
             self._proc.stdin.write(line + "\n")
             self._proc.stdin.flush()
         except (BrokenPipeError, OSError, ValueError):
-            raise ProgramFailure(self._incident(rid, method, "crash", "the program had exited (stdin closed)",
-                                                restart=True)) from None
+            raise ProgramFailure(
+                self._incident(
+                    rid, method, "crash", "the program had exited (stdin closed)", restart=True
+                )
+            ) from None
         wait = self.startup_timeout if self._fresh else self.timeout
         self._fresh = False
         deadline = time.monotonic() + wait
@@ -269,19 +305,26 @@ class CommandImplementation:
                     raise queue.Empty
                 reply = self._lines.get(timeout=left)
             except queue.Empty:
-                raise ProgramFailure(self._incident(rid, method, "hang", f"no reply within {wait:g} s",
-                                                    restart=True)) from None
+                raise ProgramFailure(
+                    self._incident(rid, method, "hang", f"no reply within {wait:g} s", restart=True)
+                ) from None
             if reply is None:
                 code = self._proc.wait()
-                raise ProgramFailure(self._incident(rid, method, "crash", f"the program exited with code {code}",
-                                                    restart=True))
+                raise ProgramFailure(
+                    self._incident(
+                        rid, method, "crash", f"the program exited with code {code}", restart=True
+                    )
+                )
             try:
                 msg = json.loads(reply)
             except (json.JSONDecodeError, RecursionError):
                 msg = None
             if not isinstance(msg, dict):
-                raise ProgramFailure(self._incident(rid, method, "garbage", f"not a JSON object: {reply[:200]!r}",
-                                                    restart=False))
+                raise ProgramFailure(
+                    self._incident(
+                        rid, method, "garbage", f"not a JSON object: {reply[:200]!r}", restart=False
+                    )
+                )
             if msg.get("id") != rid:
                 continue  # a late reply to an earlier, timed-out request (the deadline still runs)
             try:
@@ -304,16 +347,32 @@ class CommandImplementation:
             except ProgramFailure as exc:
                 if "error reply" in str(exc):
                     raise
-                raise ProgramFailure(self._incident(rid, method, "malformed", str(exc), restart=False)) from None
+                raise ProgramFailure(
+                    self._incident(rid, method, "malformed", str(exc), restart=False)
+                ) from None
             self._failures_in_a_row = 0
             return out
 
     def _probe(self) -> None:
         """Find which methods the program provides, with a small su(2) request each."""
-        eps = [[[0, 0, 0], [0, 0, 1], [0, -1, 0]], [[0, 0, -1], [0, 0, 0], [1, 0, 0]], [[0, 1, 0], [-1, 0, 0], [0, 0, 0]]]
+        eps = [
+            [[0, 0, 0], [0, 0, 1], [0, -1, 0]],
+            [[0, 0, -1], [0, 0, 0], [1, 0, 0]],
+            [[0, 1, 0], [-1, 0, 0], [0, 0, 0]],
+        ]
         z = [[0.0] * 3 for _ in range(3)]
-        base = {"f": eps, "theta": z, "upsilon": z, "inertia": np.eye(3).tolist(), "potential": None,
-                "x": [0.1, 0.2, 0.3], "pi": [1.0, 0.5, -0.2], "x0": [0.1, 0.2, 0.3], "pi0": [1.0, 0.5, -0.2], "t": 0.1}
+        base = {
+            "f": eps,
+            "theta": z,
+            "upsilon": z,
+            "inertia": np.eye(3).tolist(),
+            "potential": None,
+            "x": [0.1, 0.2, 0.3],
+            "pi": [1.0, 0.5, -0.2],
+            "x0": [0.1, 0.2, 0.3],
+            "pi0": [1.0, 0.5, -0.2],
+            "t": 0.1,
+        }
         try:
             caps = self.request("capabilities", {})
         except (NotImplementedError, ValueError, ProgramFailure):
@@ -342,8 +401,11 @@ class CommandImplementation:
         self.version = str(caps.get("version", getattr(self, "version", "")))
         if "methods" in caps:
             self._missing |= set(METHODS) - set(caps["methods"])
-        domain = {k: caps[k] for k in ("algebras", "theta", "upsilon", "gravity", "max_abs_t", "negative_t")
-                  if caps.get(k) is not None and caps.get(k) != "all"}
+        domain = {
+            k: caps[k]
+            for k in ("algebras", "theta", "upsilon", "gravity", "max_abs_t", "negative_t")
+            if caps.get(k) is not None and caps.get(k) != "all"
+        }
         if domain:
             self.domain = domain
         self.batched = bool(caps.get("batched", False))
@@ -357,7 +419,9 @@ class CommandImplementation:
 
             def call(*args):
                 if len(args) != len(names):
-                    raise TypeError(f"{method} takes {len(names)} arguments ({', '.join(names)}), got {len(args)}")
+                    raise TypeError(
+                        f"{method} takes {len(names)} arguments ({', '.join(names)}), got {len(args)}"
+                    )
                 return self.request(method, dict(zip(names, args)))
 
             return call

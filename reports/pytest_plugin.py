@@ -22,7 +22,9 @@ import pytest
 
 def pytest_addoption(parser):
     g = parser.getgroup("tstarg")
-    g.addoption("--tstarg-impl", default=os.environ.get("TSTARG_IMPL"), help="module:object to certify")
+    g.addoption(
+        "--tstarg-impl", default=os.environ.get("TSTARG_IMPL"), help="module:object to certify"
+    )
     g.addoption("--tstarg-examples", type=int, default=10, help="examples per certification check")
     g.addoption("--tstarg-seed", type=int, default=0)
 
@@ -51,7 +53,14 @@ def tstarg_certificate(pytestconfig):
 
     spec = _target(pytestconfig)
     b = BUDGETS["dev"]
-    with limits(example_seconds=b["example_seconds"], check_seconds=b["check_seconds"],
-                shrink_seconds=b["shrink_seconds"]):
-        return certify(materialize(spec), max_examples=pytestconfig.getoption("--tstarg-examples"),
-                       seed=pytestconfig.getoption("--tstarg-seed"), target=spec)
+    with limits(
+        example_seconds=b["example_seconds"],
+        check_seconds=b["check_seconds"],
+        shrink_seconds=b["shrink_seconds"],
+    ):
+        return certify(
+            materialize(spec),
+            max_examples=pytestconfig.getoption("--tstarg-examples"),
+            seed=pytestconfig.getoption("--tstarg-seed"),
+            target=spec,
+        )

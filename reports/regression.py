@@ -33,8 +33,16 @@ from pathlib import Path
 
 from ._atomic import save_figure
 
-__all__ = ["BASELINE", "DIGITS_SLACK", "SPEED_FACTOR", "load_report", "compare", "render_markdown", "plot",
-           "regression_checks"]
+__all__ = [
+    "BASELINE",
+    "DIGITS_SLACK",
+    "SPEED_FACTOR",
+    "load_report",
+    "compare",
+    "render_markdown",
+    "plot",
+    "regression_checks",
+]
 
 BASELINE = Path(__file__).resolve().parent / "baseline" / "report.json"
 """The committed baseline: ``tstarg verify --profile ci --seed 0`` on the reference machine."""
@@ -48,7 +56,9 @@ def load_report(path) -> dict:
     if p.is_dir():
         p = p / "report.json"
     if not p.is_file():
-        raise FileNotFoundError(f"no report at {path} (expected a report.json or a folder holding one)")
+        raise FileNotFoundError(
+            f"no report at {path} (expected a report.json or a folder holding one)"
+        )
     try:
         rep = json.loads(p.read_text())
     except json.JSONDecodeError as exc:
@@ -138,7 +148,14 @@ def _digits_lost(b: dict, n: dict) -> float | None:
         else:
             losses.append(-math.inf)
     rb, rn = _num(b.get("worst_ratio")), _num(n.get("worst_ratio"))
-    if rb is not None and rn is not None and rb > 0 and rn > 0 and math.isfinite(rb) and math.isfinite(rn):
+    if (
+        rb is not None
+        and rn is not None
+        and rb > 0
+        and rn > 0
+        and math.isfinite(rb)
+        and math.isfinite(rn)
+    ):
         losses.append(math.log10(rn / rb))
     elif rb is not None and rn is not None and math.isfinite(rb) and math.isinf(rn):
         losses.append(math.inf)
@@ -149,7 +166,9 @@ def _sampling(rep: dict) -> tuple:
     return rep.get("profile"), rep.get("max_examples"), rep.get("seed")
 
 
-def compare(base: dict, new: dict, *, digits_slack: float = DIGITS_SLACK, speed_factor: float = SPEED_FACTOR) -> dict:
+def compare(
+    base: dict, new: dict, *, digits_slack: float = DIGITS_SLACK, speed_factor: float = SPEED_FACTOR
+) -> dict:
     """Row-by-row comparison of two verify reports (dicts from :func:`load_report`)."""
     if not (digits_slack >= 0 and math.isfinite(digits_slack)):
         raise ValueError(f"digits_slack must be a finite number >= 0, got {digits_slack}")
@@ -162,8 +181,16 @@ def compare(base: dict, new: dict, *, digits_slack: float = DIGITS_SLACK, speed_
     rows = []
     for name in list(bmap) + [k for k in nmap if k not in bmap]:
         b, n = bmap.get(name), nmap.get(name)
-        row = {"name": name, "status": [], "digits_base": None, "digits_new": None, "digits_lost": None,
-               "speedup_base": None, "speedup_new": None, "speed_factor": None}
+        row = {
+            "name": name,
+            "status": [],
+            "digits_base": None,
+            "digits_new": None,
+            "digits_lost": None,
+            "speedup_base": None,
+            "speedup_new": None,
+            "speed_factor": None,
+        }
         if n is None:
             row["status"].append("missing in new run")
             rows.append(row)
@@ -180,22 +207,38 @@ def compare(base: dict, new: dict, *, digits_slack: float = DIGITS_SLACK, speed_
         if b.get("passed") and not n.get("passed"):
             row["status"].append("verdict regression (PASS -> FAIL)")
         if lost is not None and lost > digits_slack:
-            row["status"].append("accuracy regression" if same else "accuracy change (different samples)")
-        sb, sn = _num((b.get("extra") or {}).get("speedup")), _num((n.get("extra") or {}).get("speedup"))
+            row["status"].append(
+                "accuracy regression" if same else "accuracy change (different samples)"
+            )
+        sb, sn = (
+            _num((b.get("extra") or {}).get("speedup")),
+            _num((n.get("extra") or {}).get("speedup")),
+        )
         if sb is not None and sn is not None and sb > 0 and sn > 0:
             row["speedup_base"], row["speedup_new"] = sb, sn
             row["speed_factor"] = sb / sn
             if sn < sb / speed_factor:
                 row["status"].append("speed regression")
         rows.append(row)
-    acc = [r["name"] for r in rows if "accuracy regression" in r["status"]
-           or "verdict regression (PASS -> FAIL)" in r["status"]]
+    acc = [
+        r["name"]
+        for r in rows
+        if "accuracy regression" in r["status"]
+        or "verdict regression (PASS -> FAIL)" in r["status"]
+    ]
     spd = [r["name"] for r in rows if "speed regression" in r["status"]]
     return {
-        "base": base.get("_path", "base"), "new": new.get("_path", "new"),
-        "same_sampling": same, "sampling_base": list(_sampling(base)), "sampling_new": list(_sampling(new)),
-        "digits_slack": digits_slack, "speed_factor": speed_factor, "rows": rows,
-        "accuracy_regressions": acc, "speed_regressions": spd, "regressed": bool(acc or spd),
+        "base": base.get("_path", "base"),
+        "new": new.get("_path", "new"),
+        "same_sampling": same,
+        "sampling_base": list(_sampling(base)),
+        "sampling_new": list(_sampling(new)),
+        "digits_slack": digits_slack,
+        "speed_factor": speed_factor,
+        "rows": rows,
+        "accuracy_regressions": acc,
+        "speed_regressions": spd,
+        "regressed": bool(acc or spd),
     }
 
 
@@ -209,27 +252,42 @@ def _f(v, fmt="{:.1f}") -> str:
 
 def render_markdown(cmp: dict, figure: str | None = None) -> str:
     """The comparison as Markdown, readable on its own."""
-    out = ["# tstarg: comparison of two verification runs", "",
-           f"- base: `{cmp['base']}` (profile, examples per check, seed = {cmp['sampling_base']})",
-           f"- new: `{cmp['new']}` (profile, examples per check, seed = {cmp['sampling_new']})",
-           f"- accuracy regression: more than {cmp['digits_slack']:g} digits lost "
-           f"(max of the drop in minimum digits and log10 of the growth of the worst error/tolerance ratio)"
-           + ("" if cmp["same_sampling"] else "; **the runs drew different examples, so digit changes are "
-              "shown for information and do not fail**"),
-           f"- speed regression: a speed-up (ratio to a baseline computation timed in the same run) "
-           f"fell by more than {cmp['speed_factor']:g}x",
-           f"- verdict: **{'REGRESSED' if cmp['regressed'] else 'no regression'}**"
-           + (f" (accuracy: {', '.join(cmp['accuracy_regressions']) or 'none'}; "
-              f"speed: {', '.join(cmp['speed_regressions']) or 'none'})" if cmp["regressed"] else ""),
-           ""]
+    out = [
+        "# tstarg: comparison of two verification runs",
+        "",
+        f"- base: `{cmp['base']}` (profile, examples per check, seed = {cmp['sampling_base']})",
+        f"- new: `{cmp['new']}` (profile, examples per check, seed = {cmp['sampling_new']})",
+        f"- accuracy regression: more than {cmp['digits_slack']:g} digits lost "
+        f"(max of the drop in minimum digits and log10 of the growth of the worst error/tolerance ratio)"
+        + (
+            ""
+            if cmp["same_sampling"]
+            else "; **the runs drew different examples, so digit changes are "
+            "shown for information and do not fail**"
+        ),
+        f"- speed regression: a speed-up (ratio to a baseline computation timed in the same run) "
+        f"fell by more than {cmp['speed_factor']:g}x",
+        f"- verdict: **{'REGRESSED' if cmp['regressed'] else 'no regression'}**"
+        + (
+            f" (accuracy: {', '.join(cmp['accuracy_regressions']) or 'none'}; "
+            f"speed: {', '.join(cmp['speed_regressions']) or 'none'})"
+            if cmp["regressed"]
+            else ""
+        ),
+        "",
+    ]
     if figure:
         out += [f"![digits and speed-ups, base vs new]({figure})", ""]
-    out += ["| check | digits base | digits new | digits lost | speed-up base | speed-up new | slowdown | status |",
-            "|---|---:|---:|---:|---:|---:|---:|---|"]
+    out += [
+        "| check | digits base | digits new | digits lost | speed-up base | speed-up new | slowdown | status |",
+        "|---|---:|---:|---:|---:|---:|---:|---|",
+    ]
     for r in cmp["rows"]:
-        out.append(f"| {r['name']} | {_f(r['digits_base'])} | {_f(r['digits_new'])} | {_f(r['digits_lost'])} | "
-                   f"{_f(r['speedup_base'], '{:.3g}')} | {_f(r['speedup_new'], '{:.3g}')} | "
-                   f"{_f(r['speed_factor'], '{:.2f}x')} | {'; '.join(r['status']) or 'ok'} |")
+        out.append(
+            f"| {r['name']} | {_f(r['digits_base'])} | {_f(r['digits_new'])} | {_f(r['digits_lost'])} | "
+            f"{_f(r['speedup_base'], '{:.3g}')} | {_f(r['speedup_new'], '{:.3g}')} | "
+            f"{_f(r['speed_factor'], '{:.2f}x')} | {'; '.join(r['status']) or 'ok'} |"
+        )
     return "\n".join(out) + "\n"
 
 
@@ -258,30 +316,64 @@ def _plot(cmp: dict, path) -> Path:
     def cap(v):  # exact (inf) digits drawn at 70, missing as nan
         return float("nan") if v is None else (70.0 if math.isinf(v) else v)
 
-    fig, axes = plt.subplots(1, 2, figsize=(13, max(3.0, 0.28 * len(rows) + 1.5)),
-                             gridspec_kw={"width_ratios": [3, 2]})
+    fig, axes = plt.subplots(
+        1, 2, figsize=(13, max(3.0, 0.28 * len(rows) + 1.5)), gridspec_kw={"width_ratios": [3, 2]}
+    )
     ax = axes[0]
     y = list(range(len(rows)))
-    ax.barh([v - 0.2 for v in y], [cap(r["digits_base"]) for r in rows], height=0.4, label="base", color="0.7")
-    ax.barh([v + 0.2 for v in y], [cap(r["digits_new"]) for r in rows], height=0.4, label="new",
-            color=["tab:red" if ("accuracy regression" in r["status"]) else "tab:blue" for r in rows])
+    ax.barh(
+        [v - 0.2 for v in y],
+        [cap(r["digits_base"]) for r in rows],
+        height=0.4,
+        label="base",
+        color="0.7",
+    )
+    ax.barh(
+        [v + 0.2 for v in y],
+        [cap(r["digits_new"]) for r in rows],
+        height=0.4,
+        label="new",
+        color=["tab:red" if ("accuracy regression" in r["status"]) else "tab:blue" for r in rows],
+    )
     ax.set_yticks(y, [r["name"][:42] for r in rows], fontsize=7)
     ax.invert_yaxis()
     ax.set_xlabel("minimum correct digits (exact drawn at 70)")
     ax.legend(loc="lower right", fontsize=8)
     ax = axes[1]
     y = list(range(len(spd)))
-    ax.barh([v - 0.2 for v in y], [r["speedup_base"] or float("nan") for r in spd], height=0.4, color="0.7", label="base")
-    ax.barh([v + 0.2 for v in y], [r["speedup_new"] or float("nan") for r in spd], height=0.4, label="new",
-            color=["tab:red" if "speed regression" in r["status"] else "tab:green" for r in spd])
+    ax.barh(
+        [v - 0.2 for v in y],
+        [r["speedup_base"] or float("nan") for r in spd],
+        height=0.4,
+        color="0.7",
+        label="base",
+    )
+    ax.barh(
+        [v + 0.2 for v in y],
+        [r["speedup_new"] or float("nan") for r in spd],
+        height=0.4,
+        label="new",
+        color=["tab:red" if "speed regression" in r["status"] else "tab:green" for r in spd],
+    )
     ax.set_yticks(y, [r["name"] for r in spd], fontsize=8)
     ax.invert_yaxis()
-    positive = [v for r in spd for v in (r["speedup_base"], r["speedup_new"])
-                if v is not None and math.isfinite(v) and v > 0]
+    positive = [
+        v
+        for r in spd
+        for v in (r["speedup_base"], r["speedup_new"])
+        if v is not None and math.isfinite(v) and v > 0
+    ]
     if positive:
         ax.set_xscale("log")
     else:  # no speed rows (e.g. a run of core_checks only): a log axis cannot be drawn
-        ax.text(0.5, 0.5, "no speed-up rows in these runs", ha="center", va="center", transform=ax.transAxes)
+        ax.text(
+            0.5,
+            0.5,
+            "no speed-up rows in these runs",
+            ha="center",
+            va="center",
+            transform=ax.transAxes,
+        )
     ax.set_xlabel("speed-up vs baseline computation (same run)")
     ax.legend(loc="lower right", fontsize=8)
     fig.suptitle("base (grey) vs new; red = regression", fontsize=10)
@@ -309,15 +401,33 @@ def regression_checks(cmp: dict):
     slow = max((r["speed_factor"] for r in spd_rows), default=0.0)
     note = "" if cmp["same_sampling"] else " (different samples: digits shown, not enforced)"
     acc = CheckResult(
-        name="regression.accuracy", equations="(meta)", examples=len(acc_rows), worst_ratio=acc_ratio,
+        name="regression.accuracy",
+        equations="(meta)",
+        examples=len(acc_rows),
+        worst_ratio=acc_ratio,
         passed=not cmp["accuracy_regressions"],
-        detail=(f"accuracy regressions against {cmp['base']}: {', '.join(cmp['accuracy_regressions'])}"
-                if cmp["accuracy_regressions"] else f"max digits lost {lost:.2f} (slack {cmp['digits_slack']:g}){note}"),
-        extra={"baseline": cmp["base"], "digits_slack": cmp["digits_slack"], "same_sampling": cmp["same_sampling"]})
+        detail=(
+            f"accuracy regressions against {cmp['base']}: {', '.join(cmp['accuracy_regressions'])}"
+            if cmp["accuracy_regressions"]
+            else f"max digits lost {lost:.2f} (slack {cmp['digits_slack']:g}){note}"
+        ),
+        extra={
+            "baseline": cmp["base"],
+            "digits_slack": cmp["digits_slack"],
+            "same_sampling": cmp["same_sampling"],
+        },
+    )
     spd = CheckResult(
-        name="regression.speed", equations="(meta)", examples=len(spd_rows), worst_ratio=slow / cmp["speed_factor"],
+        name="regression.speed",
+        equations="(meta)",
+        examples=len(spd_rows),
+        worst_ratio=slow / cmp["speed_factor"],
         passed=not cmp["speed_regressions"],
-        detail=(f"speed regressions against {cmp['base']}: {', '.join(cmp['speed_regressions'])}"
-                if cmp["speed_regressions"] else f"worst slowdown {slow:.2f}x (allowed {cmp['speed_factor']:g}x)"),
-        extra={"baseline": cmp["base"], "speed_factor": cmp["speed_factor"]})
+        detail=(
+            f"speed regressions against {cmp['base']}: {', '.join(cmp['speed_regressions'])}"
+            if cmp["speed_regressions"]
+            else f"worst slowdown {slow:.2f}x (allowed {cmp['speed_factor']:g}x)"
+        ),
+        extra={"baseline": cmp["base"], "speed_factor": cmp["speed_factor"]},
+    )
     return [acc, spd]

@@ -33,6 +33,7 @@ import time
 
 import numpy as np
 from scipy.integrate import solve_ivp
+
 from tstarg.properties.runner import CheckResult
 from tstarg.refimpl import su2, su3
 from tstarg.refimpl._flow_fast import scalar_rhs
@@ -75,41 +76,62 @@ def _random_model(alg, rng, N):
 
 def _poisson_row(name: str, alg, N: int, n_plain: int, seed: int) -> CheckResult:
 
-
     rng = np.random.default_rng(seed)
     theta, ups, x, pi = _random_model(alg, rng, N)
     plain = Plain(None)
     sub = slice(0, n_plain)
     t0 = time.perf_counter()
     res = fast.poisson_batch(alg.f, theta, ups, x, pi)
-    P_plain = np.stack([plain.poisson_tensor(alg.f, theta, ups, x[i], pi[i]) for i in range(n_plain)])
+    P_plain = np.stack(
+        [plain.poisson_tensor(alg.f, theta, ups, x[i], pi[i]) for i in range(n_plain)]
+    )
     # correctness of what is timed: both are float64 evaluations of vier9 through different code;
     # their difference is bounded by the sum of the two errors, each below fast's per-point bound
     # (c * eps * n * cond * frame * max|P|, refimpl/fast.py), so 2 * bound is the tolerance
     err = np.max(np.abs(res.P[sub] - P_plain), axis=(1, 2))
     worst = float(np.max(err / (2 * res.error_bound[sub])))
-    t_ours, t_plain = race(lambda: fast.poisson_batch(alg.f, theta, ups, x, pi),
-                           lambda: [plain.poisson_tensor(alg.f, theta, ups, x[i], pi[i]) for i in range(n_plain)])
+    t_ours, t_plain = race(
+        lambda: fast.poisson_batch(alg.f, theta, ups, x, pi),
+        lambda: [plain.poisson_tensor(alg.f, theta, ups, x[i], pi[i]) for i in range(n_plain)],
+    )
     per_ours, per_plain = t_ours / N, t_plain / n_plain
     speedup = per_plain / per_ours
     return CheckResult(
-        name=name, equations="vier9", examples=N, worst_ratio=worst, passed=bool(worst <= 1.0 and speedup > 1.0),
-        min_digits=float(-math.log10(max(float(np.max(err)), 1e-300) / max(1.0, float(np.max(np.abs(P_plain)))))),
-        detail="" if worst <= 1 and speedup > 1 else f"worst ratio {worst:.3g}, speedup {speedup:.3g}",
+        name=name,
+        equations="vier9",
+        examples=N,
+        worst_ratio=worst,
+        passed=bool(worst <= 1.0 and speedup > 1.0),
+        min_digits=float(
+            -math.log10(max(float(np.max(err)), 1e-300) / max(1.0, float(np.max(np.abs(P_plain)))))
+        ),
+        detail=""
+        if worst <= 1 and speedup > 1
+        else f"worst ratio {worst:.3g}, speedup {speedup:.3g}",
         seconds=time.perf_counter() - t0,
-        extra={"speedup": speedup, "baseline": f"reports.mutants.Plain per point ({n_plain} points)",
-               "ours": f"refimpl.fast poisson_batch ({N} points)", "per_point_ours_us": per_ours * 1e6,
-               "per_point_baseline_us": per_plain * 1e6, "timing": "min of 5 alternating repeats after warm-up"})
+        extra={
+            "speedup": speedup,
+            "baseline": f"reports.mutants.Plain per point ({n_plain} points)",
+            "ours": f"refimpl.fast poisson_batch ({N} points)",
+            "per_point_ours_us": per_ours * 1e6,
+            "per_point_baseline_us": per_plain * 1e6,
+            "timing": "min of 5 alternating repeats after warm-up",
+        },
+    )
 
 
 def _flow_row(seed: int) -> CheckResult:
-
 
     t0 = time.perf_counter()
     I = np.diag([1.0, 1.0, 0.5])
     Z = np.zeros((3, 3))
     pot = {"kind": "gravity", "L": np.array([0.0, 0.0, 1.0]), "gamma": np.array([0.0, 0.0, -1.0])}
-    x0, pi0, T, N = np.zeros(3), np.array([0.3, 0.2, 2.0]), 10.0, 16  # N: error ~1e-11, scipy's ~4e-10
+    x0, pi0, T, N = (
+        np.zeros(3),
+        np.array([0.3, 0.2, 2.0]),
+        10.0,
+        16,
+    )  # N: error ~1e-11, scipy's ~4e-10
     tr = reference_trajectory(su2(), Z, Z, I, pot, x0, pi0, [0, T], dps=20, system="body")
     ref = np.array([float(v) for v in list(tr.pi[-1]) + list(tr.Gamma[-1])])
     model = NumpyModel(su2(), Z, Z, I, pot)
@@ -122,7 +144,9 @@ def _flow_row(seed: int) -> CheckResult:
         return np.concatenate([out["pi"][:, 0], out["Gamma"][:, 0]])
 
     def theirs():
-        return solve_ivp(rhs, (0, T), y0, method="DOP853", rtol=1e-10, atol=1e-10, t_eval=[T]).y[:, -1]
+        return solve_ivp(rhs, (0, T), y0, method="DOP853", rtol=1e-10, atol=1e-10, t_eval=[T]).y[
+            :, -1
+        ]
 
     e_ours = float(np.max(np.abs(ours() - ref)))
     e_theirs = float(np.max(np.abs(theirs() - ref)))
@@ -133,19 +157,33 @@ def _flow_row(seed: int) -> CheckResult:
     tol = 10 * max(e_theirs, 1e3 * EPS)
     worst = e_ours / tol
     return CheckResult(
-        name="speed.flow[heavy_top]", equations="twee14, twee17, twee18", examples=1, worst_ratio=worst,
-        min_digits=float(-math.log10(max(e_ours, 1e-300))), passed=bool(worst <= 1.0 and speedup > 1.0),
-        detail="" if worst <= 1 and speedup > 1 else f"error {e_ours:.3g} vs scipy {e_theirs:.3g}, speedup {speedup:.3g}",
+        name="speed.flow[heavy_top]",
+        equations="twee14, twee17, twee18",
+        examples=1,
+        worst_ratio=worst,
+        min_digits=float(-math.log10(max(e_ours, 1e-300))),
+        passed=bool(worst <= 1.0 and speedup > 1.0),
+        detail=""
+        if worst <= 1 and speedup > 1
+        else f"error {e_ours:.3g} vs scipy {e_theirs:.3g}, speedup {speedup:.3g}",
         seconds=time.perf_counter() - t0,
-        extra={"speedup": speedup, "baseline": "scipy solve_ivp DOP853 rtol=atol=1e-10, same scalar rhs",
-               "ours": f"taylor20, {N} fixed steps", "error_ours": e_ours, "error_baseline": e_theirs,
-               "timing": "min of 3 alternating repeats after warm-up"})
+        extra={
+            "speedup": speedup,
+            "baseline": "scipy solve_ivp DOP853 rtol=atol=1e-10, same scalar rhs",
+            "ours": f"taylor20, {N} fixed steps",
+            "error_ours": e_ours,
+            "error_baseline": e_theirs,
+            "timing": "min of 3 alternating repeats after warm-up",
+        },
+    )
 
 
 def speed_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
     """``tstarg verify`` provider: the speed rows (fixed workloads; ``max_examples`` is not used)."""
 
     s = 0 if seed is None else int(seed)
-    return [_poisson_row("speed.poisson[su2]", su2(), 10_000, 200, s),
-            _poisson_row("speed.poisson[su3]", su3(), 2_000, 100, s),
-            _flow_row(s)]
+    return [
+        _poisson_row("speed.poisson[su2]", su2(), 10_000, 200, s),
+        _poisson_row("speed.poisson[su3]", su3(), 2_000, 100, s),
+        _flow_row(s),
+    ]

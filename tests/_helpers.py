@@ -23,7 +23,9 @@ def assert_digits(a, b, digits: float, what: str) -> None:
     assert got >= digits, f"{what}: {got:.1f} correct digits, need >= {digits}"
 
 
-def assert_within_bound(observed: np.ndarray, expected: np.ndarray, bound: np.ndarray, what: str, *, inputs: str = "") -> float:
+def assert_within_bound(
+    observed: np.ndarray, expected: np.ndarray, bound: np.ndarray, what: str, *, inputs: str = ""
+) -> float:
     """Per point: ``max |observed - expected| <= bound``. Returns the worst error/bound ratio."""
     observed = np.asarray(observed, dtype=float)
     expected = np.asarray(expected, dtype=float)
@@ -42,5 +44,9 @@ def assert_within_bound(observed: np.ndarray, expected: np.ndarray, bound: np.nd
 def regime_cases(regimes):
     """(algebra name, regime) pairs; ``near_degenerate`` is left out for abelian algebras, whose
     Delta = det(1 + S Upsilon) does not depend on pi (S = -Theta): no degenerate set to approach."""
-    return [(n, r) for n in CATALOGUE_NAMES for r in regimes
-            if not (r == "near_degenerate" and not catalogue(n).f.any())]
+    return [
+        (n, r)
+        for n in CATALOGUE_NAMES
+        for r in regimes
+        if not (r == "near_degenerate" and not catalogue(n).f.any())
+    ]

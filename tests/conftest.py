@@ -26,6 +26,7 @@ threadpool_limits(1)
 register_profiles()
 settings.load_profile(default_profile())
 
+
 @pytest.fixture(autouse=True)
 def _precision_hygiene():
     """A test that leaves mpmath's global precision changed fails (and the precision is restored
@@ -35,4 +36,6 @@ def _precision_hygiene():
         yield
     after = mpmath.mp.dps
     mpmath.mp.dps = before
-    assert after == before, f"the test left mpmath's global precision at {after} digits (it was {before})"
+    assert after == before, (
+        f"the test left mpmath's global precision at {after} digits (it was {before})"
+    )

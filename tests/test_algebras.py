@@ -3,18 +3,34 @@ consistent, and the constructions (change of basis, direct sum, semidirect produ
 
 from __future__ import annotations
 
-from fractions import Fraction
-
 import numpy as np
 import pytest
 import sympy
 
-from tstarg.refimpl._algebra import jacobi_residual
 from tstarg.refimpl import (
-    CATALOGUE_NAMES, LieAlgebra, abelian, bianchi, catalogue, heisenberg, se3, so3_other_basis, su2, su3,
+    CATALOGUE_NAMES,
+    LieAlgebra,
+    abelian,
+    bianchi,
+    catalogue,
+    heisenberg,
+    se3,
+    so3_other_basis,
+    su2,
+    su3,
 )
+from tstarg.refimpl._algebra import jacobi_residual
 
-SEMISIMPLE = {"su(2)", "so(3)[other basis]", "sl(2,R)", "Bianchi VIII", "Bianchi IX", "so(4)", "su(3)", "sl(3,R)"}
+SEMISIMPLE = {
+    "su(2)",
+    "so(3)[other basis]",
+    "sl(2,R)",
+    "Bianchi VIII",
+    "Bianchi IX",
+    "so(4)",
+    "su(3)",
+    "sl(3,R)",
+}
 
 
 def _jacobi_by_hand(f) -> list:
@@ -23,15 +39,22 @@ def _jacobi_by_hand(f) -> list:
     n = f.shape[0]
 
     def br(u, v):
-        return [sympy.expand(sum(f[m, a, b] * u[a] * v[b] for a in range(n) for b in range(n))) for m in range(n)]
+        return [
+            sympy.expand(sum(f[m, a, b] * u[a] * v[b] for a in range(n) for b in range(n)))
+            for m in range(n)
+        ]
 
     e = [[sympy.Integer(int(i == k)) for i in range(n)] for k in range(n)]
     out = []
     for a in range(n):
         for b in range(a + 1, n):
             for c in range(b + 1, n):
-                cyc = [x + y + z for x, y, z in zip(br(br(e[a], e[b]), e[c]), br(br(e[b], e[c]), e[a]),
-                                                    br(br(e[c], e[a]), e[b]))]
+                cyc = [
+                    x + y + z
+                    for x, y, z in zip(
+                        br(br(e[a], e[b]), e[c]), br(br(e[b], e[c]), e[a]), br(br(e[c], e[a]), e[b])
+                    )
+                ]
                 out.extend(sympy.simplify(v) for v in cyc)
     return out
 
@@ -59,7 +82,9 @@ def test_validator_agrees_with_jacobi_by_hand(name):
             accepted = True
         except ValueError:
             accepted = False
-        assert accepted == (not breaks), f"{name}: validator {'accepted' if accepted else 'rejected'} f + {kicks}"
+        assert accepted == (not breaks), (
+            f"{name}: validator {'accepted' if accepted else 'rejected'} f + {kicks}"
+        )
         rejected += not accepted
     assert rejected >= 1, f"{name}: no perturbation broke Jacobi; the negative control did not bite"
 
@@ -93,7 +118,9 @@ def test_structure_constants_su2_and_su3_textbook():
     f = su2().f
     assert f[2, 0, 1] == 1 and f[0, 1, 2] == 1 and f[1, 2, 0] == 1 and f[2, 1, 0] == -1
     g = su3().f_exact  # 0-based: f^c_ab
-    assert g[2, 0, 1] == 1 and g[6, 0, 3] == sympy.Rational(1, 2) and g[7, 3, 4] == sympy.sqrt(3) / 2
+    assert (
+        g[2, 0, 1] == 1 and g[6, 0, 3] == sympy.Rational(1, 2) and g[7, 3, 4] == sympy.sqrt(3) / 2
+    )
 
 
 def test_change_of_basis_is_isomorphism():

@@ -5,7 +5,6 @@ implementation's Poisson tensor (blocks of vier9) in every conditioning regime."
 
 from __future__ import annotations
 
-
 import numpy as np
 import pytest
 from hypothesis import assume, given, settings
@@ -13,26 +12,33 @@ from hypothesis import strategies as st
 
 from tstarg.properties import identities as idn
 from tstarg.properties.identity_checks import (
-    IMPLEMENTATIONS, _nonsymmetric_upsilon_models, _perturbed_blocks, model_points,
+    IMPLEMENTATIONS,
+    _nonsymmetric_upsilon_models,
+    _perturbed_blocks,
+    model_points,
 )
+from tstarg.properties.profiles import ref_examples
 from tstarg.properties.strategies import FAMILIES, REGIMES, cocycles, rationals, upsilons
 from tstarg.refimpl import catalogue
 from tstarg.refimpl.reference import DegeneratePointError
-from tstarg.properties.profiles import ref_examples
 
 
 @pytest.mark.parametrize("family", FAMILIES)
 def test_identities_exact_per_family(family):
     """vier6/vier7 hold exactly (sympy rationals) for random models of each algebra family."""
+
     @settings(max_examples=ref_examples(0.6))
     @given(model_points(max_dim=4, families=[family], rational=True))
     def inner(ex):
         model, _, pi = ex
         try:
-            m = idn.phi_psi_identities(model["algebra"], model["theta"], model["upsilon"], pi, exact=True)
+            m = idn.phi_psi_identities(
+                model["algebra"], model["theta"], model["upsilon"], pi, exact=True
+            )
         except ValueError:  # Delta = 0 exactly: the inverse identities do not apply
             assume(False)
         assert m.error == 0, f"{model['algebra'].name}: {m.where}"
+
     inner()
 
 
@@ -71,6 +77,7 @@ def test_tensor_blocks(impl, regime):
             assume(False)
         m = idn.tensor_blocks(P, bound, alg, model["theta"], model["upsilon"], x, pi)
         assert m.ratio <= 1, f"{impl}/{regime} {alg.name}: {m}"
+
     inner()
 
 
@@ -80,7 +87,9 @@ def test_negative_control_upsilon_not_antisymmetric(ex):
     """Negative control: with a non-antisymmetric Upsilon and S != 0 some identity of vier6/vier7 fails."""
     model, _, pi = ex
     alg = model["algebra"]
-    S = np.einsum("m,mab->ab", np.array(pi, dtype=float), alg.f) - np.array(model["theta"], dtype=float)
+    S = np.einsum("m,mab->ab", np.array(pi, dtype=float), alg.f) - np.array(
+        model["theta"], dtype=float
+    )
     assume(S.any())
     try:
         m = idn.phi_psi_identities(alg, model["theta"], model["upsilon"], pi, exact=True)

@@ -25,9 +25,13 @@ def _pt(impl, **kw):
 
 
 def _vf(impl, **kw):
-    args = dict(f=F, theta=Z3, upsilon=Z3, inertia=np.diag([1.0, 2.0, 3.0]), potential=None, x=X, pi=PI)
+    args = dict(
+        f=F, theta=Z3, upsilon=Z3, inertia=np.diag([1.0, 2.0, 3.0]), potential=None, x=X, pi=PI
+    )
     args.update(kw)
-    return impl.hamiltonian_vector_field(*[args[k] for k in ("f", "theta", "upsilon", "inertia", "potential", "x", "pi")])
+    return impl.hamiltonian_vector_field(
+        *[args[k] for k in ("f", "theta", "upsilon", "inertia", "potential", "x", "pi")]
+    )
 
 
 @pytest.mark.parametrize("impl", IMPLS)
@@ -47,7 +51,9 @@ def test_theta_not_a_cocycle_reports_residual(impl):
     """Bianchi V: Theta = e^1 ^ e^2 has delta_2 Theta = -2 (see test_cohomology)."""
     f = bianchi("V").f
     theta = np.array([[0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]])
-    with pytest.raises(ValueError, match=r"theta is not a 2-cocycle \(zeven1\): max \|delta_2 theta\| = 2"):
+    with pytest.raises(
+        ValueError, match=r"theta is not a 2-cocycle \(zeven1\): max \|delta_2 theta\| = 2"
+    ):
         _pt(impl, f=f, theta=theta)
 
 
@@ -69,23 +75,29 @@ def test_structure_constants_not_antisymmetric(impl):
 
 
 @pytest.mark.parametrize("impl", IMPLS)
-@pytest.mark.parametrize("inertia, message", [
-    (np.array([[1.0, 0.5, 0], [0, 1.0, 0], [0, 0, 1.0]]), "inertia is not symmetric"),
-    (np.diag([1.0, -2.0, 3.0]), "inertia is not positive definite: smallest eigenvalue -2"),
-    (np.diag([1.0, 0.0, 3.0]), "inertia is not positive definite"),
-    (np.eye(2), r"inertia must have shape \(3, 3\)"),
-])
+@pytest.mark.parametrize(
+    "inertia, message",
+    [
+        (np.array([[1.0, 0.5, 0], [0, 1.0, 0], [0, 0, 1.0]]), "inertia is not symmetric"),
+        (np.diag([1.0, -2.0, 3.0]), "inertia is not positive definite: smallest eigenvalue -2"),
+        (np.diag([1.0, 0.0, 3.0]), "inertia is not positive definite"),
+        (np.eye(2), r"inertia must have shape \(3, 3\)"),
+    ],
+)
 def test_bad_inertia(impl, inertia, message):
     with pytest.raises(ValueError, match=message):
         _vf(impl, inertia=inertia)
 
 
 @pytest.mark.parametrize("impl", IMPLS)
-@pytest.mark.parametrize("kw, message", [
-    (dict(x=np.array([0.1, 0.2])), r"x"),
-    (dict(theta=np.zeros((2, 2))), r"theta must have shape \(3, 3\)"),
-    (dict(f=np.zeros((3, 3))), r"shape \(n, n, n\)"),
-])
+@pytest.mark.parametrize(
+    "kw, message",
+    [
+        (dict(x=np.array([0.1, 0.2])), r"x"),
+        (dict(theta=np.zeros((2, 2))), r"theta must have shape \(3, 3\)"),
+        (dict(f=np.zeros((3, 3))), r"shape \(n, n, n\)"),
+    ],
+)
 def test_shape_mismatch(impl, kw, message):
     with pytest.raises(ValueError, match=message):
         _pt(impl, **kw)

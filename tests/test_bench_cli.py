@@ -28,7 +28,10 @@ def quick_run(tmp_path_factory):
 def _dominated_brute(t, e):
     """Definition: i is dominated when some j has t_j <= t_i and e_j <= e_i with one strict."""
     n = len(t)
-    return [any(t[j] <= t[i] and e[j] <= e[i] and (t[j] < t[i] or e[j] < e[i]) for j in range(n)) for i in range(n)]
+    return [
+        any(t[j] <= t[i] and e[j] <= e[i] and (t[j] < t[i] or e[j] < e[i]) for j in range(n))
+        for i in range(n)
+    ]
 
 
 def test_quick_run_writes_reports(quick_run, capsys):
@@ -36,14 +39,20 @@ def test_quick_run_writes_reports(quick_run, capsys):
     rc, out, rep = quick_run
     assert rc == 0
     md = (out / "report.md").read_text()
-    figures = [f["figure"] for f in rep["flows"].values()] + rep["brackets"]["figures"] + [rep["batch"]["figure"]]
+    figures = (
+        [f["figure"] for f in rep["flows"].values()]
+        + rep["brackets"]["figures"]
+        + [rep["batch"]["figure"]]
+    )
     for fig in figures:
         assert (out / fig).read_bytes()[:8] == PNG, fig
         assert f"]({fig})" in md, f"{fig} not linked relatively from report.md"
     assert "heavy_top_wp.png" in figures and "free_top_wp.png" in figures
     assert "ratio tstarg / DOP853" in md and "Pareto" in md
     assert "serially in the main process" in md and "BLAS pinned to 1 thread" in md
-    assert rep["environment"]["blas_threads"] and all(n == 1 for _, n in rep["environment"]["blas_threads"])
+    assert rep["environment"]["blas_threads"] and all(
+        n == 1 for _, n in rep["environment"]["blas_threads"]
+    )
     assert rep["command"].startswith("tstarg bench")
 
 
@@ -59,25 +68,35 @@ def test_quick_run_points_are_sane(quick_run):
         model = wp.flow_problem(name, True).model()
         expected = {m for m, meth in METHODS.items() if meth.applies(model)[0] and not meth.rkmk}
         assert {p["method"] for p in pts if p["family"] == "tstarg"} == expected
-        assert {p["method"] for p in pts if p["family"] == "scipy"} == {f"scipy {s}" for s in wp.SCIPY_SOLVERS}
+        assert {p["method"] for p in pts if p["family"] == "scipy"} == {
+            f"scipy {s}" for s in wp.SCIPY_SOLVERS
+        }
         for p in pts:
             assert math.isfinite(p["time"]) and p["time"] > 0 and p["repeats"] >= 1
-            assert p["error"] is None or p["error"] >= 0  # None: the run diverged (strict JSON has no inf)
+            assert (
+                p["error"] is None or p["error"] >= 0
+            )  # None: the run diverged (strict JSON has no inf)
         t = [p["time"] for p in pts]
         e = [math.inf if p["error"] is None else p["error"] for p in pts]
         brute = _dominated_brute(t, e)
-        assert [p["on_front"] for p in pts] == [not d and math.isfinite(x) for d, x in zip(brute, e)]
+        assert [p["on_front"] for p in pts] == [
+            not d and math.isfinite(x) for d, x in zip(brute, e)
+        ]
         assert [r["target"] for r in f["ratios"]][:3] == list(wp.ERROR_TARGETS)
         dop = [p["error"] for p in pts if p["method"] == "scipy DOP853"]
         assert f["ratios"][3]["target"] == min(dop)  # the extra row: at DOP853's finest error
         for r in f["ratios"]:
             assert (r["ratio_best_over_dop853"] is not None) != bool(r["note"])
             if r["ratio_best_over_dop853"] is not None:
-                assert r["ratio_best_over_dop853"] == pytest.approx(r["t_best"] / r["t_dop853"], rel=4 * EPS)
+                assert r["ratio_best_over_dop853"] == pytest.approx(
+                    r["t_best"] / r["t_dop853"], rel=4 * EPS
+                )
     for row in rep["brackets"]["summary"]:
         assert row["time_per_point"] > 0 and math.isfinite(row["error"])
     for row in rep["batch"]["rows"]:
-        assert row["ratio"] == pytest.approx(row["ours_per_traj"] / row["scipy_per_traj"], rel=4 * EPS)
+        assert row["ratio"] == pytest.approx(
+            row["ours_per_traj"] / row["scipy_per_traj"], rel=4 * EPS
+        )
 
 
 def test_recorded_fast_error_matches_closed_form(quick_run):
@@ -89,7 +108,10 @@ def test_recorded_fast_error_matches_closed_form(quick_run):
 
     _, _, rep = quick_run
     p = wp.flow_problem("free_top", True)
-    pt = max((q for q in rep["flows"]["free_top"]["points"] if q["method"] == "dop853"), key=lambda q: q["setting"])
+    pt = max(
+        (q for q in rep["flows"]["free_top"]["points"] if q["method"] == "dop853"),
+        key=lambda q: q["setting"],
+    )
     y = wp.run_fast(p, p.model(), "dop853", pt["setting"])[:, 0]
     with mpmath.workdps(30):
         exact = euler_top_closed_form([1, 2, 3], [mpmath.mpf(v) for v in p.pi0], p.T)
@@ -123,19 +145,37 @@ def test_recorded_scipy_error_recomputed_independently(quick_run):
         return np.concatenate([np.cross(pi, W) + np.cross(L, G), np.cross(G, W)])
 
     G0 = Rotation.from_rotvec(p.x0).as_matrix().T @ np.array(p.potential["gamma"])
-    sol = solve_ivp(rhs, (0, p.T), np.concatenate([p.pi0, G0]), method="DOP853", rtol=pt["setting"],
-                    atol=pt["setting"])
+    sol = solve_ivp(
+        rhs,
+        (0, p.T),
+        np.concatenate([p.pi0, G0]),
+        method="DOP853",
+        rtol=pt["setting"],
+        atol=pt["setting"],
+    )
     inertia = np.array(p.inertia)
     pot = {k: (np.array(v) if k != "kind" else v) for k, v in p.potential.items()}
-    tr = reference_trajectory(su2(), np.zeros((3, 3)), np.zeros((3, 3)), inertia, pot, p.x0, p.pi0, [0, p.T],
-                              dps=25, system="body")
+    tr = reference_trajectory(
+        su2(),
+        np.zeros((3, 3)),
+        np.zeros((3, 3)),
+        inertia,
+        pot,
+        p.x0,
+        p.pi0,
+        [0, p.T],
+        dps=25,
+        system="body",
+    )
     ref = np.array([float(v) for v in list(tr.pi[-1]) + list(tr.Gamma[-1])])
     err = float(np.max(np.abs(sol.y[:, -1] - ref)))
     # error model: the two right-hand sides agree to ~4 eps |y|^2 per evaluation; with the same accepted
     # steps the end states differ by at most c * eps * nfev * growth; growth <= 1e2 over t = 10 for this
     # regular (non-chaotic) top; the references' roundings (eps |y|) are far below that
     tol = 4 * EPS * sol.nfev * 1e2
-    assert sol.nfev == pt["nfev"], "a different accepted-step sequence: the comparison would be meaningless"
+    assert sol.nfev == pt["nfev"], (
+        "a different accepted-step sequence: the comparison would be meaningless"
+    )
     assert abs(err - pt["error"]) <= tol, (err, pt["error"], tol)
 
 
@@ -154,7 +194,7 @@ def test_reference_values_are_confirmed(quick_run):
 def test_pareto_front_matches_definition(pairs):
     """pareto_front marks exactly the points no other point dominates (ties in time or error included)."""
     t = [float(a) for a, _ in pairs]
-    e = [10.0 ** -b for _, b in pairs]
+    e = [10.0**-b for _, b in pairs]
     got = wp.pareto_front(t, e).tolist()
     assert got == [not d for d in _dominated_brute(t, e)]
 
@@ -173,20 +213,25 @@ def test_time_at_error_is_exact_on_power_laws():
     below the finest point it is 'not reached' (NaN); above the cheapest it is the cheapest time."""
     a, b = 3e-4, 1 / 8
     e = np.array([1e-2, 1e-5, 1e-8, 1e-11])
-    t = a * e ** -b
+    t = a * e**-b
     for tgt in (1e-6, 1e-9, 3e-3):
         # error model: log/exp round-off, a few eps relative
-        assert wp.time_at_error(t, e, tgt) == pytest.approx(a * tgt ** -b, rel=16 * EPS)
+        assert wp.time_at_error(t, e, tgt) == pytest.approx(a * tgt**-b, rel=16 * EPS)
     assert math.isnan(wp.time_at_error(t, e, 1e-12))
     assert wp.time_at_error(t, e, 0.5) == t[0]
     # a dominated point (slower and less accurate) does not bend the curve
     t2, e2 = np.append(t, 1.0), np.append(e, 1e-3)
-    assert wp.time_at_error(t2, e2, 1e-6) == pytest.approx(a * 1e-6 ** -b, rel=16 * EPS)
+    assert wp.time_at_error(t2, e2, 1e-6) == pytest.approx(a * 1e-6**-b, rel=16 * EPS)
 
 
-@pytest.mark.parametrize("argv, msg", [(["--problems", "spinning_plate"], "unknown flow problem"),
-                                       (["--ref-dps", "5"], "--ref-dps must be >= 15"),
-                                       (["--batch-method", "euler"], "unknown flow method")])
+@pytest.mark.parametrize(
+    "argv, msg",
+    [
+        (["--problems", "spinning_plate"], "unknown flow problem"),
+        (["--ref-dps", "5"], "--ref-dps must be >= 15"),
+        (["--batch-method", "euler"], "unknown flow method"),
+    ],
+)
 def test_bad_arguments_exit_2(tmp_path, capsys, argv, msg):
     """Unknown problems or a too small reference precision are refused with exit code 2 and a message."""
     rc = cli.main(["bench", "--quick", "--out", str(tmp_path)] + argv)
@@ -199,8 +244,10 @@ def test_error_ladders_do_not_depend_on_where_they_run():
     from tstarg.reports._parallel import map_tasks
 
     ref = wp.reference_task(("free_top", True, 20, False))["values"]
-    items = [("free_top", True, "fast", "dop853", wp.step_ladder(8, 13, 52), ref, 1e-11, 20000, 1e-3),
-             ("free_top", True, "scipy", "DOP853", [1e-4, 1e-7], ref, 1e-11, 20000, 1e-3)]
+    items = [
+        ("free_top", True, "fast", "dop853", wp.step_ladder(8, 13, 52), ref, 1e-11, 20000, 1e-3),
+        ("free_top", True, "scipy", "DOP853", [1e-4, 1e-7], ref, 1e-11, 20000, 1e-3),
+    ]
     serial = map_tasks(wp.ladder_task, items, workers=1)
     assert serial == map_tasks(wp.ladder_task, items, workers=2)
     assert [len(r["points"]) for r in serial] == [3, 2]
@@ -217,12 +264,17 @@ def test_time_points_counts_warmups_and_separates_clocks():
         def fn():
             counts[i] += 1
             _time.sleep(pause)
+
         return fn
 
-    res = wp.time_points([make(0, 0.0), make(1, 0.0), make(2, 0.02)], groups=["a", "a", "b"], max_rounds=3)
+    res = wp.time_points(
+        [make(0, 0.0), make(1, 0.0), make(2, 0.02)], groups=["a", "a", "b"], max_rounds=3
+    )
     assert counts == [1 + 3, 3, 1 + 3]  # the group's first call is its warm-up
     assert [r["repeats"] for r in res] == [3, 3, 3]
-    assert res[2]["wall"] >= 0.02 and res[2]["time"] < 0.01  # sleeping takes no CPU (generous 10 ms margin)
+    assert (
+        res[2]["wall"] >= 0.02 and res[2]["time"] < 0.01
+    )  # sleeping takes no CPU (generous 10 ms margin)
 
 
 def test_modified_structure_problem_uses_general_methods():
@@ -235,7 +287,9 @@ def test_modified_structure_problem_uses_general_methods():
     assert "splitting4" in skipped and "Upsilon" in skipped["splitting4"]
     assert "numpy body field" in wp.scipy_rhs(model)[1]
     ref = wp.reference_task(("modified_top", True, 16, False))["values"]
-    res = wp.ladder_task(("modified_top", True, "scipy", "DOP853", [1e-4, 1e-8], ref, 1e-11, 20000, 1e-3))
+    res = wp.ladder_task(
+        ("modified_top", True, "scipy", "DOP853", [1e-4, 1e-8], ref, 1e-11, 20000, 1e-3)
+    )
     e4, e8 = (q["error"] for q in res["points"])
     # DOP853's local error control: the global error over t = 10 follows rtol within a modest factor
     assert e8 < e4 and e8 <= 1e3 * 1e-8 and e4 <= 1e3 * 1e-4

@@ -11,9 +11,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tstarg.oracles import closed_forms as cf
+from tstarg.properties.profiles import ref_examples
 from tstarg.refimpl import su2
 from tstarg.refimpl.reference import Reference
-from tstarg.properties.profiles import ref_examples
 
 ZERO = [[0] * 3 for _ in range(3)]
 

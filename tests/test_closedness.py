@@ -11,20 +11,26 @@ import pytest
 from hypothesis import given, settings
 
 from tstarg.properties import identities as idn
-from tstarg.properties.identity_checks import _broken_jacobi_models, _non_cocycle_models, model_points
+from tstarg.properties.identity_checks import (
+    _broken_jacobi_models,
+    _non_cocycle_models,
+    model_points,
+)
+from tstarg.properties.profiles import ref_examples
 from tstarg.properties.strategies import FAMILIES, lie_algebras, models
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue
-from tstarg.properties.profiles import ref_examples
 
 
 @pytest.mark.parametrize("family", FAMILIES)
 def test_closed_exact_per_family(family):
     """d omega_L = 0 exactly, pi symbolic, for random algebras of each family with random Theta, Upsilon."""
+
     @settings(max_examples=ref_examples(0.4))
     @given(models(algebras=lie_algebras(max_dim=5, families=[family])))
     def inner(model):
         m = idn.closedness_exact(model["algebra"], model["theta"], model["upsilon"])
         assert m.error == 0, f"d omega_L != 0 for {model['algebra'].name}: {m.where}"
+
     inner()
 
 

@@ -9,13 +9,21 @@ import sympy
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from tstarg.oracles import PUBLISHED_H2  # noqa: E402  (sources in oracles/published.py)
 from tstarg.properties import catalogue_algebras, rationals
 from tstarg.refimpl import (
-    CATALOGUE_NAMES, abelian, bianchi, catalogue, check_cocycle, cocycle_basis, cohomology, delta1, delta2,
-    heisenberg, solve_coboundary,
+    CATALOGUE_NAMES,
+    abelian,
+    bianchi,
+    catalogue,
+    check_cocycle,
+    cocycle_basis,
+    cohomology,
+    delta1,
+    delta2,
+    heisenberg,
+    solve_coboundary,
 )
-
-from tstarg.oracles import PUBLISHED_H2  # noqa: E402  (sources in oracles/published.py)
 
 
 def test_published_table_covers_catalogue():
@@ -65,7 +73,9 @@ def test_whitehead_xi_recovered(alg, data):
     got = solve_coboundary(alg, theta)
     assert [sympy.simplify(g - sympy.nsimplify(x)) for g, x in zip(got, xi)] == [0] * alg.dim
     got_f = solve_coboundary(alg, np.array(theta, dtype=float))
-    assert np.max(np.abs(got_f - np.array(xi, dtype=float))) <= 64 * alg.dim * np.finfo(float).eps * 10
+    assert (
+        np.max(np.abs(got_f - np.array(xi, dtype=float))) <= 64 * alg.dim * np.finfo(float).eps * 10
+    )
 
 
 def test_nontrivial_class_has_no_xi():

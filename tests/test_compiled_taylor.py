@@ -14,6 +14,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.linalg import expm, logm
+
 from tstarg.refimpl import _compiled_taylor as ct
 from tstarg.refimpl import su2
 from tstarg.refimpl._flow_compiled import quat_rotation, x_to_quat

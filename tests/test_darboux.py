@@ -13,10 +13,15 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from tstarg.properties import identities as idn
-from tstarg.properties.identity_checks import _nontrivial_darboux, _nontrivial_darboux_body, darboux_example, darboux_examples
+from tstarg.properties.identity_checks import (
+    _nontrivial_darboux,
+    _nontrivial_darboux_body,
+    darboux_example,
+    darboux_examples,
+)
+from tstarg.properties.profiles import ref_examples
 from tstarg.properties.strategies import _coboundary_from, lie_algebras, rationals, upsilons
 from tstarg.refimpl.reference import DegeneratePointError, Reference
-from tstarg.properties.profiles import ref_examples
 
 
 @pytest.mark.parametrize("impl", ["reference", "fast"])
@@ -40,6 +45,7 @@ def test_darboux_canonical(impl, semisimple):
     def inner(ex):
         m = body(ex)
         assert m.ratio <= 1, f"{impl} {ex[0].name}: {m}"
+
     inner()
 
 

@@ -20,7 +20,7 @@ from tstarg.refimpl.fast import implementation as fast
 from tstarg.refimpl.reference import Reference
 
 JUDGE = Reference(80)
-TAU = np.array([0.25, -0.5, 0.5])    # dyadic: C1 = 1 - pi'.tau = 0 is reachable exactly
+TAU = np.array([0.25, -0.5, 0.5])  # dyadic: C1 = 1 - pi'.tau = 0 is reachable exactly
 XI = np.array([0.125, 0.25, -0.125])
 X = np.array([0.3, -0.2, 0.5])
 
@@ -30,7 +30,9 @@ def _tau_matrix(t):
 
 
 def _theta(xi):
-    return -_tau_matrix(xi)  # Theta_ab = -xi_k eps_kab has the same layout as Upsilon^mn = tau_l eps_lmn
+    return -_tau_matrix(
+        xi
+    )  # Theta_ab = -xi_k eps_kab has the same layout as Upsilon^mn = tau_l eps_lmn
 
 
 def _su2_near_degenerate(ks):
@@ -38,7 +40,7 @@ def _su2_near_degenerate(ks):
     d = TAU / (TAU @ TAU)
     w = np.array([0.2, 0.3, 0.0])
     w = w - (w @ TAU) * d
-    return np.array([(1 - 10.0 ** -k) * d - XI + w for k in ks])
+    return np.array([(1 - 10.0**-k) * d - XI + w for k in ks])
 
 
 def _max_err(values, ref_mp):
@@ -60,12 +62,15 @@ def test_within_tolerance_or_flagged_near_degenerate_su2():
     assert res.P.shape == (len(ks), 6, 6) and res.flagged.shape == (len(ks),)
     assert res.escalated.sum() >= 4, "points with cond ~ 1e7 .. 1e15 need escalation at tol 1e-12"
     for k in range(len(ks)):
-        assert not res.flagged[k], f"C1 = 1e-{ks[k]} is not on Pi_1 and must be resolved, got {res.reason[k]}"
+        assert not res.flagged[k], (
+            f"C1 = 1e-{ks[k]} is not on Pi_1 and must be resolved, got {res.reason[k]}"
+        )
         M = JUDGE.poisson_tensor_mp(alg.f, _theta(XI), _tau_matrix(TAU), x[k], pi[k])
         err, scale = _max_err(res.P[k], M)
         # contract: err <= error_bound <= allowed = tol * max(1, max|P|) (relative tolerance)
         assert err <= res.error_bound[k] <= res.allowed[k] * (1 + 1e-12), (
-            f"C1 = 1e-{ks[k]}: err {err:.3g}, bound {res.error_bound[k]:.3g}, allowed {res.allowed[k]:.3g}")
+            f"C1 = 1e-{ks[k]}: err {err:.3g}, bound {res.error_bound[k]:.3g}, allowed {res.allowed[k]:.3g}"
+        )
         assert err <= tol * scale * (1 + 1e-12)
 
 
@@ -77,7 +82,9 @@ def test_ok_points_are_untouched_fast_values():
     res = poisson_within(alg.f, _theta(XI), _tau_matrix(TAU), x, pi, 1e-8)
     ref = fast.poisson_batch(alg.f, _theta(XI), _tau_matrix(TAU), x, pi)
     ok = ~res.escalated & ~res.flagged
-    assert ok[:2].all() and res.escalated[2], "C1 = 1e-9 has bound ~1e-7 relative: escalated at tol 1e-8"
+    assert ok[:2].all() and res.escalated[2], (
+        "C1 = 1e-9 has bound ~1e-7 relative: escalated at tol 1e-8"
+    )
     np.testing.assert_array_equal(res.P[ok], ref.P[ok])
     np.testing.assert_array_equal(res.error_bound[ok], ref.error_bound[ok])
 
@@ -102,8 +109,11 @@ def test_exactly_degenerate_point_flagged_never_escalated_nor_dropped():
     """A point with C1 = 0 exactly (Delta = 0, vier12) in the middle of a batch: NaN, flagged, in place."""
     alg = su2()
     pi = _su2_near_degenerate([2, 2, 3])
-    pi[1] = np.array([0.0, 0.0, 2.0]) - XI          # pi' = (0, 0, 2): pi'.tau = 1 exactly
-    assert Fraction(1) - sum(Fraction(float(a)) * Fraction(float(b)) for a, b in zip(pi[1] + XI, TAU)) == 0
+    pi[1] = np.array([0.0, 0.0, 2.0]) - XI  # pi' = (0, 0, 2): pi'.tau = 1 exactly
+    assert (
+        Fraction(1) - sum(Fraction(float(a)) * Fraction(float(b)) for a, b in zip(pi[1] + XI, TAU))
+        == 0
+    )
     x = np.tile(X, (3, 1))
     res = poisson_within(alg.f, _theta(XI), _tau_matrix(TAU), x, pi, 1e-10)
     assert res.P.shape == (3, 6, 6)
@@ -118,10 +128,15 @@ def test_delta_exact_is_c1_squared_for_su2():
     alg = su2()
     rng = np.random.default_rng(3)
     for _ in range(4):
-        pi = np.round(rng.standard_normal(3) * 64) / 64   # dyadic, so the closed form is exact in Fractions
-        c1 = 1 - sum((Fraction(float(p)) + Fraction(float(q))) * Fraction(float(t)) for p, q, t in zip(pi, XI, TAU))
+        pi = (
+            np.round(rng.standard_normal(3) * 64) / 64
+        )  # dyadic, so the closed form is exact in Fractions
+        c1 = 1 - sum(
+            (Fraction(float(p)) + Fraction(float(q))) * Fraction(float(t))
+            for p, q, t in zip(pi, XI, TAU)
+        )
         d = delta_exact(alg.f, _theta(XI), _tau_matrix(TAU), pi)
-        assert Fraction(int(d.p), int(d.q)) == c1 ** 2
+        assert Fraction(int(d.p), int(d.q)) == c1**2
 
 
 def test_generic_algebras_near_degenerate():
@@ -135,7 +150,11 @@ def test_generic_algebras_near_degenerate():
         v = rng.standard_normal(n)
         with mpmath.workdps(50):
             M = mpmath.matrix(np.einsum("m,mab->ab", v, alg.f).tolist()) * mpmath.matrix(U.tolist())
-            ev = [mpmath.re(e) for e in mpmath.eig(M, left=False, right=False) if abs(mpmath.im(e)) < 1e-20 and abs(e) > 1e-3]
+            ev = [
+                mpmath.re(e)
+                for e in mpmath.eig(M, left=False, right=False)
+                if abs(mpmath.im(e)) < 1e-20 and abs(e) > 1e-3
+            ]
             assert ev, f"{name}: the fixture needs a real eigenvalue of S(v) U"
             s = -1 / max(ev, key=abs)
             pis = np.array([float(s * (1 - mpmath.mpf(10) ** -k)) * v for k in (3, 9, 13)])
@@ -147,7 +166,12 @@ def test_generic_algebras_near_degenerate():
             assert not res.flagged[k]
             ref = Reference(60).poisson_tensor_mp(alg.f, np.zeros((n, n)), U, x[k], pis[k])
             err, scale = _max_err(res.P[k], ref)
-            assert err <= res.error_bound[k] and err <= tol * scale * (1 + 1e-12), (name, k, err, res.error_bound[k])
+            assert err <= res.error_bound[k] and err <= tol * scale * (1 + 1e-12), (
+                name,
+                k,
+                err,
+                res.error_bound[k],
+            )
 
 
 def test_vector_field_within_heavy_top():
@@ -163,9 +187,15 @@ def test_vector_field_within_heavy_top():
     assert res.xdot.shape == (4, 3) and res.flagged.tolist() == [False, False, False, True]
     assert res.escalated[1] and res.escalated[2]
     for k in range(3):
-        xd, pd = JUDGE.hamiltonian_vector_field_mp(alg.f, _theta(XI), _tau_matrix(TAU), inertia, pot, x[k], pi[k])
+        xd, pd = JUDGE.hamiltonian_vector_field_mp(
+            alg.f, _theta(XI), _tau_matrix(TAU), inertia, pot, x[k], pi[k]
+        )
         err, scale = _max_err(np.concatenate([res.xdot[k], res.pidot[k]]), list(xd) + list(pd))
-        assert err <= res.error_bound[k] and err <= tol * scale * (1 + 1e-12), (k, err, res.error_bound[k])
+        assert err <= res.error_bound[k] and err <= tol * scale * (1 + 1e-12), (
+            k,
+            err,
+            res.error_bound[k],
+        )
 
 
 def test_absolute_tolerance():
@@ -173,8 +203,12 @@ def test_absolute_tolerance():
     alg = su2()
     pi = _su2_near_degenerate([5])
     res = poisson_within(alg.f, _theta(XI), _tau_matrix(TAU), X[None], pi, 1e-9, relative=False)
-    assert res.allowed[0] == 1e-9 and res.escalated[0]   # |P| ~ 1e5: the fast bound (~1e-6) misses 1e-9
-    err, _ = _max_err(res.P[0], JUDGE.poisson_tensor_mp(alg.f, _theta(XI), _tau_matrix(TAU), X, pi[0]))
+    assert (
+        res.allowed[0] == 1e-9 and res.escalated[0]
+    )  # |P| ~ 1e5: the fast bound (~1e-6) misses 1e-9
+    err, _ = _max_err(
+        res.P[0], JUDGE.poisson_tensor_mp(alg.f, _theta(XI), _tau_matrix(TAU), X, pi[0])
+    )
     assert err <= res.error_bound[0] <= 1e-9
 
 
@@ -190,7 +224,6 @@ class _LooseBound:
 
 def test_replaced_implementation_is_honoured(monkeypatch):
     """fast=None looks refimpl.fast.implementation up at call time; a looser bound escalates more points."""
-    import tstarg.refimpl.fast
     from tstarg import refimpl
 
     alg = su2()
@@ -213,4 +246,6 @@ def test_bad_dps_and_points_are_value_errors():
     with pytest.raises(ValueError, match="dps"):
         poisson_within(su2().f, np.zeros((3, 3)), np.zeros((3, 3)), X[None], X[None], 1e-10, dps=5)
     with pytest.raises(ValueError, match="same shape|last axis"):
-        poisson_within(su2().f, np.zeros((3, 3)), np.zeros((3, 3)), X[None], np.zeros((2, 3)), 1e-10)
+        poisson_within(
+            su2().f, np.zeros((3, 3)), np.zeros((3, 3)), X[None], np.zeros((2, 3)), 1e-10
+        )

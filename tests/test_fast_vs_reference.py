@@ -9,13 +9,13 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
+from tests._helpers import assert_within_bound, regime_cases
 from tstarg.properties import REGIMES, cocycles, points, upsilons
+from tstarg.properties.profiles import ref_examples
 from tstarg.refimpl import catalogue, su2
 from tstarg.refimpl._fast_kernels import _generic_poisson
 from tstarg.refimpl.fast import implementation as fast
 from tstarg.refimpl.reference import DegeneratePointError, Reference
-from tests._helpers import assert_within_bound, regime_cases
-from tstarg.properties.profiles import ref_examples
 
 REF = Reference(dps=30)  # 30 digits judge float64 with 14 digits to spare
 BATCH = 3
@@ -32,10 +32,15 @@ def test_poisson_tensor_within_error_model(name, regime, data):
     alg = catalogue(name)
     n = alg.dim
     theta = data.draw(cocycles(alg, exact=False), label="theta")
-    ups = data.draw(upsilons(n, exact=False, zero=(None if regime != "near_degenerate" else False)), label="upsilon")
+    ups = data.draw(
+        upsilons(n, exact=False, zero=(None if regime != "near_degenerate" else False)),
+        label="upsilon",
+    )
     if regime == "near_degenerate" and not ups.any():
         assume(False)
-    pts = [data.draw(points(alg, theta, ups, regime=regime), label=f"point {k}") for k in range(BATCH)]
+    pts = [
+        data.draw(points(alg, theta, ups, regime=regime), label=f"point {k}") for k in range(BATCH)
+    ]
     x = np.array([p[0] for p in pts])
     pi = np.array([p[1] for p in pts])
     res = fast.poisson_batch(alg.f, theta, ups, x, pi)
@@ -48,8 +53,13 @@ def test_poisson_tensor_within_error_model(name, regime, data):
             P_ref = REF.poisson_tensor(alg.f, theta, ups, x[k], pi[k])
         except DegeneratePointError:
             pytest.fail(f"reference finds point {k} degenerate but fast did not flag it")
-        assert_within_bound(res.P[k : k + 1], P_ref[None], res.error_bound[k : k + 1],
-                            f"poisson_tensor[{name}, {regime}]", inputs=f"x={x[k]!r}, pi={pi[k]!r}")
+        assert_within_bound(
+            res.P[k : k + 1],
+            P_ref[None],
+            res.error_bound[k : k + 1],
+            f"poisson_tensor[{name}, {regime}]",
+            inputs=f"x={x[k]!r}, pi={pi[k]!r}",
+        )
 
 
 @pytest.mark.reference
@@ -67,8 +77,12 @@ def test_su2_closed_form_matches_generic_path(tau_scale, data):
     closed = fast.poisson_batch(alg.f, theta, ups, x, pi)
     assert closed.path.startswith("su2")
     with np.errstate(all="ignore"):
-        P_gen, _, _, bound_gen, _ = _generic_poisson(alg.f, theta if theta.any() else None, ups if ups.any() else None, x, pi)
-    assert_within_bound(closed.P, P_gen, closed.error_bound + bound_gen, "su(2) closed form vs generic path")
+        P_gen, _, _, bound_gen, _ = _generic_poisson(
+            alg.f, theta if theta.any() else None, ups if ups.any() else None, x, pi
+        )
+    assert_within_bound(
+        closed.P, P_gen, closed.error_bound + bound_gen, "su(2) closed form vs generic path"
+    )
 
 
 def test_degenerate_points_flagged_not_dropped():
@@ -77,11 +91,15 @@ def test_degenerate_points_flagged_not_dropped():
     tau = np.array([0.0, 0.0, 0.5])
     ups = np.einsum("l,lmn->mn", tau, alg.f)
     x = np.zeros((4, 3))
-    pi = np.array([[0.1, 0.2, 2.0], [0.3, 0.1, 0.5], [0.0, 0.0, 2.0], [1.0, 1.0, 1.0]])  # pi.tau = 1 at 0 and 2
+    pi = np.array(
+        [[0.1, 0.2, 2.0], [0.3, 0.1, 0.5], [0.0, 0.0, 2.0], [1.0, 1.0, 1.0]]
+    )  # pi.tau = 1 at 0 and 2
     res = fast.poisson_batch(alg.f, np.zeros((3, 3)), ups, x, pi)
     assert res.degenerate.tolist() == [True, False, True, False]
     assert np.all(np.isnan(res.P[[0, 2]])) and np.all(np.isfinite(res.P[[1, 3]]))
-    with pytest.raises(ValueError, match=r"2 point\(s\) on the degenerate set Pi_1.*\(0,\), \(2,\)"):
+    with pytest.raises(
+        ValueError, match=r"2 point\(s\) on the degenerate set Pi_1.*\(0,\), \(2,\)"
+    ):
         fast.poisson_tensor(alg.f, np.zeros((3, 3)), ups, x, pi)
 
 
@@ -97,7 +115,9 @@ def test_components_layout_equals_points_layout():
     for layout in ("points", "components"):
         s = su2()
         r1 = fast.poisson_batch(s.f, np.zeros((3, 3)), ups[:3, :3], x[:, :3], pi[:, :3]).P
-        r2 = fast.poisson_batch(s.f, np.zeros((3, 3)), ups[:3, :3], x[:, :3].T, pi[:, :3].T, layout="components").P
+        r2 = fast.poisson_batch(
+            s.f, np.zeros((3, 3)), ups[:3, :3], x[:, :3].T, pi[:, :3].T, layout="components"
+        ).P
         assert np.array_equal(r1, np.moveaxis(r2, -1, 0)), layout
 
 

@@ -14,8 +14,8 @@ import sympy
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tstarg.refimpl import CATALOGUE_NAMES, catalogue, frames
 from tests._helpers import mp_digits
+from tstarg.refimpl import CATALOGUE_NAMES, catalogue, frames
 
 REP_ALGEBRAS = [n for n in CATALOGUE_NAMES if catalogue(n).rep_exact is not None]
 DPS = 50
@@ -27,7 +27,12 @@ def _mp_real(v) -> mpmath.mpf:
 
 def _mp_mat(m: sympy.Matrix) -> mpmath.matrix:
     """Exact sympy entries (possibly complex, e.g. -i sqrt(3)/6) at full working precision."""
-    return mpmath.matrix([[mpmath.mpc(_mp_real(sympy.re(v)), _mp_real(sympy.im(v))) for v in row] for row in m.tolist()])
+    return mpmath.matrix(
+        [
+            [mpmath.mpc(_mp_real(sympy.re(v)), _mp_real(sympy.im(v))) for v in row]
+            for row in m.tolist()
+        ]
+    )
 
 
 def _first_principles(alg, x):
@@ -54,7 +59,9 @@ def _first_principles(alg, x):
             # normal equations: C has full column rank because the representation is faithful
             sol = mpmath.lu_solve(C.T * C, C.T * r)
             res = mpmath.norm(C * sol - r)
-            assert res < mpmath.mpf(10) ** (-(DPS - 5)), "matrix outside the span of the representation"
+            assert res < mpmath.mpf(10) ** (-(DPS - 5)), (
+                "matrix outside the span of the representation"
+            )
             return [sol[m] for m in range(n)]
 
         Ad = np.array([coords(g * E[b] * ginv) for b in range(n)], dtype=object).T
@@ -73,7 +80,9 @@ def _first_principles(alg, x):
         return A, Ad
 
 
-xs = st.lists(st.integers(-9, 9), min_size=8, max_size=8).map(lambda v: [sympy.Rational(k, 10) for k in v])
+xs = st.lists(st.integers(-9, 9), min_size=8, max_size=8).map(
+    lambda v: [sympy.Rational(k, 10) for k in v]
+)
 
 
 @pytest.mark.reference

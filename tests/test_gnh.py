@@ -27,10 +27,18 @@ def test_heavy_asymmetric_top_has_tertiary_stage():
     p1, p2, p3 = model.names["pi"]
     g1, g2, g3 = model.names["Gamma"]
     tertiary = det[0].stages[2].new_constraints
-    numerator = sp.fraction(sp.together(tertiary[0]))[0]  # the zero set; the tool divides by 6 Gamma_3 != 0
-    assert len(tertiary) == 1 and sp.simplify(numerator / (g2 * (6 * g1 + 54 * g3**2 + 1))).is_number
+    numerator = sp.fraction(sp.together(tertiary[0]))[
+        0
+    ]  # the zero set; the tool divides by 6 Gamma_3 != 0
+    assert (
+        len(tertiary) == 1 and sp.simplify(numerator / (g2 * (6 * g1 + 54 * g3**2 + 1))).is_number
+    )
     sub = det[0].stages[-1].substitution
-    assert sp.simplify(sub[g1] - 18 * g3**2) == 0 and sub[g2] == 0 and sp.simplify(sub[p1] - 3 * g3) == 0
+    assert (
+        sp.simplify(sub[g1] - 18 * g3**2) == 0
+        and sub[g2] == 0
+        and sp.simplify(sub[p1] - 3 * g3) == 0
+    )
     bad = [r for r in results if r.outcome == "inconsistent"][0]
     assert sp.simplify(bad.stages[-1].substitution[g1] + sp.Rational(1, 6) + 9 * g3**2) == 0
 

@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+
 from tstarg.properties import identities
 from tstarg.refimpl import catalogue, fast, gnh, reference, su2
 from tstarg.refimpl._errors import ChartError

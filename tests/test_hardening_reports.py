@@ -19,6 +19,7 @@ import time
 from pathlib import Path
 
 import pytest
+
 from tstarg.properties.runner import CheckResult
 from tstarg.reports import _atomic, cli, regression
 

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+
 from tstarg.refimpl.scenes import MAX_POINTS, MAX_SAMPLES, Scene, load_scene, parse_scene
 
 BASE = {

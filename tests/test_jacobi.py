@@ -14,16 +14,21 @@ from hypothesis import assume, given, settings
 
 from tstarg.properties import identities as idn
 from tstarg.properties.identity_checks import (
-    BATCHES, _broken_jacobi_models, _non_cocycle_models, _scaled_pp_jacobi, model_points,
+    BATCHES,
+    _broken_jacobi_models,
+    _non_cocycle_models,
+    _scaled_pp_jacobi,
+    model_points,
 )
+from tstarg.properties.profiles import ref_examples
 from tstarg.properties.strategies import FAMILIES, REGIMES
 from tstarg.refimpl.reference import DegeneratePointError
-from tstarg.properties.profiles import ref_examples
 
 
 @pytest.mark.parametrize("family", FAMILIES)
 def test_jacobi_exact_per_family(family):
     """J = 0 exactly at rational momenta for random models of each algebra family."""
+
     @settings(max_examples=ref_examples(0.4))
     @given(model_points(max_dim=5, families=[family], rational=True))
     def inner(ex):
@@ -33,6 +38,7 @@ def test_jacobi_exact_per_family(family):
         except ValueError:  # Delta = 0: no tensor there
             assume(False)
         assert m.error == 0, f"{model['algebra'].name}: {m.where}"
+
     inner()
 
 
@@ -43,17 +49,23 @@ def test_jacobi_reference_high_precision(ex):
     evaluated at 60 digits); tolerance 3N 1e-16 max|P| max|dP|."""
     model, x, pi = ex
     try:
-        m = idn.jacobi_mp(idn.reference_tensor(model["algebra"], model["theta"], model["upsilon"], dps=20),
-                          list(x) + list(pi), dps=20)
+        m = idn.jacobi_mp(
+            idn.reference_tensor(model["algebra"], model["theta"], model["upsilon"], dps=20),
+            list(x) + list(pi),
+            dps=20,
+        )
     except DegeneratePointError:
         assume(False)
     assert m.ratio <= 1, str(m)
 
 
-@pytest.mark.parametrize("impl, regime", [("fast", r) for r in REGIMES if r != "near_degenerate"]
-                         + [("reference", "generic")])
+@pytest.mark.parametrize(
+    "impl, regime",
+    [("fast", r) for r in REGIMES if r != "near_degenerate"] + [("reference", "generic")],
+)
 def test_jacobi_float(impl, regime):
     """Each implementation's float64 tensor satisfies Jacobi within the finite-difference error model."""
+
     @settings(max_examples=ref_examples(0.6 if impl == "fast" else 0.2))
     @given(model_points(max_dim=4, exact_point=False, regime=regime))
     def inner(ex):
@@ -66,6 +78,7 @@ def test_jacobi_float(impl, regime):
             assume(False)
         assume(np.isfinite(m.tolerance))
         assert m.ratio <= 1, f"{impl}/{regime} {alg.name}: {m}"
+
     inner()
 
 

@@ -18,8 +18,12 @@ ROOT = Path(__file__).resolve().parents[1]
 @pytest.fixture(scope="module")
 def wheel(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("wheel")
-    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(out),
-                    str(ROOT)], check=True, capture_output=True, timeout=300)
+    subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(out), str(ROOT)],
+        check=True,
+        capture_output=True,
+        timeout=300,
+    )
     (whl,) = out.glob("tstarg-*.whl")
     return whl
 
@@ -46,16 +50,27 @@ def test_non_editable_install_runs_outside_the_repository(wheel, tmp_path):
     env_dir = tmp_path / "venv"
     venv.EnvBuilder(system_site_packages=True, with_pip=True).create(env_dir)
     py = env_dir / "bin" / "python"
-    subprocess.run([str(py), "-m", "pip", "install", "--no-deps", "-q", str(wheel)], check=True, timeout=300)
+    subprocess.run(
+        [str(py), "-m", "pip", "install", "--no-deps", "-q", str(wheel)], check=True, timeout=300
+    )
     work = tmp_path / "elsewhere"
     work.mkdir()
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    code = ("import tstarg.refimpl, pathlib; "
-            "print(next((pathlib.Path(tstarg.refimpl.__file__).parent / 'scenes').glob('*.toml')))")
-    scene = subprocess.run([str(py), "-c", code], cwd=work, env=env, check=True, capture_output=True,
-                           text=True).stdout.strip()
+    code = (
+        "import tstarg.refimpl, pathlib; "
+        "print(next((pathlib.Path(tstarg.refimpl.__file__).parent / 'scenes').glob('*.toml')))"
+    )
+    scene = subprocess.run(
+        [str(py), "-c", code], cwd=work, env=env, check=True, capture_output=True, text=True
+    ).stdout.strip()
     assert "site-packages" in scene
-    r = subprocess.run([str(env_dir / "bin" / "tstarg"), "run", scene, "--out", str(work / "run")], cwd=work,
-                       env=env, capture_output=True, text=True, timeout=600)
+    r = subprocess.run(
+        [str(env_dir / "bin" / "tstarg"), "run", scene, "--out", str(work / "run")],
+        cwd=work,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert r.returncode == 0, r.stdout + r.stderr
     assert any((work / "run").iterdir())

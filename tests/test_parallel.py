@@ -57,23 +57,37 @@ def test_certificate_on_dask_equals_serial():
     from tstarg.refimpl.fast import implementation as fast
     from tstarg.reports.certification import certify, certify_parallel
 
-    checks = ["poisson_tensor.antisymmetry", "poisson_tensor.degenerate", "hamiltonian_vector_field.reference"]
+    checks = [
+        "poisson_tensor.antisymmetry",
+        "poisson_tensor.degenerate",
+        "hamiltonian_vector_field.reference",
+    ]
     kw = dict(max_examples=3, seed=1, checks=checks, target="tstarg.refimpl.fast:implementation")
     one = certify(fast, **kw)
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
-            Client(cluster) as client:
+    with (
+        LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cluster,
+        Client(cluster) as client,
+    ):
         par = certify_parallel("tstarg.refimpl.fast:implementation", scheduler=client, **kw)
 
     def strip(c):
         return [(r.name, r.examples, r.skipped, r.passed) for r in c.checks]
 
-    assert strip(par) == strip(one) and len(one.checks) == 4  # the vector-field check has two regimes
+    assert (
+        strip(par) == strip(one) and len(one.checks) == 4
+    )  # the vector-field check has two regimes
     # The same examples, evaluated in another process. BLAS kernels may round differently there
     # (memory alignment), so a worst error of a few ulps is rounding noise: 1 ulp in one process and
     # 3.5 in the other is 0.54 digits apart. What both runs must share is the error model's verdict:
     # every worst error within its tolerance (c * eps * cond * scale, stated by each check).
     for a, b in zip(par.checks, one.checks):
-        assert a.skipped or (a.worst_ratio <= 1.0 and b.worst_ratio <= 1.0), (a.name, a.worst_ratio, b.worst_ratio)
+        assert a.skipped or (a.worst_ratio <= 1.0 and b.worst_ratio <= 1.0), (
+            a.name,
+            a.worst_ratio,
+            b.worst_ratio,
+        )
         assert math.isfinite(a.worst_ratio) and math.isfinite(b.worst_ratio), a.name
     assert par.passed == one.passed and par.skipped == one.skipped
 

@@ -10,11 +10,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from tests._helpers import mp_digits, mp_matrix_to_array
 from tstarg.properties import cocycles, rationals, upsilons
+from tstarg.properties.profiles import ref_examples
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue, frames
 from tstarg.refimpl.reference import DegeneratePointError, Reference
-from tests._helpers import mp_digits, mp_matrix_to_array
-from tstarg.properties.profiles import ref_examples
 
 
 def _rational_vec(n):
@@ -71,7 +71,9 @@ def test_upsilon_zero_reduces_to_twee9_drie3(name):
                 expected[a, b] = mpmath.mpf(0)
                 expected[a, n + b] = L[a, b]
                 expected[n + a, b] = -L[b, a]
-                expected[n + a, n + b] = -mpmath.mpf(sympy.Float(sympy.N(s_ab, 70), 70)._to_mpmath(mpmath.mp.prec))
+                expected[n + a, n + b] = -mpmath.mpf(
+                    sympy.Float(sympy.N(s_ab, 70), 70)._to_mpmath(mpmath.mp.prec)
+                )
     assert mp_digits(P, expected) >= 45
 
 
@@ -91,7 +93,10 @@ def test_precision_ladder(name):
         ups[i, i + 1], ups[i + 1, i] = "0.3", "-0.3"
     x = ["0.21", "-0.4", "0.33", "0.1", "-0.25", "0.05", "0.3", "-0.12"][:n]
     pi = ["0.7", "-1.3", "0.45", "1.1", "-0.6", "0.2", "0.9", "-0.35"][:n]
-    Ps = {d: mp_matrix_to_array(Reference(d).poisson_tensor_mp(alg, theta, ups, x, pi)) for d in (30, 60, 120)}
+    Ps = {
+        d: mp_matrix_to_array(Reference(d).poisson_tensor_mp(alg, theta, ups, x, pi))
+        for d in (30, 60, 120)
+    }
     assert mp_digits(Ps[30], Ps[120]) >= 27
     assert mp_digits(Ps[60], Ps[120]) >= 57
 
@@ -106,7 +111,10 @@ def test_tensor_inverts_omega(name):
     ups[:, :] = 0
     ups[0, 1], ups[1, 0] = "0.4", "-0.4"
     theta = np.zeros((n, n), dtype=int)
-    x, pi = ["0.3", "-0.2", "0.5", "0.1", "0.2", "-0.3"][:n], ["1.2", "-0.7", "0.4", "0.5", "-1", "0.3"][:n]
+    x, pi = (
+        ["0.3", "-0.2", "0.5", "0.1", "0.2", "-0.3"][:n],
+        ["1.2", "-0.7", "0.4", "0.5", "-1", "0.3"][:n],
+    )
     ref = Reference(50)
     P = ref.poisson_tensor_mp(alg, theta, ups, x, pi)
     with ref._prec():

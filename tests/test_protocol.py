@@ -9,10 +9,9 @@ import mpmath
 import numpy as np
 import pytest
 
-import tstarg.refimpl.fast
-import tstarg.refimpl.reference
 from tstarg import refimpl
 from tstarg.refimpl import Implementation, catalogue, su2
+
 
 def test_fixed_import_names():
     assert refimpl.fast.implementation.batched is True
@@ -30,12 +29,16 @@ def test_fast_batch_axes(shape):
     ups = np.array([[0, 0.2, 0], [-0.2, 0, 0.1], [0, -0.1, 0]])
     P = refimpl.fast.implementation.poisson_tensor(alg.f, np.zeros((3, 3)), ups, x, pi)
     assert P.shape == shape + (6, 6) and P.dtype == np.float64
-    xd, pd = refimpl.fast.implementation.hamiltonian_vector_field(alg.f, np.zeros((3, 3)), ups, np.eye(3), None, x, pi)
+    xd, pd = refimpl.fast.implementation.hamiltonian_vector_field(
+        alg.f, np.zeros((3, 3)), ups, np.eye(3), None, x, pi
+    )
     assert xd.shape == shape + (3,) and pd.shape == shape + (3,)
     # batch entries equal the unbatched evaluation of the same point
     if shape:
         idx = (0,) * len(shape)
-        P0 = refimpl.fast.implementation.poisson_tensor(alg.f, np.zeros((3, 3)), ups, x[idx], pi[idx])
+        P0 = refimpl.fast.implementation.poisson_tensor(
+            alg.f, np.zeros((3, 3)), ups, x[idx], pi[idx]
+        )
         assert np.array_equal(P0, P[idx])
 
 
@@ -43,7 +46,13 @@ def test_reference_exact_inputs_give_mpmath_objects():
     ref = refimpl.reference.implementation
     f = su2().f_exact
     third = Fraction(1, 3)
-    P = ref.poisson_tensor(f, [[0, 0, 0]] * 3, [[0, third, 0], [-third, 0, 0], [0, 0, 0]], ["0.1", "0.2", "0.3"], [1, 2, "1/7"])
+    P = ref.poisson_tensor(
+        f,
+        [[0, 0, 0]] * 3,
+        [[0, third, 0], [-third, 0, 0], [0, 0, 0]],
+        ["0.1", "0.2", "0.3"],
+        [1, 2, "1/7"],
+    )
     assert P.dtype == object and isinstance(P[0, 3], mpmath.mpf)
     Pf = ref.poisson_tensor(su2().f, np.zeros((3, 3)), np.zeros((3, 3)), np.zeros(3), np.ones(3))
     assert Pf.dtype == np.float64

@@ -13,7 +13,12 @@ import pytest
 from tstarg.reports import regression
 from tstarg.reports.cli import main
 
-PROVIDERS = ["--provider", "tstarg.properties.core_checks:core_checks", "--provider", "tstarg.reports.speed_checks:speed_checks"]
+PROVIDERS = [
+    "--provider",
+    "tstarg.properties.core_checks:core_checks",
+    "--provider",
+    "tstarg.reports.speed_checks:speed_checks",
+]
 
 
 def _rep(checks, profile="ci", n=20, seed=0):
@@ -21,14 +26,28 @@ def _rep(checks, profile="ci", n=20, seed=0):
 
 
 def _row(name, digits=None, ratio=0.0, passed=True, speedup=None):
-    return {"name": name, "min_digits": digits, "worst_ratio": ratio, "passed": passed,
-            "extra": {} if speedup is None else {"speedup": speedup}}
+    return {
+        "name": name,
+        "min_digits": digits,
+        "worst_ratio": ratio,
+        "passed": passed,
+        "extra": {} if speedup is None else {"speedup": speedup},
+    }
 
 
 def test_digits_lost_by_hand():
     """Digits lost = max(drop of min digits, log10 growth of the worst ratio); worked by hand."""
-    base = _rep([_row("a", 15.0, 1e-3), _row("b", 12.0, 1e-2), _row("c", math.inf, 0.0), _row("d", None, 1e-4)])
-    new = _rep([_row("a", 14.5, 1e-2), _row("b", 9.5, 1e-2), _row("c", 30.0, 0.0), _row("d", None, 1e-1)])
+    base = _rep(
+        [
+            _row("a", 15.0, 1e-3),
+            _row("b", 12.0, 1e-2),
+            _row("c", math.inf, 0.0),
+            _row("d", None, 1e-4),
+        ]
+    )
+    new = _rep(
+        [_row("a", 14.5, 1e-2), _row("b", 9.5, 1e-2), _row("c", 30.0, 0.0), _row("d", None, 1e-1)]
+    )
     cmp = regression.compare(base, new, digits_slack=2.0)
     lost = {r["name"]: r["digits_lost"] for r in cmp["rows"]}
     assert lost["a"] == pytest.approx(1.0)  # ratio grew 10x: 1 digit; min digits dropped 0.5
@@ -51,7 +70,11 @@ def test_verdicts_missing_new_and_sampling():
     """PASS -> FAIL always regresses; different samples make digit changes informational;
     missing and new checks are listed, not failed."""
     base = _rep([_row("a", 15.0), _row("gone", 15.0), _row("v", 15.0)])
-    new = _rep([_row("a", 5.0), _row("fresh", 15.0), _row("v", 15.0, passed=False)], profile="thorough", n=60)
+    new = _rep(
+        [_row("a", 5.0), _row("fresh", 15.0), _row("v", 15.0, passed=False)],
+        profile="thorough",
+        n=60,
+    )
     cmp = regression.compare(base, new)
     st = {r["name"]: r["status"] for r in cmp["rows"]}
     assert st["a"] == ["accuracy change (different samples)"]
@@ -62,7 +85,9 @@ def test_verdicts_missing_new_and_sampling():
     assert not acc.passed and spd.passed
 
 
-@pytest.mark.parametrize("kw", [{"digits_slack": -1.0}, {"speed_factor": 0.5}, {"digits_slack": math.nan}])
+@pytest.mark.parametrize(
+    "kw", [{"digits_slack": -1.0}, {"speed_factor": 0.5}, {"digits_slack": math.nan}]
+)
 def test_bad_thresholds(kw):
     with pytest.raises(ValueError, match="must be a finite number"):
         regression.compare(_rep([]), _rep([]), **kw)
@@ -79,7 +104,21 @@ def test_load_report_errors(tmp_path):
 @pytest.fixture(scope="module")
 def base_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("base")
-    assert main(["verify", *PROVIDERS, "--max-examples", "3", "--out", str(out), "--no-baseline", "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "verify",
+                *PROVIDERS,
+                "--max-examples",
+                "3",
+                "--out",
+                str(out),
+                "--no-baseline",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     return out
 
 
@@ -97,29 +136,65 @@ def test_planted_degraded_run_fails(base_run, tmp_path, monkeypatch):
         bound = np.asarray(res.error_bound, dtype=float)
         P = np.array(res.P, copy=True)
         # an error of 0.9 x the bound on every entry: still passes the per-check tolerance
-        P += 0.9 * np.where(np.isfinite(bound), bound, 0.0)[..., None, None] * np.sign(np.arange(P.shape[-1]) - 2.5)
+        P += (
+            0.9
+            * np.where(np.isfinite(bound), bound, 0.0)[..., None, None]
+            * np.sign(np.arange(P.shape[-1]) - 2.5)
+        )
         return dataclasses.replace(res, P=P)
 
     monkeypatch.setattr(Fast, "poisson_batch", degraded)
     out = tmp_path / "degraded"
-    rc = main(["verify", *PROVIDERS, "--max-examples", "3", "--out", str(out), "--baseline", str(base_run),
-               "--digits-slack", "1", "--quiet"])
+    rc = main(
+        [
+            "verify",
+            *PROVIDERS,
+            "--max-examples",
+            "3",
+            "--out",
+            str(out),
+            "--baseline",
+            str(base_run),
+            "--digits-slack",
+            "1",
+            "--quiet",
+        ]
+    )
     rep = json.loads((out / "report.json").read_text())
     rows = {c["name"]: c for c in rep["checks"]}
     assert rc == 1
     # the accuracy checks themselves pass (every error is inside its bound): only the comparison
     # sees the degradation (speed rows may fail on their own, 10x slower than per-point numpy)
-    assert not [(n, c["detail"]) for n, c in rows.items() if not n.startswith(("regression.", "speed.")) and not c["passed"]]
+    assert not [
+        (n, c["detail"])
+        for n, c in rows.items()
+        if not n.startswith(("regression.", "speed.")) and not c["passed"]
+    ]
     assert not rows["regression.accuracy"]["passed"] and not rows["regression.speed"]["passed"]
     cmp = rep["comparison"]
     assert "fast_matches_reference[generic]" in cmp["accuracy_regressions"]
     assert set(cmp["speed_regressions"]) >= {"speed.poisson[su2]", "speed.poisson[su3]"}
-    assert "speed.flow[heavy_top]" not in cmp["speed_regressions"]  # the flow does not use poisson_batch
+    assert (
+        "speed.flow[heavy_top]" not in cmp["speed_regressions"]
+    )  # the flow does not use poisson_batch
     assert (out / "compare.md").exists() and (out / "figures" / "compare.png").stat().st_size > 1000
     assert "Against the baseline" in (out / "report.md").read_text()
     # the same verdict from `tstarg report --compare A B`
-    assert main(["report", "--compare", str(base_run), str(out), "--out", str(tmp_path / "cmp"),
-                 "--digits-slack", "1"]) == 1
+    assert (
+        main(
+            [
+                "report",
+                "--compare",
+                str(base_run),
+                str(out),
+                "--out",
+                str(tmp_path / "cmp"),
+                "--digits-slack",
+                "1",
+            ]
+        )
+        == 1
+    )
     assert "REGRESSED" in (tmp_path / "cmp" / "compare.md").read_text()
 
 
@@ -127,8 +202,21 @@ def test_clean_rerun_has_no_accuracy_regression(base_run, tmp_path):
     """The same code, seed and profile reproduce the baseline's digits exactly (no false alarm).
     Speed is not judged here: this test must not depend on the machine's load."""
     out = tmp_path / "again"
-    rc = main(["verify", *PROVIDERS, "--max-examples", "3", "--out", str(out), "--baseline", str(base_run),
-               "--speed-factor", "1e9", "--quiet"])
+    rc = main(
+        [
+            "verify",
+            *PROVIDERS,
+            "--max-examples",
+            "3",
+            "--out",
+            str(out),
+            "--baseline",
+            str(base_run),
+            "--speed-factor",
+            "1e9",
+            "--quiet",
+        ]
+    )
     rep = json.loads((out / "report.json").read_text())
     assert rc == 0 and not rep["comparison"]["regressed"]
     lost = [r["digits_lost"] for r in rep["comparison"]["rows"] if r["digits_lost"] is not None]
@@ -138,7 +226,8 @@ def test_clean_rerun_has_no_accuracy_regression(base_run, tmp_path):
 
 def test_committed_baseline_is_a_full_ci_run():
     """The committed baseline is a passing ``--profile ci --seed 0`` run of every default provider."""
-    from tstarg.reports.cmd_verify import PROFILES, PROVIDERS as DEFAULT
+    from tstarg.reports.cmd_verify import PROFILES
+    from tstarg.reports.cmd_verify import PROVIDERS as DEFAULT
 
     base = regression.load_report(regression.BASELINE)
     assert (base["profile"], base["max_examples"], base["seed"]) == ("ci", PROFILES["ci"], 0)

@@ -23,6 +23,9 @@ import sympy
 from flint import arb_mat
 from hypothesis import given, reject, settings
 from hypothesis import strategies as st
+
+from tests._helpers import regime_cases
+from tstarg.properties.profiles import ref_examples
 from tstarg.properties.strategies import lie_algebras
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue, su2, su3
 from tstarg.refimpl._arb import to_arb, workprec
@@ -40,9 +43,6 @@ from tstarg.refimpl.rigorous import (
     judge_vector_field,
     phi1_ball,
 )
-
-from tests._helpers import regime_cases
-from tstarg.properties.profiles import ref_examples
 
 REGIMES = ("generic", "near_degenerate", "large_momenta", "near_chart_boundary")
 EPS = np.finfo(float).eps

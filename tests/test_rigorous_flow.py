@@ -16,6 +16,7 @@ import mpmath
 import numpy as np
 import pytest
 from flint import arb, arb_mat
+
 from tstarg.refimpl import so4, su2
 from tstarg.refimpl._arb import Balls, algebra_balls, to_arb, workprec
 from tstarg.refimpl._rigorous_flow import QuadraticField, body_field, enclose_quadratic

@@ -19,6 +19,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
+
 from tstarg.properties import runner
 from tstarg.properties.runner import decode, encode, limits, note, run_property
 from tstarg.refimpl import su2

@@ -12,8 +12,16 @@ import tstarg.refimpl._flow_fast as flow_fast
 from tstarg.refimpl.flows import load_scene, parse_scene, plan, run_scene
 
 SCENES = sorted((Path(__file__).resolve().parent.parent / "refimpl" / "scenes").glob("*.toml"))
-BASE = {"algebra": "su(2)", "inertia_diagonal": [1.0, 2.0, 3.0], "x0": [0.1, 0.0, 0.0],
-        "pi0": [0.4, -0.3, 1.1], "t_end": 2.0, "samples": 5, "tol": 1e-8, "outputs": ["pi", "energy"]}
+BASE = {
+    "algebra": "su(2)",
+    "inertia_diagonal": [1.0, 2.0, 3.0],
+    "x0": [0.1, 0.0, 0.0],
+    "pi0": [0.4, -0.3, 1.1],
+    "t_end": 2.0,
+    "samples": 5,
+    "tol": 1e-8,
+    "outputs": ["pi", "energy"],
+}
 
 
 def test_example_scenes_parse_and_cover_the_issue():
@@ -84,7 +92,14 @@ def test_phi_solved_when_upsilon_nonzero(monkeypatch):
 
 def test_planned_steps_meet_the_tolerance():
     """The planned step count meets the scene tolerance: the run agrees with a 4x finer run within 10 tol."""
-    sc = parse_scene({**BASE, "potential": {"L": [0, 0, 1.0], "gamma": [0, 0, -1.0]}, "t_end": 10.0, "samples": 11})
+    sc = parse_scene(
+        {
+            **BASE,
+            "potential": {"L": [0, 0, 1.0], "gamma": [0, 0, -1.0]},
+            "t_end": 10.0,
+            "samples": 11,
+        }
+    )
     p = plan(sc)
     coarse = run_scene(sc, p)
     p.steps_per_sample *= 4
@@ -92,16 +107,19 @@ def test_planned_steps_meet_the_tolerance():
     assert np.max(np.abs(coarse["pi"] - fine["pi"])) <= 10 * sc.tol
 
 
-@pytest.mark.parametrize("patch,needle", [
-    ({"colour": 1}, "colour"),
-    ({"x0": [0.1, 0.0]}, "'x0' must have shape (3,)"),
-    ({"inertia_diagonal": [[1.0]]}, "'inertia_diagonal' must have shape (3,)"),
-    ({"theta": [[0.0, 1.0], [-1.0, 0.0]]}, "'theta' must have shape (3, 3)"),
-    ({"potential": {"L": [0, 0, 1.0], "gamma": [0, 0, -1.0], "mass": 2}}, "mass"),
-    ({"t_end": -1.0}, "t_end"),
-    ({"tol": float("nan")}, "tol"),
-    ({"outputs": ["pi", "spin"]}, "spin"),
-])
+@pytest.mark.parametrize(
+    "patch,needle",
+    [
+        ({"colour": 1}, "colour"),
+        ({"x0": [0.1, 0.0]}, "'x0' must have shape (3,)"),
+        ({"inertia_diagonal": [[1.0]]}, "'inertia_diagonal' must have shape (3,)"),
+        ({"theta": [[0.0, 1.0], [-1.0, 0.0]]}, "'theta' must have shape (3, 3)"),
+        ({"potential": {"L": [0, 0, 1.0], "gamma": [0, 0, -1.0], "mass": 2}}, "mass"),
+        ({"t_end": -1.0}, "t_end"),
+        ({"tol": float("nan")}, "tol"),
+        ({"outputs": ["pi", "spin"]}, "spin"),
+    ],
+)
 def test_bad_scenes_are_rejected_naming_key_and_shape(patch, needle):
     """Unknown keys and wrong shapes raise ValueError naming the key (and the expected shape)."""
     with pytest.raises(ValueError, match=__import__("re").escape(needle)):
@@ -113,8 +131,10 @@ def test_run_command_writes_outputs(tmp_path):
     from tstarg.reports.cli import main
 
     scene = tmp_path / "s.toml"
-    scene.write_text('algebra = "su(2)"\ninertia_diagonal = [1.0, 2.0, 3.0]\nx0 = [0.0, 0.0, 0.0]\n'
-                     'pi0 = [0.4, -0.3, 1.1]\nt_end = 2.0\nsamples = 11\noutputs = ["pi", "energy", "casimirs"]\n')
+    scene.write_text(
+        'algebra = "su(2)"\ninertia_diagonal = [1.0, 2.0, 3.0]\nx0 = [0.0, 0.0, 0.0]\n'
+        'pi0 = [0.4, -0.3, 1.1]\nt_end = 2.0\nsamples = 11\noutputs = ["pi", "energy", "casimirs"]\n'
+    )
     assert main(["run", str(scene), "--out", str(tmp_path / "out"), "--quiet"]) == 0
     for name in ("trajectory.npz", "trajectory.csv", "trajectory.png"):
         assert (tmp_path / "out" / name).stat().st_size > 0
@@ -127,7 +147,9 @@ def test_run_command_rejects_bad_scene(tmp_path, capsys):
     from tstarg.reports.cli import main
 
     scene = tmp_path / "bad.toml"
-    scene.write_text('algebra = "su(2)"\ninertia_diagonal = [1.0, 2.0, 3.0]\nx0 = [0.0, 0.0, 0.0]\n'
-                     'pi0 = [0.4, -0.3, 1.1]\nt_end = 2.0\nspin = 3\n')
+    scene.write_text(
+        'algebra = "su(2)"\ninertia_diagonal = [1.0, 2.0, 3.0]\nx0 = [0.0, 0.0, 0.0]\n'
+        "pi0 = [0.4, -0.3, 1.1]\nt_end = 2.0\nspin = 3\n"
+    )
     assert main(["run", str(scene), "--out", str(tmp_path / "out")]) == 2
     assert "spin" in capsys.readouterr().err

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -16,7 +15,6 @@ from hypothesis import strategies as st
 
 from tstarg.properties import strategies as S
 from tstarg.refimpl import LieAlgebra, check_cocycle, solve_coboundary
-from tstarg.refimpl._algebra import jacobi_residual
 
 EPS = float(np.finfo(float).eps)
 
@@ -28,7 +26,9 @@ def _killing(alg):
 def _derived_basis(alg):
     """A basis of [g, g] as exact columns (independent of the float ranks in strategies)."""
     n = alg.dim
-    cols = sympy.Matrix([[alg.f_exact[m, a, b] for a in range(n) for b in range(n)] for m in range(n)])
+    cols = sympy.Matrix(
+        [[alg.f_exact[m, a, b] for a in range(n) for b in range(n)] for m in range(n)]
+    )
     return cols.columnspace()
 
 
@@ -59,7 +59,7 @@ def test_nilpotent_filter_engel(alg):
     n = alg.dim
     for x in list(np.eye(n, dtype=int)) + [np.ones(n, dtype=int)]:
         ad = alg.ad_exact(list(x))
-        assert (ad ** n).is_zero_matrix
+        assert (ad**n).is_zero_matrix
 
 
 @given(S.lie_algebras(semisimple=True))
@@ -74,19 +74,42 @@ def test_families_are_all_drawn_class_b_often():
     seen = Counter()
 
     @seed(1)
-    @settings(max_examples=200, database=None, deadline=None, suppress_health_check=list(HealthCheck))
+    @settings(
+        max_examples=200, database=None, deadline=None, suppress_health_check=list(HealthCheck)
+    )
     @given(S.lie_algebras())
     def collect(alg):
         tags = alg.tags
-        key = ("changed" if "[C=" in alg.name else "direct_sum" if "direct_sum" in tags else
-               "class B" if "class B" in tags else "class A" if "class A" in tags else
-               "nilpotent" if "nilpotent" in tags else "semidirect" if "semidirect" in tags else
-               "solvable" if alg.name.startswith("b(") else "catalogue")
+        key = (
+            "changed"
+            if "[C=" in alg.name
+            else "direct_sum"
+            if "direct_sum" in tags
+            else "class B"
+            if "class B" in tags
+            else "class A"
+            if "class A" in tags
+            else "nilpotent"
+            if "nilpotent" in tags
+            else "semidirect"
+            if "semidirect" in tags
+            else "solvable"
+            if alg.name.startswith("b(")
+            else "catalogue"
+        )
         seen[key] += 1
 
     collect()
     total = sum(seen.values())
-    for key in ("class B", "class A", "nilpotent", "semidirect", "direct_sum", "changed", "solvable"):
+    for key in (
+        "class B",
+        "class A",
+        "nilpotent",
+        "semidirect",
+        "direct_sum",
+        "changed",
+        "solvable",
+    ):
         assert seen[key] > 0, f"family {key} never drawn: {dict(seen)}"
     assert seen["class B"] >= 0.08 * total, f"class B Bianchi drawn too rarely: {dict(seen)}"
 
@@ -123,8 +146,11 @@ def test_negative_control_strategies_are_broken(data):
     f = data.draw(S.jacobi_breaking_constants(n=3))
     with pytest.raises(ValueError, match="Jacobi"):
         LieAlgebra.from_structure_constants(f)
-    alg = data.draw(S.lie_algebras(max_dim=4).filter(
-        lambda a: len(S.cocycle_basis(a)) < a.dim * (a.dim - 1) // 2))
+    alg = data.draw(
+        S.lie_algebras(max_dim=4).filter(
+            lambda a: len(S.cocycle_basis(a)) < a.dim * (a.dim - 1) // 2
+        )
+    )
     th = data.draw(S.non_cocycles(alg))
     with pytest.raises(ValueError, match="not a 2-cocycle"):
         check_cocycle(alg, th)
@@ -155,23 +181,26 @@ def test_scenes_are_toml_describable(scene):
     assert sc.x0.shape[-1] == n and sc.pi0.shape == sc.x0.shape
 
 
-@pytest.mark.parametrize("call, match", [
-    (lambda: S.lie_algebras(max_dim=0), "max_dim"),
-    (lambda: S.lie_algebras(min_dim=4, max_dim=3), "max_dim"),
-    (lambda: S.lie_algebras(semisimple=True, solvable=True), "semisimple"),
-    (lambda: S.lie_algebras(semisimple="yes"), "semisimple"),
-    (lambda: S.lie_algebras(families=["so(3) only"]), "unknown families"),
-    (lambda: S.lie_algebras(semisimple=True, max_dim=2), "max_dim"),
-    (lambda: S.cocycles("su(2)"), "LieAlgebra"),
-    (lambda: S.cocycles(S.catalogue("su(2)"), coboundary=False), "H\\^2 = 0"),
-    (lambda: S.non_cocycles(S.catalogue("R^3")), "every 2-form"),
-    (lambda: S.basis_changes(0), "n must be"),
-    (lambda: S.points(S.catalogue("su(2)"), regime="nowhere"), "regime"),
-    (lambda: S.points(S.catalogue("su(2)"), regime="near_degenerate"), "theta and upsilon"),
-    (lambda: S.upsilons(1, zero=False), "n >= 2"),
-    (lambda: S.scenes(names=["so(7)"]), "unknown algebra"),
-    (lambda: S.jacobi_breaking_constants(n=2), "n must be"),
-])
+@pytest.mark.parametrize(
+    "call, match",
+    [
+        (lambda: S.lie_algebras(max_dim=0), "max_dim"),
+        (lambda: S.lie_algebras(min_dim=4, max_dim=3), "max_dim"),
+        (lambda: S.lie_algebras(semisimple=True, solvable=True), "semisimple"),
+        (lambda: S.lie_algebras(semisimple="yes"), "semisimple"),
+        (lambda: S.lie_algebras(families=["so(3) only"]), "unknown families"),
+        (lambda: S.lie_algebras(semisimple=True, max_dim=2), "max_dim"),
+        (lambda: S.cocycles("su(2)"), "LieAlgebra"),
+        (lambda: S.cocycles(S.catalogue("su(2)"), coboundary=False), "H\\^2 = 0"),
+        (lambda: S.non_cocycles(S.catalogue("R^3")), "every 2-form"),
+        (lambda: S.basis_changes(0), "n must be"),
+        (lambda: S.points(S.catalogue("su(2)"), regime="nowhere"), "regime"),
+        (lambda: S.points(S.catalogue("su(2)"), regime="near_degenerate"), "theta and upsilon"),
+        (lambda: S.upsilons(1, zero=False), "n >= 2"),
+        (lambda: S.scenes(names=["so(7)"]), "unknown algebra"),
+        (lambda: S.jacobi_breaking_constants(n=2), "n must be"),
+    ],
+)
 def test_bad_arguments_raise(call, match):
     """Strategies validate their arguments with a ValueError naming the argument."""
     with pytest.raises(ValueError, match=match):
@@ -184,7 +213,9 @@ def test_points_regimes_deliver_their_conditioning(data):
     ||ad_x||_F / 2 pi in {0.6, 0.8, 0.9}; generic: |x| <= 0.8, |pi| <= 2 per component."""
     import mpmath
 
-    m = data.draw(S.models(algebras=S.lie_algebras(max_dim=4).filter(lambda a: a.f.any()), upsilon_zero=False))
+    m = data.draw(
+        S.models(algebras=S.lie_algebras(max_dim=4).filter(lambda a: a.f.any()), upsilon_zero=False)
+    )
     alg = m["algebra"]
     th, up = np.array(m["theta"], dtype=float), np.array(m["upsilon"], dtype=float)
     x, pi = data.draw(S.points(alg, m["theta"], m["upsilon"], regime="near_degenerate"))
@@ -193,7 +224,9 @@ def test_points_regimes_deliver_their_conditioning(data):
         Um = mpmath.matrix(up.tolist())
         Phi = mpmath.eye(alg.dim) + Sm * Um
         smin = min(mpmath.svd_r(Phi, compute_uv=False))
-        data_norm = max(1, max(mpmath.svd_r(Sm, compute_uv=False)) * max(mpmath.svd_r(Um, compute_uv=False)))
+        data_norm = max(
+            1, max(mpmath.svd_r(Sm, compute_uv=False)) * max(mpmath.svd_r(Um, compute_uv=False))
+        )
         kappa = float(data_norm / smin)
     # error model: the strategy measured kappa in float64, off by ~ n eps kappa relative (Phi's
     # entries rounded, perturbation of the smallest singular value): slack 8 n eps 1e12

@@ -14,6 +14,7 @@ from tstarg.refimpl.fast import implementation as _fast
 from tstarg.reports import _stress
 from tstarg.reports.cli import build_parser
 
+
 def _run(argv):
     args = build_parser().parse_args(["stress", *argv])
     return args._main(args)
@@ -31,8 +32,14 @@ def test_quick_run_writes_report_without_silent_failures(quick_run):
     code, out, rep = quick_run
     assert (out / "report.md").is_file() and (out / "brouwer.png").is_file()
     names = {s["name"] for s in rep["sweeps"]}
-    assert {"degenerate-su2", "degenerate-bianchi-vi", "momenta-su2", "basis-su2", "upsilon-su2",
-            "field-degenerate-su2"} <= names
+    assert {
+        "degenerate-su2",
+        "degenerate-bianchi-vi",
+        "momenta-su2",
+        "basis-su2",
+        "upsilon-su2",
+        "field-degenerate-su2",
+    } <= names
     md = (out / "report.md").read_text()
     for s in rep["sweeps"]:
         assert s["rows"], s["name"]
@@ -46,8 +53,9 @@ def test_quick_run_writes_report_without_silent_failures(quick_run):
     # the C1 = 0 point is flagged, kept in its sweep (never dropped)
     exact = [r for r in rows if r["label"] == "C1 = 0 exactly"]
     assert exact and all(r["outcome"] == "flagged" for r in exact)
-    assert code in (0, 1) and (code == 1) == bool(rep["summary"]["bound_violations_fast"]
-                                                  or rep["summary"]["bound_violations_final"])
+    assert code in (0, 1) and (code == 1) == bool(
+        rep["summary"]["bound_violations_fast"] or rep["summary"]["bound_violations_final"]
+    )
 
 
 def test_quick_run_has_zero_silent_failures_in_every_sweep(quick_run):
@@ -79,19 +87,35 @@ class Planted:
 
     def vector_field_batch(self, *args, **kw):
         r = _fast.vector_field_batch(*args, **kw)
-        return dataclasses.replace(r, xdot=self._perturb(r.xdot), pidot=self._perturb(r.pidot),
-                                   error_bound=r.error_bound / self.shrink)
+        return dataclasses.replace(
+            r,
+            xdot=self._perturb(r.xdot),
+            pidot=self._perturb(r.pidot),
+            error_bound=r.error_bound / self.shrink,
+        )
 
 
 SHRUNK = Planted(shrink=1e6)
 NOISY = Planted(noise=1e-7)
 
 
-@pytest.mark.parametrize(("planted", "what"), [("SHRUNK", "bound_violations_fast"), ("NOISY", "silent_failures")])
+@pytest.mark.parametrize(
+    ("planted", "what"), [("SHRUNK", "bound_violations_fast"), ("NOISY", "silent_failures")]
+)
 def test_planted_broken_implementation_is_caught(planted, what, tmp_path):
     """A bound shrunk 1e6x violates the error model; noise of 1e-7 under a small bound is a silent failure."""
-    code = _run(["--sweeps", "degenerate-su2,momenta-su2", "--workers", "1", "--out", str(tmp_path),
-                 "--implementation", f"tests.test_stress:{planted}"])
+    code = _run(
+        [
+            "--sweeps",
+            "degenerate-su2,momenta-su2",
+            "--workers",
+            "1",
+            "--out",
+            str(tmp_path),
+            "--implementation",
+            f"tests.test_stress:{planted}",
+        ]
+    )
     rep = json.loads((tmp_path / "report.json").read_text())
     assert code == 1
     assert rep["summary"][what] > 0
@@ -100,16 +124,36 @@ def test_planted_broken_implementation_is_caught(planted, what, tmp_path):
 
 def test_flag_only_mode_flags_instead_of_escalating(tmp_path):
     """--no-escalate: points over the tolerance are flagged, none escalated, still no silent failure."""
-    code = _run(["--sweeps", "degenerate-su2", "--quick", "--no-escalate", "--workers", "1", "--out", str(tmp_path)])
+    code = _run(
+        [
+            "--sweeps",
+            "degenerate-su2",
+            "--quick",
+            "--no-escalate",
+            "--workers",
+            "1",
+            "--out",
+            str(tmp_path),
+        ]
+    )
     rep = json.loads((tmp_path / "report.json").read_text())
     rows = rep["sweeps"][0]["rows"]
     assert code == 0
     assert not any(r["escalated"] for r in rows)
-    assert sum(r["outcome"] == "flagged" for r in rows) >= 3 and rep["summary"]["silent_failures"] == 0
+    assert (
+        sum(r["outcome"] == "flagged" for r in rows) >= 3 and rep["summary"]["silent_failures"] == 0
+    )
 
 
-@pytest.mark.parametrize("argv", [["--tol", "-1"], ["--sweeps", "no-such-sweep"], ["--implementation", "nocolon"],
-                                  ["--judge-dps", "10"]])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["--tol", "-1"],
+        ["--sweeps", "no-such-sweep"],
+        ["--implementation", "nocolon"],
+        ["--judge-dps", "10"],
+    ],
+)
 def test_bad_arguments_exit_2(argv, tmp_path, capsys):
     """Bad options are refused with a message on stderr and exit code 2, before any work."""
     assert _run([*argv, "--workers", "1", "--out", str(tmp_path)]) == 2
@@ -133,9 +177,12 @@ def test_fit_exponent_exact_power_laws():
     """Exact power laws c t^p are fitted to rounding (p = 1: a systematic drift; p = 0.5: Brouwer)."""
     t = np.logspace(0, 4, 25)
     for p_true, c_true in ((1.0, 3e-16), (0.5, 2e-16), (0.25, 1.0)):
-        p, c = _stress.fit_exponent(t, c_true * t ** p_true)
+        p, c = _stress.fit_exponent(t, c_true * t**p_true)
         # least squares on ~30 log values of size <= 40: rounding error ~ 1e3 eps
-        assert abs(p - p_true) <= 1e3 * np.finfo(float).eps and abs(c / c_true - 1) <= 1e4 * np.finfo(float).eps
+        assert (
+            abs(p - p_true) <= 1e3 * np.finfo(float).eps
+            and abs(c / c_true - 1) <= 1e4 * np.finfo(float).eps
+        )
 
 
 def test_fit_exponent_refuses_bad_data():
@@ -161,13 +208,22 @@ def test_sweep_results_do_not_depend_on_where_they_ran():
     """The same sweep over 2 local processes gives exactly the serial rows (tasks deterministic in their item)."""
     from tstarg.reports.cmd_stress import run
 
-    kw = {"quick": True, "tol": 1e-10, "escalate": True, "judge_dps": 50,
-          "implementation": _stress.DEFAULT_IMPLEMENTATION, "sweeps": ["degenerate-su2", "brouwer"],
-          "brouwer_time": 20.0, "brouwer_trajectories": 8}
+    kw = {
+        "quick": True,
+        "tol": 1e-10,
+        "escalate": True,
+        "judge_dps": 50,
+        "implementation": _stress.DEFAULT_IMPLEMENTATION,
+        "sweeps": ["degenerate-su2", "brouwer"],
+        "brouwer_time": 20.0,
+        "brouwer_trajectories": 8,
+    }
     serial, pooled = run(workers=1, **kw), run(workers=2, **kw)
 
     def strip(rep):
-        rows = [{k: v for k, v in r.items() if k != "seconds"} for s in rep["sweeps"] for r in s["rows"]]
+        rows = [
+            {k: v for k, v in r.items() if k != "seconds"} for s in rep["sweeps"] for r in s["rows"]
+        ]
         return rows, rep["brouwer"]["rms"], rep["brouwer"]["exponent"]
 
     assert json.dumps(strip(serial), default=str) == json.dumps(strip(pooled), default=str)

@@ -12,7 +12,11 @@ import numpy as np
 import pytest
 
 from tstarg.refimpl import catalogue, su2
-from tstarg.refimpl._taylor import numpy_taylor_integrator, quadratic_field, scalar_taylor_integrator
+from tstarg.refimpl._taylor import (
+    numpy_taylor_integrator,
+    quadratic_field,
+    scalar_taylor_integrator,
+)
 from tstarg.refimpl.flows import METHODS, NumpyModel, integrate_fast
 
 EPS = np.finfo(float).eps
@@ -21,17 +25,23 @@ Z = np.zeros((3, 3))
 XI = np.array([0.2, -0.1, 0.3])
 THETA = -np.einsum("k,kab->ab", XI, SU2.f)
 GRAV = {"kind": "gravity", "L": np.array([0.1, -0.2, 1.0]), "gamma": np.array([0.0, 0.0, -1.0])}
-I_OFF = np.array([[1.0, 0.1, 0.0], [0.1, 1.3, -0.05], [0.0, -0.05, 0.5]])   # not principal axes
+I_OFF = np.array([[1.0, 0.1, 0.0], [0.1, 1.3, -0.05], [0.0, -0.05, 0.5]])  # not principal axes
 B3 = catalogue("Bianchi III")
 THETA_B3 = np.array([[0.0, 0.5, 0.0], [-0.5, 0.0, 0.0], [0.0, 0.0, 0.0]])
 
 MODELS = {
     "su2 gyrostat heavy, off-diagonal I": lambda: NumpyModel(SU2, THETA, Z, I_OFF, GRAV),
     "Lagrange top (constant pi_3)": lambda: NumpyModel(
-        SU2, Z, Z, np.diag([1.0, 1.0, 0.5]),
-        {"kind": "gravity", "L": np.array([0.0, 0.0, 1.0]), "gamma": np.array([0.0, 0.0, -1.0])}),
+        SU2,
+        Z,
+        Z,
+        np.diag([1.0, 1.0, 0.5]),
+        {"kind": "gravity", "L": np.array([0.0, 0.0, 1.0]), "gamma": np.array([0.0, 0.0, -1.0])},
+    ),
     "su2 free gyrostat": lambda: NumpyModel(SU2, THETA, Z, np.diag([1.0, 1.3, 0.5]), None),
-    "Bianchi III heavy with cocycle": lambda: NumpyModel(B3, THETA_B3, Z, np.diag([1.0, 1.5, 2.0]), GRAV),
+    "Bianchi III heavy with cocycle": lambda: NumpyModel(
+        B3, THETA_B3, Z, np.diag([1.0, 1.5, 2.0]), GRAV
+    ),
 }
 
 
@@ -47,8 +57,11 @@ def test_quadratic_field_equals_generic_field(label):
     Omega, pidot = model.omega_pidot(y[:n], y[n:] if model.gravity else None)
     want = np.concatenate([pidot, model.gamma_dot(Omega, y[n:])]) if model.gravity else pidot
     scale = np.max(np.abs(y)) ** 2 + np.max(np.abs(y))
-    coef = 1 + np.max(np.abs(model.Iinv)) * (1 + np.max(np.abs(model.theta))) + (
-        np.max(np.abs(model.Lvec)) if model.gravity else 0)
+    coef = (
+        1
+        + np.max(np.abs(model.Iinv)) * (1 + np.max(np.abs(model.theta)))
+        + (np.max(np.abs(model.Lvec)) if model.gravity else 0)
+    )
     assert np.all(np.isfinite(got))
     assert np.max(np.abs(got - want)) <= 16 * EPS * scale * coef
 
@@ -57,7 +70,10 @@ def test_constant_components_are_those_with_zero_field():
     """The Lagrange top's pi_3 is constant (I_1 = I_2, L on the symmetry axis): its field is identically
     zero, and only there; the asymmetric top has no constant component."""
     assert quadratic_field(MODELS["Lagrange top (constant pi_3)"]()).constant_components() == {2}
-    assert quadratic_field(MODELS["su2 gyrostat heavy, off-diagonal I"]()).constant_components() == set()
+    assert (
+        quadratic_field(MODELS["su2 gyrostat heavy, off-diagonal I"]()).constant_components()
+        == set()
+    )
 
 
 @pytest.mark.parametrize("label", list(MODELS))
@@ -72,8 +88,9 @@ def test_numpy_kernel_equals_scalar_kernel(label, order):
     y0 = rng.normal(size=(F.d, 7)) * 0.7
     h, steps = 0.05, 40
     seen_b, seen_s = [], []
-    batch = numpy_taylor_integrator(model, order)(y0, h, steps, observe=lambda k, y: seen_b.append(y.copy()),
-                                                  chunk=3)
+    batch = numpy_taylor_integrator(model, order)(
+        y0, h, steps, observe=lambda k, y: seen_b.append(y.copy()), chunk=3
+    )
     run = scalar_taylor_integrator(model, order)
     single = np.empty_like(y0)
     for j in range(7):
@@ -83,8 +100,8 @@ def test_numpy_kernel_equals_scalar_kernel(label, order):
     scale = 1 + np.max(np.abs(single))
     assert np.all(np.isfinite(batch))
     assert np.max(np.abs(batch - single)) <= 64 * steps * EPS * scale
-    hist_b = np.stack(seen_b)                      # (steps, d, 7)
-    hist_s = np.stack(seen_s, axis=-1)             # (steps, d, 7)
+    hist_b = np.stack(seen_b)  # (steps, d, 7)
+    hist_s = np.stack(seen_s, axis=-1)  # (steps, d, 7)
     assert hist_b.shape == hist_s.shape == (steps, F.d, 7)
     assert np.max(np.abs(hist_b - hist_s)) <= 64 * steps * EPS * scale
 
@@ -101,9 +118,19 @@ def test_integrate_fast_dispatch_and_observer():
     M = TAYLOR_SCALAR_MAX + 3
     x0, pi0 = rng.normal(size=(3, M)) * 0.3, rng.normal(size=(3, M))
     ks1, ks9 = [], []
-    one = integrate_fast(model, meth, x0[:, :1], pi0[:, :1], 3.0, 30, system="body",
-                         observe=lambda k, p, G, x: ks1.append(k))
-    many = integrate_fast(model, meth, x0, pi0, 3.0, 30, system="body", observe=lambda k, p, G, x: ks9.append(k))
+    one = integrate_fast(
+        model,
+        meth,
+        x0[:, :1],
+        pi0[:, :1],
+        3.0,
+        30,
+        system="body",
+        observe=lambda k, p, G, x: ks1.append(k),
+    )
+    many = integrate_fast(
+        model, meth, x0, pi0, 3.0, 30, system="body", observe=lambda k, p, G, x: ks9.append(k)
+    )
     assert ks1 == ks9 == list(range(1, 31))
     scale = 1 + np.max(np.abs(one["pi"]))
     assert np.max(np.abs(one["pi"][:, 0] - many["pi"][:, 0])) <= 64 * 30 * EPS * scale
@@ -128,4 +155,6 @@ def test_bad_input_is_refused():
     with pytest.raises(ValueError, match=r"shape \(3, N\)"):
         numpy_taylor_integrator(model, 8)(np.zeros((4, 2)), 0.1, 3)
     with pytest.raises(ValueError, match="body systems only"):
-        integrate_fast(model, METHODS["taylor12"], np.zeros((3, 1)), np.ones((3, 1)), 1.0, 4, system="full")
+        integrate_fast(
+            model, METHODS["taylor12"], np.zeros((3, 1)), np.ones((3, 1)), 1.0, 4, system="full"
+        )

@@ -16,16 +16,32 @@ def passing_provider(max_examples, seed):
     """A provider whose one check passes (ratio 0.5 on every example)."""
     from hypothesis import strategies as st
 
-    return [run_property("always_half", "test", lambda x: (0.5, 10.0), st.integers(0, 3),
-                         max_examples=max_examples, seed=seed)]
+    return [
+        run_property(
+            "always_half",
+            "test",
+            lambda x: (0.5, 10.0),
+            st.integers(0, 3),
+            max_examples=max_examples,
+            seed=seed,
+        )
+    ]
 
 
 def failing_provider(max_examples, seed):
     """A provider whose check fails once the drawn integer exceeds 2 (ratio x)."""
     from hypothesis import strategies as st
 
-    return [run_property("fails_above_two", "test", lambda x: (float(x), None), st.integers(0, 100),
-                         max_examples=max_examples, seed=seed)]
+    return [
+        run_property(
+            "fails_above_two",
+            "test",
+            lambda x: (float(x), None),
+            st.integers(0, 100),
+            max_examples=max_examples,
+            seed=seed,
+        )
+    ]
 
 
 def crashing_provider(max_examples, seed):
@@ -33,7 +49,17 @@ def crashing_provider(max_examples, seed):
 
 
 def _run(tmp_path, *providers, extra=()):
-    argv = ["verify", "--max-examples", "5", "--seed", "3", "--out", str(tmp_path), "--quiet", "--no-baseline"]
+    argv = [
+        "verify",
+        "--max-examples",
+        "5",
+        "--seed",
+        "3",
+        "--out",
+        str(tmp_path),
+        "--quiet",
+        "--no-baseline",
+    ]
     for p in providers:
         argv += ["--provider", p]
     return cli.main(argv + list(extra))
@@ -55,8 +81,12 @@ def test_passing_run_writes_reports(tmp_path, capsys):
 
 def test_failing_check_exits_nonzero(tmp_path, capsys):
     """A failing check (shrunk by Hypothesis to the smallest failing integer, 2 < x) makes verify exit 1."""
-    rc = _run(tmp_path, f"{__name__}:passing_provider", f"{__name__}:failing_provider",
-              extra=["--max-examples", "50"])
+    rc = _run(
+        tmp_path,
+        f"{__name__}:passing_provider",
+        f"{__name__}:failing_provider",
+        extra=["--max-examples", "50"],
+    )
     assert rc == 1
     rep = json.loads((tmp_path / "report.json").read_text())
     bad = [c for c in rep["checks"] if not c["passed"]]
@@ -67,7 +97,9 @@ def test_failing_check_exits_nonzero(tmp_path, capsys):
 
 def test_missing_providers(tmp_path):
     """A missing default provider (issue not merged) is skipped; a missing requested one fails."""
-    results, status = verify.run_providers(["no_such_module:checks"], 2, 0, optional=("no_such_module:checks",))
+    results, status = verify.run_providers(
+        ["no_such_module:checks"], 2, 0, optional=("no_such_module:checks",)
+    )
     assert results == [] and status["no_such_module:checks"].startswith("skipped")
     assert _run(tmp_path, "no_such_module:checks") == 1
     rep = json.loads((tmp_path / "report.json").read_text())
@@ -104,7 +136,10 @@ def test_progress_lines(capsys):
 
 def test_default_providers_include_the_paper_checks():
     """The default provider list runs the core checks, the paper's identities and (when present) the oracles."""
-    assert verify.PROVIDERS[:2] == ("tstarg.properties.core_checks:core_checks", "tstarg.properties.identity_checks:identity_checks")
+    assert verify.PROVIDERS[:2] == (
+        "tstarg.properties.core_checks:core_checks",
+        "tstarg.properties.identity_checks:identity_checks",
+    )
     assert "tstarg.oracles.oracle_checks:oracle_checks" in verify.PROVIDERS
 
 
@@ -118,4 +153,6 @@ def test_paper_checks_all_pass_small_budget():
     names = {r.name for r in results}
     for prop in ("closedness", "antisymmetry", "jacobi", "darboux", "whitehead"):
         assert any(n.startswith(prop) for n in names), prop
-        assert any(n.startswith(f"negative[{prop}") for n in names), f"no negative control for {prop}"
+        assert any(n.startswith(f"negative[{prop}") for n in names), (
+            f"no negative control for {prop}"
+        )

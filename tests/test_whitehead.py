@@ -8,12 +8,12 @@ from __future__ import annotations
 import pytest
 from hypothesis import given, settings
 
+from tstarg.oracles.h2_checks import h2_example, h2_examples
 from tstarg.oracles.published import PUBLISHED_H2
 from tstarg.properties import identities as idn
-from tstarg.oracles.h2_checks import h2_example, h2_examples
+from tstarg.properties.profiles import ref_examples
 from tstarg.properties.strategies import lie_algebras
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue
-from tstarg.properties.profiles import ref_examples
 
 SEMISIMPLE = [n for n in CATALOGUE_NAMES if PUBLISHED_H2[n] == 0 and catalogue(n).is_semisimple()]
 
@@ -47,7 +47,9 @@ def test_h2_invariants(ex):
     assert m.error == 0, f"{ex[0].name} ({ex[2]}): {m.where}"
 
 
-@pytest.mark.parametrize("name", [n for n in CATALOGUE_NAMES if PUBLISHED_H2[n] > 0 and catalogue(n).dim <= 5])
+@pytest.mark.parametrize(
+    "name", [n for n in CATALOGUE_NAMES if PUBLISHED_H2[n] > 0 and catalogue(n).dim <= 5]
+)
 def test_negative_control_nonzero_h2(name):
     """Negative control: for an algebra with H^2 != 0 the lemma's check reports a cocycle with no xi."""
     m = idn.whitehead(catalogue(name))

@@ -52,17 +52,27 @@ class Problem:
     @property
     def reference(self):
         if self._ref is None:
-            tr = reference_trajectory(su2(), Z, Z, self.inertia, self.pot, X0, PI0, [0, T], dps=20, system="body")
+            tr = reference_trajectory(
+                su2(), Z, Z, self.inertia, self.pot, X0, PI0, [0, T], dps=20, system="body"
+            )
             self._ref = np.array([float(v) for v in list(tr.pi[-1]) + list(tr.Gamma[-1])])
         return self._ref
 
 
 # "issue": the issue's heavy top, I = diag(1, 1, 0.5) (a Lagrange top: pi_3 is constant, and the generated
 # code drops it from the products); "asymmetric": for orientation, no constant component
-PROBLEMS = {"issue": Problem([1.0, 1.0, 0.5], [0.0, 0.0, 1.0]),
-            "asymmetric": Problem([1.0, 1.3, 0.5], [0.1, 0.0, 1.0])}
-SINGLE = ("dop853-scalar", "taylor12", "taylor16", "taylor20", "taylor24")   # our candidates, one trajectory
-BATCH = ("dop853", "taylor12", "taylor16", "taylor20")                          # our candidates, 10^4
+PROBLEMS = {
+    "issue": Problem([1.0, 1.0, 0.5], [0.0, 0.0, 1.0]),
+    "asymmetric": Problem([1.0, 1.3, 0.5], [0.1, 0.0, 1.0]),
+}
+SINGLE = (
+    "dop853-scalar",
+    "taylor12",
+    "taylor16",
+    "taylor20",
+    "taylor24",
+)  # our candidates, one trajectory
+BATCH = ("dop853", "taylor12", "taylor16", "taylor20")  # our candidates, 10^4
 
 
 def _ours(N, x0=X0[:, None], pi0=PI0[:, None], name="dop853", prob=PROBLEMS["issue"]):
@@ -124,8 +134,9 @@ def _race(*fns, repeat=5):
     return race(*fns, repeat=repeat, warmup=False)
 
 
-@pytest.mark.parametrize("problem,target", [("issue", 1e-6), ("issue", 1e-9), ("issue", 1e-12),
-                                            ("asymmetric", 1e-9)])
+@pytest.mark.parametrize(
+    "problem,target", [("issue", 1e-6), ("issue", 1e-9), ("issue", 1e-12), ("asymmetric", 1e-9)]
+)
 def test_bench_heavy_top_one_trajectory(benchmark, problem, target):
     """One trajectory: cheapest setting reaching `target` for each of our single-trajectory methods (generated
     scalar DOP853, Taylor orders 12-24; fixed steps) and for scipy (DOP853 with step control; given our numpy
@@ -136,23 +147,43 @@ def test_bench_heavy_top_one_trajectory(benchmark, problem, target):
     err = lambda z: _err(np.ravel(z)[:6], reference)
     steps = {m: _min_steps(lambda N, m=m: err(_ours(N, name=m, prob=prob)), target) for m in SINGLE}
     errs = {m: err(_ours(steps[m], name=m, prob=prob)) for m in SINGLE}
-    rt = {rhs: _min_rtol(lambda r, rhs=rhs: err(_scipy(r, y0, rhs, prob)), target) for rhs in ("numpy", "scalar")}
+    rt = {
+        rhs: _min_rtol(lambda r, rhs=rhs: err(_scipy(r, y0, rhs, prob)), target)
+        for rhs in ("numpy", "scalar")
+    }
     rhss = [rhs for rhs in ("numpy", "scalar") if rt[rhs]]
-    times = _race(*[(lambda m=m: _ours(steps[m], name=m, prob=prob)) for m in SINGLE],
-                  *[(lambda rhs=rhs: _scipy(rt[rhs], y0, rhs, prob)) for rhs in rhss])
-    t_ours = dict(zip(SINGLE, times[:len(SINGLE)]))
-    t_base = dict(zip(rhss, times[len(SINGLE):]))
+    times = _race(
+        *[(lambda m=m: _ours(steps[m], name=m, prob=prob)) for m in SINGLE],
+        *[(lambda rhs=rhs: _scipy(rt[rhs], y0, rhs, prob)) for rhs in rhss],
+    )
+    t_ours = dict(zip(SINGLE, times[: len(SINGLE)]))
+    t_base = dict(zip(rhss, times[len(SINGLE) :]))
     best = min(SINGLE, key=t_ours.get)
-    info = {"problem": problem, "target": target, "best": best, "ours_steps": steps, "ours_error": errs,
-            "ours_ms": {m: t * 1e3 for m, t in t_ours.items()}}
-    line = (f"\n[{problem}] one trajectory, target {target:g}: best ours {best} N={steps[best]} "
-            f"err={errs[best]:.2g} {t_ours[best] * 1e3:.2f} ms (dop853-scalar N={steps['dop853-scalar']} "
-            f"{t_ours['dop853-scalar'] * 1e3:.2f} ms)")
+    info = {
+        "problem": problem,
+        "target": target,
+        "best": best,
+        "ours_steps": steps,
+        "ours_error": errs,
+        "ours_ms": {m: t * 1e3 for m, t in t_ours.items()},
+    }
+    line = (
+        f"\n[{problem}] one trajectory, target {target:g}: best ours {best} N={steps[best]} "
+        f"err={errs[best]:.2g} {t_ours[best] * 1e3:.2f} ms (dop853-scalar N={steps['dop853-scalar']} "
+        f"{t_ours['dop853-scalar'] * 1e3:.2f} ms)"
+    )
     for rhs in ("numpy", "scalar"):
         t_s = t_base.get(rhs, float("nan"))
-        info.update({f"scipy_{rhs}_rtol": rt[rhs], f"scipy_{rhs}_ms": t_s * 1e3,
-                     f"ratio_{rhs}": t_s / t_ours[best]})
-        line += f"; scipy[{rhs} rhs] rtol={rt[rhs]} {t_s * 1e3:.1f} ms ratio {t_s / t_ours[best]:.2f}"
+        info.update(
+            {
+                f"scipy_{rhs}_rtol": rt[rhs],
+                f"scipy_{rhs}_ms": t_s * 1e3,
+                f"ratio_{rhs}": t_s / t_ours[best],
+            }
+        )
+        line += (
+            f"; scipy[{rhs} rhs] rtol={rt[rhs]} {t_s * 1e3:.1f} ms ratio {t_s / t_ours[best]:.2f}"
+        )
     scipy_best = min(t_base.values()) if t_base else float("nan")
     info["ratio_best"] = scipy_best / t_ours[best]
     line += f"; RATIO scipy best / ours best {scipy_best / t_ours[best]:.2f}"
@@ -180,9 +211,14 @@ def test_bench_heavy_top_batch(benchmark, problem):
     # (N/3000)^8 smaller), anchored by trajectory 0 against the mpmath reference
     fine = _ours(3000, x0, pi0, prob=prob)
     assert _err(fine[:, 0], reference) <= target / 100
-    steps = {m: _min_steps(lambda N, m=m: _err(_ours(N, x0, pi0, name=m, prob=prob), fine), target,
-                           N=400 if m == "dop853" else 200)
-             for m in BATCH}
+    steps = {
+        m: _min_steps(
+            lambda N, m=m: _err(_ours(N, x0, pi0, name=m, prob=prob), fine),
+            target,
+            N=400 if m == "dop853" else 200,
+        )
+        for m in BATCH
+    }
     worst = {}
     for m in BATCH:
         a = _ours(steps[m], x0, pi0, name=m, prob=prob)
@@ -194,27 +230,51 @@ def test_bench_heavy_top_batch(benchmark, problem):
 
     def err_loop(r):  # worst over 20 looped trajectories
         return max(_err(_scipy(r, y0[:, j], "scalar", prob), fine[:, j]) for j in range(20))
+
     r_loop = _min_rtol(lambda r: err_loop(r), target)
-    t_loop = _timed(lambda: [_scipy(r_loop, y0[:, j], "scalar", prob) for j in range(20)], repeat=1) / 20
+    t_loop = (
+        _timed(lambda: [_scipy(r_loop, y0[:, j], "scalar", prob) for j in range(20)], repeat=1) / 20
+    )
     F = prob.F_NUMPY
 
     def stacked(rtol):
-        s = solve_ivp(lambda t, y: F(y.reshape(6, M)).ravel(), (0, T), y0.ravel(), method="DOP853",
-                      rtol=rtol, atol=rtol, t_eval=[T])
+        s = solve_ivp(
+            lambda t, y: F(y.reshape(6, M)).ravel(),
+            (0, T),
+            y0.ravel(),
+            method="DOP853",
+            rtol=rtol,
+            atol=rtol,
+            t_eval=[T],
+        )
         return s.y[:, -1].reshape(6, M)
 
     rt = _min_rtol(lambda r: _err(stacked(r), fine), target)
-    times = _race(*[(lambda m=m: _ours(steps[m], x0, pi0, name=m, prob=prob)) for m in BATCH],
-                  (lambda: stacked(rt)) if rt else (lambda: None), repeat=3)
+    times = _race(
+        *[(lambda m=m: _ours(steps[m], x0, pi0, name=m, prob=prob)) for m in BATCH],
+        (lambda: stacked(rt)) if rt else (lambda: None),
+        repeat=3,
+    )
     t_ours = {m: t / M for m, t in zip(BATCH, times)}
     t_stacked = times[-1] / M if rt else float("nan")
     best = min(BATCH, key=t_ours.get)
-    benchmark.extra_info.update(problem=problem, best=best, steps=steps, worst=worst, per_traj_ours=t_ours,
-                                per_traj_loop=t_loop, per_traj_stacked=t_stacked, stacked_rtol=rt,
-                                ratio_loop=t_loop / t_ours[best], ratio_stacked=t_stacked / t_ours[best])
+    benchmark.extra_info.update(
+        problem=problem,
+        best=best,
+        steps=steps,
+        worst=worst,
+        per_traj_ours=t_ours,
+        per_traj_loop=t_loop,
+        per_traj_stacked=t_stacked,
+        stacked_rtol=rt,
+        ratio_loop=t_loop / t_ours[best],
+        ratio_stacked=t_stacked / t_ours[best],
+    )
     others = ", ".join(f"{m} N={steps[m]} {t_ours[m] * 1e6:.1f}" for m in BATCH)
-    print(f"\n[{problem}] batch 1e4, worst 1e-9: best ours {best} N={steps[best]} worst err {worst[best]:.2g} "
-          f"{t_ours[best] * 1e6:.1f} us/traj ({others} us/traj); loop scipy {t_loop * 1e3:.1f} ms/traj "
-          f"(RATIO {t_loop / t_ours[best]:.0f}); stacked scipy rtol={rt} {t_stacked * 1e6:.1f} us/traj "
-          f"(RATIO {t_stacked / t_ours[best]:.2f})")
+    print(
+        f"\n[{problem}] batch 1e4, worst 1e-9: best ours {best} N={steps[best]} worst err {worst[best]:.2g} "
+        f"{t_ours[best] * 1e6:.1f} us/traj ({others} us/traj); loop scipy {t_loop * 1e3:.1f} ms/traj "
+        f"(RATIO {t_loop / t_ours[best]:.0f}); stacked scipy rtol={rt} {t_stacked * 1e6:.1f} us/traj "
+        f"(RATIO {t_stacked / t_ours[best]:.2f})"
+    )
     benchmark.pedantic(lambda: None, rounds=1, iterations=1)

@@ -17,6 +17,7 @@ import time
 import numpy as np
 import pytest
 from scipy.linalg import expm
+
 from tstarg.refimpl import su2
 from tstarg.refimpl._compiled_taylor import PATH
 from tstarg.refimpl.flows import fast_flow
@@ -46,7 +47,9 @@ def _heyoka_full(I, L, y0, tol, fp=float):
     sys_ = list(zip(v, pd + [Rd[i][j] for i in range(3) for j in range(3)]))
     if fp is float:
         return hy.taylor_adaptive(sys_, list(map(float, y0)), tol=tol)
-    return hy.taylor_adaptive(sys_, [np.longdouble(x) for x in y0], tol=np.longdouble(tol), fp_type=np.longdouble)
+    return hy.taylor_adaptive(
+        sys_, [np.longdouble(x) for x in y0], tol=np.longdouble(tol), fp_type=np.longdouble
+    )
 
 
 def _best(fn, reps=7):
@@ -84,7 +87,9 @@ def test_protocol_flow_vs_heyoka(I):
         ta.state[:] = y0
         ta.propagate_until(T)
 
-    print(f"\n{I}: compiled path {PATH}; heyoka JIT compile per tolerance [s]: {np.round(comp, 3).tolist()}")
+    print(
+        f"\n{I}: compiled path {PATH}; heyoka JIT compile per tolerance [s]: {np.round(comp, 3).tolist()}"
+    )
     our_tols = [1e-6, 1e-9, 1e-10, 1e-12]
     rows = []
     for tol in our_tols:
@@ -101,12 +106,16 @@ def test_protocol_flow_vs_heyoka(I):
             e_hy.append(err(ta.state[:3], ta.state[3:]))
         t_eq = time_at_error(t_hy, e_hy, e_ours)
         if not np.isfinite(t_eq):
-            print(f"  tstarg flow tol {tol:g}: error {e_ours:.2e}, {t_ours * 1e3:.3f} ms; heyoka's ladder does not "
-                  f"reach that error (its errors {[f'{e:.1e}' for e in e_hy]})")
+            print(
+                f"  tstarg flow tol {tol:g}: error {e_ours:.2e}, {t_ours * 1e3:.3f} ms; heyoka's ladder does not "
+                f"reach that error (its errors {[f'{e:.1e}' for e in e_hy]})"
+            )
             continue
         rows.append((tol, e_ours, t_ours, t_eq))
-        print(f"  tstarg flow tol {tol:g}: error {e_ours:.2e}, {t_ours * 1e3:.3f} ms; heyoka at that error "
-              f"{t_eq * 1e3:.3f} ms; ratio tstarg/heyoka {t_ours / t_eq:.2f}  "
-              f"(heyoka ladder errors {[f'{e:.1e}' for e in e_hy]})")
+        print(
+            f"  tstarg flow tol {tol:g}: error {e_ours:.2e}, {t_ours * 1e3:.3f} ms; heyoka at that error "
+            f"{t_eq * 1e3:.3f} ms; ratio tstarg/heyoka {t_ours / t_eq:.2f}  "
+            f"(heyoka ladder errors {[f'{e:.1e}' for e in e_hy]})"
+        )
     for _, e, t_o, t_h in rows:
         assert np.isfinite(e) and t_o > 0 and t_h > 0

@@ -90,7 +90,9 @@ def test_bench_poisson_tensor(benchmark, case, model, layout):
         xc, pc = np.ascontiguousarray(x.T), np.ascontiguousarray(pi.T)
         run = lambda: fast.poisson_batch(alg.f, theta, ups, xc, pc, layout="components")  # noqa: E731
         buf = np.empty((2 * n, 2 * n, N))
-        run_out = lambda: fast.poisson_batch(alg.f, theta, ups, xc, pc, layout="components", out=buf)  # noqa: E731
+        run_out = lambda: fast.poisson_batch(
+            alg.f, theta, ups, xc, pc, layout="components", out=buf
+        )  # noqa: E731
     else:
         run = lambda: fast.poisson_batch(alg.f, theta, ups, x, pi)  # noqa: E731
         buf = np.empty((N, 2 * n, 2 * n))
@@ -107,9 +109,18 @@ def test_bench_poisson_tensor(benchmark, case, model, layout):
     floor_fresh = _best(lambda: src.copy(), 7)
     sub = 2000
     loop = _best(lambda: _per_point_loop(alg.f, theta, ups, x[:sub], pi[:sub]), 2) * (N / sub)
-    info = {"points": N, "fresh_ratio": ours / floor_fresh, "reuse_ratio": ours_out / floor_touched,
-            "loop_ratio": loop / ours, "loop_vs_fresh_floor": loop / floor_fresh, "path": result.path, "blas_threads": 1}
+    info = {
+        "points": N,
+        "fresh_ratio": ours / floor_fresh,
+        "reuse_ratio": ours_out / floor_touched,
+        "loop_ratio": loop / ours,
+        "loop_vs_fresh_floor": loop / floor_fresh,
+        "path": result.path,
+        "blas_threads": 1,
+    }
     benchmark.extra_info.update(info)
-    print(f"\n[{case} {model} {layout}] new output: {ours / floor_fresh:.2f}x fresh floor; "
-          f"out= buffer: {ours_out / floor_touched:.2f}x touched floor; loop/ours = {loop / ours:.0f}x, "
-          f"loop/fresh floor = {loop / floor_fresh:.0f}x ({result.path}; BLAS pinned to 1 thread)")
+    print(
+        f"\n[{case} {model} {layout}] new output: {ours / floor_fresh:.2f}x fresh floor; "
+        f"out= buffer: {ours_out / floor_touched:.2f}x touched floor; loop/ours = {loop / ours:.0f}x, "
+        f"loop/fresh floor = {loop / floor_fresh:.0f}x ({result.path}; BLAS pinned to 1 thread)"
+    )

@@ -18,6 +18,7 @@ import time
 
 import numpy as np
 import pytest
+
 from tstarg.refimpl import su2, su3
 from tstarg.refimpl.reference import Reference
 from tstarg.refimpl.rigorous import Rigorous
