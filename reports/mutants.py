@@ -230,7 +230,8 @@ class Plain:
     order = 4
 
     def flow(self, f, theta, upsilon, inertia, potential, x0, pi0, t, steps=None):
-        """Classical RK4 with 400 steps per unit time (error ~1e-11 for these short flows), or ``steps``."""
+        """Classical RK4 with 400 steps per unit of ``t * rate`` (``rate``: the fastest frequency at the
+        start), or ``steps``."""
         x0, pi0 = np.asarray(x0, dtype=float), np.asarray(pi0, dtype=float)
         if x0.ndim > 1:
             if not self.batched:
@@ -245,7 +246,13 @@ class Plain:
             t = abs(t)
         per_unit = 2000 if m == "order_overclaimed" else 400
         if steps is None:
-            steps = 40 if m == "flow_fixed_steps" else max(1, int(np.ceil(per_unit * abs(t))))
+            # h * rate <= 1/per_unit, rate ~ the fastest frequency at the start (inertia, momenta, forces)
+            Iinv = np.linalg.norm(np.linalg.inv(np.asarray(inertia, dtype=float)), 2)
+            fn = np.linalg.norm(np.asarray(f, dtype=float))
+            rate = Iinv * (np.linalg.norm(pi0) * fn + np.linalg.norm(np.asarray(theta, dtype=float)))
+            if potential is not None:
+                rate += np.sqrt(fn * np.linalg.norm(potential["L"]) * np.linalg.norm(potential["gamma"]) * Iinv)
+            steps = 40 if m == "flow_fixed_steps" else max(1, int(np.ceil(per_unit * abs(t) * max(1.0, rate))))
         h = t / steps
 
         def F(zz):
@@ -269,3 +276,7 @@ class Plain:
         return z[:n], z[n:]
 
     flow_tolerance = 1e-8
+
+
+CORRECT = Plain(None)
+"""The correct :class:`Plain`, importable as ``tstarg.reports.mutants:CORRECT`` (certify targets)."""
