@@ -616,8 +616,9 @@ def _batch(impl, dom, stats):
 
     def body(ex):
         model, inertia, pot, shape, pts, as_list, t = ex
-        out = [one_method(m, model, inertia, pot, shape, pts, as_list, t) for m in methods]
-        if any(o is None for o in out):
+        out = [one_method(m, model, inertia, pot, shape, pts, as_list, t) for m in methods
+               if m != "flow" or _cheap_flow(model[1:4], inertia, pot, pts, t)]
+        if not out or any(o is None for o in out):
             return None
         return max(out), None
 
@@ -673,8 +674,24 @@ def _batch(impl, dom, stats):
         pts = [(draw(st.lists(st.floats(-0.5, 0.5), min_size=alg_n, max_size=alg_n).map(np.array)),
                 draw(st.lists(st.floats(-2, 2), min_size=alg_n, max_size=alg_n).map(np.array))) for _ in range(k)]
         return (model, draw(_inertias(alg_n)), draw(_potentials(alg_n, dom)), shape, pts,
-                draw(st.booleans(), label="as lists"), draw(st.sampled_from([0.05, 0.2]), label="t"))
+                draw(st.booleans(), label="as lists"), 0.05)
     return body, strat()
+
+
+FLOW_COND_LIMIT = 1e3
+"""Flows in the batch and input checks start where ``cond(Phi) <= 1e3`` and ``|t| (1 + rho) <= 3``:
+those checks are about the protocol, not accuracy, and must stay cheap for any implementation."""
+
+
+def _cheap_flow(model, inertia, pot, pts, t) -> bool:
+    f, theta, ups = model
+    for x, p in pts:
+        c, _ = _conditioning(f, theta, ups, x, p)
+        if not c <= FLOW_COND_LIMIT:
+            return False
+        if reference_work(f, theta, ups, inertia, pot, x, p, t) / f.shape[0] ** 3 > 3.0:
+            return False
+    return True
 
 
 def _judge_state(f, theta, ups, inertia, pot, x, pi, t):
@@ -727,8 +744,10 @@ def _inputs(impl, dom, stats):
 
     def body(ex):
         t, (A, IA, potA), (B, IB, potB) = ex
-        out = [one_method(m, t, (A, IA, potA), (B, IB, potB)) for m in methods]
-        if any(o is None for o in out):
+        out = [one_method(m, t, (A, IA, potA), (B, IB, potB)) for m in methods
+               if m != "flow" or all(_cheap_flow(M[1:4], II, pp, [M[4:6]], t)
+                                     for M, II, pp in ((A, IA, potA), (B, IB, potB)))]
+        if not out or any(o is None for o in out):
             return None
         return max(out), None
 
