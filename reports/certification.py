@@ -80,6 +80,7 @@ without symmetrisation is asymmetric by up to ``~ n eps cond(W_h) max|P|``. Flow
 from __future__ import annotations
 
 import inspect
+import itertools
 import json
 import math
 import time
@@ -94,9 +95,15 @@ from hypothesis import reject
 from hypothesis import strategies as st
 from hypothesis import target as hyp_target
 from scipy.integrate import solve_ivp
-
 from tstarg.properties.runner import CheckResult, run_property
-from tstarg.properties.strategies import REGIMES, catalogue_algebras, cocycles, lie_algebras, points, upsilons
+from tstarg.properties.strategies import (
+    REGIMES,
+    catalogue_algebras,
+    cocycles,
+    lie_algebras,
+    points,
+    upsilons,
+)
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue, su2
 from tstarg.refimpl.flows import reference_flow
 from tstarg.refimpl.reference import DegeneratePointError, Reference
@@ -104,8 +111,20 @@ from tstarg.refimpl.reference import DegeneratePointError, Reference
 from ._imports import resolve
 from .mutants import MUTANT_CHECKS, MUTATIONS, Plain
 
-__all__ = ["CHECKS", "Certificate", "certify", "certify_parallel", "load_target", "C_CERT", "declared_domain",
-           "reference_work", "REFERENCE_WORK_LIMIT", "FLOW_T_MAX", "write_certificate", "certificate_checks"]
+__all__ = [
+    "CHECKS",
+    "C_CERT",
+    "FLOW_T_MAX",
+    "REFERENCE_WORK_LIMIT",
+    "Certificate",
+    "certificate_checks",
+    "certify",
+    "certify_parallel",
+    "declared_domain",
+    "load_target",
+    "reference_work",
+    "write_certificate",
+]
 
 C_CERT = 8.0
 EPS64 = float(np.finfo(float).eps)
@@ -278,7 +297,7 @@ def declared_domain(impl) -> Domain:
     if raw is None:
         return Domain()
     if not isinstance(raw, dict):
-        raise ValueError(f"domain must be a dict, got {type(raw).__name__}")
+        raise ValueError(f"domain must be a dict, got {type(raw).__name__}")  # noqa: TRY004 - house rule: bad input is a ValueError
     unknown = set(raw) - _DOMAIN_KEYS
     if unknown:
         raise ValueError(f"domain has unknown keys {sorted(unknown)} (known: {sorted(_DOMAIN_KEYS)})")
@@ -293,7 +312,7 @@ def declared_domain(impl) -> Domain:
                              f"or be a predicate on f; unknown: {bad}")
     for k in ("theta", "upsilon", "gravity"):
         if not isinstance(raw.get(k, True), bool):
-            raise ValueError(f"domain[{k!r}] must be True or False, got {raw[k]!r}")
+            raise ValueError(f"domain[{k!r}] must be True or False, got {raw[k]!r}")  # noqa: TRY004
     mt = raw.get("max_abs_t")
     if mt is not None and (not isinstance(mt, (int, float)) or not mt > 0 or not math.isfinite(mt)):
         raise ValueError(f"domain['max_abs_t'] must be a finite number > 0, got {mt!r}")
@@ -331,7 +350,8 @@ def _algebra_strategy(dom: Domain, need_bracket: bool):
 
 
 @st.composite
-def _models(draw, regime: str, dom: Domain = Domain()):
+def _models(draw, regime: str, dom: Domain | None = None):
+    dom = dom or Domain()
     alg = draw(_algebra_strategy(dom, regime == "near_degenerate"), label="algebra")
     n = alg.dim
     theta = draw(cocycles(alg, exact=False, zero=None if dom.theta else True), label="theta")
@@ -623,7 +643,7 @@ def _batch(impl, dom, stats):
         return max(out), None
 
     def one_method(method, model, inertia, pot, shape, pts, as_list, t):
-        name, f, theta, ups, _, _ = model
+        _name, f, theta, ups, _, _ = model
         n = f.shape[0]
         X = np.array([p[0] for p in pts]).reshape(tuple(shape) + (n,))
         Pm = np.array([p[1] for p in pts]).reshape(tuple(shape) + (n,))
@@ -756,17 +776,17 @@ def _inputs(impl, dom, stats):
         worst = 0.0
         n = A[1].shape[0]
         for M, *_ in ((A,), (B,)):
-            c, fr = _conditioning(M[1], M[2], M[3], M[4], M[5])
+            c, _fr = _conditioning(M[1], M[2], M[3], M[4], M[5])
             if not math.isfinite(c) or c > 1e6:
                 return None
         seqs = {"A": (A, IA, potA), "B": (B, IB, potB)}
 
         def data(key):
-            (name, f, theta, ups, x, pi), inertia, pot = seqs[key]
+            (_name, f, theta, ups, x, pi), inertia, pot = seqs[key]
             return [f, theta, ups, inertia, pot, x, pi]
 
         def tol_for(key, ref):
-            (name, f, theta, ups, x, pi), _, _ = seqs[key]
+            (_name, f, theta, ups, x, pi), _, _ = seqs[key]
             c, fr = _conditioning(f, theta, ups, x, pi)
             scale = max(1.0, max(float(np.max(np.abs(r))) for r in ref if r is not None))
             tol = C_CERT * n * _eps_impl(impl) * c * fr * scale
@@ -876,7 +896,7 @@ def _flow_call(impl, dom, stats, args, t):
 
 def _flow_reference(impl, dom, stats):
     def body(ex):
-        ((name, f, theta, ups, x, pi), inertia, pot), t = ex
+        ((_name, f, theta, ups, x, pi), inertia, pot), t = ex
         n = f.shape[0]
         if not _time_ok(dom, t):
             reject()
@@ -924,7 +944,7 @@ def _flow_long(impl, dom, stats):
     T = min(FLOW_T_MAX, dom.max_abs_t or math.inf)
 
     def body(ex):
-        ((name, f, theta, ups, x, pi), inertia, pot), frac, sign = ex
+        ((_name, f, theta, ups, x, pi), inertia, pot), frac, sign = ex
         n = f.shape[0]
         t = sign * max(frac * T, 1e-3)
         if not _time_ok(dom, t):
@@ -961,7 +981,7 @@ def _flow_order(impl, dom, stats):
     order = float(impl.order)
 
     def body(ex):
-        ((name, f, theta, ups, x, pi), inertia, pot), = ex
+        ((_name, f, theta, ups, x, pi), inertia, pot), = ex
         n = f.shape[0]
         if np.linalg.norm(pi) < 0.5:
             reject()  # a state at rest says nothing about order or drift
@@ -970,7 +990,7 @@ def _flow_order(impl, dom, stats):
         if not math.isfinite(cond) or cond > 1e4:
             return None
         try:
-            (jx, jp, jA), jerr = _judge_state(f, theta, ups, inertia, pot, x, pi, t)
+            (_jx, jp, _jA), jerr = _judge_state(f, theta, ups, inertia, pot, x, pi, t)
         except (ArithmeticError, np.linalg.LinAlgError):
             reject()
         scale = max(1.0, float(np.max(np.abs(jp))))
@@ -978,7 +998,7 @@ def _flow_order(impl, dom, stats):
         errs = []
         for N in (1, 2, 4, 8, 16, 32, 64, 128):
             try:
-                gx, gp = _call(impl, "flow", f, theta, ups, inertia, pot, x, pi, t, steps=N)
+                _gx, gp = _call(impl, "flow", f, theta, ups, inertia, pot, x, pi, t, steps=N)
             except ValueError:
                 continue
             gp = np.asarray(gp, dtype=float)
@@ -986,7 +1006,7 @@ def _flow_order(impl, dom, stats):
             errs.append((N, e))
             if e < floor:
                 break
-        fits = [math.log2(e1 / e2) for (n1, e1), (n2, e2) in zip(errs, errs[1:])
+        fits = [math.log2(e1 / e2) for (n1, e1), (n2, e2) in itertools.pairwise(errs)
                 if n2 == 2 * n1 and floor < e2 < e1 < 0.1 * scale]
         if not fits:
             stats["redrawn: no step range in the asymptotic regime"] = stats.get("redrawn: no step range in the asymptotic regime", 0) + 1
@@ -1008,7 +1028,7 @@ def _flow_drift(impl, dom, stats):
     poisson = bool(getattr(impl, "poisson_integrator", False))
 
     def body(ex):
-        ((name, f, theta, ups, x, pi), inertia, pot), = ex
+        ((_name, f, theta, ups, x, pi), inertia, pot), = ex
         n = f.shape[0]
         if np.linalg.norm(pi) < 0.5:
             reject()  # a state at rest says nothing about order or drift
@@ -1041,10 +1061,10 @@ def _flow_drift(impl, dom, stats):
 
 def _flow_poisson_map(impl, dom, stats):
     def body(ex):
-        ((name, f, theta, ups, x, pi), inertia, pot), steps = ex
+        ((_name, f, theta, ups, x, pi), inertia, pot), steps = ex
         n = f.shape[0]
         t = min(0.5, dom.max_abs_t or 0.5)
-        cond, frame = _conditioning(f, theta, ups, x, pi)
+        cond, _frame = _conditioning(f, theta, ups, x, pi)
         if not math.isfinite(cond) or cond > 1e3:
             return None
         z0 = np.concatenate([x, pi])
@@ -1099,9 +1119,8 @@ def _domain_refusal(impl, dom, stats):
         what, method, ((name, f, theta, ups, x, pi), inertia, pot) = ex
         n = f.shape[0]
         t = 0.1
-        if what == "algebra":
-            if dom.admits(f):
-                reject()
+        if what == "algebra" and dom.admits(f):
+            reject()
         if what == "theta" and not np.any(theta):
             reject()
         if what == "upsilon" and not np.any(ups):
@@ -1202,8 +1221,8 @@ class Certificate:
         return d
 
     def summary(self) -> str:
-        lines = [f"certificate for {self.implementation} {self.version} ({self.target}): "
-                 f"{'PASS' if self.passed else 'FAIL'}", f"  certified for: {self.domain}"]
+        lines = [(f"certificate for {self.implementation} {self.version} ({self.target}): "
+                 f"{'PASS' if self.passed else 'FAIL'}"), f"  certified for: {self.domain}"]
         for c in self.checks:
             verdict = "PASS" if c.passed else ("XFAIL" if self._is_xfail(c.name) else "FAIL")
             digits = "-" if c.min_digits is None else ("exact" if not math.isfinite(c.min_digits) else f"{c.min_digits:.1f}")
@@ -1404,7 +1423,7 @@ def _certify(impl, *, max_examples, seed, skips, xfails, target, checks, stop_on
             res.extra["poisson"] = bool(getattr(impl, "poisson_integrator", False))
         cert.checks.append(res)
         for k, v in stats.items():
-            if k.startswith("redrawn") or k.startswith("negative t refused"):
+            if k.startswith(("redrawn", "negative t refused")):
                 cert.notes.append(f"{cid}: {k}: {v}")
         if "negative t refused (ValueError)" in stats and not any("t < 0" in n for n in cert.notes):
             cert.notes.append(f"flow at t < 0 refused by the implementation (ValueError: "

@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 import scipy.linalg
 from hypothesis import settings
-
 from tstarg.reports.certification import certify
 
 
@@ -54,8 +53,13 @@ def profile_restored():
 @pytest.mark.parametrize("seed", range(5))
 def test_plain_inverse_passes_antisymmetry_and_reference(profile, seed, profile_restored):
     settings.load_profile(profile)
-    cert = certify(FirstPrinciples(), max_examples=4, seed=seed, shrink=False,
-                   checks=["poisson_tensor.antisymmetry", "poisson_tensor.degenerate"])
+    cert = certify(
+        FirstPrinciples(),
+        max_examples=4,
+        seed=seed,
+        shrink=False,
+        checks=["poisson_tensor.antisymmetry", "poisson_tensor.degenerate"],
+    )
     assert cert.passed and cert.checks, cert.summary()
 
 
@@ -72,5 +76,11 @@ def test_issue_example_default_settings(profile_restored):
     """The issue's measurement: ``certify(impl, max_examples=20, seed=0)`` under Hypothesis' own
     default settings (worst antisymmetry ratio 2.85 before the error model carried cond(W_h))."""
     settings.load_profile("default")
-    cert = certify(FirstPrinciples(), max_examples=20, seed=0, shrink=False, checks=["poisson_tensor.antisymmetry"])
+    cert = certify(
+        FirstPrinciples(),
+        max_examples=20,
+        seed=0,
+        shrink=False,
+        checks=["poisson_tensor.antisymmetry"],
+    )
     assert cert.passed, cert.summary()

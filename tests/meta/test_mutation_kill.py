@@ -6,8 +6,9 @@ A mutant listed in ``MUTANT_CHECKS`` is certified on the one clause it is plante
 
 from __future__ import annotations
 
-import pytest
+from typing import ClassVar
 
+import pytest
 from tstarg.reports.certification import certify
 from tstarg.reports.mutants import MUTANT_CHECKS, MUTATIONS, Plain
 
@@ -54,14 +55,13 @@ class _FastPoisson:
 class _Su2Only(Plain):
     """The correct Plain restricted to su(2), refusing everything else."""
 
-    domain = {"algebras": ["su(2)"]}
+    domain: ClassVar[dict] = {"algebras": ["su(2)"]}
 
     def __init__(self):
         super().__init__(None)
 
     def _guard(self, f):
         import numpy as np
-
         from tstarg.refimpl import catalogue
 
         if not np.array_equal(np.asarray(f, dtype=float), catalogue("su(2)").f):
