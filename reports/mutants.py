@@ -11,6 +11,8 @@ correct, and each name in :data:`MUTATIONS` switches on exactly one mistake.
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import scipy.linalg
 
@@ -280,3 +282,6 @@ class Plain:
 
 CORRECT = Plain(None)
 """The correct :class:`Plain`, importable as ``tstarg.reports.mutants:CORRECT`` (certify targets)."""
+
+MUTANT = SimpleNamespace(**{name: Plain(name) for name in MUTATIONS})
+"""Every mutant as a certify target: ``tstarg certify tstarg.reports.mutants:MUTANT.xx_sign``."""
