@@ -1,7 +1,8 @@
 """Deliberately broken implementations: each one a plausible mistake (mutation testing).
 
-Used by the meta-tests (tests/meta/) and by :func:`kill_rate`, which ``tstarg verify``
-reports: the fraction of mutants the certification battery rejects.
+Used by the meta-tests (tests/meta/) and by :func:`reports.certification.kill_rate`, which
+``tstarg verify`` reports: the fraction of mutants the certification battery rejects. This module
+imports nothing of the certification (the kill rate sits above both).
 
 :class:`Plain` is a straightforward per-point numpy implementation of the protocol,
 written from CONVENTIONS.md independently of refimpl.fast; with ``mutation=None`` it is
@@ -9,6 +10,8 @@ correct, and each name in :data:`MUTATIONS` switches on exactly one mistake.
 """
 
 from __future__ import annotations
+
+from types import SimpleNamespace
 
 import numpy as np
 import scipy.linalg
@@ -33,7 +36,38 @@ MUTATIONS = {
     "batch_first_point": "a batched call reuses the first point's Phi for every point",
     "degenerate_garbage": "points on the degenerate set return finite numbers (pinv) instead of an error",
     "flow_wrong_stage": "a flow whose RK4 uses a wrong weight in one stage",
+    "pp_block_psi_left": "{pi, pi} block as -Psi^-1 S instead of -S Psi^-1 (= -Phi^-1 S): not antisymmetric",
+    "mutates_input": "x negated in place as scratch space and never restored (the caller's array changes)",
+    "stale_cache": "S and the frame cached by id(f): a caller that refills its f array gets stale results",
+    "lists_rejected": "inputs assumed to be arrays (x.shape on a list raises AttributeError)",
+    "float32_output": "results returned as float32",
+    "batch_flattened": "a batch of any rank returned flattened to one leading axis",
+    "flow_abs_time": "the flow integrates to |t| (negative times run forward)",
+    "flow_fixed_steps": "a flow with 40 RK4 steps whatever t (fine for short times, wrong for long ones)",
+    "order_overclaimed": "declares order 4 but integrates with Kutta's third-order method",
+    "energy_dissipation": "a flow that damps pi by (1 - 1e-7 |t|) (energy drifts linearly)",
+    "not_a_poisson_map": "declares poisson_integrator = True but takes plain RK4 steps (not a Poisson map)",
+    "domain_ignored": "declares an su(2)-only domain but returns numbers for every algebra",
 }
+
+
+MUTANT_CHECKS = {
+    "flow_wrong_stage": ["flow.reference"],
+    "pp_block_psi_left": ["poisson_tensor.antisymmetry"],
+    "mutates_input": ["protocol.inputs"],
+    "stale_cache": ["protocol.inputs"],
+    "lists_rejected": ["protocol.inputs"],
+    "float32_output": ["protocol.inputs"],
+    "batch_flattened": ["poisson_tensor.batch"],
+    "flow_abs_time": ["flow.reference"],
+    "flow_fixed_steps": ["flow.long"],
+    "order_overclaimed": ["flow.order"],
+    "energy_dissipation": ["flow.drift"],
+    "not_a_poisson_map": ["flow.poisson_map"],
+    "domain_ignored": ["domain.refusal"],
+}
+"""The clause each mutant is planted against: certified on that check only, it must fail (the
+clause has teeth by itself); the others run the whole battery."""
 
 
 def _phi1(M):
@@ -62,7 +96,12 @@ class Plain:
         self.mutation = mutation
         self.name = f"plain[{mutation or 'correct'}]"
         self.version = "test"
-        self.batched = mutation == "batch_first_point" or mutation is None
+        self.batched = mutation in ("batch_first_point", "batch_flattened") or mutation is None
+        self._cache: dict = {}
+        if mutation == "not_a_poisson_map":
+            self.poisson_integrator = True
+        if mutation == "domain_ignored":
+            self.domain = {"algebras": ["su(2)"]}
 
     # -------------------------------------------------------------- pieces
     def _frame(self, f, x):
@@ -87,6 +126,8 @@ class Plain:
         return S + theta if self.mutation == "theta_sign" else S - theta
 
     def _prep(self, f, theta, upsilon):
+        if self.mutation == "stale_cache":
+            f = self._cache.setdefault(("f", id(f)), np.array(f, dtype=float))
         f = np.asarray(f, dtype=float)
         if self.mutation == "f_sign":
             f = -f
@@ -124,7 +165,7 @@ class Plain:
             P[:n, :n] *= -1
         P[:n, n:] = L @ Psi_inv
         P[n:, :n] = -Phi_inv @ L.T
-        P[n:, n:] = -S @ Psi_inv
+        P[n:, n:] = -Psi_inv @ S if self.mutation == "pp_block_psi_left" else -S @ Psi_inv
         if theta_pp is not None:
             P[n:, n:] += theta_pp
         if self.mutation == "near_degenerate_1e6" and np.linalg.cond(Phi) > 1e6:
@@ -132,9 +173,15 @@ class Plain:
         return P
 
     def poisson_tensor(self, f, theta, upsilon, x, pi):
+        if self.mutation == "lists_rejected" and x.shape is None:  # AttributeError for a list
+            raise AssertionError
+        if self.mutation == "mutates_input" and isinstance(x, np.ndarray) and x.dtype == float:
+            x *= -1  # scratch space, "restored" by the negated use below (the caller's x stays negated)
+            x = -x
         x, pi = np.asarray(x, dtype=float), np.asarray(pi, dtype=float)
         if x.ndim == 1:
-            return self._tensor(f, theta, upsilon, x, pi)
+            out = self._tensor(f, theta, upsilon, x, pi)
+            return out.astype(np.float32) if self.mutation == "float32_output" else out
         if not self.batched:
             raise ValueError("not batched")
         X, Pm = x.reshape(-1, x.shape[-1]), pi.reshape(-1, pi.shape[-1])
@@ -149,11 +196,19 @@ class Plain:
             else:
                 out.append(self._tensor(f, theta, upsilon, X[k], Pm[k]))
         n = X.shape[1]
+        if self.mutation == "batch_flattened":
+            return np.array(out).reshape(-1, 2 * n, 2 * n)
         return np.array(out).reshape(x.shape[:-1] + (2 * n, 2 * n))
 
     def hamiltonian_vector_field(self, f, theta, upsilon, inertia, potential, x, pi):
         f, theta, U, theta_pp = self._prep(f, theta, upsilon)
         x, pi = np.asarray(x, dtype=float), np.asarray(pi, dtype=float)
+        if x.ndim > 1:
+            if not self.batched:
+                raise ValueError("not batched")
+            res = [self.hamiltonian_vector_field(f, theta, upsilon, inertia, potential, a, b)
+                   for a, b in zip(x.reshape(-1, x.shape[-1]), pi.reshape(-1, pi.shape[-1]))]
+            return tuple(np.array([r[k] for r in res]).reshape(x.shape) for k in (0, 1))
         n = f.shape[0]
         dK = np.linalg.solve(np.asarray(inertia, dtype=float), pi)
         if self.mutation == "kinetic_factor":
@@ -174,11 +229,32 @@ class Plain:
         xdot = Omega if self.mutation == "xdot_no_frame" else L @ Omega
         return xdot, pidot
 
-    def flow(self, f, theta, upsilon, inertia, potential, x0, pi0, t):
-        """Classical RK4 with 400 steps per unit time (error ~1e-11 for these short flows)."""
-        z = np.concatenate([np.asarray(x0, dtype=float), np.asarray(pi0, dtype=float)])
+    order = 4
+
+    def flow(self, f, theta, upsilon, inertia, potential, x0, pi0, t, steps=None):
+        """Classical RK4 with 400 steps per unit of ``t * rate`` (``rate``: the fastest frequency at the
+        start), or ``steps``."""
+        x0, pi0 = np.asarray(x0, dtype=float), np.asarray(pi0, dtype=float)
+        if x0.ndim > 1:
+            if not self.batched:
+                raise ValueError("not batched")
+            res = [self.flow(f, theta, upsilon, inertia, potential, a, b, t, steps)
+                   for a, b in zip(x0.reshape(-1, x0.shape[-1]), pi0.reshape(-1, pi0.shape[-1]))]
+            return tuple(np.array([r[k] for r in res]).reshape(x0.shape) for k in (0, 1))
+        z = np.concatenate([x0, pi0])
         n = len(z) // 2
-        steps = max(1, int(np.ceil(400 * abs(t))))
+        m = self.mutation
+        if m == "flow_abs_time":
+            t = abs(t)
+        per_unit = 2000 if m == "order_overclaimed" else 400
+        if steps is None:
+            # h * rate <= 1/per_unit, rate ~ the fastest frequency at the start (inertia, momenta, forces)
+            Iinv = np.linalg.norm(np.linalg.inv(np.asarray(inertia, dtype=float)), 2)
+            fn = np.linalg.norm(np.asarray(f, dtype=float))
+            rate = Iinv * (np.linalg.norm(pi0) * fn + np.linalg.norm(np.asarray(theta, dtype=float)))
+            if potential is not None:
+                rate += np.sqrt(fn * np.linalg.norm(potential["L"]) * np.linalg.norm(potential["gamma"]) * Iinv)
+            steps = 40 if m == "flow_fixed_steps" else max(1, int(np.ceil(per_unit * abs(t) * max(1.0, rate))))
         h = t / steps
 
         def F(zz):
@@ -188,47 +264,24 @@ class Plain:
         w2 = 1.0 / 3 if self.mutation != "flow_wrong_stage" else 0.3
         for _ in range(steps):
             k1 = F(z)
+            if m == "order_overclaimed":  # Kutta's third-order method
+                k2 = F(z + 0.5 * h * k1)
+                k3 = F(z + h * (2 * k2 - k1))
+                z = z + h * (k1 + 4 * k2 + k3) / 6
+                continue
             k2 = F(z + 0.5 * h * k1)
             k3 = F(z + 0.5 * h * k2)
             k4 = F(z + h * k3)
             z = z + h * (k1 / 6 + w2 * k2 + k3 / 3 + k4 / 6)
+        if m == "energy_dissipation":
+            z[n:] *= 1 - 1e-7 * abs(t)
         return z[:n], z[n:]
 
     flow_tolerance = 1e-8
 
 
-def _certify_mutant(item) -> bool:
-    """Worker of :func:`kill_rate`: does the mutant ``name`` (``None``: the correct ``Plain``) pass?"""
-    from tstarg.properties import runner as _checks
+CORRECT = Plain(None)
+"""The correct :class:`Plain`, importable as ``tstarg.reports.mutants:CORRECT`` (certify targets)."""
 
-    from .certification import certify
-
-    name, max_examples, seed = item
-    # The mutants' own checks fail by design: keep them out of any progress display.
-    listeners = list(_checks.PROGRESS)
-    _checks.PROGRESS.clear()
-    try:
-        checks = ["flow.reference"] if name == "flow_wrong_stage" else None
-        cert = certify(Plain(name), max_examples=max_examples, seed=seed, checks=checks, shrink=False,
-                       stop_on_failure=name is not None)
-        return cert.passed
-    finally:
-        _checks.PROGRESS[:] = listeners
-
-
-def kill_rate(*, max_examples: int = 8, seed: int | None = 0, workers: int | None = None, scheduler=None) -> dict:
-    """Certify every mutant (stopping at its first failed check) and the correct ``Plain``.
-
-    The mutants are independent tasks of :func:`reports._parallel.map_tasks` (local processes
-    by default, ``workers=1`` in this process, or a Dask ``scheduler``).
-    Returns ``{"killed": [...], "survived": [...], "rate": float, "correct_passes": bool}``.
-    """
-    from ._parallel import map_tasks
-
-    names = list(MUTATIONS) + [None]
-    passed = map_tasks(_certify_mutant, [(n, max_examples, seed) for n in names], workers=workers, scheduler=scheduler)
-    verdict = dict(zip(names, passed))
-    killed = [n for n in MUTATIONS if not verdict[n]]
-    survived = [n for n in MUTATIONS if verdict[n]]
-    return {"killed": killed, "survived": survived, "rate": len(killed) / len(MUTATIONS),
-            "correct_passes": verdict[None], "mutants": dict(MUTATIONS)}
+MUTANT = SimpleNamespace(**{name: Plain(name) for name in MUTATIONS})
+"""Every mutant as a certify target: ``tstarg certify tstarg.reports.mutants:MUTANT.xx_sign``."""
