@@ -87,6 +87,9 @@ def add_arguments(p) -> None:
     p.add_argument("--profile", choices=sorted(PROFILES), default="ci")
     p.add_argument("--max-examples", type=int, default=None)
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--verdict-only", action="store_true",
+                   help="stop each check at its first failing example, without shrinking it: the fastest "
+                        "verdict on a failing implementation (the example shown is then not minimal)")
     p.add_argument(
         "--example-seconds",
         type=float,
@@ -211,6 +214,8 @@ def main(args) -> int:
         spec = dict(spec, stderr_dir=str(stderr_dir))
     budget["deadline"] = time.time() + run_budget
     kw = {"max_examples": n, "seed": args.seed, "skips": skips, "xfails": xfails, "target": target}
+    if getattr(args, "verdict_only", False):
+        kw["shrink"] = False
     cert = _run(spec, par, budget, dict(kw, checks=args.check, provided=provided))
     if cert is None:
         return 1
