@@ -907,12 +907,14 @@ def _block_diag(la, blocks):
 
 def representation_for(f) -> Representation:
     """The representation the flows use: a LieAlgebra's own (or an exact catalogue match's) when it
-    has one, else :func:`faithful_representation`."""
+    has one with exact matrices, else :func:`faithful_representation`."""
     alg = f if isinstance(f, LieAlgebra) else None
     ff = np.asarray(alg.f if alg is not None else f, dtype=float)
     if alg is None or alg.rep is None:
         alg = catalogue_match(ff) or alg
-    if alg is not None and alg.rep is not None:
+    # a representation known only in float64 (e.g. carried through a float change of basis) would cap
+    # the reference's g(t) at 16 digits: it is used only with its exact matrices
+    if alg is not None and alg.rep is not None and alg.rep_exact is not None:
         key = b"cat" + np.ascontiguousarray(ff).tobytes() + np.ascontiguousarray(alg.rep).tobytes()
         if key not in _CACHE:
             base = faithful_representation(ff)
