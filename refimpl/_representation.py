@@ -464,6 +464,7 @@ class Representation:
     nilpotent: bool
     centre: np.ndarray
     exact: np.ndarray | None = field(default=None, repr=False)
+    exponential: bool = False   # completely solvable (real roots): exp is a global diffeomorphism
 
     @property
     def dim(self) -> int:
@@ -840,7 +841,7 @@ def _build(la, F, ff) -> Representation:
             fl = np.asarray(mats, dtype=float)
         check_representation(ff, fl)
         return Representation(f=ff, mats=fl, kind=kind, nilpotent=nilp, centre=Zc,
-                              exact=mats if la.exact else None)
+                              exact=mats if la.exact else None, exponential=nilp or _real_roots(ff))
 
     adj = np.array([F[:, a, :] for a in range(n)])
     if Zc.shape[1] == 0:
@@ -893,6 +894,26 @@ def _build(la, F, ff) -> Representation:
         "(a non-split extension; de Graaf's construction is not implemented for it)")
 
 
+def _real_roots(f) -> bool:
+    """Solvable (Cartan: the Killing form vanishes on ``[g, g]``) with real roots: then ``exp`` is a
+    global diffeomorphism and ``phi1(-ad_x)`` never degenerates (its eigenvalues ``(1 - e^-l)/l`` with
+    ``l`` real are never 0), so flows keep the chart of the identity without re-basing. Roots are
+    checked on the basis vectors and on six fixed pseudo-random directions (a root is a linear
+    functional: complex on some vector means complex on almost every one)."""
+    n = f.shape[0]
+    K = _killing(f)
+    D = _LA(False, float(np.max(np.abs(f), initial=0.0))).colbasis(f.reshape(n, n * n))
+    scale = max(1.0, float(np.max(np.abs(f), initial=0.0)))
+    if D.shape[1] and np.max(np.abs(D.T @ K @ D)) > 1e3 * EPS * n * scale ** 2:
+        return False
+    rng = np.random.default_rng(12345)
+    for x in list(np.eye(n)) + list(rng.normal(size=(6, n))):
+        ev = np.linalg.eigvals(np.einsum("a,mab->mb", x, f))
+        if np.max(np.abs(ev.imag), initial=0.0) > 1e-7 * max(1.0, float(np.max(np.abs(ev), initial=0.0))):
+            return False
+    return True
+
+
 def _block_diag(la, blocks):
     n = blocks[0].shape[0]
     r = sum(b.shape[1] for b in blocks)
@@ -907,12 +928,14 @@ def _block_diag(la, blocks):
 
 def representation_for(f) -> Representation:
     """The representation the flows use: a LieAlgebra's own (or an exact catalogue match's) when it
-    has one, else :func:`faithful_representation`."""
+    has one with exact matrices, else :func:`faithful_representation`."""
     alg = f if isinstance(f, LieAlgebra) else None
     ff = np.asarray(alg.f if alg is not None else f, dtype=float)
     if alg is None or alg.rep is None:
         alg = catalogue_match(ff) or alg
-    if alg is not None and alg.rep is not None:
+    # a representation known only in float64 (e.g. carried through a float change of basis) would cap
+    # the reference's g(t) at 16 digits: it is used only with its exact matrices
+    if alg is not None and alg.rep is not None and alg.rep_exact is not None:
         key = b"cat" + np.ascontiguousarray(ff).tobytes() + np.ascontiguousarray(alg.rep).tobytes()
         if key not in _CACHE:
             base = faithful_representation(ff)
@@ -920,6 +943,7 @@ def representation_for(f) -> Representation:
             if alg.rep_exact is not None:
                 ex = np.array([np.array(m.tolist(), dtype=object) for m in alg.rep_exact])
             _CACHE[key] = Representation(f=ff, mats=np.asarray(alg.rep), kind="catalogue",
-                                         nilpotent=base.nilpotent, centre=base.centre, exact=ex)
+                                         nilpotent=base.nilpotent, centre=base.centre, exact=ex,
+                                         exponential=base.exponential)
         return _CACHE[key]
     return faithful_representation(ff)
