@@ -569,7 +569,9 @@ def run_property(
         res.passed = False
         res.detail = _strip_notes(exc)
         if state["failure"] is None:  # raised outside the body: while drawing the example
-            tb = "".join(traceback.format_exception(type(exc), exc, exc.__traceback__)[-6:])
+            # the innermost frames (where it was raised: the strategy's own code) and the error itself
+            inner = traceback.extract_tb(exc.__traceback__)[-4:]
+            tb = "".join(traceback.format_list(inner)) + "".join(traceback.format_exception_only(type(exc), exc))
             res.falsifying_example = (
                 "no example to show: this was raised outside the check's body, while "
                 "drawing an example (in the strategy) or inside Hypothesis itself:\n" + tb
