@@ -571,7 +571,9 @@ def run_property(
         if state["failure"] is None:  # raised outside the body: while drawing the example
             # the innermost frames (where it was raised: the strategy's own code) and the error itself
             inner = traceback.extract_tb(exc.__traceback__)[-4:]
-            tb = "".join(traceback.format_list(inner)) + "".join(traceback.format_exception_only(type(exc), exc))
+            tb = "".join(traceback.format_list(inner)) + "".join(
+                traceback.format_exception_only(type(exc), exc)
+            )
             res.falsifying_example = (
                 "no example to show: this was raised outside the check's body, while "
                 "drawing an example (in the strategy) or inside Hypothesis itself:\n" + tb

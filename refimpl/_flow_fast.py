@@ -49,25 +49,38 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import _compiled_taylor as _ct
 from . import _fast_kernels as _fast
 from ._algebra import LieAlgebra
-from ._flow_compiled import quat_to_x, x_to_quat
+from ._flow_compiled import (
+    compiled_taylor_body,
+    compiled_taylor_flow,
+    quat_to_x,
+    supports_full,
+    x_to_quat,
+)
 from ._flow_reference import check_time
-from . import _compiled_taylor as _ct
-from ._flow_compiled import compiled_taylor_body, compiled_taylor_flow, supports_full
 from ._integrators import DOP853, ExplicitRK, GaussLegendre, triple_jump_weights
 from ._representation import Representation, representation_for
 from ._taylor import numpy_taylor_integrator, quadratic_field, scalar_taylor_integrator
-from .integrators import METHODS, Method
 from ._validate import (
-    check_flow_rates, check_flow_request, check_inertia, check_points, check_potential, check_structure_constants,
-    check_theta, check_upsilon,
+    check_flow_rates,
+    check_flow_request,
+    check_inertia,
+    check_points,
+    check_potential,
+    check_structure_constants,
+    check_theta,
+    check_upsilon,
 )
+from .integrators import METHODS, Method
 
 __all__ = ["METHODS", "TAYLOR_SCALAR_MAX", "Method", "NumpyModel", "integrate_fast", "method"]
 
 EPS = np.finfo(float).eps
-TAYLOR_SCALAR_MAX = 16  # up to this many trajectories the Taylor methods run generated scalar code: the numpy
+TAYLOR_SCALAR_MAX = (
+    16  # up to this many trajectories the Taylor methods run generated scalar code: the numpy
+)
 # kernel's fixed cost per step (~20 calls per order) matched the scalar code's between 16 and 32 heavy tops
 
 
@@ -93,8 +106,10 @@ class NumpyModel:
         self.Lvec = None if pot is None else pot["L"]
         self.gamma = None if pot is None else pot["gamma"]
         self.su2 = _fast._is_su2(f)
-        self.f_flat = f.reshape(n, n * n)                      # S_flat = f_flat^T pi
-        self.G_L = None if pot is None else np.einsum("mbc,c->bm", f, self.Lvec)  # (L x .) : dV = -G_L Gamma
+        self.f_flat = f.reshape(n, n * n)  # S_flat = f_flat^T pi
+        self.G_L = (
+            None if pot is None else np.einsum("mbc,c->bm", f, self.Lvec)
+        )  # (L x .) : dV = -G_L Gamma
 
     # -------------------------------------------------------------- pieces
     def S(self, pi):
@@ -136,16 +151,20 @@ class NumpyModel:
     def body_rhs(self):
         n = self.n
         if self.upsilon_zero:
-            return numpy_rhs(self)  # straight-line polynomial (twee14/drie6, twee17-18), zero terms dropped
+            return numpy_rhs(
+                self
+            )  # straight-line polynomial (twee14/drie6, twee17-18), zero terms dropped
         if self.gravity:
 
             def F(y):
                 Omega, pidot = self.omega_pidot(y[:n], y[n:])
                 return np.concatenate([pidot, self.gamma_dot(Omega, y[n:])])
+
             return F
 
         def F(y):
             return self.omega_pidot(y, None)[1]
+
         return F
 
     def _su2_heavy_rhs(self):
@@ -174,6 +193,7 @@ class NumpyModel:
             out[4] = g2 * w0 - g0 * w2
             out[5] = g0 * w1 - g1 * w0
             return out
+
         return F
 
     def full_rhs(self, Ad_ref):
@@ -191,6 +211,7 @@ class NumpyModel:
             L = _frame_L(adx, self.su2)
             xdot = np.einsum("Nab,bN->aN", L, Omega)
             return np.concatenate([xdot, pidot])
+
         return F
 
 
@@ -259,9 +280,11 @@ def _splitting_integrate(model: NumpyModel, pi, Gamma, quat, t, nsteps, order, o
     h = t / nsteps
 
     def kin(i, tau):  # noqa: E306
-        ang = -d[i] * (q[i] - xi[i]) * tau      # Omega_i = (pi'_i - xi_i)/I_i ; y -> R_i(-Omega_i tau) y
+        ang = (
+            -d[i] * (q[i] - xi[i]) * tau
+        )  # Omega_i = (pi'_i - xi_i)/I_i ; y -> R_i(-Omega_i tau) y
         if quat is not None:
-            _qmul_axis(quat, i, -ang / 2)       # g -> g exp(tau Omega_i e_i)
+            _qmul_axis(quat, i, -ang / 2)  # g -> g exp(tau Omega_i e_i)
         _rot(i, ang, q, Gamma)
 
     def pot(tau):
@@ -284,8 +307,18 @@ def _splitting_integrate(model: NumpyModel, pi, Gamma, quat, t, nsteps, order, o
 
 
 # ------------------------------------------------------------ integrate
-def integrate_fast(model: NumpyModel, meth: Method, x0, pi0, t, nsteps: int | None, *, system: str,
-                   observe=None, tol: float | None = None):
+def integrate_fast(
+    model: NumpyModel,
+    meth: Method,
+    x0,
+    pi0,
+    t,
+    nsteps: int | None,
+    *,
+    system: str,
+    observe=None,
+    tol: float | None = None,
+):
     """Integrate ``N`` trajectories (``x0``, ``pi0`` of shape (n, N)) to time ``t`` in ``nsteps`` steps.
 
     Returns a dict with ``pi``, ``Gamma`` (or None), ``x`` (or None), ``Ad`` (N, n, n, or None),
@@ -299,15 +332,19 @@ def integrate_fast(model: NumpyModel, meth: Method, x0, pi0, t, nsteps: int | No
     n, N = pi0.shape
     if meth.adaptive:
         if tol is None:
-            raise ValueError(f"method {meth.name} is adaptive: give tol (a tolerance), not a step count")
+            raise ValueError(
+                f"method {meth.name} is adaptive: give tol (a tolerance), not a step count"
+            )
         tol = check_tolerance(tol)
         if observe is not None:
             raise ValueError(f"method {meth.name} is adaptive: it has no fixed steps to observe")
         if system == "body":
             return compiled_taylor_body(model, x0, pi0, t, tol=tol)
         if not supports_full(model):
-            raise ValueError(f"method {meth.name} integrates the full state on su(2)/so(3) only; "
-                             "use system='body' or a re-basing method")
+            raise ValueError(
+                f"method {meth.name} integrates the full state on su(2)/so(3) only; "
+                "use system='body' or a re-basing method"
+            )
         return compiled_taylor_flow(model, x0, pi0, t, tol)
     if meth.kind == "taylor" and system == "body" and observe is None and _ct.HAVE_NUMBA:
         return compiled_taylor_body(model, x0, pi0, t, order=meth.order, nsteps=nsteps)
@@ -320,8 +357,11 @@ def integrate_fast(model: NumpyModel, meth: Method, x0, pi0, t, nsteps: int | No
         y0 = pi0 if Gamma0 is None else np.concatenate([pi0, Gamma0])
         h = t / nsteps
         if meth.kind == "taylor" and N > TAYLOR_SCALAR_MAX:
-            obs = None if observe is None else (
-                lambda k, y: observe(k, y[:n], None if Gamma0 is None else y[n:], None))
+            obs = (
+                None
+                if observe is None
+                else (lambda k, y: observe(k, y[:n], None if Gamma0 is None else y[n:], None))
+            )
             res = numpy_taylor_integrator(model, meth.order)(y0, h, nsteps, observe=obs)
         else:
             if meth.kind == "taylor":
@@ -331,40 +371,72 @@ def integrate_fast(model: NumpyModel, meth: Method, x0, pi0, t, nsteps: int | No
             res = np.empty_like(y0)
             hist = np.empty((nsteps, y0.shape[0], N)) if observe is not None else None
             for j in range(N):
-                rec = None if hist is None else (lambda k, y, j=j: hist.__setitem__((k - 1, slice(None), j), y))
-                res[:, j] = run(y0[:, j].tolist(), h, nsteps, rec)   # Python floats: no numpy scalars
+                rec = (
+                    None
+                    if hist is None
+                    else (lambda k, y, j=j: hist.__setitem__((k - 1, slice(None), j), y))
+                )
+                res[:, j] = run(
+                    y0[:, j].tolist(), h, nsteps, rec
+                )  # Python floats: no numpy scalars
             if hist is not None:  # replay the samples in step order, batched like the other methods
                 for k in range(nsteps):
                     observe(k + 1, hist[k, :n], None if Gamma0 is None else hist[k, n:], None)
-        return {"pi": res[:n], "Gamma": None if Gamma0 is None else res[n:], "x": None, "Ad": None,
-                "quat": None, "rebases": np.zeros(N, dtype=int)}
+        return {
+            "pi": res[:n],
+            "Gamma": None if Gamma0 is None else res[n:],
+            "x": None,
+            "Ad": None,
+            "quat": None,
+            "rebases": np.zeros(N, dtype=int),
+        }
     if meth.kind == "splitting":
         pi = pi0.copy()
         G = None if Gamma0 is None else Gamma0.copy()
         quat = x_to_quat(x0) if system == "full" else None
         _splitting_integrate(model, pi, G, quat, t, nsteps, meth.order, observe=observe)
-        out = {"pi": pi, "Gamma": G, "x": None if quat is None else quat_to_x(quat), "quat": quat,
-               "g": None if quat is None else quat_matrix(quat), "Ad": None, "rebases": np.zeros(N, dtype=int)}
+        out = {
+            "pi": pi,
+            "Gamma": G,
+            "x": None if quat is None else quat_to_x(quat),
+            "quat": quat,
+            "g": None if quat is None else quat_matrix(quat),
+            "Ad": None,
+            "rebases": np.zeros(N, dtype=int),
+        }
         return out
     stepper: ExplicitRK | GaussLegendre = meth.stepper
     if system == "body":
         F = model.body_rhs()
         y0 = pi0 if Gamma0 is None else np.concatenate([pi0, Gamma0])
-        obs = None if observe is None else (lambda k, y: observe(k, y[:n], None if Gamma0 is None else y[n:], None))
+        obs = (
+            None
+            if observe is None
+            else (lambda k, y: observe(k, y[:n], None if Gamma0 is None else y[n:], None))
+        )
         if isinstance(stepper, ExplicitRK) and model.upsilon_zero:
             y = stepper.integrate(F, y0, t, nsteps, observe=obs, F_into=numpy_rhs_inplace(model))
         else:
             y = stepper.integrate(F, y0, t, nsteps, observe=obs)
-        return {"pi": y[:n], "Gamma": None if Gamma0 is None else y[n:], "x": None, "Ad": None, "quat": None,
-                "rebases": np.zeros(N, dtype=int)}
+        return {
+            "pi": y[:n],
+            "Gamma": None if Gamma0 is None else y[n:],
+            "x": None,
+            "Ad": None,
+            "quat": None,
+            "rebases": np.zeros(N, dtype=int),
+        }
     Ad_ref = np.broadcast_to(np.eye(n), (N, n, n)).copy()
     rebases = np.zeros(N, dtype=int)
     q_ref = np.zeros((4, N)) if model.su2 else None
     if q_ref is not None:
         q_ref[0] = 1.0
     rep = _rep_of(model) if q_ref is None else None
-    G_ref = None if rep is None else np.broadcast_to(np.eye(rep.dim, dtype=rep.mats.dtype),
-                                                     (N, rep.dim, rep.dim)).copy()
+    G_ref = (
+        None
+        if rep is None
+        else np.broadcast_to(np.eye(rep.dim, dtype=rep.mats.dtype), (N, rep.dim, rep.dim)).copy()
+    )
     F = model.full_rhs(Ad_ref)
     # nilpotent algebras: exp is a global diffeomorphism and phi1(-ad_x) never degenerates -> no re-basing
     threshold = np.inf if (rep is not None and rep.nilpotent) else (0.0 if meth.rkmk else 1.0)
@@ -397,7 +469,9 @@ def integrate_fast(model: NumpyModel, meth: Method, x0, pi0, t, nsteps: int | No
         observe(k, y[n:], G, xs)
 
     y0 = np.concatenate([x0, pi0])
-    y = stepper.integrate(F, y0, t, nsteps, after_step=after, observe=obs if observe is not None else None)
+    y = stepper.integrate(
+        F, y0, t, nsteps, after_step=after, observe=obs if observe is not None else None
+    )
     x = y[:n]
     adx = np.einsum("aN,mab->Nmb", x, model.f)
     Ad = Ad_ref @ _fast._expm_batch(adx, su2=model.su2)
@@ -409,15 +483,27 @@ def integrate_fast(model: NumpyModel, meth: Method, x0, pi0, t, nsteps: int | No
     else:
         xs = _x_from_rep(model, rep, G_ref, x, Ad, rebases)
         g = G_ref @ rep.exp(x.T)
-    return {"pi": y[n:], "Gamma": G, "x_local": x, "Ad_ref": Ad_ref, "Ad": Ad, "quat": quat,
-            "x": xs, "g": g, "rebases": rebases}
+    return {
+        "pi": y[n:],
+        "Gamma": G,
+        "x_local": x,
+        "Ad_ref": Ad_ref,
+        "Ad": Ad,
+        "quat": quat,
+        "x": xs,
+        "g": g,
+        "rebases": rebases,
+    }
 
 
 def quat_matrix(q):
     """The SU(2) matrix ``q0 - i qv.sigma`` (the catalogue's representation ``E_a = -(i/2) sigma_a``) of
     quaternions (4, N): (N, 2, 2) complex."""
     q0, q1, q2, q3 = q
-    return np.stack([np.stack([q0 - 1j * q3, -1j * q1 - q2], -1), np.stack([-1j * q1 + q2, q0 + 1j * q3], -1)], -2)
+    return np.stack(
+        [np.stack([q0 - 1j * q3, -1j * q1 - q2], -1), np.stack([-1j * q1 + q2, q0 + 1j * q3], -1)],
+        -2,
+    )
 
 
 def _rep_of(model) -> Representation:
@@ -441,7 +527,7 @@ def _x_from_rep(model, rep: Representation, G_ref, x, Ad, rebases):
 
 # ------------------------------------------------------ code generation
 # Scalar code generation for single trajectories: a polynomial body system and an unrolled RK loop.
-# 
+#
 # For one trajectory numpy's per-call overhead dominates (arrays of 6 numbers),
 # so the reduced body system with ``Upsilon = 0`` -- a quadratic polynomial
 # (twee14/drie6, Euler-Poisson twee17 corrected/twee18) -- is written out as
@@ -488,8 +574,13 @@ def _field_lines(model, pfx: str, ys: list[str]) -> list[str]:
 
 def scalar_rk_integrator(model, tableau):
     """A function ``run(y0: list, h, nsteps, observe=None) -> list`` for one trajectory (cached by model)."""
-    key = (model.f.tobytes(), model.theta.tobytes(), model.Iinv.tobytes(),
-           None if not model.gravity else model.Lvec.tobytes(), np.asarray(tableau[0]).tobytes())
+    key = (
+        model.f.tobytes(),
+        model.theta.tobytes(),
+        model.Iinv.tobytes(),
+        None if not model.gravity else model.Lvec.tobytes(),
+        np.asarray(tableau[0]).tobytes(),
+    )
     return _build(key, model, tableau)
 
 
@@ -541,7 +632,11 @@ def scalar_rhs(model):
     costs several times that on floats."""
     d = 2 * model.n if model.gravity else model.n
     y = [f"y{i}" for i in range(d)]
-    src = ["def rhs(t, y):", "    if type(y) is not list: y = y.tolist()", "    " + ", ".join(y) + ", = y"]
+    src = [
+        "def rhs(t, y):",
+        "    if type(y) is not list: y = y.tolist()",
+        "    " + ", ".join(y) + ", = y",
+    ]
     src += ["    " + line for line in _field_lines(model, "k", y)]
     src.append("    return [" + ", ".join(f"k{i}" for i in range(d)) + "]")
     ns: dict = {}
@@ -576,9 +671,12 @@ def numpy_rhs_inplace(model):
 
     d = 2 * model.n if model.gravity else model.n
     y = [f"y[{i}]" for i in range(d)]
-    F = quadratic_field(model)   # w = I^-1 pi eliminated, equal monomials merged
-    outs = {c: [(q, (y[i], y[j])) for (i, j), q in F.quad[c].items()] + [(q, (y[i],)) for i, q in F.lin[c].items()]
-            for c in range(d)}
+    F = quadratic_field(model)  # w = I^-1 pi eliminated, equal monomials merged
+    outs = {
+        c: [(q, (y[i], y[j])) for (i, j), q in F.quad[c].items()]
+        + [(q, (y[i],)) for i, q in F.lin[c].items()]
+        for c in range(d)
+    }
     src = ["def rhs(y, out):", "    t = _buf(y.shape[1:])"]
     for k, terms in outs.items():
         o = f"out[{k}]"
@@ -640,8 +738,21 @@ def _default_method(model: NumpyModel, *, full: bool = False) -> Method:
     return METHODS["dop853"] if model.upsilon_zero else METHODS["gauss6"]
 
 
-def fast_flow(f, theta, upsilon, inertia, potential, x0, pi0, t, *, method_name: str | None = None,
-              steps: int | None = None, tol: float = 1e-10, return_group: bool = False):
+def fast_flow(
+    f,
+    theta,
+    upsilon,
+    inertia,
+    potential,
+    x0,
+    pi0,
+    t,
+    *,
+    method_name: str | None = None,
+    steps: int | None = None,
+    tol: float = 1e-10,
+    return_group: bool = False,
+):
     """Protocol method 3, batched: ``(x, pi)`` at time ``t`` for every initial point.
 
     ``method_name``: a key of :data:`METHODS` (default: the compiled adaptive Taylor method ``taylor``
@@ -674,7 +785,11 @@ def fast_flow(f, theta, upsilon, inertia, potential, x0, pi0, t, *, method_name:
     _check_start(model, P)
     if method_name is not None:
         method(method_name)
-    meth = METHODS[method_name] if method_name is not None else _default_method(model, full=steps is None)
+    meth = (
+        METHODS[method_name]
+        if method_name is not None
+        else _default_method(model, full=steps is None)
+    )
     if tv == 0:
         if return_group:
             g0 = _group_of(model, X)
@@ -694,8 +809,10 @@ def fast_flow(f, theta, upsilon, inertia, potential, x0, pi0, t, *, method_name:
         for _ in range(14):
             N *= 2
             out = integrate_fast(model, meth, X, P, tv, N, system="full")
-            diff = np.max(np.abs(np.concatenate([out["pi"] - prev["pi"], _xdiff(out, prev)])), axis=0)
-            if np.all(diff <= tol * (2 ** meth.order - 1)):
+            diff = np.max(
+                np.abs(np.concatenate([out["pi"] - prev["pi"], _xdiff(out, prev)])), axis=0
+            )
+            if np.all(diff <= tol * (2**meth.order - 1)):
                 break
             prev = out
         else:
@@ -704,11 +821,14 @@ def fast_flow(f, theta, upsilon, inertia, potential, x0, pi0, t, *, method_name:
     if np.any(bad_pi):
         raise ValueError(
             f"fast_flow: trajectories {np.flatnonzero(bad_pi)[:10].tolist()} became non-finite before t = {tv} "
-            "(they reached the degenerate set Pi_1, vier12, or diverged); no point is dropped")
+            "(they reached the degenerate set Pi_1, vier12, or diverged); no point is dropped"
+        )
     x = out["x"]
     if np.any(~np.isfinite(x)):
         bad = np.argwhere(~np.all(np.isfinite(x), axis=0)).ravel()
-        raise ValueError(f"fast_flow: no logarithm x(t) of g(t) found for trajectories {bad[:10].tolist()}")
+        raise ValueError(
+            f"fast_flow: no logarithm x(t) of g(t) found for trajectories {bad[:10].tolist()}"
+        )
     xs, ps = x.T.reshape(shape + (n,)), out["pi"].T.reshape(shape + (n,))
     if return_group:
         g = out.get("g")
@@ -735,16 +855,33 @@ def _check_start(model: NumpyModel, P: np.ndarray) -> None:
     """Starting points on the degenerate set (``Delta = 0`` to float64 accuracy, vier12) are refused."""
     if model.upsilon_zero:
         return
-    res = _fast.FastCore().poisson_batch(model.f, model.theta, model.upsilon, np.zeros_like(P.T), P.T)
+    res = _fast.FastCore().poisson_batch(
+        model.f, model.theta, model.upsilon, np.zeros_like(P.T), P.T
+    )
     if np.any(res.degenerate):
         idx = np.argwhere(res.degenerate).ravel()
         raise ValueError(
             f"initial point(s) {idx[:10].tolist()} lie on the degenerate set Pi_1 (Delta = det Phi = 0 to float64 "
-            f"accuracy, vier12): no flow exists there")
+            f"accuracy, vier12): no flow exists there"
+        )
 
 
-def fast_trajectory(f, theta, upsilon, inertia, potential, x0, pi0, t_end, samples: int, steps_per_sample: int,
-                    *, method_name=None, system: str = "full", progress=None):
+def fast_trajectory(
+    f,
+    theta,
+    upsilon,
+    inertia,
+    potential,
+    x0,
+    pi0,
+    t_end,
+    samples: int,
+    steps_per_sample: int,
+    *,
+    method_name=None,
+    system: str = "full",
+    progress=None,
+):
     """A batch ``(N, n)`` sampled at ``samples`` equally spaced times in ``[0, t_end]``.
 
     Returns a dict: ``times`` (T,), ``pi`` (T, N, n), ``Gamma`` (T, N, n) or
@@ -756,7 +893,9 @@ def fast_trajectory(f, theta, upsilon, inertia, potential, x0, pi0, t_end, sampl
     if tv == 0:
         raise ValueError("t_end must be non-zero for a trajectory")
     if samples < 2 or steps_per_sample < 1:
-        raise ValueError(f"samples must be >= 2 and steps_per_sample >= 1, got {samples}, {steps_per_sample}")
+        raise ValueError(
+            f"samples must be >= 2 and steps_per_sample >= 1, got {samples}, {steps_per_sample}"
+        )
     model = NumpyModel(f, theta, upsilon, inertia, potential)
     n = model.n
     xa, pa = check_points(x0, pi0, n, batched=True)
@@ -789,5 +928,11 @@ def fast_trajectory(f, theta, upsilon, inertia, potential, x0, pi0, t_end, sampl
         T_, N_ = xs.shape[:2]
         g = _group_of(model, xs.reshape(-1, n).T)
         g = g.reshape((T_, N_) + g.shape[1:])
-    return {"times": np.linspace(0, tv, samples), "pi": np.stack(rec["pi"]), "method": meth,
-            "Gamma": np.stack(rec["Gamma"]) if rec["Gamma"] else None, "x": xs, "g": g}
+    return {
+        "times": np.linspace(0, tv, samples),
+        "pi": np.stack(rec["pi"]),
+        "method": meth,
+        "Gamma": np.stack(rec["Gamma"]) if rec["Gamma"] else None,
+        "x": xs,
+        "g": g,
+    }

@@ -35,14 +35,20 @@ import mpmath
 import numpy as np
 
 from ._algebra import LieAlgebra
-from ._validate import MAX_REFERENCE_FLOW_TIME, check_inertia, check_potential
 from ._errors import DegeneratePointError
 from ._integrators import gbs_mp
-from ._reference_core import ReferenceCore as Reference
 from ._reference_core import MAX_DPS, _as_float, _to_mpf
+from ._reference_core import ReferenceCore as Reference
 from ._representation import Representation, representation_for
+from ._validate import MAX_REFERENCE_FLOW_TIME, check_inertia, check_potential
 
-__all__ = ["ModelMP", "ReferenceTrajectory", "reference_trajectory", "reference_flow", "euler_top_closed_form"]
+__all__ = [
+    "ModelMP",
+    "ReferenceTrajectory",
+    "reference_trajectory",
+    "reference_flow",
+    "euler_top_closed_form",
+]
 
 GUARD = 15
 REBASE = mpmath.mpf(1)  # ||ad_x||_1 above which the chart is re-based (well inside |eig| < 2 pi)
@@ -74,15 +80,30 @@ class ModelMP:
         Fm, th, up = ref._model(f, theta, upsilon)
         n = len(Fm)
         check_inertia(_as_float(inertia, "inertia"), n)
-        pot = check_potential(None if potential is None else {
-            k: (_as_float(v, f"potential[{k!r}]") if k != "kind" else v) for k, v in potential.items()}, n)
+        pot = check_potential(
+            None
+            if potential is None
+            else {
+                k: (_as_float(v, f"potential[{k!r}]") if k != "kind" else v)
+                for k, v in potential.items()
+            },
+            n,
+        )
         self.n = n
         self.algebra = f if isinstance(f, LieAlgebra) else None
         # the faithful representation g(t) is kept in (raises RepresentationError naming the condition)
-        self.rep: Representation = representation_for(f if isinstance(f, LieAlgebra) else _as_float(f, "f"))
+        self.rep: Representation = representation_for(
+            f if isinstance(f, LieAlgebra) else _as_float(f, "f")
+        )
         self.Fm = Fm
         self.f = [[[Fm[m][a, b] for b in range(n)] for a in range(n)] for m in range(n)]
-        self.f_nz = [(m, a, b, Fm[m][a, b]) for m in range(n) for a in range(n) for b in range(n) if Fm[m][a, b] != 0]
+        self.f_nz = [
+            (m, a, b, Fm[m][a, b])
+            for m in range(n)
+            for a in range(n)
+            for b in range(n)
+            if Fm[m][a, b] != 0
+        ]
         self.theta = th
         self.theta_zero = all(th[i, j] == 0 for i in range(n) for j in range(n))
         self.upsilon = up
@@ -134,15 +155,19 @@ class ModelMP:
         except ZeroDivisionError:
             raise DegeneratePointError(
                 f"the trajectory reached the degenerate set Pi_1 (Delta = 0, vier12) at pi = "
-                f"{[mpmath.nstr(v, 8) for v in pi]}") from None
+                f"{[mpmath.nstr(v, 8) for v in pi]}"
+            ) from None
         return Omega, pidot
 
     def omega_pidot_list(self, pi, Gamma):
         """The same for ``Upsilon = 0`` on plain lists (no Phi: ``Omega = dK``, ``pidot = -dV - S dK``)."""
         n = self.n
         Iinv = self._Iinv_l
-        dK = [mpmath.fsum(Iinv[a][b] * pi[b] for b in range(n)) for a in range(n)] if not self._Idiag \
+        dK = (
+            [mpmath.fsum(Iinv[a][b] * pi[b] for b in range(n)) for a in range(n)]
+            if not self._Idiag
             else [Iinv[a][a] * pi[a] for a in range(n)]
+        )
         out = [mpmath.mpf(0)] * n
         for m, a, b, v in self.f_nz:
             out[a] -= pi[m] * v * dK[b]
@@ -185,15 +210,20 @@ class ModelMP:
         n = self.n
         ad = self.ad(x)
         M = [[-ad[i, j] for j in range(n)] for i in range(n)]
-        P = [[mpmath.mpf(1) if i == j else mpmath.mpf(0) for j in range(n)] for i in range(n)]  # M^k
+        P = [
+            [mpmath.mpf(1) if i == j else mpmath.mpf(0) for j in range(n)] for i in range(n)
+        ]  # M^k
         A = [row[:] for row in P]
         Ad = [row[:] for row in P]
         eps = mpmath.eps
         k = 0
-        fact = mpmath.mpf(1)   # k!
+        fact = mpmath.mpf(1)  # k!
         while True:
             k += 1
-            P = [[mpmath.fdot([(P[i][l], M[l][j]) for l in range(n)]) for j in range(n)] for i in range(n)]
+            P = [
+                [mpmath.fdot([(P[i][l], M[l][j]) for l in range(n)]) for j in range(n)]
+                for i in range(n)
+            ]
             fact *= k
             ca, cd = 1 / (fact * (k + 1)), (1 if k % 2 == 0 else -1) / fact
             big = mpmath.mpf(0)
@@ -275,7 +305,9 @@ def _run(model: ModelMP, system: str, x0, pi0, times, tol, k, sign=1):
             A, Ad = model.frames_series(x)
             Gamma = (state["Ad_ref"] * Ad).T * model.gamma if grav else None
             Omega, pidot = model.omega_pidot(pi, Gamma)
-            return list(mpmath.lu_solve(A, Omega)) + list(pidot)   # xdot = L(g, e) Omega = A^-1 Omega
+            return list(mpmath.lu_solve(A, Omega)) + list(
+                pidot
+            )  # xdot = L(g, e) Omega = A^-1 Omega
 
         def after(t, y):
             x = _col(y[:n])
@@ -295,10 +327,12 @@ def _run(model: ModelMP, system: str, x0, pi0, times, tol, k, sign=1):
             Gamma0 = mpmath.expm(model.ad(x0)).T * model.gamma
 
             if model.upsilon_zero:
+
                 def F(t, y):
                     Omega, pidot = model.omega_pidot_list(y[:n], y[n:])
                     return pidot + model.gamma_dot(Omega, y[n:])
             else:
+
                 def F(t, y):
                     pi, G = _col(y[:n]), _col(y[n:])
                     Omega, pidot = model.omega_pidot(pi, G)
@@ -307,9 +341,11 @@ def _run(model: ModelMP, system: str, x0, pi0, times, tol, k, sign=1):
             y = list(pi0) + list(Gamma0)
         else:
             if model.upsilon_zero:
+
                 def F(t, y):
                     return model.omega_pidot_list(y, None)[1]
             else:
+
                 def F(t, y):
                     return list(model.omega_pidot(_col(y), None)[1])
 
@@ -319,6 +355,7 @@ def _run(model: ModelMP, system: str, x0, pi0, times, tol, k, sign=1):
 
         def F(t, y):
             return [-v for v in F_fwd(t, y)]
+
     t_prev = mpmath.mpf(0)
     steps = 0
     for tk in times:
@@ -334,7 +371,9 @@ def _run(model: ModelMP, system: str, x0, pi0, times, tol, k, sign=1):
             out_pi.append(list(pi))
             out_G.append(list(Ad.T * model.gamma) if grav else None)
             if state["rebases"] == 0:
-                out_x.append(list(x))   # never re-based: ||ad_x||_1 <= 1 (or nilpotent), the chart itself
+                out_x.append(
+                    list(x)
+                )  # never re-based: ||ad_x||_1 <= 1 (or nilpotent), the chart itself
             else:
                 out_x.append(list(_log_coordinates(model, Ad, g)))
             out_g.append(g)
@@ -346,7 +385,9 @@ def _run(model: ModelMP, system: str, x0, pi0, times, tol, k, sign=1):
             out_pi.append(list(y[:n]))
             out_G.append(list(y[n:]) if grav else None)
     T = len(out_pi)
-    mat = lambda ms: np.array([[[m[i, j] for j in range(m.cols)] for i in range(m.rows)] for m in ms], dtype=object)
+    mat = lambda ms: np.array(
+        [[[m[i, j] for j in range(m.cols)] for i in range(m.rows)] for m in ms], dtype=object
+    )
     return ReferenceTrajectory(
         times=np.array([sign * mpmath.mpf(t) for t in times], dtype=object),
         pi=np.array(out_pi, dtype=object).reshape(T, n),
@@ -354,11 +395,12 @@ def _run(model: ModelMP, system: str, x0, pi0, times, tol, k, sign=1):
         x=np.array(out_x, dtype=object).reshape(T, n) if system == "full" else None,
         g=mat(out_g) if system == "full" else None,
         Ad=mat(out_Ad) if system == "full" else None,
-        rebases=state["rebases"], steps=steps, dps=mpmath.mp.dps, system=system,
+        rebases=state["rebases"],
+        steps=steps,
+        dps=mpmath.mp.dps,
+        system=system,
         J=np.array(out_J, dtype=object).reshape(T, n) if system == "full" else None,
     )
-
-
 
 
 def _order_for(dps: int) -> int:
@@ -366,8 +408,20 @@ def _order_for(dps: int) -> int:
     return int(min(18, max(6, round(dps / 2.5))))
 
 
-def reference_trajectory(f, theta, upsilon, inertia, potential, x0, pi0, times, *, dps: int = 50,
-                         system: str = "full", check: bool = False) -> ReferenceTrajectory:
+def reference_trajectory(
+    f,
+    theta,
+    upsilon,
+    inertia,
+    potential,
+    x0,
+    pi0,
+    times,
+    *,
+    dps: int = 50,
+    system: str = "full",
+    check: bool = False,
+) -> ReferenceTrajectory:
     """The reference trajectory sampled at ``times`` (increasing and >= 0, or decreasing and <= 0 for
     the flow backwards). ``x`` always exists (the logarithm of ``g``, :mod:`refimpl._representation`);
     ``g`` holds ``g(t)`` in the algebra's faithful representation.
@@ -381,10 +435,17 @@ def reference_trajectory(f, theta, upsilon, inertia, potential, x0, pi0, times, 
         raise ValueError(f"dps must be an int >= 15, got {dps!r}")
     if system not in ("full", "body"):
         raise ValueError(f"system must be 'full' or 'body', got {system!r}")
-    tl = [check_time(t, "times", allow_negative=True) for t in np.atleast_1d(np.asarray(times, dtype=object))]
-    if dps > MAX_DPS or (tl and max(abs(v) for v in tl) > MAX_REFERENCE_FLOW_TIME):  # the stated budget
-        raise ValueError(f"reference flow budget: dps <= {MAX_DPS} and |times| <= {MAX_REFERENCE_FLOW_TIME:g}, "
-                         f"got dps = {dps} and t = {max(abs(v) for v in tl) if tl else 0:g}")
+    tl = [
+        check_time(t, "times", allow_negative=True)
+        for t in np.atleast_1d(np.asarray(times, dtype=object))
+    ]
+    if dps > MAX_DPS or (
+        tl and max(abs(v) for v in tl) > MAX_REFERENCE_FLOW_TIME
+    ):  # the stated budget
+        raise ValueError(
+            f"reference flow budget: dps <= {MAX_DPS} and |times| <= {MAX_REFERENCE_FLOW_TIME:g}, "
+            f"got dps = {dps} and t = {max(abs(v) for v in tl) if tl else 0:g}"
+        )
     sign = -1 if any(v < 0 for v in tl) else 1
     if sign < 0 and any(v > 0 for v in tl):
         raise ValueError("times must be all >= 0 (a forward flow) or all <= 0 (a backward flow)")
@@ -399,14 +460,19 @@ def reference_trajectory(f, theta, upsilon, inertia, potential, x0, pi0, times, 
             xv = Reference._vec(x0, n, "x0")
             pv = Reference._vec(pi0, n, "pi0")
             tms = [sign * _to_mpf(t) for t in times_exact]
-            return _run(model, system, xv, pv, tms, mpmath.mpf(10) ** (-tol_digits), _order_for(d), sign)
+            return _run(
+                model, system, xv, pv, tms, mpmath.mpf(10) ** (-tol_digits), _order_for(d), sign
+            )
 
     tr = once(dps, dps + 5)
     if check:
         tr2 = once(dps + 15, dps + 15)
         with mpmath.workdps(dps + 30):
-            arrs = [(tr.pi, tr2.pi)] + ([(tr.Gamma, tr2.Gamma)] if tr.Gamma is not None else []) \
+            arrs = (
+                [(tr.pi, tr2.pi)]
+                + ([(tr.Gamma, tr2.Gamma)] if tr.Gamma is not None else [])
                 + ([(tr.Ad, tr2.Ad)] if tr.Ad is not None else [])
+            )
             worst = mpmath.mpf(0)
             for a, b in arrs:
                 for u, v in zip(a.ravel(), b.ravel()):
@@ -415,7 +481,9 @@ def reference_trajectory(f, theta, upsilon, inertia, potential, x0, pi0, times, 
     return tr
 
 
-def reference_flow(f, theta, upsilon, inertia, potential, x0, pi0, t, dps: int = 50, *, return_group: bool = False):
+def reference_flow(
+    f, theta, upsilon, inertia, potential, x0, pi0, t, dps: int = 50, *, return_group: bool = False
+):
     """Protocol method 3 (DESIGN.md): the state ``(x, pi)`` at time ``t`` from ``(x0, pi0)`` at 0.
 
     Full state of vier10/vier11, integrated at ``dps`` digits (see the module
@@ -429,7 +497,9 @@ def reference_flow(f, theta, upsilon, inertia, potential, x0, pi0, t, dps: int =
     """
     check_time(t, allow_negative=True)
     exact = Reference._wants_exact(f, theta, upsilon, inertia, potential, x0, pi0, t)
-    tr = reference_trajectory(f, theta, upsilon, inertia, potential, x0, pi0, [t], dps=dps, system="full")
+    tr = reference_trajectory(
+        f, theta, upsilon, inertia, potential, x0, pi0, [t], dps=dps, system="full"
+    )
     x, pi = tr.x[-1], tr.pi[-1]
     if exact:
         out = (np.array(list(x), dtype=object), np.array(list(pi), dtype=object))

@@ -90,8 +90,12 @@ __all__ = [
 ]
 
 EPS = np.finfo(float).eps
-LOOSE = 1e-12  # mp logarithm: acceptance when the constants close only to float rounding (see mp_log)
-RANK_RTOL = 1e-9  # float path only: singular values below RANK_RTOL * ||M|| count as zero (rank decisions)
+LOOSE = (
+    1e-12  # mp logarithm: acceptance when the constants close only to float rounding (see mp_log)
+)
+RANK_RTOL = (
+    1e-9  # float path only: singular values below RANK_RTOL * ||M|| count as zero (rank decisions)
+)
 
 
 class RepresentationError(ValueError):
@@ -114,7 +118,7 @@ class _LA:
 
     def __init__(self, exact: bool, scale: float = 1.0):
         self.exact = exact
-        self.scale = max(1.0, float(scale))   # float path: the size of the structure constants
+        self.scale = max(1.0, float(scale))  # float path: the size of the structure constants
 
     def _svd_rank(self, A):
         """Float rank: singular values above ``RANK_RTOL max(s_max, scale)`` (noise of size
@@ -147,8 +151,11 @@ class _LA:
         """Columns spanning ``{v : A v = 0}``."""
         A = np.asarray(A)
         if self.exact:
-            ns = sympy.Matrix(A.tolist()).nullspace() if A.size else [sympy.eye(A.shape[1])[:, i]
-                                                                      for i in range(A.shape[1])]
+            ns = (
+                sympy.Matrix(A.tolist()).nullspace()
+                if A.size
+                else [sympy.eye(A.shape[1])[:, i] for i in range(A.shape[1])]
+            )
             return np.hstack([self._obj(v) for v in ns]) if ns else self.zeros(A.shape[1], 0)
         if A.shape[0] == 0:
             return np.eye(A.shape[1])
@@ -191,7 +198,9 @@ class _LA:
             sol = sol.subs({p: 0 for p in params})
             return self._obj(sol).reshape(A.shape[1], *b.shape[1:])
         x, *_ = np.linalg.lstsq(A, b, rcond=None)
-        scale = max(1.0, float(np.max(np.abs(A), initial=0.0))) * max(1.0, float(np.max(np.abs(x), initial=0)))
+        scale = max(1.0, float(np.max(np.abs(A), initial=0.0))) * max(
+            1.0, float(np.max(np.abs(x), initial=0))
+        )
         if np.max(np.abs(A @ x - b), initial=0.0) > 1e3 * EPS * max(A.shape) * scale:
             return None
         return x
@@ -209,7 +218,10 @@ class _LA:
         M = np.asarray(M)
         if self.exact:
             return all(v == 0 for v in M.flat)
-        return float(np.max(np.abs(M), initial=0.0)) <= 1e3 * EPS * max(1.0, scale) * max(1, M.size) ** 0.5
+        return (
+            float(np.max(np.abs(M), initial=0.0))
+            <= 1e3 * EPS * max(1.0, scale) * max(1, M.size) ** 0.5
+        )
 
 
 def _rational_constants(f):
@@ -235,7 +247,7 @@ def _bracket(f, u, v):
 
 def _centre(la, f):
     n = f.shape[0]
-    M = f.transpose(0, 2, 1).reshape(n * n, n)   # rows (m, b), column a: f[m, a, b]
+    M = f.transpose(0, 2, 1).reshape(n * n, n)  # rows (m, b), column a: f[m, a, b]
     return la.nullspace(M)
 
 
@@ -267,7 +279,9 @@ def _killing(f):
 
 def _is_ideal(la, f, N):
     n = f.shape[0]
-    cols = [_bracket(f, np.eye(n, dtype=int)[a], N[:, j]) for a in range(n) for j in range(N.shape[1])]
+    cols = [
+        _bracket(f, np.eye(n, dtype=int)[a], N[:, j]) for a in range(n) for j in range(N.shape[1])
+    ]
     if not cols:
         return True
     return la.rank(np.hstack([N, np.array(cols, dtype=N.dtype).T])) == N.shape[1]
@@ -278,7 +292,7 @@ def _complement_subalgebra(la, f, N, series):
     """A basis ``S`` (columns) of a subalgebra with ``g = n (+) s``, or None."""
     n = f.shape[0]
     E = la.eye(n)
-    S = E[:, [j - N.shape[1] for j in la.independent_cols(np.hstack([N, E]))[N.shape[1]:]]]
+    S = E[:, [j - N.shape[1] for j in la.independent_cols(np.hstack([N, E]))[N.shape[1] :]]]
     q = S.shape[1]
     if q <= 1:
         return S
@@ -292,9 +306,11 @@ def _complement_subalgebra(la, f, N, series):
             sol = la.solve(NS, _bracket(f, S[:, i], S[:, j]))
             if sol is None:
                 return None
-            coef[i, j] = sol[N.shape[1]:]
-            defect[i, j] = N @ sol[:N.shape[1]]
-        Q = la.nullspace(Cnext.T).T if Cnext.shape[1] else la.eye(n)  # functionals vanishing on C^{k+1}
+            coef[i, j] = sol[N.shape[1] :]
+            defect[i, j] = N @ sol[: N.shape[1]]
+        Q = (
+            la.nullspace(Cnext.T).T if Cnext.shape[1] else la.eye(n)
+        )  # functionals vanishing on C^{k+1}
         dk, rq = Ck.shape[1], Q.shape[0]
         A = la.zeros(len(pairs) * rq, q * dk)
         rhs = la.zeros(len(pairs) * rq)
@@ -312,11 +328,11 @@ def _complement_subalgebra(la, f, N, series):
         if tau is None:
             return None
         for i in range(q):
-            S[:, i] = S[:, i] + Ck @ tau[i * dk:(i + 1) * dk]
+            S[:, i] = S[:, i] + Ck @ tau[i * dk : (i + 1) * dk]
         NS = np.hstack([N, S])
-    for i, j in pairs:   # final check: s closed under the bracket
+    for i, j in pairs:  # final check: s closed under the bracket
         sol = la.solve(NS, _bracket(f, S[:, i], S[:, j]))
-        if sol is None or not la.is_zero(sol[:N.shape[1]], float(np.max(np.abs(f.astype(float))))):
+        if sol is None or not la.is_zero(sol[: N.shape[1]], float(np.max(np.abs(f.astype(float))))):
             return None
     return S
 
@@ -341,8 +357,12 @@ def _mul(p, q):
 
 def _beta(K, one):
     """Coefficients of ``A / (1 - e^-A) = sum_k beta_k A^k``, k < K (inverse of sum (-1)^k A^k/(k+1)!)."""
-    a = [one * (-1) ** k / sympy.factorial(k + 1) if isinstance(one, sympy.Basic) else
-         (-1) ** k / float(np.prod(np.arange(1, k + 2))) for k in range(K)]
+    a = [
+        one * (-1) ** k / sympy.factorial(k + 1)
+        if isinstance(one, sympy.Basic)
+        else (-1) ** k / float(np.prod(np.arange(1, k + 2)))
+        for k in range(K)
+    ]
     beta = [one]
     for k in range(1, K):
         beta.append(-sum(a[j] * beta[k - j] for j in range(1, k + 1)))
@@ -358,9 +378,9 @@ def _nilpotent_ideal_rep(la, f, N, series, S):
     for w in range(len(series) - 2, -1, -1):
         cur = np.array(cols, dtype=N.dtype).T if cols else la.zeros(n, 0)
         M = np.hstack([cur, series[w]])
-        for j in la.independent_cols(M)[len(cols):]:
+        for j in la.independent_cols(M)[len(cols) :]:
             cols.append(M[:, j])
-            weights.append(w + 1)     # series[w] = C^{w+1}(n)
+            weights.append(w + 1)  # series[w] = C^{w+1}(n)
     Y = np.array(cols, dtype=N.dtype).T
     order = np.argsort(weights, kind="stable")
     Y, weights = Y[:, order], [weights[i] for i in order]
@@ -381,8 +401,12 @@ def _nilpotent_ideal_rep(la, f, N, series, S):
     # monomials of weighted degree <= c
     monos = [()]
     for i in range(p):
-        monos = [m + (e,) for m in monos for e in range(c // weights[i] + 1)
-                 if sum(a * weights[k] for k, a in enumerate(m)) + e * weights[i] <= c]
+        monos = [
+            m + (e,)
+            for m in monos
+            for e in range(c // weights[i] + 1)
+            if sum(a * weights[k] for k, a in enumerate(m)) + e * weights[i] <= c
+        ]
     index = {m: k for k, m in enumerate(monos)}
     unit = [tuple(1 if k == i else 0 for k in range(p)) for i in range(p)]
     zero = tuple([0] * p)
@@ -412,7 +436,7 @@ def _nilpotent_ideal_rep(la, f, N, series, S):
     beta = _beta(c + 1, one)
     X = []
     for a in range(p):
-        v = [{zero: one} if m == a else {} for m in range(p)]      # (ad_y)^0 e_a
+        v = [{zero: one} if m == a else {} for m in range(p)]  # (ad_y)^0 e_a
         coeff = [dict(t) for t in v]
         for k in range(1, c + 1):
             nv = [{} for _ in range(p)]
@@ -421,7 +445,11 @@ def _nilpotent_ideal_rep(la, f, N, series, S):
                     for b in range(p):
                         if cY[m, i, b] != 0 and v[b]:
                             for mono, cf in v[b].items():
-                                _add(nv[m], tuple(e + (kk == i) for kk, e in enumerate(mono)), cf * cY[m, i, b])
+                                _add(
+                                    nv[m],
+                                    tuple(e + (kk == i) for kk, e in enumerate(mono)),
+                                    cf * cY[m, i, b],
+                                )
             v = nv
             for m in range(p):
                 for mono, cf in v[m].items():
@@ -436,7 +464,7 @@ def _nilpotent_ideal_rep(la, f, N, series, S):
                     _add(coeff[m], unit[j], -D[s, m, j])
         Z.append(matrix(coeff))
     ops = X + Z
-    coords = la.solve(YS, la.eye(n))   # e_a = YS @ coords[:, a]
+    coords = la.solve(YS, la.eye(n))  # e_a = YS @ coords[:, a]
     r = len(monos)
     rho = la.zeros(n, r, r)
     for a in range(n):
@@ -464,7 +492,7 @@ class Representation:
     nilpotent: bool
     centre: np.ndarray
     exact: np.ndarray | None = field(default=None, repr=False)
-    exponential: bool = False   # completely solvable (real roots): exp is a global diffeomorphism
+    exponential: bool = False  # completely solvable (real roots): exp is a global diffeomorphism
 
     @property
     def dim(self) -> int:
@@ -481,7 +509,9 @@ class Representation:
 
     def _project(self, X, rows):
         """Least-squares coordinates of ``X`` in the span of ``rows`` (flattened, real and imaginary)."""
-        B = np.concatenate([rows.real.reshape(rows.shape[0], -1), rows.imag.reshape(rows.shape[0], -1)], axis=1).T
+        B = np.concatenate(
+            [rows.real.reshape(rows.shape[0], -1), rows.imag.reshape(rows.shape[0], -1)], axis=1
+        ).T
         rhs = np.concatenate([X.real.ravel(), X.imag.ravel()])
         x, *_ = np.linalg.lstsq(B, rhs, rcond=None)
         return x, float(np.max(np.abs(B @ x - rhs), initial=0.0))
@@ -509,7 +539,7 @@ class Representation:
         if not np.all(np.isfinite(A)):
             return None
         adb = np.array([self.f[:, a, :] for a in range(n)])
-        x_ad, _ = self._project(A, adb)     # lstsq: the minimum-norm preimage (orthogonal to z in R^n)
+        x_ad, _ = self._project(A, adb)  # lstsq: the minimum-norm preimage (orthogonal to z in R^n)
         if self.centre.shape[1] == 0:
             return x_ad
         Gc = scipy.linalg.expm(-self.matrix(x_ad)) @ G
@@ -533,8 +563,12 @@ class Representation:
                     x = cand()
                 except (ValueError, np.linalg.LinAlgError):
                     x = None
-            if x is not None and np.all(np.isfinite(x)) and np.max(np.abs(x.imag if np.iscomplexobj(x) else 0)) == 0 \
-                    and self._accept(np.real(x), G):
+            if (
+                x is not None
+                and np.all(np.isfinite(x))
+                and np.max(np.abs(x.imag if np.iscomplexobj(x) else 0)) == 0
+                and self._accept(np.real(x), G)
+            ):
                 return np.real(x)
         return self._log_cut(G, Ad)
 
@@ -570,11 +604,13 @@ class Representation:
                 break
             A = _phi1(-np.einsum("a,mab->mb", x, self.f))
             step = np.linalg.solve(A, np.real(y))
-            x = x + step / max(1.0, float(np.linalg.norm(step)))   # damped: steps of length <= 1
+            x = x + step / max(1.0, float(np.linalg.norm(step)))  # damped: steps of length <= 1
             if self._accept(x, G):
                 return x
-        raise RepresentationError("no logarithm x of g found (no principal logarithm in the algebra, and "
-                                  "Newton's iteration on exp(x) = g did not converge)")
+        raise RepresentationError(
+            "no logarithm x of g found (no principal logarithm in the algebra, and "
+            "Newton's iteration on exp(x) = g did not converge)"
+        )
 
     def _log_branches(self, G, Ad):
         """(d): ``Ad(g) = V diag(l) V^-1``; the logarithms ``V diag(log l + 2 pi i m) V^-1`` with integer
@@ -589,12 +625,16 @@ class Representation:
         for k in np.argsort(-w.imag):
             if k in used or w[k].imag <= 1e-9:
                 continue
-            kc = int(np.argmin(np.abs(w - np.conj(w[k])) + 1e9 * np.isin(np.arange(n), list(used) + [k])))
+            kc = int(
+                np.argmin(np.abs(w - np.conj(w[k])) + 1e9 * np.isin(np.arange(n), list(used) + [k]))
+            )
             used |= {k, kc}
             pairs.append((k, kc))
         adb = np.array([self.f[:, a, :] for a in range(n)])
-        shifts = sorted(itertools.product(range(-2, 3), repeat=len(pairs)), key=lambda m: (sum(map(abs, m)), m))
-        for m in shifts[: 4000]:
+        shifts = sorted(
+            itertools.product(range(-2, 3), repeat=len(pairs)), key=lambda m: (sum(map(abs, m)), m)
+        )
+        for m in shifts[:4000]:
             L = L0.copy()
             for (k, kc), mk in zip(pairs, m):
                 L[k] += 2j * np.pi * mk
@@ -621,8 +661,12 @@ class Representation:
         (bit-for-bit the model's own algebra at the working precision)."""
         if Fm is not None and self.kind == "adjoint":
             n = len(Fm)
-            return mpmath.matrix([[mpmath.fsum(x[a] * Fm[m][a, b] for a in range(n)) for b in range(n)]
-                                  for m in range(n)])
+            return mpmath.matrix(
+                [
+                    [mpmath.fsum(x[a] * Fm[m][a, b] for a in range(n)) for b in range(n)]
+                    for m in range(n)
+                ]
+            )
         r = self.dim
         X = mpmath.zeros(r, r)
         src = self.exact if self.exact is not None else self.mats
@@ -648,12 +692,23 @@ class Representation:
         tol = mpmath.mpf(10) ** (-(mpmath.mp.dps * 3 // 4))
         src = self.exact if self.exact is not None else self.mats
         adrows = [[Fm[m][a, b] for a in range(n)] for m in range(n) for b in range(n)]
-        rows = adrows if self.kind == "adjoint" else \
-            [[_mpnum(src[a][i, j]) for a in range(n)] for i in range(self.dim) for j in range(self.dim)]
+        rows = (
+            adrows
+            if self.kind == "adjoint"
+            else [
+                [_mpnum(src[a][i, j]) for a in range(n)]
+                for i in range(self.dim)
+                for j in range(self.dim)
+            ]
+        )
 
         def ad_of(x):
-            return mpmath.matrix([[mpmath.fsum(x[a] * Fm[m][a, b] for a in range(n)) for b in range(n)]
-                                  for m in range(n)])
+            return mpmath.matrix(
+                [
+                    [mpmath.fsum(x[a] * Fm[m][a, b] for a in range(n)) for b in range(n)]
+                    for m in range(n)
+                ]
+            )
 
         def accept(x, Gt, loose=False):
             if x is None:
@@ -661,7 +716,9 @@ class Representation:
             X = self.mp_matrix(x, Fm)
             E = mpmath.expm(X) - Gt
             t = LOOSE if loose else tol
-            return mpmath.mnorm(E, 1) <= t * max(1, mpmath.mnorm(Gt, 1)) * mpmath.exp(min(50, mpmath.mnorm(X, 1)))
+            return mpmath.mnorm(E, 1) <= t * max(1, mpmath.mnorm(Gt, 1)) * mpmath.exp(
+                min(50, mpmath.mnorm(X, 1))
+            )
 
         def log_a(Gt):
             return _min_norm(rows, mpmath.logm(Gt))
@@ -673,9 +730,13 @@ class Representation:
             L = mpmath.logm(mpmath.expm(-self.mp_matrix(x_ad, Fm)) * Gt)
             k = self.centre.shape[1]
             Cm = [[_mpnum(self.centre[a, c]) for c in range(k)] for a in range(n)]
-            zrows = [[mpmath.fsum(row[a] * Cm[a][c] for a in range(n)) for c in range(k)] for row in rows]
+            zrows = [
+                [mpmath.fsum(row[a] * Cm[a][c] for a in range(n)) for c in range(k)] for row in rows
+            ]
             zc = _min_norm(zrows, L)
-            return x_ad + mpmath.matrix([mpmath.fsum(Cm[a][c] * zc[c] for c in range(k)) for a in range(n)])
+            return x_ad + mpmath.matrix(
+                [mpmath.fsum(Cm[a][c] * zc[c] for c in range(k)) for a in range(n)]
+            )
 
         def attempt(Gt, Adt):
             found = []
@@ -708,14 +769,18 @@ class Representation:
             x = x + mpmath.lu_solve(_phi1_mp(-ad_of(x)), y)
             if mpmath.norm(y) < tol and accept(x, G):
                 return x
-        raise RepresentationError("no logarithm of g found on the cut locus (Newton did not converge)")
+        raise RepresentationError(
+            "no logarithm of g found on the cut locus (Newton did not converge)"
+        )
 
 
 def _min_norm(rows, X):
     """Minimum-norm least-squares coordinates of the matrix ``X`` (complex allowed) in the span of the
     flattened basis ``rows[ij][a]``: SVD of the stacked real and imaginary parts, singular values below
     ``10^(-dps/2)`` of the largest dropped (the kernel, e.g. the centre for the ``ad`` rows)."""
-    re_rows = [[mpmath.re(v) for v in row] for row in rows] + [[mpmath.im(v) for v in row] for row in rows]
+    re_rows = [[mpmath.re(v) for v in row] for row in rows] + [
+        [mpmath.im(v) for v in row] for row in rows
+    ]
     flat = [X[i, j] for i in range(X.rows) for j in range(X.cols)]
     b = mpmath.matrix([mpmath.re(v) for v in flat] + [mpmath.im(v) for v in flat])
     M = mpmath.matrix(re_rows)
@@ -789,19 +854,25 @@ def check_representation(f, mats, *, exact=None) -> None:
         rhs = np.einsum("mab,mij->abij", fe, E)
         bad = [idx for idx, v in np.ndenumerate(comm - rhs) if v != 0]
         if bad:
-            raise RepresentationError(f"not a homomorphism: [rho(e_a), rho(e_b)] != f^m_ab rho(e_m) at {bad[0]}")
+            raise RepresentationError(
+                f"not a homomorphism: [rho(e_a), rho(e_b)] != f^m_ab rho(e_m) at {bad[0]}"
+            )
         if sympy.Matrix(E.reshape(n, -1).tolist()).rank() != n:
             raise RepresentationError("not injective: the matrices rho(e_a) are linearly dependent")
         return
     E = np.asarray(mats)
     if E.ndim != 3 or E.shape[0] != n or E.shape[1] != E.shape[2]:
-        raise RepresentationError(f"a representation has shape (n, r, r) with n = {n}, got {E.shape}")
+        raise RepresentationError(
+            f"a representation has shape (n, r, r) with n = {n}, got {E.shape}"
+        )
     comm = np.einsum("aij,bjk->abik", E, E) - np.einsum("bij,ajk->abik", E, E)
     rhs = np.einsum("mab,mij->abij", f, E)
     scale = max(1.0, float(np.max(np.abs(E)))) ** 2 * max(1.0, float(np.max(np.abs(f))))
     err = float(np.max(np.abs(comm - rhs)))
     if not err <= 16 * E.shape[1] * n * EPS * scale:
-        raise RepresentationError(f"not a homomorphism: max |[rho(e_a), rho(e_b)] - f^m_ab rho(e_m)| = {err:.3g}")
+        raise RepresentationError(
+            f"not a homomorphism: max |[rho(e_a), rho(e_b)] - f^m_ab rho(e_m)| = {err:.3g}"
+        )
     flat = E.reshape(n, -1)
     s = np.linalg.svd(np.concatenate([flat.real, flat.imag], axis=1), compute_uv=False)
     if not s[-1] > RANK_RTOL * s[0]:
@@ -840,15 +911,22 @@ def _build(la, F, ff) -> Representation:
         else:
             fl = np.asarray(mats, dtype=float)
         check_representation(ff, fl)
-        return Representation(f=ff, mats=fl, kind=kind, nilpotent=nilp, centre=Zc,
-                              exact=mats if la.exact else None, exponential=nilp or _real_roots(ff))
+        return Representation(
+            f=ff,
+            mats=fl,
+            kind=kind,
+            nilpotent=nilp,
+            centre=Zc,
+            exact=mats if la.exact else None,
+            exponential=nilp or _real_roots(ff),
+        )
 
     adj = np.array([F[:, a, :] for a in range(n)])
     if Zc.shape[1] == 0:
         return done(adj, "adjoint", False)
 
     def abelian_block():
-        P = la.nullspace(D.T).T   # k x n, kernel [g, g]
+        P = la.nullspace(D.T).T  # k x n, kernel [g, g]
         k = P.shape[0]
         blk = la.zeros(n, k + 1, k + 1)
         for a in range(n):
@@ -867,9 +945,11 @@ def _build(la, F, ff) -> Representation:
     kr = la.nullspace(K)
     if kr.shape[1] and _is_ideal(la, F, kr):
         cands.append(kr)
-    rad = la.nullspace(D.T @ K)            # rad g = [g, g]^perp (Killing)
+    rad = la.nullspace(D.T @ K)  # rad g = [g, g]^perp (Killing)
     if rad.shape[1]:
-        cols = [_bracket(F, la.eye(n)[:, a], rad[:, j]) for a in range(n) for j in range(rad.shape[1])]
+        cols = [
+            _bracket(F, la.eye(n)[:, a], rad[:, j]) for a in range(n) for j in range(rad.shape[1])
+        ]
         cands.append(la.colbasis(np.array(cols, dtype=F.dtype).T))
     for N in cands:
         if N.shape[1] == 0 or _intersection_dim(la, N, Zc) < _intersection_dim(la, Zc, D):
@@ -891,7 +971,8 @@ def _build(la, F, ff) -> Representation:
     raise RepresentationError(
         "no faithful representation could be built: the algebra is not nilpotent, its centre meets [g, g] "
         "(z ∩ [g, g] != 0), and no nilpotent ideal containing z ∩ [g, g] has a complementary subalgebra "
-        "(a non-split extension; de Graaf's construction is not implemented for it)")
+        "(a non-split extension; de Graaf's construction is not implemented for it)"
+    )
 
 
 def _real_roots(f) -> bool:
@@ -904,12 +985,14 @@ def _real_roots(f) -> bool:
     K = _killing(f)
     D = _LA(False, float(np.max(np.abs(f), initial=0.0))).colbasis(f.reshape(n, n * n))
     scale = max(1.0, float(np.max(np.abs(f), initial=0.0)))
-    if D.shape[1] and np.max(np.abs(D.T @ K @ D)) > 1e3 * EPS * n * scale ** 2:
+    if D.shape[1] and np.max(np.abs(D.T @ K @ D)) > 1e3 * EPS * n * scale**2:
         return False
     rng = np.random.default_rng(12345)
     for x in list(np.eye(n)) + list(rng.normal(size=(6, n))):
         ev = np.linalg.eigvals(np.einsum("a,mab->mb", x, f))
-        if np.max(np.abs(ev.imag), initial=0.0) > 1e-7 * max(1.0, float(np.max(np.abs(ev), initial=0.0))):
+        if np.max(np.abs(ev.imag), initial=0.0) > 1e-7 * max(
+            1.0, float(np.max(np.abs(ev), initial=0.0))
+        ):
             return False
     return True
 
@@ -921,7 +1004,7 @@ def _block_diag(la, blocks):
     o = 0
     for b in blocks:
         k = b.shape[1]
-        out[:, o:o + k, o:o + k] = b
+        out[:, o : o + k, o : o + k] = b
         o += k
     return out
 
@@ -939,11 +1022,17 @@ def representation_for(f) -> Representation:
         key = b"cat" + np.ascontiguousarray(ff).tobytes() + np.ascontiguousarray(alg.rep).tobytes()
         if key not in _CACHE:
             base = faithful_representation(ff)
-            ex = None   # exact entries (rational or algebraic): evaluated at the working precision
+            ex = None  # exact entries (rational or algebraic): evaluated at the working precision
             if alg.rep_exact is not None:
                 ex = np.array([np.array(m.tolist(), dtype=object) for m in alg.rep_exact])
-            _CACHE[key] = Representation(f=ff, mats=np.asarray(alg.rep), kind="catalogue",
-                                         nilpotent=base.nilpotent, centre=base.centre, exact=ex,
-                                         exponential=base.exponential)
+            _CACHE[key] = Representation(
+                f=ff,
+                mats=np.asarray(alg.rep),
+                kind="catalogue",
+                nilpotent=base.nilpotent,
+                centre=base.centre,
+                exact=ex,
+                exponential=base.exponential,
+            )
         return _CACHE[key]
     return faithful_representation(ff)

@@ -95,6 +95,7 @@ from hypothesis import reject
 from hypothesis import strategies as st
 from hypothesis import target as hyp_target
 from scipy.integrate import solve_ivp
+
 from tstarg.properties.runner import CheckResult, run_property
 from tstarg.properties.strategies import (
     REGIMES,
@@ -197,7 +198,11 @@ def _conditioning(f, theta, ups, x, pi) -> tuple[float, float]:
     fro = np.linalg.norm
     cond = max(fro(Phi) * fro(Pinv) / n, fro(Pinv) * (1 + fro(S) * fro(ups)) / math.sqrt(n))
     A = _ad(f, x)
-    r = min(fro(A), math.sqrt(np.abs(A).sum(0).max() * np.abs(A).sum(1).max())) / (2 * math.pi) if A.any() else 0.0
+    r = (
+        min(fro(A), math.sqrt(np.abs(A).sum(0).max() * np.abs(A).sum(1).max())) / (2 * math.pi)
+        if A.any()
+        else 0.0
+    )
     return cond, 1.0 / max(1e-300, 1.0 - min(r, 0.999999))
 
 
@@ -262,7 +267,10 @@ class Domain:
             return True
         if callable(self.algebras):
             return bool(self.algebras(np.array(f, dtype=float)))
-        return any(catalogue(nm).f.shape == f.shape and np.array_equal(catalogue(nm).f, f) for nm in self.algebras)
+        return any(
+            catalogue(nm).f.shape == f.shape and np.array_equal(catalogue(nm).f, f)
+            for nm in self.algebras
+        )
 
     def describe(self) -> str:
         if not self.declared:
@@ -271,7 +279,9 @@ class Domain:
         if self.algebras is None:
             parts.append("every algebra")
         elif callable(self.algebras):
-            parts.append(f"algebras accepted by {getattr(self.algebras, '__name__', 'a predicate')}")
+            parts.append(
+                f"algebras accepted by {getattr(self.algebras, '__name__', 'a predicate')}"
+            )
         else:
             parts.append(", ".join(self.algebras))
         if not self.theta:
@@ -300,7 +310,9 @@ def declared_domain(impl) -> Domain:
         raise ValueError(f"domain must be a dict, got {type(raw).__name__}")  # noqa: TRY004 - house rule: bad input is a ValueError
     unknown = set(raw) - _DOMAIN_KEYS
     if unknown:
-        raise ValueError(f"domain has unknown keys {sorted(unknown)} (known: {sorted(_DOMAIN_KEYS)})")
+        raise ValueError(
+            f"domain has unknown keys {sorted(unknown)} (known: {sorted(_DOMAIN_KEYS)})"
+        )
     algs = raw.get("algebras")
     if algs is not None and not callable(algs):
         if isinstance(algs, str):
@@ -308,8 +320,10 @@ def declared_domain(impl) -> Domain:
         algs = tuple(algs)
         bad = [a for a in algs if a not in CATALOGUE_NAMES]
         if bad or not algs:
-            raise ValueError(f"domain['algebras'] must name catalogue algebras ({', '.join(CATALOGUE_NAMES)}) "
-                             f"or be a predicate on f; unknown: {bad}")
+            raise ValueError(
+                f"domain['algebras'] must name catalogue algebras ({', '.join(CATALOGUE_NAMES)}) "
+                f"or be a predicate on f; unknown: {bad}"
+            )
     for k in ("theta", "upsilon", "gravity"):
         if not isinstance(raw.get(k, True), bool):
             raise ValueError(f"domain[{k!r}] must be True or False, got {raw[k]!r}")  # noqa: TRY004
@@ -319,9 +333,15 @@ def declared_domain(impl) -> Domain:
     neg = raw.get("negative_t")
     if neg is not None and not isinstance(neg, bool):
         raise ValueError(f"domain['negative_t'] must be True, False or absent, got {neg!r}")
-    return Domain(algebras=algs, theta=raw.get("theta", True), upsilon=raw.get("upsilon", True),
-                  gravity=raw.get("gravity", True), max_abs_t=None if mt is None else float(mt), negative_t=neg,
-                  declared=True)
+    return Domain(
+        algebras=algs,
+        theta=raw.get("theta", True),
+        upsilon=raw.get("upsilon", True),
+        gravity=raw.get("gravity", True),
+        max_abs_t=None if mt is None else float(mt),
+        negative_t=neg,
+        declared=True,
+    )
 
 
 def _batched(impl) -> bool:
@@ -370,7 +390,9 @@ def _models(draw, regime: str, dom: Domain | None = None):
 def _inertias(draw, n: int):
     """A symmetric positive definite ``I = Q diag(d) Q^T``, ``d`` in [1, 4], ``Q`` a random rotation."""
     d = np.array(draw(st.lists(st.floats(1, 4), min_size=n, max_size=n), label="principal moments"))
-    a = np.array(draw(st.lists(st.floats(-1, 1), min_size=n * n, max_size=n * n), label="rotation")).reshape(n, n)
+    a = np.array(
+        draw(st.lists(st.floats(-1, 1), min_size=n * n, max_size=n * n), label="rotation")
+    ).reshape(n, n)
     Q = scipy.linalg.expm(a - a.T)
     inertia = Q @ np.diag(d) @ Q.T
     return 0.5 * (inertia + inertia.T)
@@ -403,7 +425,11 @@ class _Judge:
         self.f, self.theta, self.U = (np.array(a, dtype=float) for a in (f, theta, ups))
         self.n = self.f.shape[0]
         self.Iinv = np.linalg.inv(np.array(inertia, dtype=float))
-        self.pot = None if potential is None else (np.array(potential["L"], float), np.array(potential["gamma"], float))
+        self.pot = (
+            None
+            if potential is None
+            else (np.array(potential["L"], float), np.array(potential["gamma"], float))
+        )
 
     def body(self, pi, Ad):
         n = self.n
@@ -419,11 +445,11 @@ class _Judge:
 
     def rhs(self, t, y, with_x):
         n = self.n
-        pi, Ad = y[:n], y[n:n + n * n].reshape(n, n)
+        pi, Ad = y[:n], y[n : n + n * n].reshape(n, n)
         Omega, pidot = self.body(pi, Ad)
         out = [pidot, (Ad @ _ad(self.f, Omega)).ravel()]
         if with_x:
-            x = y[n + n * n:]
+            x = y[n + n * n :]
             out.append(np.linalg.solve(_phi1(-_ad(self.f, x)), Omega))
         return np.concatenate(out)
 
@@ -441,22 +467,38 @@ class _Judge:
         scale = max(1.0, float(np.max(np.abs(y0))))
 
         def edge(s, y, w):
-            return np.linalg.norm(_ad(self.f, y[n + n * n:]), 2) - 0.9 * 2 * np.pi
+            return np.linalg.norm(_ad(self.f, y[n + n * n :]), 2) - 0.9 * 2 * np.pi
+
         edge.terminal = True
         if t == 0:
             return np.array(x0, float), np.array(pi0, float), Ad0
-        sol = solve_ivp(self.rhs, (0.0, t), y0, method="DOP853", rtol=rtol, atol=rtol * scale, args=(True,),
-                        events=edge)
+        sol = solve_ivp(
+            self.rhs,
+            (0.0, t),
+            y0,
+            method="DOP853",
+            rtol=rtol,
+            atol=rtol * scale,
+            args=(True,),
+            events=edge,
+        )
         if sol.status < 0:
             raise ArithmeticError(f"judge failed: {sol.message}")
         y = sol.y[:, -1]
         if sol.status == 1:  # x reached the chart edge: carry (pi, Ad) on
-            sol = solve_ivp(self.rhs, (sol.t[-1], t), y[:n + n * n], method="DOP853", rtol=rtol, atol=rtol * scale,
-                            args=(False,))
+            sol = solve_ivp(
+                self.rhs,
+                (sol.t[-1], t),
+                y[: n + n * n],
+                method="DOP853",
+                rtol=rtol,
+                atol=rtol * scale,
+                args=(False,),
+            )
             if sol.status < 0:
                 raise ArithmeticError(f"judge failed: {sol.message}")
             return None, sol.y[:n, -1], sol.y[n:, -1].reshape(n, n)
-        return y[n + n * n:], y[:n], y[n:n + n * n].reshape(n, n)
+        return y[n + n * n :], y[:n], y[n : n + n * n].reshape(n, n)
 
     def judged(self, x0, pi0, t):
         """The judge at rtol 1e-13 and its error (the difference from a run at rtol 1e-12)."""
@@ -466,7 +508,9 @@ class _Judge:
         return a, (ex, float(np.max(np.abs(a[1] - b[1]))), float(np.max(np.abs(a[2] - b[2]))))
 
 
-def _compare_state(impl, f, got_x, got_pi, ref_x, ref_pi, ref_Ad, tol_abs, judge_err=(0.0, 0.0, 0.0)):
+def _compare_state(
+    impl, f, got_x, got_pi, ref_x, ref_pi, ref_Ad, tol_abs, judge_err=(0.0, 0.0, 0.0)
+):
     """Worst error/tolerance over ``pi``, ``x`` (where it is unique: ``||ad_x||_2 < pi`` at the
     judge's end point, the principal logarithm) and ``Ad(g)`` (always; chart-free).
 
@@ -479,8 +523,19 @@ def _compare_state(impl, f, got_x, got_pi, ref_x, ref_pi, ref_Ad, tol_abs, judge
         ratios.append(_max_err(got_x, ref_x) / (tol_abs + 2 * ex))
     if np.all(np.isfinite(got_x)):
         got_Ad = scipy.linalg.expm(_ad(f, got_x))
-        amp = np.linalg.norm(ref_Ad, 2) * max(np.linalg.norm(f), 1e-300) * np.linalg.norm(_phi1(-_ad(f, got_x)), 2)
-        ratios.append(_max_err(got_Ad, ref_Ad) / (tol_abs * math.sqrt(n) * max(amp, 1.0) + 2 * ea + 8 * n * EPS64 * np.abs(ref_Ad).max()))
+        amp = (
+            np.linalg.norm(ref_Ad, 2)
+            * max(np.linalg.norm(f), 1e-300)
+            * np.linalg.norm(_phi1(-_ad(f, got_x)), 2)
+        )
+        ratios.append(
+            _max_err(got_Ad, ref_Ad)
+            / (
+                tol_abs * math.sqrt(n) * max(amp, 1.0)
+                + 2 * ea
+                + 8 * n * EPS64 * np.abs(ref_Ad).max()
+            )
+        )
     else:
         ratios.append(math.inf)
     return max(ratios)
@@ -545,7 +600,9 @@ def _key(*arrays) -> tuple:
 
 
 def _flow_tol(impl, n, cond, frame) -> float:
-    return max(float(getattr(impl, "flow_tolerance", 1e-9)), C_CERT * n * _eps_impl(impl) * cond * frame)
+    return max(
+        float(getattr(impl, "flow_tolerance", 1e-9)), C_CERT * n * _eps_impl(impl) * cond * frame
+    )
 
 
 def _accepts_steps(impl) -> bool:
@@ -553,7 +610,9 @@ def _accepts_steps(impl) -> bool:
         sig = inspect.signature(impl.flow)
     except (TypeError, ValueError):
         return False
-    return "steps" in sig.parameters or any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values())
+    return "steps" in sig.parameters or any(
+        p.kind is p.VAR_KEYWORD for p in sig.parameters.values()
+    )
 
 
 # ------------------------------------------------------------------ checks
@@ -569,13 +628,18 @@ def _poisson_reference(impl, dom, stats, regime):
         if not math.isfinite(cond) or cond * _eps_impl(impl) * C_CERT * f.shape[0] >= 1:
             return None  # numerically degenerate for this precision: judged by the degenerate check
         try:
-            got = _finite_array(_call(impl, "poisson_tensor", f, theta, ups, x, pi), ref.shape, "poisson_tensor")
+            got = _finite_array(
+                _call(impl, "poisson_tensor", f, theta, ups, x, pi), ref.shape, "poisson_tensor"
+            )
         except ValueError as exc:
-            raise AssertionError(f"{name}: raised ValueError at a non-degenerate point (cond {cond:.3g}): {exc}") from None
+            raise AssertionError(
+                f"{name}: raised ValueError at a non-degenerate point (cond {cond:.3g}): {exc}"
+            ) from None
         err = _max_err(got, ref)
         tol = _tolerance(impl, f.shape[0], cond, frame, ref)
         _aim(err / tol, "poisson ratio")
         return err / tol, _digits(err, max(1.0, float(np.max(np.abs(ref)))))
+
     return body, _models(regime, dom)
 
 
@@ -587,9 +651,15 @@ def _poisson_antisymmetry(impl, dom, stats):
         if not math.isfinite(cond) or cond * _eps_impl(impl) * C_CERT * n >= 1:
             return None
         try:
-            got = _finite_array(_call(impl, "poisson_tensor", f, theta, ups, x, pi), (2 * n, 2 * n), "poisson_tensor")
+            got = _finite_array(
+                _call(impl, "poisson_tensor", f, theta, ups, x, pi),
+                (2 * n, 2 * n),
+                "poisson_tensor",
+            )
         except ValueError as exc:
-            raise AssertionError(f"{name}: raised ValueError at a non-degenerate point (cond {cond:.3g}): {exc}") from None
+            raise AssertionError(
+                f"{name}: raised ValueError at a non-degenerate point (cond {cond:.3g}): {exc}"
+            ) from None
         if not np.all(np.isfinite(got)):
             raise AssertionError(f"{name}: non-finite Poisson tensor at a non-degenerate point")
         err = float(np.max(np.abs(got + got.T)))
@@ -598,46 +668,73 @@ def _poisson_antisymmetry(impl, dom, stats):
         tol = C_CERT * n * _eps_impl(impl) * kappa * max(1.0, float(np.max(np.abs(got))))
         _aim(err / tol, "antisymmetry ratio")
         return err / tol, None
-    return body, st.one_of(*[_models(r, dom) for r in ("generic", "large_momenta", "near_chart_boundary")])
+
+    return body, st.one_of(
+        *[_models(r, dom) for r in ("generic", "large_momenta", "near_chart_boundary")]
+    )
 
 
 def _poisson_degenerate(impl, dom, stats):
     """su(2), Upsilon = tau.eps with tau = (0, 0, 1/2): the plane pi'_3 = 2 is Pi_1 (exact in binary)."""
+
     def body(ex):
         p1, p2, x = ex
         f = su2().f
         ups = np.einsum("l,lmn->mn", np.array([0.0, 0.0, 0.5]), f)
         pi = np.array([p1, p2, 2.0])
         try:
-            out = np.asarray(_call(impl, "poisson_tensor", f, np.zeros((3, 3)), ups, np.array(x), pi), dtype=float)
+            out = np.asarray(
+                _call(impl, "poisson_tensor", f, np.zeros((3, 3)), ups, np.array(x), pi),
+                dtype=float,
+            )
         except ValueError:
             return 0.0, None
         if np.all(np.isfinite(out)):
-            raise AssertionError(f"finite Poisson tensor returned on the degenerate set (pi = {pi.tolist()}): "
-                                 "must raise ValueError or return non-finite values")
+            raise AssertionError(
+                f"finite Poisson tensor returned on the degenerate set (pi = {pi.tolist()}): "
+                "must raise ValueError or return non-finite values"
+            )
         return 0.0, None
+
     small = st.floats(-2, 2, allow_nan=False)
     return body, st.tuples(small, small, st.lists(st.floats(-1, 1), min_size=3, max_size=3))
 
 
-_BATCH_SHAPES = st.sampled_from([2, 3, 1, 0]).flatmap(
-    lambda r: st.lists(st.integers(1, 3), min_size=r, max_size=r)).filter(lambda s: int(np.prod(s)) <= 8)
+_BATCH_SHAPES = (
+    st.sampled_from([2, 3, 1, 0])
+    .flatmap(lambda r: st.lists(st.integers(1, 3), min_size=r, max_size=r))
+    .filter(lambda s: int(np.prod(s)) <= 8)
+)
 
 
 def _as_lists(a):
-    return None if a is None else (np.asarray(a).tolist() if not isinstance(a, dict) else
-                                   {k: (v if k == "kind" else np.asarray(v).tolist()) for k, v in a.items()})
+    return (
+        None
+        if a is None
+        else (
+            np.asarray(a).tolist()
+            if not isinstance(a, dict)
+            else {k: (v if k == "kind" else np.asarray(v).tolist()) for k, v in a.items()}
+        )
+    )
 
 
 def _batch(impl, dom, stats):
     """Every batched method: leading axes of rank 0..3 (sizes 1 included), arrays or nested lists;
     each point of the batch equals that point evaluated alone (same implementation)."""
-    methods = [m for m in ("poisson_tensor", "hamiltonian_vector_field", "flow") if callable(getattr(impl, m, None))]
+    methods = [
+        m
+        for m in ("poisson_tensor", "hamiltonian_vector_field", "flow")
+        if callable(getattr(impl, m, None))
+    ]
 
     def body(ex):
         model, inertia, pot, shape, pts, as_list, t = ex
-        out = [one_method(m, model, inertia, pot, shape, pts, as_list, t) for m in methods
-               if m != "flow" or _cheap_flow(model[1:4], inertia, pot, pts, t)]
+        out = [
+            one_method(m, model, inertia, pot, shape, pts, as_list, t)
+            for m in methods
+            if m != "flow" or _cheap_flow(model[1:4], inertia, pot, pts, t)
+        ]
         if not out or any(o is None for o in out):
             return None
         return max(out), None
@@ -668,12 +765,20 @@ def _batch(impl, dom, stats):
                     single(x, p)
                 except ValueError:
                     return None
-            raise AssertionError(f"batched {method} raised ValueError ({exc}) though every point "
-                                 "of the batch is accepted on its own") from None
-        shapes = [tuple(shape) + (2 * n, 2 * n)] if method == "poisson_tensor" else [tuple(shape) + (n,)] * 2
-        got = [_finite_array(o, s, f"batched {method} (batch shape {tuple(shape)}, lists={as_list})")
-               for o, s in zip(out, shapes)]
-        flat = [g.reshape((-1,) + s[len(shape):]) for g, s in zip(got, shapes)]
+            raise AssertionError(
+                f"batched {method} raised ValueError ({exc}) though every point "
+                "of the batch is accepted on its own"
+            ) from None
+        shapes = (
+            [tuple(shape) + (2 * n, 2 * n)]
+            if method == "poisson_tensor"
+            else [tuple(shape) + (n,)] * 2
+        )
+        got = [
+            _finite_array(o, s, f"batched {method} (batch shape {tuple(shape)}, lists={as_list})")
+            for o, s in zip(out, shapes)
+        ]
+        flat = [g.reshape((-1,) + s[len(shape) :]) for g, s in zip(got, shapes)]
         worst = 0.0
         for k, (x, p) in enumerate(pts):
             one = [np.asarray(o, dtype=float) for o in single(x, p)]
@@ -691,10 +796,23 @@ def _batch(impl, dom, stats):
         alg_n = model[1].shape[0]
         shape = draw(_BATCH_SHAPES, label="batch shape")
         k = int(np.prod(shape)) if shape else 1
-        pts = [(draw(st.lists(st.floats(-0.5, 0.5), min_size=alg_n, max_size=alg_n).map(np.array)),
-                draw(st.lists(st.floats(-2, 2), min_size=alg_n, max_size=alg_n).map(np.array))) for _ in range(k)]
-        return (model, draw(_inertias(alg_n)), draw(_potentials(alg_n, dom)), shape, pts,
-                draw(st.booleans(), label="as lists"), 0.05)
+        pts = [
+            (
+                draw(st.lists(st.floats(-0.5, 0.5), min_size=alg_n, max_size=alg_n).map(np.array)),
+                draw(st.lists(st.floats(-2, 2), min_size=alg_n, max_size=alg_n).map(np.array)),
+            )
+            for _ in range(k)
+        ]
+        return (
+            model,
+            draw(_inertias(alg_n)),
+            draw(_potentials(alg_n, dom)),
+            shape,
+            pts,
+            draw(st.booleans(), label="as lists"),
+            0.05,
+        )
+
     return body, strat()
 
 
@@ -716,14 +834,20 @@ def _cheap_flow(model, inertia, pot, pts, t) -> bool:
 
 def _judge_state(f, theta, ups, inertia, pot, x, pi, t):
     """``((x, pi, Ad), errors)`` of the float64 judge, cached by value."""
-    return _FLOW_CACHE.get(("judge",) + _key(f, theta, ups, inertia, pot, x, pi, float(t)),
-                           lambda: _Judge(f, theta, ups, inertia, pot).judged(x, pi, t))
+    return _FLOW_CACHE.get(
+        ("judge",) + _key(f, theta, ups, inertia, pot, x, pi, float(t)),
+        lambda: _Judge(f, theta, ups, inertia, pot).judged(x, pi, t),
+    )
 
 
 def _inputs(impl, dom, stats):
     """Caller's arrays unchanged; lists accepted; outputs finite float64 of the protocol's shapes;
     interleaved models through the same (refilled) caller buffers agree with independent judges."""
-    methods = [m for m in ("poisson_tensor", "hamiltonian_vector_field", "flow") if callable(getattr(impl, m, None))]
+    methods = [
+        m
+        for m in ("poisson_tensor", "hamiltonian_vector_field", "flow")
+        if callable(getattr(impl, m, None))
+    ]
 
     def judge(method, f, theta, ups, inertia, pot, x, pi, t):
         if method == "poisson_tensor":
@@ -744,12 +868,16 @@ def _inputs(impl, dom, stats):
     def check_out(method, out, n, what):
         shapes = [(2 * n, 2 * n)] if method == "poisson_tensor" else [(n,), (n,)]
         if len(out) != len(shapes):
-            raise AssertionError(f"{method} ({what}): returned {len(out)} values, expected {len(shapes)}")
+            raise AssertionError(
+                f"{method} ({what}): returned {len(out)} values, expected {len(shapes)}"
+            )
         res = []
         for o, s in zip(out, shapes):
             if not isinstance(o, np.ndarray) or o.dtype != np.float64:
                 got = type(o).__name__ if not isinstance(o, np.ndarray) else f"ndarray of {o.dtype}"
-                raise AssertionError(f"{method} ({what}): returned {got}; the protocol returns float64 numpy arrays")
+                raise AssertionError(
+                    f"{method} ({what}): returned {got}; the protocol returns float64 numpy arrays"
+                )
             if o.shape != s:
                 raise AssertionError(f"{method} ({what}): result has shape {o.shape}, expected {s}")
             if not np.all(np.isfinite(o)):
@@ -764,9 +892,15 @@ def _inputs(impl, dom, stats):
 
     def body(ex):
         t, (A, IA, potA), (B, IB, potB) = ex
-        out = [one_method(m, t, (A, IA, potA), (B, IB, potB)) for m in methods
-               if m != "flow" or all(_cheap_flow(M[1:4], II, pp, [M[4:6]], t)
-                                     for M, II, pp in ((A, IA, potA), (B, IB, potB)))]
+        out = [
+            one_method(m, t, (A, IA, potA), (B, IB, potB))
+            for m in methods
+            if m != "flow"
+            or all(
+                _cheap_flow(M[1:4], II, pp, [M[4:6]], t)
+                for M, II, pp in ((A, IA, potA), (B, IB, potB))
+            )
+        ]
         if not out or any(o is None for o in out):
             return None
         return max(out), None
@@ -798,8 +932,16 @@ def _inputs(impl, dom, stats):
 
         refs = {k: judge(method, *data(k), t) for k in seqs}
         # caller buffers: copies of A's data, refilled in place with B's and A's again
-        bufs = [None if a is None else ({k: (v if k == "kind" else np.array(v, dtype=float)) for k, v in a.items()}
-                                        if isinstance(a, dict) else np.array(a, dtype=float)) for a in data("A")]
+        bufs = [
+            None
+            if a is None
+            else (
+                {k: (v if k == "kind" else np.array(v, dtype=float)) for k, v in a.items()}
+                if isinstance(a, dict)
+                else np.array(a, dtype=float)
+            )
+            for a in data("A")
+        ]
         for step, key in enumerate(("A", "B", "A")):
             src = data(key)
             for buf, val in zip(bufs, src):
@@ -808,35 +950,67 @@ def _inputs(impl, dom, stats):
                         buf[k][...] = val[k]
                 elif buf is not None:
                     buf[...] = val
-            pristine = [None if b is None else ({k: (v if k == "kind" else v.copy()) for k, v in b.items()}
-                                                if isinstance(b, dict) else b.copy()) for b in bufs]
+            pristine = [
+                None
+                if b is None
+                else (
+                    {k: (v if k == "kind" else v.copy()) for k, v in b.items()}
+                    if isinstance(b, dict)
+                    else b.copy()
+                )
+                for b in bufs
+            ]
             try:
-                out = check_out(method, call(method, bufs, t), n, f"model {key}, call {step + 1} of an interleaved sequence")
+                out = check_out(
+                    method,
+                    call(method, bufs, t),
+                    n,
+                    f"model {key}, call {step + 1} of an interleaved sequence",
+                )
             except ValueError as exc:
-                if method == "flow" and ALLOW_CHART_REFUSAL and (refs[key][0] is None or not _catalogue_rep(src[0])):
+                if (
+                    method == "flow"
+                    and ALLOW_CHART_REFUSAL
+                    and (refs[key][0] is None or not _catalogue_rep(src[0]))
+                ):
                     _count(stats, "flow refused past the chart edge (ValueError)")
                     return None
-                raise AssertionError(f"{method} raised ValueError at a regular point (model {key}): {exc}") from None
+                raise AssertionError(
+                    f"{method} raised ValueError at a regular point (model {key}): {exc}"
+                ) from None
             names = ["f", "theta", "upsilon", "inertia", "potential", "x", "pi"]
             for nm, b, p in zip(names, bufs, pristine):
                 if b is None:
                     continue
                 # bytes, not values: -0.0 written over 0.0 is a mutation too
-                same = (all(b[k].tobytes() == p[k].tobytes() for k in ("L", "gamma")) if isinstance(b, dict)
-                        else b.tobytes() == p.tobytes())
+                same = (
+                    all(b[k].tobytes() == p[k].tobytes() for k in ("L", "gamma"))
+                    if isinstance(b, dict)
+                    else b.tobytes() == p.tobytes()
+                )
                 if not same:
-                    raise AssertionError(f"{method} mutated its input {nm!r} (the caller's array changed)")
+                    raise AssertionError(
+                        f"{method} mutated its input {nm!r} (the caller's array changed)"
+                    )
             ratio = err_ratio(method, out, refs[key], src[0], tol_for(key, refs[key]))
             if ratio > 1:
-                raise AssertionError(f"{method}: interleaved call {step + 1} (model {key} after "
-                                     f"{'model A' if step else 'nothing'}) disagrees with the judge: ratio "
-                                     f"{ratio:.3g}{' (a stale cache?)' if step else ''}")
+                raise AssertionError(
+                    f"{method}: interleaved call {step + 1} (model {key} after "
+                    f"{'model A' if step else 'nothing'}) disagrees with the judge: ratio "
+                    f"{ratio:.3g}{' (a stale cache?)' if step else ''}"
+                )
             worst = max(worst, ratio)
             if step == 0:
                 lst = call(method, [_as_lists(a) for a in data("A")], t)
-                lst = check_out(method, tuple(np.asarray(v) if isinstance(v, list) else v for v in lst), n,
-                                "inputs given as nested lists")
-                worst = max(worst, err_ratio(method, lst, refs["A"], src[0], tol_for("A", refs["A"])))
+                lst = check_out(
+                    method,
+                    tuple(np.asarray(v) if isinstance(v, list) else v for v in lst),
+                    n,
+                    "inputs given as nested lists",
+                )
+                worst = max(
+                    worst, err_ratio(method, lst, refs["A"], src[0], tol_for("A", refs["A"]))
+                )
         return worst
 
     @st.composite
@@ -848,8 +1022,12 @@ def _inputs(impl, dom, stats):
         pots = (draw(_potentials(n, dom)), draw(_potentials(n, dom)))
         if (pots[0] is None) != (pots[1] is None):
             pots = (pots[0], pots[0])
-        return (draw(st.sampled_from([0.1, 0.3]), label="t"),
-                (A, draw(_inertias(n)), pots[0]), (B, draw(_inertias(n)), pots[1]))
+        return (
+            draw(st.sampled_from([0.1, 0.3]), label="t"),
+            (A, draw(_inertias(n)), pots[0]),
+            (B, draw(_inertias(n)), pots[1]),
+        )
+
     return body, strat()
 
 
@@ -868,23 +1046,32 @@ def _vector_field_reference(impl, dom, stats, regime):
         try:
             gx, gp = _call(impl, "hamiltonian_vector_field", f, theta, ups, inertia, pot, x, pi)
         except ValueError as exc:
-            raise AssertionError(f"{name}: raised ValueError at a non-degenerate point: {exc}") from None
+            raise AssertionError(
+                f"{name}: raised ValueError at a non-degenerate point: {exc}"
+            ) from None
         got = np.concatenate([_finite_array(gx, (n,), "xdot"), _finite_array(gp, (n,), "pidot")])
         ref = np.concatenate([xd, pd])
         L = np.linalg.inv(_phi1(-_ad(f, x)))
         err = _max_err(got, ref)
-        force = 1.0 if pot is None else max(1.0, float(np.abs(pot["L"]).max() * np.abs(pot["gamma"]).max()))
+        force = (
+            1.0
+            if pot is None
+            else max(1.0, float(np.abs(pot["L"]).max() * np.abs(pot["gamma"]).max()))
+        )
         tol = _tolerance(impl, n, cond, frame, ref) * max(1.0, float(np.max(np.abs(L)))) * force
         _aim(err / tol, "vector field ratio")
         return err / tol, _digits(err, max(1.0, float(np.max(np.abs(ref)))))
+
     return body, _hamiltonians(regime, dom)
 
 
 def _time_ok(dom, t) -> bool:
-    return (dom.max_abs_t is None or abs(t) <= dom.max_abs_t) and (t >= 0 or dom.negative_t is not False)
+    return (dom.max_abs_t is None or abs(t) <= dom.max_abs_t) and (
+        t >= 0 or dom.negative_t is not False
+    )
 
 
-ALLOW_CHART_REFUSAL = True
+ALLOW_CHART_REFUSAL = False
 """Accept (count, and state in the certificate) a ``ValueError`` from ``flow`` when the trajectory
 leaves the chart of exponential coordinates (the judge's ``x`` reaches ``||ad_x||_2 = 0.9 * 2 pi``)
 or the algebra is not a catalogue algebra with a known matrix representation: refimpl's flows
@@ -893,8 +1080,12 @@ cannot yet re-base ``g(t)`` there (issue 13). Set False once they can."""
 
 def _catalogue_rep(f) -> bool:
     f = np.asarray(f, dtype=float)
-    return any(catalogue(nm).rep is not None and catalogue(nm).f.shape == f.shape and np.array_equal(catalogue(nm).f, f)
-               for nm in CATALOGUE_NAMES)
+    return any(
+        catalogue(nm).rep is not None
+        and catalogue(nm).f.shape == f.shape
+        and np.array_equal(catalogue(nm).f, f)
+        for nm in CATALOGUE_NAMES
+    )
 
 
 def _count(stats, key, message=None):
@@ -921,7 +1112,9 @@ def _flow_call(impl, dom, stats, args, t):
             if jx is None or not _catalogue_rep(args[0]):
                 _count(stats, "refused past the chart edge (ValueError)")
                 return None
-        raise AssertionError(f"flow raised ValueError at t = {t:g} inside the declared domain: {exc}") from None
+        raise AssertionError(
+            f"flow raised ValueError at t = {t:g} inside the declared domain: {exc}"
+        ) from None
 
 
 def _flow_reference(impl, dom, stats):
@@ -935,7 +1128,9 @@ def _flow_reference(impl, dom, stats):
             return None
         work = reference_work(f, theta, ups, inertia, pot, x, pi, t)
         if work > REFERENCE_WORK_LIMIT:
-            stats["redrawn: reference over the work limit"] = stats.get("redrawn: reference over the work limit", 0) + 1
+            stats["redrawn: reference over the work limit"] = (
+                stats.get("redrawn: reference over the work limit", 0) + 1
+            )
             reject()
         stats["max reference work"] = max(stats.get("max reference work", 0.0), round(work, 1))
 
@@ -944,9 +1139,12 @@ def _flow_reference(impl, dom, stats):
                 return reference_flow(f, theta, ups, inertia, pot, x, pi, abs(t), dps=25)
             except ValueError:
                 return None
+
         refd = _FLOW_CACHE.get(("ref",) + _key(f, theta, ups, inertia, pot, x, pi, abs(t)), compute)
         if refd is None:
-            stats["redrawn: reference unavailable (chart)"] = stats.get("redrawn: reference unavailable (chart)", 0) + 1
+            stats["redrawn: reference unavailable (chart)"] = (
+                stats.get("redrawn: reference unavailable (chart)", 0) + 1
+            )
             reject()
         xr, pr = (np.asarray(v, dtype=float) for v in refd)
         if t >= 0:
@@ -961,7 +1159,9 @@ def _flow_reference(impl, dom, stats):
         gx, gp = _finite_array(out[0], (n,), "x(t)"), _finite_array(out[1], (n,), "pi(t)")
         scale = max(1.0, float(np.max(np.abs(np.concatenate(want)))))
         tol = _flow_tol(impl, n, cond, frame) * scale
-        ratio = _compare_state(impl, f, gx, gp, want[0], want[1], scipy.linalg.expm(_ad(f, want[0])), tol)
+        ratio = _compare_state(
+            impl, f, gx, gp, want[0], want[1], scipy.linalg.expm(_ad(f, want[0])), tol
+        )
         err = _max_err(np.concatenate([gx, gp]), np.concatenate(want))
         _aim(ratio, "flow ratio")
         return ratio, _digits(err, scale)
@@ -983,7 +1183,10 @@ def _flow_long(impl, dom, stats):
         if not math.isfinite(cond) or cond > 1e6:
             return None
         # bounded work for the judge and the implementation: |t| (1 + rho) (reference_work / n^3)
-        if reference_work(f, theta, ups, inertia, pot, x, pi, t) / f.shape[0] ** 3 > LONG_WORK_LIMIT:
+        if (
+            reference_work(f, theta, ups, inertia, pot, x, pi, t) / f.shape[0] ** 3
+            > LONG_WORK_LIMIT
+        ):
             stats["redrawn: over the work limit"] = stats.get("redrawn: over the work limit", 0) + 1
             reject()
         try:
@@ -991,10 +1194,14 @@ def _flow_long(impl, dom, stats):
         except (ArithmeticError, np.linalg.LinAlgError):
             stats["redrawn: judge failed"] = stats.get("redrawn: judge failed", 0) + 1
             reject()
-        scale = max(1.0, float(np.max(np.abs(jp))), float(np.max(np.abs(jx))) if jx is not None else 1.0)
+        scale = max(
+            1.0, float(np.max(np.abs(jp))), float(np.max(np.abs(jx))) if jx is not None else 1.0
+        )
         tol = _flow_tol(impl, n, cond, frame) * scale
         if max(e or 0.0 for e in jerr) > 0.1 * tol:
-            stats["redrawn: judge not accurate enough"] = stats.get("redrawn: judge not accurate enough", 0) + 1
+            stats["redrawn: judge not accurate enough"] = (
+                stats.get("redrawn: judge not accurate enough", 0) + 1
+            )
             reject()
         out = _flow_call(impl, dom, stats, (f, theta, ups, inertia, pot, x, pi), t)
         if out is None:
@@ -1004,14 +1211,16 @@ def _flow_long(impl, dom, stats):
         _aim(ratio, "long flow ratio")
         return ratio, None
 
-    return body, st.tuples(_hamiltonians("generic", dom), st.floats(0.05, 1.0), st.sampled_from([1.0, -1.0]))
+    return body, st.tuples(
+        _hamiltonians("generic", dom), st.floats(0.05, 1.0), st.sampled_from([1.0, -1.0])
+    )
 
 
 def _flow_order(impl, dom, stats):
     order = float(impl.order)
 
     def body(ex):
-        ((_name, f, theta, ups, x, pi), inertia, pot), = ex
+        (((_name, f, theta, ups, x, pi), inertia, pot),) = ex
         n = f.shape[0]
         if np.linalg.norm(pi) < 0.5:
             reject()  # a state at rest says nothing about order or drift
@@ -1024,7 +1233,9 @@ def _flow_order(impl, dom, stats):
         except (ArithmeticError, np.linalg.LinAlgError):
             reject()
         scale = max(1.0, float(np.max(np.abs(jp))))
-        floor = max(1e3 * C_CERT * n * _eps_impl(impl) * cond * scale, 100 * max(e or 0.0 for e in jerr))
+        floor = max(
+            1e3 * C_CERT * n * _eps_impl(impl) * cond * scale, 100 * max(e or 0.0 for e in jerr)
+        )
         errs = []
         for N in (1, 2, 4, 8, 16, 32, 64, 128):
             try:
@@ -1036,10 +1247,15 @@ def _flow_order(impl, dom, stats):
             errs.append((N, e))
             if e < floor:
                 break
-        fits = [math.log2(e1 / e2) for (n1, e1), (n2, e2) in itertools.pairwise(errs)
-                if n2 == 2 * n1 and floor < e2 < e1 < 0.1 * scale]
+        fits = [
+            math.log2(e1 / e2)
+            for (n1, e1), (n2, e2) in itertools.pairwise(errs)
+            if n2 == 2 * n1 and floor < e2 < e1 < 0.1 * scale
+        ]
         if not fits:
-            stats["redrawn: no step range in the asymptotic regime"] = stats.get("redrawn: no step range in the asymptotic regime", 0) + 1
+            stats["redrawn: no step range in the asymptotic regime"] = (
+                stats.get("redrawn: no step range in the asymptotic regime", 0) + 1
+            )
             reject()
         observed = max(fits[-2:]) if len(fits) > 1 else fits[-1]
         stats["observed order"] = min(stats.get("observed order", math.inf), round(observed, 2))
@@ -1061,7 +1277,7 @@ def _flow_drift(impl, dom, stats):
     poisson = bool(getattr(impl, "poisson_integrator", False))
 
     def body(ex):
-        ((_name, f, theta, ups, x, pi), inertia, pot), = ex
+        (((_name, f, theta, ups, x, pi), inertia, pot),) = ex
         n = f.shape[0]
         if np.linalg.norm(pi) < 0.5:
             reject()  # a state at rest says nothing about order or drift
@@ -1074,9 +1290,18 @@ def _flow_drift(impl, dom, stats):
         judge = _Judge(f, theta, ups, inertia, pot)
         H0 = judge.energy(pi, scipy.linalg.expm(_ad(f, x)))
         Iinv = judge.Iinv
-        grad = np.linalg.norm(Iinv @ pi) + (0 if pot is None else np.linalg.norm(pot["L"]) * np.linalg.norm(pot["gamma"]) * np.linalg.norm(f))
+        grad = np.linalg.norm(Iinv @ pi) + (
+            0
+            if pot is None
+            else np.linalg.norm(pot["L"]) * np.linalg.norm(pot["gamma"]) * np.linalg.norm(f)
+        )
         tol = _flow_tol(impl, n, cond, frame)
-        casimir = su2().f.shape == f.shape and np.array_equal(su2().f, f) and not np.any(ups) and pot is None
+        casimir = (
+            su2().f.shape == f.shape
+            and np.array_equal(su2().f, f)
+            and not np.any(ups)
+            and pot is None
+        )
         xi = np.array([-theta[1, 2], -theta[2, 0], -theta[0, 1]]) if casimir else None
         worst = 0.0
         for t in (T / 4, T):
@@ -1085,7 +1310,9 @@ def _flow_drift(impl, dom, stats):
                 break
             gx, gp = _finite_array(out[0], (n,), "x(t)"), _finite_array(out[1], (n,), "pi(t)")
             scale = max(1.0, float(np.max(np.abs(gp))), float(np.max(np.abs(pi))))
-            growth = 1.0 if poisson else math.sqrt(max(1.0, t))  # Brouwer: round-off walks like sqrt(t)
+            growth = (
+                1.0 if poisson else math.sqrt(max(1.0, t))
+            )  # Brouwer: round-off walks like sqrt(t)
             dH = abs(judge.energy(gp, scipy.linalg.expm(_ad(f, gx))) - H0)
             worst = max(worst, dH / (C_CERT * tol * growth * max(1.0, grad) * scale))
             if casimir:
@@ -1138,7 +1365,11 @@ def _flow_poisson_map(impl, dom, stats):
 
 def _domain_refusal(impl, dom, stats):
     """Outside the declared domain every method must raise ValueError."""
-    methods = [m for m in ("poisson_tensor", "hamiltonian_vector_field", "flow") if callable(getattr(impl, m, None))]
+    methods = [
+        m
+        for m in ("poisson_tensor", "hamiltonian_vector_field", "flow")
+        if callable(getattr(impl, m, None))
+    ]
     outside = []
     if dom.algebras is not None:
         outside.append("algebra")
@@ -1167,7 +1398,11 @@ def _domain_refusal(impl, dom, stats):
         if what == "gravity":
             if method == "poisson_tensor":
                 reject()
-            pot = pot or {"kind": "gravity", "L": np.linspace(0.3, -0.4, n), "gamma": np.linspace(-0.5, 0.7, n)}
+            pot = pot or {
+                "kind": "gravity",
+                "L": np.linspace(0.3, -0.4, n),
+                "gamma": np.linspace(-0.5, 0.7, n),
+            }
         if what in ("time", "negative time") and method != "flow":
             reject()
         if what == "time":
@@ -1186,10 +1421,14 @@ def _domain_refusal(impl, dom, stats):
         try:
             _call(impl, method, *args)
         except ValueError:
-            stats[f"refused outside the domain ({what})"] = stats.get(f"refused outside the domain ({what})", 0) + 1
+            stats[f"refused outside the domain ({what})"] = (
+                stats.get(f"refused outside the domain ({what})", 0) + 1
+            )
             return 0.0, None
-        raise AssertionError(f"{method} returned a result outside the declared domain ({what}: {name}, "
-                             f"t = {t:g}): it must raise ValueError")
+        raise AssertionError(
+            f"{method} returned a result outside the declared domain ({what}: {name}, "
+            f"t = {t:g}): it must raise ValueError"
+        )
 
     @st.composite
     def strat(draw):
@@ -1197,6 +1436,7 @@ def _domain_refusal(impl, dom, stats):
         method = draw(st.sampled_from(methods), label="method")
         within = free if what == "algebra" else Domain(algebras=dom.algebras)
         return what, method, draw(_hamiltonians("generic", within))
+
     return (body, strat()) if outside else (None, None)
 
 
@@ -1233,7 +1473,7 @@ class Certificate:
         """The command that reproduces this certificate (``tstarg certify TARGET ...``)."""
         cmd = self.command.strip()
         if cmd.startswith("tstarg ") and not cmd.startswith("tstarg certify"):
-            cmd = "tstarg certify " + cmd[len("tstarg "):]
+            cmd = "tstarg certify " + cmd[len("tstarg ") :]
         return cmd or reproduce_command(self.target, self.seed, self.max_examples)
 
     def structure(self) -> list[str]:
@@ -1242,13 +1482,19 @@ class Certificate:
         for c in self.checks:
             if c.name == "flow.drift":
                 kept = c.extra.get("preserved", "energy")
-                out.append(f"{kept}: {'drift within' if c.passed else 'drift beyond'} "
-                           f"{'a bound (Poisson integrator)' if c.extra.get('poisson') else 'Brouwer sqrt(t) law'}")
+                out.append(
+                    f"{kept}: {'drift within' if c.passed else 'drift beyond'} "
+                    f"{'a bound (Poisson integrator)' if c.extra.get('poisson') else 'Brouwer sqrt(t) law'}"
+                )
             if c.name == "flow.poisson_map":
-                out.append(f"Poisson map: {'yes' if c.passed else 'NO'} (D Phi P D Phi^T = P o Phi)")
+                out.append(
+                    f"Poisson map: {'yes' if c.passed else 'NO'} (D Phi P D Phi^T = P o Phi)"
+                )
             if c.name == "flow.order":
-                out.append(f"order: declared {c.extra.get('declared order')}, observed "
-                           f"{c.extra.get('observed order', '-')}")
+                out.append(
+                    f"order: declared {c.extra.get('declared order')}, observed "
+                    f"{c.extra.get('observed order', '-')}"
+                )
         return out
 
     def to_json(self) -> dict:
@@ -1260,12 +1506,23 @@ class Certificate:
         return d
 
     def summary(self) -> str:
-        lines = [(f"certificate for {self.implementation} {self.version} ({self.target}): "
-                 f"{'PASS' if self.passed else 'FAIL'}"), f"  certified for: {self.domain}"]
+        lines = [
+            (
+                f"certificate for {self.implementation} {self.version} ({self.target}): "
+                f"{'PASS' if self.passed else 'FAIL'}"
+            ),
+            f"  certified for: {self.domain}",
+        ]
         for c in self.checks:
             verdict = "PASS" if c.passed else ("XFAIL" if self._is_xfail(c.name) else "FAIL")
-            digits = "-" if c.min_digits is None else ("exact" if not math.isfinite(c.min_digits) else f"{c.min_digits:.1f}")
-            lines.append(f"  {c.name:38s} {c.examples:4d} examples  worst ratio {c.worst_ratio:9.3g}  digits {digits:>6s}  {verdict}")
+            digits = (
+                "-"
+                if c.min_digits is None
+                else ("exact" if not math.isfinite(c.min_digits) else f"{c.min_digits:.1f}")
+            )
+            lines.append(
+                f"  {c.name:38s} {c.examples:4d} examples  worst ratio {c.worst_ratio:9.3g}  digits {digits:>6s}  {verdict}"
+            )
             if not c.passed:
                 lines.append("    " + c.detail.replace("\n", "\n    ")[:800])
         for k, why in self.skipped.items():
@@ -1273,21 +1530,30 @@ class Certificate:
         for note in self.notes + self.structure():
             lines.append(f"  note: {note}")
         for i in self.incidents:
-            lines.append(f"  program incident: request {i['id']} ({i['method']}): {i['kind']} ({i['detail']})")
+            lines.append(
+                f"  program incident: request {i['id']} ({i['method']}): {i['kind']} ({i['detail']})"
+            )
         return "\n".join(lines)
 
     def to_markdown(self) -> str:
-        out = [f"# Certificate: {self.implementation} {self.version}", "",
-               f"- target: `{self.target}`", f"- verdict: **{'PASS' if self.passed else 'FAIL'}**",
-               f"- certified for: {self.domain}",
-               f"- seed: {self.seed}, max examples per check: {self.max_examples}, time: {self.seconds:.1f} s",
-               f"- reproduce: `{self.reproduce}`", "",
-               "| check | examples | skipped examples | worst error/tolerance | min digits | verdict |",
-               "|---|---:|---:|---:|---:|---|"]
+        out = [
+            f"# Certificate: {self.implementation} {self.version}",
+            "",
+            f"- target: `{self.target}`",
+            f"- verdict: **{'PASS' if self.passed else 'FAIL'}**",
+            f"- certified for: {self.domain}",
+            f"- seed: {self.seed}, max examples per check: {self.max_examples}, time: {self.seconds:.1f} s",
+            f"- reproduce: `{self.reproduce}`",
+            "",
+            "| check | examples | skipped examples | worst error/tolerance | min digits | verdict |",
+            "|---|---:|---:|---:|---:|---|",
+        ]
         for c in self.checks:
             verdict = "PASS" if c.passed else ("XFAIL" if self._is_xfail(c.name) else "FAIL")
             digits = "-" if c.min_digits is None else f"{c.min_digits:.1f}"
-            out.append(f"| {c.name} | {c.examples} | {c.skipped} | {c.worst_ratio:.3g} | {digits} | {verdict} |")
+            out.append(
+                f"| {c.name} | {c.examples} | {c.skipped} | {c.worst_ratio:.3g} | {digits} | {verdict} |"
+            )
         for k, why in self.skipped.items():
             out.append(f"| {k} | 0 | - | - | - | skipped: {why} |")
         notes = self.notes + self.structure()
@@ -1295,7 +1561,10 @@ class Certificate:
             out += ["", "## Notes", ""] + [f"- {n}" for n in notes]
         if self.incidents:
             out += ["", "## Program incidents (hangs and crashes; each restarted the program)", ""]
-            out += [f"- request {i['id']} ({i['method']}): **{i['kind']}** ({i['detail']})" for i in self.incidents]
+            out += [
+                f"- request {i['id']} ({i['method']}): **{i['kind']}** ({i['detail']})"
+                for i in self.incidents
+            ]
         bad = [c for c in self.checks if not c.passed]
         if bad:
             out += ["", "## Failures (minimal examples as shrunk by Hypothesis)", ""]
@@ -1319,15 +1588,27 @@ def _read_ids(path: str | None, what: str) -> dict:
             continue
         key, _, why = line.partition(" ")
         if key not in CHECKS:
-            warnings.warn(f"{what} file {path}: unknown check id {key!r} (known: {', '.join(CHECKS)})", stacklevel=2)
+            warnings.warn(
+                f"{what} file {path}: unknown check id {key!r} (known: {', '.join(CHECKS)})",
+                stacklevel=2,
+            )
             continue
         out[key] = why.strip() or f"listed in {what} file"
     return out
 
 
-def certify(impl, *, max_examples: int = 20, seed: int | None = 0, skips: dict | None = None,
-            xfails: dict | None = None, target: str = "", checks: list[str] | None = None,
-            shrink: bool = True, stop_on_failure: bool = False) -> Certificate:
+def certify(
+    impl,
+    *,
+    max_examples: int = 20,
+    seed: int | None = 0,
+    skips: dict | None = None,
+    xfails: dict | None = None,
+    target: str = "",
+    checks: list[str] | None = None,
+    shrink: bool = True,
+    stop_on_failure: bool = False,
+) -> Certificate:
     """Run every check ``impl``'s methods allow; missing methods are skipped with the reason.
 
     ``stop_on_failure=True`` skips the remaining checks after the first failure (enough
@@ -1341,12 +1622,23 @@ def certify(impl, *, max_examples: int = 20, seed: int | None = 0, skips: dict |
 
     previous = settings.default
     if not shrink:
-        settings.register_profile("_tstarg_certify_noshrink", parent=previous,
-                                  phases=[Phase.explicit, Phase.reuse, Phase.generate, Phase.target])
+        settings.register_profile(
+            "_tstarg_certify_noshrink",
+            parent=previous,
+            phases=[Phase.explicit, Phase.reuse, Phase.generate, Phase.target],
+        )
         settings.load_profile("_tstarg_certify_noshrink")
     try:
-        return _certify(impl, max_examples=max_examples, seed=seed, skips=skips, xfails=xfails,
-                        target=target, checks=checks, stop_on_failure=stop_on_failure)
+        return _certify(
+            impl,
+            max_examples=max_examples,
+            seed=seed,
+            skips=skips,
+            xfails=xfails,
+            target=target,
+            checks=checks,
+            stop_on_failure=stop_on_failure,
+        )
     finally:
         if not shrink:
             settings.register_profile("_tstarg_certify_restore", parent=previous)
@@ -1361,8 +1653,11 @@ def _applicable(impl, cid: str, dom: Domain) -> str | None:
     """Why check ``cid`` does not apply to ``impl`` (None: it applies)."""
     method = CHECKS[cid]
     if cid in ("protocol.inputs",):
-        return None if any(_has(impl, m) for m in ("poisson_tensor", "hamiltonian_vector_field", "flow")) else \
-            "the implementation has none of the protocol's methods"
+        return (
+            None
+            if any(_has(impl, m) for m in ("poisson_tensor", "hamiltonian_vector_field", "flow"))
+            else "the implementation has none of the protocol's methods"
+        )
     if cid == "domain.refusal":
         if not dom.declared:
             return "no domain declared (the whole model space is certified)"
@@ -1378,7 +1673,11 @@ def _applicable(impl, cid: str, dom: Domain) -> str | None:
             return "the implementation declares no order"
         if not _accepts_steps(impl):
             return "flow does not accept steps= (needed to measure the order)"
-    if cid == "flow.drift" and getattr(impl, "order", None) is None and not getattr(impl, "poisson_integrator", False):
+    if (
+        cid == "flow.drift"
+        and getattr(impl, "order", None) is None
+        and not getattr(impl, "poisson_integrator", False)
+    ):
         return "a structure check for integrators: declare order or poisson_integrator = True to run it"
     if cid == "flow.poisson_map":
         if not getattr(impl, "poisson_integrator", False):
@@ -1389,30 +1688,61 @@ def _applicable(impl, cid: str, dom: Domain) -> str | None:
 
 
 def _budget(cid: str, k: int) -> int:
-    return {"poisson_tensor.antisymmetry": max(5, k // 2), "poisson_tensor.degenerate": max(3, k // 4),
-            "poisson_tensor.batch": max(3, k // 3), "protocol.inputs": max(3, k // 3),
-            "flow.reference": max(3, k // 5), "flow.long": max(3, k // 3), "flow.order": 2, "flow.drift": 2,
-            "flow.poisson_map": 2, "domain.refusal": max(4, k // 2)}.get(cid, k)
+    return {
+        "poisson_tensor.antisymmetry": max(5, k // 2),
+        "poisson_tensor.degenerate": max(3, k // 4),
+        "poisson_tensor.batch": max(3, k // 3),
+        "protocol.inputs": max(3, k // 3),
+        "flow.reference": max(3, k // 5),
+        "flow.long": max(3, k // 3),
+        "flow.order": 2,
+        "flow.drift": 2,
+        "flow.poisson_map": 2,
+        "domain.refusal": max(4, k // 2),
+    }.get(cid, k)
 
 
-_EQUATIONS = {"poisson_tensor.antisymmetry": "vier9", "poisson_tensor.degenerate": "vier7, vier12",
-              "poisson_tensor.batch": "(protocol)", "protocol.inputs": "(protocol), vier9, vier10, vier11",
-              "flow.reference": "vier10, vier11", "flow.long": "vier10, vier11, twee16",
-              "flow.order": "(integrator order)", "flow.drift": "twee10, twee15 (energy), drie7 (Casimir)",
-              "flow.poisson_map": "vier9 (Poisson map)", "domain.refusal": "(declared domain)"}
-_BUILDERS = {"poisson_tensor.antisymmetry": _poisson_antisymmetry, "poisson_tensor.degenerate": _poisson_degenerate,
-             "poisson_tensor.batch": _batch, "protocol.inputs": _inputs, "flow.reference": _flow_reference,
-             "flow.long": _flow_long, "flow.order": _flow_order, "flow.drift": _flow_drift,
-             "flow.poisson_map": _flow_poisson_map, "domain.refusal": _domain_refusal}
+_EQUATIONS = {
+    "poisson_tensor.antisymmetry": "vier9",
+    "poisson_tensor.degenerate": "vier7, vier12",
+    "poisson_tensor.batch": "(protocol)",
+    "protocol.inputs": "(protocol), vier9, vier10, vier11",
+    "flow.reference": "vier10, vier11",
+    "flow.long": "vier10, vier11, twee16",
+    "flow.order": "(integrator order)",
+    "flow.drift": "twee10, twee15 (energy), drie7 (Casimir)",
+    "flow.poisson_map": "vier9 (Poisson map)",
+    "domain.refusal": "(declared domain)",
+}
+_BUILDERS = {
+    "poisson_tensor.antisymmetry": _poisson_antisymmetry,
+    "poisson_tensor.degenerate": _poisson_degenerate,
+    "poisson_tensor.batch": _batch,
+    "protocol.inputs": _inputs,
+    "flow.reference": _flow_reference,
+    "flow.long": _flow_long,
+    "flow.order": _flow_order,
+    "flow.drift": _flow_drift,
+    "flow.poisson_map": _flow_poisson_map,
+    "domain.refusal": _domain_refusal,
+}
 
 
-def _certify(impl, *, max_examples, seed, skips, xfails, target, checks, stop_on_failure=False) -> Certificate:
+def _certify(
+    impl, *, max_examples, seed, skips, xfails, target, checks, stop_on_failure=False
+) -> Certificate:
     t0 = time.perf_counter()
     dom = declared_domain(impl)
-    cert = Certificate(implementation=str(getattr(impl, "name", type(impl).__name__)),
-                       version=str(getattr(impl, "version", "unknown")), target=target or repr(impl),
-                       seed=seed, max_examples=max_examples, xfailed=dict(xfails or {}),
-                       command=reproduce_command(target, seed, max_examples), domain=dom.describe())
+    cert = Certificate(
+        implementation=str(getattr(impl, "name", type(impl).__name__)),
+        version=str(getattr(impl, "version", "unknown")),
+        target=target or repr(impl),
+        seed=seed,
+        max_examples=max_examples,
+        xfailed=dict(xfails or {}),
+        command=reproduce_command(target, seed, max_examples),
+        domain=dom.describe(),
+    )
     skips = dict(skips or {})
     for cid in CHECKS:
         if checks is not None and cid not in checks:
@@ -1430,14 +1760,24 @@ def _certify(impl, *, max_examples, seed, skips, xfails, target, checks, stop_on
         if cid == "poisson_tensor.reference":
             for regime in REGIMES:
                 if regime == "near_degenerate" and not dom.upsilon:
-                    cert.skipped[f"{cid}[{regime}]"] = "Upsilon = 0 in the declared domain: no degenerate set"
+                    cert.skipped[f"{cid}[{regime}]"] = (
+                        "Upsilon = 0 in the declared domain: no degenerate set"
+                    )
                     continue
                 # the degenerate neighbourhood gets twice the budget: errors that appear only
                 # there (cond(Phi) 1e4..1e9) are the ones a uniform search misses
                 k = 2 if regime == "near_degenerate" else 1
                 body, strat = _poisson_reference(impl, dom, {}, regime)
-                cert.checks.append(run_property(f"{cid}[{regime}]", "vier9", body, strat, max_examples=k * max_examples,
-                                                seed=seed))
+                cert.checks.append(
+                    run_property(
+                        f"{cid}[{regime}]",
+                        "vier9",
+                        body,
+                        strat,
+                        max_examples=k * max_examples,
+                        seed=seed,
+                    )
+                )
                 if stop_on_failure and cert.failed:
                     break
             continue
@@ -1446,8 +1786,16 @@ def _certify(impl, *, max_examples, seed, skips, xfails, target, checks, stop_on
                 if regime == "near_degenerate" and not dom.upsilon:
                     continue
                 body, strat = _vector_field_reference(impl, dom, {}, regime)
-                cert.checks.append(run_property(f"{cid}[{regime}]", "vier10, vier11, twee16", body, strat,
-                                                max_examples=max_examples, seed=seed))
+                cert.checks.append(
+                    run_property(
+                        f"{cid}[{regime}]",
+                        "vier10, vier11, twee16",
+                        body,
+                        strat,
+                        max_examples=max_examples,
+                        seed=seed,
+                    )
+                )
                 if stop_on_failure and cert.failed:
                     break
             continue
@@ -1456,7 +1804,9 @@ def _certify(impl, *, max_examples, seed, skips, xfails, target, checks, stop_on
         if body is None:
             cert.skipped[cid] = "nothing lies outside the declared domain"
             continue
-        res = run_property(cid, _EQUATIONS[cid], body, strat, max_examples=_budget(cid, max_examples), seed=seed)
+        res = run_property(
+            cid, _EQUATIONS[cid], body, strat, max_examples=_budget(cid, max_examples), seed=seed
+        )
         res.extra.update(stats)
         if cid == "flow.order":
             res.extra["declared order"] = getattr(impl, "order", None)
@@ -1467,8 +1817,10 @@ def _certify(impl, *, max_examples, seed, skips, xfails, target, checks, stop_on
             if k.startswith(("redrawn", "negative t refused")) or "refused past" in k:
                 cert.notes.append(f"{cid}: {k}: {v}")
         if "negative t refused (ValueError)" in stats and not any("t < 0" in n for n in cert.notes):
-            cert.notes.append(f"flow at t < 0 refused by the implementation (ValueError: "
-                              f"{stats.get('refusal message', '')}): negative times are not certified")
+            cert.notes.append(
+                f"flow at t < 0 refused by the implementation (ValueError: "
+                f"{stats.get('refusal message', '')}): negative times are not certified"
+            )
     cert.incidents = list(getattr(impl, "incidents", []) or [])
     cert.seconds = time.perf_counter() - t0
     return cert
@@ -1483,7 +1835,9 @@ def _materialize(spec):
         from .jsonl import CommandImplementation
 
         return CommandImplementation(spec["cmd"], timeout=float(spec.get("timeout", 10.0)))
-    raise ValueError(f"certification target must be 'module:object' or {{'cmd': ...}}, got {spec!r}")
+    raise ValueError(
+        f"certification target must be 'module:object' or {{'cmd': ...}}, got {spec!r}"
+    )
 
 
 def _certify_unit(item) -> Certificate:
@@ -1497,9 +1851,19 @@ def _certify_unit(item) -> Certificate:
             impl.close()
 
 
-def certify_parallel(spec, *, workers: int | None = None, scheduler=None, max_examples: int = 20,
-                     seed: int | None = 0, skips: dict | None = None, xfails: dict | None = None,
-                     target: str = "", shrink: bool = True, checks: list[str] | None = None) -> Certificate:
+def certify_parallel(
+    spec,
+    *,
+    workers: int | None = None,
+    scheduler=None,
+    max_examples: int = 20,
+    seed: int | None = 0,
+    skips: dict | None = None,
+    xfails: dict | None = None,
+    target: str = "",
+    shrink: bool = True,
+    checks: list[str] | None = None,
+) -> Certificate:
     """:func:`certify` with the check ids spread over worker processes or a Dask cluster.
 
     ``spec`` names the target so that each worker can load it (``"module:object"``, or
@@ -1513,13 +1877,28 @@ def certify_parallel(spec, *, workers: int | None = None, scheduler=None, max_ex
 
     t0 = time.perf_counter()
     ids = [c for c in CHECKS if checks is None or c in checks]
-    kwargs = {"max_examples": max_examples, "seed": seed, "skips": skips, "xfails": xfails, "target": target,
-              "shrink": shrink}
-    parts = map_tasks(_certify_unit, [(spec, cid, kwargs) for cid in ids], workers=workers, scheduler=scheduler)
+    kwargs = {
+        "max_examples": max_examples,
+        "seed": seed,
+        "skips": skips,
+        "xfails": xfails,
+        "target": target,
+        "shrink": shrink,
+    }
+    parts = map_tasks(
+        _certify_unit, [(spec, cid, kwargs) for cid in ids], workers=workers, scheduler=scheduler
+    )
     first = parts[0] if parts else _certify_unit((spec, None, kwargs))
-    cert = Certificate(implementation=first.implementation, version=first.version, target=first.target,
-                       seed=seed, max_examples=max_examples, xfailed=dict(xfails or {}), command=first.command,
-                       domain=first.domain)
+    cert = Certificate(
+        implementation=first.implementation,
+        version=first.version,
+        target=first.target,
+        seed=seed,
+        max_examples=max_examples,
+        xfailed=dict(xfails or {}),
+        command=first.command,
+        domain=first.domain,
+    )
     for part in parts:
         cert.checks.extend(part.checks)
         cert.skipped.update(part.skipped)
@@ -1548,18 +1927,28 @@ def certificate_checks(max_examples: int, seed: int | None = 0) -> list[CheckRes
     cert = certify(fast, max_examples=k, seed=seed, target="tstarg.refimpl.fast:implementation")
     digits = [c.min_digits for c in cert.checks if c.min_digits is not None]
     res_cert = CheckResult(
-        name="certificate[refimpl.fast]", equations="vier9, vier10, vier11", examples=sum(c.examples for c in cert.checks),
-        worst_ratio=max((c.worst_ratio for c in cert.checks), default=0.0), min_digits=min(digits) if digits else None,
-        passed=cert.passed, detail="" if cert.passed else cert.summary(), seconds=time.perf_counter() - t0,
-        extra={"certificate": cert.to_json()})
+        name="certificate[refimpl.fast]",
+        equations="vier9, vier10, vier11",
+        examples=sum(c.examples for c in cert.checks),
+        worst_ratio=max((c.worst_ratio for c in cert.checks), default=0.0),
+        min_digits=min(digits) if digits else None,
+        passed=cert.passed,
+        detail="" if cert.passed else cert.summary(),
+        seconds=time.perf_counter() - t0,
+        extra={"certificate": cert.to_json()},
+    )
     t1 = time.perf_counter()
     kr = kill_rate(max_examples=k, seed=seed)
     res_kill = CheckResult(
-        name="mutation_kill_rate", equations="(meta)", examples=len(kr["killed"]) + len(kr["survived"]),
+        name="mutation_kill_rate",
+        equations="(meta)",
+        examples=len(kr["killed"]) + len(kr["survived"]),
         worst_ratio=0.0 if kr["rate"] == 1.0 and kr["correct_passes"] else float("inf"),
         passed=kr["rate"] == 1.0 and kr["correct_passes"],
         detail=f"kill rate {kr['rate']:.0%}; survivors: {kr['survived']}; correct implementation passes: {kr['correct_passes']}",
-        seconds=time.perf_counter() - t1, extra=kr)
+        seconds=time.perf_counter() - t1,
+        extra=kr,
+    )
     return [res_cert, res_kill]
 
 
@@ -1573,14 +1962,22 @@ def _certify_mutant(item) -> bool:
     listeners = list(_checks.PROGRESS)
     _checks.PROGRESS.clear()
     try:
-        cert = certify(Plain(name), max_examples=max_examples, seed=seed, checks=MUTANT_CHECKS.get(name),
-                       shrink=False, stop_on_failure=name is not None)
+        cert = certify(
+            Plain(name),
+            max_examples=max_examples,
+            seed=seed,
+            checks=MUTANT_CHECKS.get(name),
+            shrink=False,
+            stop_on_failure=name is not None,
+        )
         return cert.passed
     finally:
         _checks.PROGRESS[:] = listeners
 
 
-def kill_rate(*, max_examples: int = 8, seed: int | None = 0, workers: int | None = None, scheduler=None) -> dict:
+def kill_rate(
+    *, max_examples: int = 8, seed: int | None = 0, workers: int | None = None, scheduler=None
+) -> dict:
     """Certify every mutant of :mod:`reports.mutants` (stopping at its first failed check) and the
     correct ``Plain``.
 
@@ -1591,9 +1988,19 @@ def kill_rate(*, max_examples: int = 8, seed: int | None = 0, workers: int | Non
     from ._parallel import map_tasks
 
     names = list(MUTATIONS) + [None]
-    passed = map_tasks(_certify_mutant, [(n, max_examples, seed) for n in names], workers=workers, scheduler=scheduler)
+    passed = map_tasks(
+        _certify_mutant,
+        [(n, max_examples, seed) for n in names],
+        workers=workers,
+        scheduler=scheduler,
+    )
     verdict = dict(zip(names, passed))
     killed = [n for n in MUTATIONS if not verdict[n]]
     survived = [n for n in MUTATIONS if verdict[n]]
-    return {"killed": killed, "survived": survived, "rate": len(killed) / len(MUTATIONS),
-            "correct_passes": verdict[None], "mutants": dict(MUTATIONS)}
+    return {
+        "killed": killed,
+        "survived": survived,
+        "rate": len(killed) / len(MUTATIONS),
+        "correct_passes": verdict[None],
+        "mutants": dict(MUTATIONS),
+    }

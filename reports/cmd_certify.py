@@ -87,9 +87,12 @@ def add_arguments(p) -> None:
     p.add_argument("--profile", choices=sorted(PROFILES), default="ci")
     p.add_argument("--max-examples", type=int, default=None)
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--verdict-only", action="store_true",
-                   help="stop each check at its first failing example, without shrinking it: the fastest "
-                        "verdict on a failing implementation (the example shown is then not minimal)")
+    p.add_argument(
+        "--verdict-only",
+        action="store_true",
+        help="stop each check at its first failing example, without shrinking it: the fastest "
+        "verdict on a failing implementation (the example shown is then not minimal)",
+    )
     p.add_argument(
         "--example-seconds",
         type=float,

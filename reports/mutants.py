@@ -176,7 +176,9 @@ class Plain:
         if self.mutation == "lists_rejected" and x.shape is None:  # AttributeError for a list
             raise AssertionError
         if self.mutation == "mutates_input" and isinstance(x, np.ndarray) and x.dtype == float:
-            x *= -1  # scratch space, "restored" by the negated use below (the caller's x stays negated)
+            x *= (
+                -1
+            )  # scratch space, "restored" by the negated use below (the caller's x stays negated)
             x = -x
         x, pi = np.asarray(x, dtype=float), np.asarray(pi, dtype=float)
         if x.ndim == 1:
@@ -206,8 +208,10 @@ class Plain:
         if x.ndim > 1:
             if not self.batched:
                 raise ValueError("not batched")
-            res = [self.hamiltonian_vector_field(f, theta, upsilon, inertia, potential, a, b)
-                   for a, b in zip(x.reshape(-1, x.shape[-1]), pi.reshape(-1, pi.shape[-1]))]
+            res = [
+                self.hamiltonian_vector_field(f, theta, upsilon, inertia, potential, a, b)
+                for a, b in zip(x.reshape(-1, x.shape[-1]), pi.reshape(-1, pi.shape[-1]))
+            ]
             return tuple(np.array([r[k] for r in res]).reshape(x.shape) for k in (0, 1))
         n = f.shape[0]
         dK = np.linalg.solve(np.asarray(inertia, dtype=float), pi)
@@ -223,7 +227,11 @@ class Plain:
         S = self._S(f, theta, pi)
         Phi_inv, Psi_inv, _ = self._inverses(S, U)
         Omega = Psi_inv @ (dK - U @ dV)
-        pidot = Phi_inv @ (-dV + S @ dK) if self.mutation == "pidot_s_sign" else Phi_inv @ (-dV - S @ dK)
+        pidot = (
+            Phi_inv @ (-dV + S @ dK)
+            if self.mutation == "pidot_s_sign"
+            else Phi_inv @ (-dV - S @ dK)
+        )
         if theta_pp is not None:
             pidot = pidot + theta_pp @ dK
         xdot = Omega if self.mutation == "xdot_no_frame" else L @ Omega
@@ -238,8 +246,10 @@ class Plain:
         if x0.ndim > 1:
             if not self.batched:
                 raise ValueError("not batched")
-            res = [self.flow(f, theta, upsilon, inertia, potential, a, b, t, steps)
-                   for a, b in zip(x0.reshape(-1, x0.shape[-1]), pi0.reshape(-1, pi0.shape[-1]))]
+            res = [
+                self.flow(f, theta, upsilon, inertia, potential, a, b, t, steps)
+                for a, b in zip(x0.reshape(-1, x0.shape[-1]), pi0.reshape(-1, pi0.shape[-1]))
+            ]
             return tuple(np.array([r[k] for r in res]).reshape(x0.shape) for k in (0, 1))
         z = np.concatenate([x0, pi0])
         n = len(z) // 2
@@ -251,14 +261,24 @@ class Plain:
             # h * rate <= 1/per_unit, rate ~ the fastest frequency at the start (inertia, momenta, forces)
             Iinv = np.linalg.norm(np.linalg.inv(np.asarray(inertia, dtype=float)), 2)
             fn = np.linalg.norm(np.asarray(f, dtype=float))
-            rate = Iinv * (np.linalg.norm(pi0) * fn + np.linalg.norm(np.asarray(theta, dtype=float)))
+            rate = Iinv * (
+                np.linalg.norm(pi0) * fn + np.linalg.norm(np.asarray(theta, dtype=float))
+            )
             if potential is not None:
-                rate += np.sqrt(fn * np.linalg.norm(potential["L"]) * np.linalg.norm(potential["gamma"]) * Iinv)
-            steps = 40 if m == "flow_fixed_steps" else max(1, int(np.ceil(per_unit * abs(t) * max(1.0, rate))))
+                rate += np.sqrt(
+                    fn * np.linalg.norm(potential["L"]) * np.linalg.norm(potential["gamma"]) * Iinv
+                )
+            steps = (
+                40
+                if m == "flow_fixed_steps"
+                else max(1, int(np.ceil(per_unit * abs(t) * max(1.0, rate))))
+            )
         h = t / steps
 
         def F(zz):
-            a, b = self.hamiltonian_vector_field(f, theta, upsilon, inertia, potential, zz[:n], zz[n:])
+            a, b = self.hamiltonian_vector_field(
+                f, theta, upsilon, inertia, potential, zz[:n], zz[n:]
+            )
             return np.concatenate([a, b])
 
         w2 = 1.0 / 3 if self.mutation != "flow_wrong_stage" else 0.3

@@ -32,15 +32,29 @@ def test_skips_and_xfails_files(tmp_path):
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        cert = certify(OnlyTensor(), max_examples=3, seed=1, skips=ids, checks=["poisson_tensor.batch", "hamiltonian_vector_field.reference"])
+        cert = certify(
+            OnlyTensor(),
+            max_examples=3,
+            seed=1,
+            skips=ids,
+            checks=["poisson_tensor.batch", "hamiltonian_vector_field.reference"],
+        )
     assert cert.skipped["poisson_tensor.batch"] == "slow here"
-    assert "no method 'hamiltonian_vector_field'" in cert.skipped["hamiltonian_vector_field.reference"]
+    assert (
+        "no method 'hamiltonian_vector_field'" in cert.skipped["hamiltonian_vector_field.reference"]
+    )
     assert set(CHECKS) >= set(cert.skipped)
 
 
 def test_xfail_keeps_the_verdict_green():
     from tstarg.reports.mutants import Plain
 
-    cert = certify(Plain("xx_sign"), max_examples=5, seed=0, checks=["poisson_tensor.reference"],
-                   xfails={"poisson_tensor.reference": "known sign bug"}, shrink=False)
+    cert = certify(
+        Plain("xx_sign"),
+        max_examples=5,
+        seed=0,
+        checks=["poisson_tensor.reference"],
+        xfails={"poisson_tensor.reference": "known sign bug"},
+        shrink=False,
+    )
     assert any(not c.passed for c in cert.checks) and cert.passed

@@ -7,6 +7,7 @@ from typing import ClassVar
 
 import numpy as np
 import pytest
+
 from tstarg.refimpl import catalogue
 from tstarg.reports.certification import Domain, certify, declared_domain
 from tstarg.reports.mutants import Plain

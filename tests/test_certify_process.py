@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 
 import pytest
+
 from tstarg.reports import cli
 
 HERE = Path(__file__).parent / "meta"

@@ -15,6 +15,7 @@ import pytest
 import scipy.linalg
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
+
 from tstarg.properties.strategies import cocycles, lie_algebras, points, upsilons
 from tstarg.refimpl import LieAlgebra, _flow_reference
 from tstarg.refimpl._catalogue import bianchi, su2, su3

@@ -14,7 +14,9 @@ I = np.diag([1.0, 2.0, 3.0])
 X0, PI0 = np.array([0.1, 0.0, 0.0]), np.array([0.4, -0.3, 1.1])
 
 
-@pytest.mark.parametrize("t", [float("nan"), float("inf"), -float("inf"), "soon", 1j, complex(1, 0), None])
+@pytest.mark.parametrize(
+    "t", [float("nan"), float("inf"), -float("inf"), "soon", 1j, complex(1, 0), None]
+)
 @pytest.mark.parametrize("flow", ["fast", "reference"])
 def test_bad_time_span(flow, t):
     """t must be a finite real number (negative t runs the flow backwards, tests/test_flow_any_model.py)."""
@@ -52,7 +54,9 @@ def test_chart_exit_is_re_based_through_a_built_representation():
     satisfies exp(x) = g(t) (the group element returned alongside), so nothing is refused."""
     from tstarg.refimpl import LieAlgebra
 
-    alg = LieAlgebra.from_structure_constants(2 * catalogue("Bianchi III").f, name="Bianchi III (scaled)")
+    alg = LieAlgebra.from_structure_constants(
+        2 * catalogue("Bianchi III").f, name="Bianchi III (scaled)"
+    )
     assert alg.rep is None
     I3 = np.diag([1.0, 1.5, 2.0])
     x0, pi0 = np.array([0.9, -0.6, 0.3]), np.array([2.0, 1.5, -1.0])
@@ -65,7 +69,9 @@ def test_chart_exit_is_re_based_through_a_built_representation():
     G = expm(np.einsum("a,aij->ij", x, E))
     # exp(rho(x)) against g: rounding of expm / logm, c eps cond scale with cond ~ |g| |g^-1|
     scale = np.linalg.norm(g, 1) * np.linalg.norm(np.linalg.inv(g), 1)
-    assert np.all(np.isfinite(x)) and np.max(np.abs(G - g)) <= 1e4 * np.finfo(float).eps * scale * np.max(np.abs(g))
+    assert np.all(np.isfinite(x)) and np.max(np.abs(G - g)) <= 1e4 * np.finfo(
+        float
+    ).eps * scale * np.max(np.abs(g))
     tr = reference_trajectory(alg, Z, Z, I3, None, x0, pi0, [0, "1/2"], dps=15)
     assert tr.Ad is not None and tr.Ad.shape == (2, 3, 3)
 

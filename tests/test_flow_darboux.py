@@ -7,9 +7,16 @@ from __future__ import annotations
 import mpmath
 import numpy as np
 
-from tstarg.refimpl import su2
-from tstarg.refimpl.flows import DOP853, METHODS, NumpyModel, gbs_mp, integrate_fast, reference_trajectory
 from tests._helpers import mp_digits
+from tstarg.refimpl import su2
+from tstarg.refimpl.flows import (
+    DOP853,
+    METHODS,
+    NumpyModel,
+    gbs_mp,
+    integrate_fast,
+    reference_trajectory,
+)
 
 XI = ["3/10", "-1/5", "1/2"]
 I_DIAG = ["1", "13/10", "1/2"]
@@ -40,7 +47,11 @@ def test_theta_flow_equals_shifted_momentum_flow():
         def F(t, y):
             q, G = y[:3], y[3:]
             W = [Iinv[i] * (q[i] - xim[i]) for i in range(3)]
-            cr = lambda a, b: [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+            cr = lambda a, b: [
+                a[1] * b[2] - a[2] * b[1],
+                a[2] * b[0] - a[0] * b[2],
+                a[0] * b[1] - a[1] * b[0],
+            ]
             qW, LG, GW = cr(q, W), cr([mpmath.mpf(v) for v in L_VEC], G), cr(G, W)
             return [qW[i] + LG[i] for i in range(3)] + GW
 
@@ -53,7 +64,9 @@ def test_theta_flow_equals_shifted_momentum_flow():
 
 def _A_complex(x):
     """phi1(-ad_x) for su(2) by its Taylor series (entire), valid for complex x (complex-step gradients)."""
-    K = np.array([[0, -x[2], x[1]], [x[2], 0, -x[0]], [-x[1], x[0], 0]], dtype=complex)  # ad_x = [x]_x
+    K = np.array(
+        [[0, -x[2], x[1]], [x[2], 0, -x[0]], [-x[1], x[0], 0]], dtype=complex
+    )  # ad_x = [x]_x
     M = -K
     term = np.eye(3, dtype=complex)
     total = term.copy()

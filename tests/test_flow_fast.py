@@ -10,7 +10,14 @@ import numpy as np
 import pytest
 
 from tstarg.refimpl import catalogue, su2
-from tstarg.refimpl.flows import METHODS, NumpyModel, fast_flow, integrate_fast, reference_flow, reference_trajectory
+from tstarg.refimpl.flows import (
+    METHODS,
+    NumpyModel,
+    fast_flow,
+    integrate_fast,
+    reference_flow,
+    reference_trajectory,
+)
 
 EPS = np.finfo(float).eps
 F = su2()
@@ -71,15 +78,25 @@ def test_splitting_keeps_group_element_unitary():
     """The Lie-Poisson splitting moves g by exact exponentials: the unit quaternion keeps |q| = 1 to
     rounding (error model: 8 eps per step)."""
     model = NumpyModel(F, THETA, np.zeros((3, 3)), I, POT)
-    out = integrate_fast(model, METHODS["splitting4"], np.array([[0.5], [0.6], [0.3]]),
-                         np.array([[0.3], [0.2], [1.5]]), 50.0, 1000, system="full")
+    out = integrate_fast(
+        model,
+        METHODS["splitting4"],
+        np.array([[0.5], [0.6], [0.3]]),
+        np.array([[0.3], [0.2], [1.5]]),
+        50.0,
+        1000,
+        system="full",
+    )
     assert abs(np.sum(out["quat"] ** 2) - 1) <= 8 * 1000 * 3 * EPS
 
 
 def test_scalar_dop853_equals_numpy_dop853():
     """The generated scalar DOP853 performs the same method as the numpy one (rounding only:
     100 eps * steps * scale)."""
-    for alg, theta in ((F, THETA), (catalogue("Bianchi III"), np.array([[0, .5, 0], [-.5, 0, 0], [0, 0, 0.]]))):
+    for alg, theta in (
+        (F, THETA),
+        (catalogue("Bianchi III"), np.array([[0, 0.5, 0], [-0.5, 0, 0], [0, 0, 0.0]])),
+    ):
         model = NumpyModel(alg, theta, np.zeros((3, 3)), I, POT)
         x0, pi0 = np.array([[0.1], [0.2], [0.0]]), np.array([[0.3], [0.2], [1.5]])
         a = integrate_fast(model, METHODS["dop853"], x0, pi0, 5.0, 200, system="body")

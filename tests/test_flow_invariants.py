@@ -12,9 +12,17 @@ import mpmath
 import numpy as np
 import pytest
 
-from tstarg.refimpl import catalogue, cocycle_basis, coboundary_basis, su2
-from tstarg.refimpl.flows import METHODS, NumpyModel, casimirs, energy, integrate_fast, momentum_map, reference_trajectory
 from tests._helpers import mp_digits
+from tstarg.refimpl import catalogue, coboundary_basis, cocycle_basis, su2
+from tstarg.refimpl.flows import (
+    METHODS,
+    NumpyModel,
+    casimirs,
+    energy,
+    integrate_fast,
+    momentum_map,
+    reference_trajectory,
+)
 
 EPS = np.finfo(float).eps
 
@@ -43,7 +51,9 @@ def test_momentum_map_conserved_su2_with_cocycle_and_rebasing():
     theta = -np.einsum("k,kab->ab", xi, alg.f)
     ups = np.einsum("l,lmn->mn", np.array([0.05, -0.04, 0.03]), alg.f)
     x0, pi0 = np.array([0.4, -0.3, 0.2]), np.array([0.7, 0.4, 1.2])
-    tr = reference_trajectory(alg, theta, ups, np.diag([1.0, 2.0, 3.0]), None, x0, pi0, [0, 1, 2, 3], dps=20)
+    tr = reference_trajectory(
+        alg, theta, ups, np.diag([1.0, 2.0, 3.0]), None, x0, pi0, [0, 1, 2, 3], dps=20
+    )
     assert tr.rebases >= 1
     J0 = momentum_map(alg, theta, x0, pi0, dps=40)
     assert _J_drift(tr, list(J0)) >= 17
@@ -77,7 +87,9 @@ def test_momentum_map_conserved_heisenberg_nontrivial_cocycle():
     ups = np.zeros((3, 3))
     ups[0, 1], ups[1, 0] = 0.2, -0.2
     x0, pi0 = np.array([0.3, -0.2, 0.1]), np.array([0.5, 0.4, 0.3])
-    tr = reference_trajectory(alg, theta, ups, np.diag([1.0, 1.5, 2.0]), None, x0, pi0, [0, 1, 2], dps=20)
+    tr = reference_trajectory(
+        alg, theta, ups, np.diag([1.0, 1.5, 2.0]), None, x0, pi0, [0, 1, 2], dps=20
+    )
     J0 = momentum_map(alg, theta, x0, pi0, dps=40)
     assert _J_drift(tr, list(J0)) >= 17
 
@@ -98,8 +110,18 @@ def test_casimirs_kept_to_rounding_by_poisson_integrators(name):
     pi0 = rng.normal(size=(3, 50))
     x0 = rng.normal(size=(3, 50)) * 0.5
     rec = []
-    integrate_fast(model, METHODS[name], x0, pi0, 100.0, 2000, system="body",
-                   observe=lambda k, p, G, x: rec.append(casimirs(alg.f, theta, p.T, G.T)) if k % 500 == 0 else None)
+    integrate_fast(
+        model,
+        METHODS[name],
+        x0,
+        pi0,
+        100.0,
+        2000,
+        system="body",
+        observe=lambda k, p, G, x: (
+            rec.append(casimirs(alg.f, theta, p.T, G.T)) if k % 500 == 0 else None
+        ),
+    )
     nsteps = 2000
     for key in rec[0]:
         vals = np.array([r[key] for r in rec])
@@ -121,11 +143,21 @@ def test_energy_drift_report_per_method():
     report = {}
     for name in ("splitting2", "dop853", "gauss4"):
         Hs = []
-        integrate_fast(model, METHODS[name], x0, pi0, 20.0, 400, system="body",
-                       observe=lambda k, p, G, x: Hs.append(energy(I, pot, p.T, G.T)[0]))
+        integrate_fast(
+            model,
+            METHODS[name],
+            x0,
+            pi0,
+            20.0,
+            400,
+            system="body",
+            observe=lambda k, p, G, x: Hs.append(energy(I, pot, p.T, G.T)[0]),
+        )
         Hs = np.array(Hs)
         H0 = energy(I, pot, pi0.T, (np.array([[0.0, 0.0, -1.0]]) @ np.eye(3)))[0]
         report[name] = (np.max(np.abs(Hs[:200] - H0)), np.max(np.abs(Hs - H0)))
     d1, d2 = report["splitting2"]
-    assert d2 <= 2 * d1 + 1e3 * EPS  # bounded oscillation, not secular growth (rounding slack 1e3 eps)
+    assert (
+        d2 <= 2 * d1 + 1e3 * EPS
+    )  # bounded oscillation, not secular growth (rounding slack 1e3 eps)
     assert report["dop853"][1] < report["splitting2"][1]

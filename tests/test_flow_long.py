@@ -14,6 +14,7 @@ from __future__ import annotations
 import mpmath
 import numpy as np
 import pytest
+
 from tstarg.refimpl._catalogue import su2
 from tstarg.refimpl._flow_fast import fast_trajectory
 from tstarg.refimpl._flow_reference import reference_trajectory

@@ -25,8 +25,10 @@ from tstarg.refimpl.flows import METHODS, NumpyModel, integrate_fast, reference_
 ALG = su2()
 I = np.diag([1.0, 1.3, 0.5])
 XI = np.array([0.2, -0.1, 0.3])
-THETA = -np.einsum("k,kab->ab", XI, ALG.f)                        # coboundary Theta = -xi.f (zeven3)
-UPS = np.einsum("l,lmn->mn", np.array([0.05, 0.1, -0.08]), ALG.f)  # Upsilon = tau.eps (section cinq)
+THETA = -np.einsum("k,kab->ab", XI, ALG.f)  # coboundary Theta = -xi.f (zeven3)
+UPS = np.einsum(
+    "l,lmn->mn", np.array([0.05, 0.1, -0.08]), ALG.f
+)  # Upsilon = tau.eps (section cinq)
 POT = {"kind": "gravity", "L": np.array([0.1, 0.0, 1.0]), "gamma": np.array([0.0, 0.0, -1.0])}
 X0, PI0 = np.array([0.1, 0.2, 0.0]), np.array([0.3, 0.2, 1.5])
 STEPS = {8: (8, 12, 16), 6: (24, 48, 96), 4: (16, 32, 64), 2: (16, 32, 64)}
@@ -47,7 +49,9 @@ def references():
     for label, up in (("U=0", np.zeros((3, 3))), ("U!=0", UPS)):
         tr = reference_trajectory(ALG, THETA, up, I, POT, X0, PI0, [2.0], dps=20, system="body")
         out[label] = np.concatenate([_f64(tr.pi[-1]), _f64(tr.Gamma[-1])])
-    tr = reference_trajectory(ALG, THETA, np.zeros((3, 3)), I, POT, X0, PI0, [1.0], dps=20, system="full")
+    tr = reference_trajectory(
+        ALG, THETA, np.zeros((3, 3)), I, POT, X0, PI0, [1.0], dps=20, system="full"
+    )
     out["full"] = np.concatenate([_f64(tr.x[-1]), _f64(tr.pi[-1])])
     return out
 
@@ -56,9 +60,13 @@ def _fit(errs, hs):
     return float(np.polyfit(np.log(hs), np.log(errs), 1)[0])
 
 
-CASES = [(name, lab) for name in METHODS for lab in ("U=0", "U!=0")
-         if not (lab == "U!=0" and METHODS[name].kind in ("splitting", "scalar", "taylor"))
-         and METHODS[name].kind not in ("taylor", "taylor-adaptive")]
+CASES = [
+    (name, lab)
+    for name in METHODS
+    for lab in ("U=0", "U!=0")
+    if not (lab == "U!=0" and METHODS[name].kind in ("splitting", "scalar", "taylor"))
+    and METHODS[name].kind not in ("taylor", "taylor-adaptive")
+]
 TAYLOR = [name for name in METHODS if METHODS[name].kind == "taylor"]
 
 
@@ -71,7 +79,11 @@ def test_fitted_order_matches_declared_body(name, label, references):
     errs = []
     for N in Ns:
         out = integrate_fast(model, meth, X0[:, None], PI0[:, None], 2.0, N, system="body")
-        errs.append(np.max(np.abs(np.concatenate([out["pi"][:, 0], out["Gamma"][:, 0]]) - references[label])))
+        errs.append(
+            np.max(
+                np.abs(np.concatenate([out["pi"][:, 0], out["Gamma"][:, 0]]) - references[label])
+            )
+        )
     # truncation must dominate rounding: rounding model N * eps * scale (scale ~ |state| ~ 2), x 100 margin
     assert min(errs) > 100 * max(Ns) * np.finfo(float).eps * 2
     assert abs(_fit(errs, 2.0 / np.array(Ns)) - meth.order) <= 0.3, errs
@@ -86,7 +98,9 @@ def test_fitted_order_matches_declared_configuration(name, references):
     errs = []
     for N in Ns:
         out = integrate_fast(model, meth, X0[:, None], PI0[:, None], 1.0, N, system="full")
-        errs.append(np.max(np.abs(np.concatenate([out["x"][:, 0], out["pi"][:, 0]]) - references["full"])))
+        errs.append(
+            np.max(np.abs(np.concatenate([out["x"][:, 0], out["pi"][:, 0]]) - references["full"]))
+        )
     assert min(errs) > 100 * max(Ns) * np.finfo(float).eps * 2  # rounding model as above
     assert abs(_fit(errs, 1.0 / np.array(Ns)) - meth.order) <= 0.3, errs
 
@@ -99,7 +113,11 @@ def test_fitted_order_taylor12_float64(references):
     errs = []
     for N in Ns:
         out = integrate_fast(model, meth, X0[:, None], PI0[:, None], 2.0, N, system="body")
-        errs.append(np.max(np.abs(np.concatenate([out["pi"][:, 0], out["Gamma"][:, 0]]) - references["U=0"])))
+        errs.append(
+            np.max(
+                np.abs(np.concatenate([out["pi"][:, 0], out["Gamma"][:, 0]]) - references["U=0"])
+            )
+        )
     assert min(errs) > 100 * max(Ns) * np.finfo(float).eps * 2  # rounding model as above
     assert abs(_fit(errs, 2.0 / np.array(Ns)) - meth.order) <= 0.3, errs
 
@@ -108,7 +126,11 @@ def test_fitted_order_taylor12_float64(references):
 # code's float literals are the reference's exact inputs; "lagrange" has a constant component (pi_3,
 # I_1 = I_2 and L on the axis), which the generated code drops from its Cauchy products
 EXACT = {
-    "asymmetric gyrostat": (np.diag([1.0, 2.0, 0.5]), np.array([0.25, -0.125, 0.375]), np.array([0.125, 0.0, 1.0])),
+    "asymmetric gyrostat": (
+        np.diag([1.0, 2.0, 0.5]),
+        np.array([0.25, -0.125, 0.375]),
+        np.array([0.125, 0.0, 1.0]),
+    ),
     "lagrange": (np.diag([1.0, 1.0, 0.5]), np.zeros(3), np.array([0.0, 0.0, 1.0])),
 }
 X0E, PI0E = np.array([0.125, 0.25, 0.0]), np.array([0.375, 0.25, 1.5])
@@ -120,10 +142,14 @@ def exact_references():
     for label, (inertia, xi, L) in EXACT.items():
         theta = -np.einsum("k,kab->ab", xi, ALG.f)
         pot = {"kind": "gravity", "L": L, "gamma": np.array([0.0, 0.0, -1.0])}
-        tr = reference_trajectory(ALG, theta, np.zeros((3, 3)), inertia, pot, X0E, PI0E, [0, 1.0], dps=90,
-                                  system="body")
-        out[label] = (NumpyModel(ALG, theta, np.zeros((3, 3)), inertia, pot),
-                      list(tr.pi[0]) + list(tr.Gamma[0]), list(tr.pi[-1]) + list(tr.Gamma[-1]))
+        tr = reference_trajectory(
+            ALG, theta, np.zeros((3, 3)), inertia, pot, X0E, PI0E, [0, 1.0], dps=90, system="body"
+        )
+        out[label] = (
+            NumpyModel(ALG, theta, np.zeros((3, 3)), inertia, pot),
+            list(tr.pi[0]) + list(tr.Gamma[0]),
+            list(tr.pi[-1]) + list(tr.Gamma[-1]),
+        )
     return out
 
 
@@ -140,7 +166,9 @@ def test_fitted_order_taylor_high_precision(name, label, exact_references):
     run = scalar_taylor_integrator(model, meth.order)
     Ns = (24, 34, 48, 68)
     with mpmath.workdps(100):
-        errs = [float(max(abs(a - b) for a, b in zip(run(y0, mpmath.mpf(1) / N, N), y1))) for N in Ns]
+        errs = [
+            float(max(abs(a - b) for a, b in zip(run(y0, mpmath.mpf(1) / N, N), y1))) for N in Ns
+        ]
     # the reference is good to ~1e-90 (GBS at 90 digits), arithmetic to 1e-100 per operation: the smallest
     # error must stay far above both
     assert min(errs) > 1e-80, errs

@@ -11,9 +11,9 @@ import mpmath
 import numpy as np
 import pytest
 
+from tests._helpers import mp_digits
 from tstarg.refimpl import su2
 from tstarg.refimpl.flows import euler_top_closed_form, reference_flow, reference_trajectory
-from tests._helpers import mp_digits
 
 Z = np.zeros((3, 3), dtype=object)
 Z[...] = 0
@@ -37,7 +37,10 @@ def test_closed_form_solves_euler_equations():
         pi0 = [mpmath.mpf("0.4"), mpmath.mpf("-0.3"), mpmath.mpf("1.1")]
         t = mpmath.mpf("1.7")
         p = euler_top_closed_form([1, 2, 3], pi0, t)
-        dp = [mpmath.diff(lambda s, i=i: euler_top_closed_form([1, 2, 3], pi0, s)[i], t) for i in range(3)]
+        dp = [
+            mpmath.diff(lambda s, i=i: euler_top_closed_form([1, 2, 3], pi0, s)[i], t)
+            for i in range(3)
+        ]
         W = [p[0] / 1, p[1] / 2, p[2] / 3]
         cross = [p[1] * W[2] - p[2] * W[1], p[2] * W[0] - p[0] * W[2], p[0] * W[1] - p[1] * W[0]]
         assert mp_digits(dp, cross, dps=40) >= 30
@@ -64,23 +67,54 @@ def _assert_conserved(tr, digits):
 
 def test_heavy_top_conserves_energy_and_casimirs_short():
     """Heavy top (Euler-Poisson): energy, |Gamma|^2, pi.Gamma conserved to >= 28 digits over t = 10 (dps 30)."""
-    tr = reference_trajectory(su2(), Z, Z, TOP_I, GRAV, ["0.1", "0.2", "0"], ["0.3", "0.2", "2"],
-                              [0, 2, 5, 10], dps=30, system="body")
+    tr = reference_trajectory(
+        su2(),
+        Z,
+        Z,
+        TOP_I,
+        GRAV,
+        ["0.1", "0.2", "0"],
+        ["0.3", "0.2", "2"],
+        [0, 2, 5, 10],
+        dps=30,
+        system="body",
+    )
     _assert_conserved(tr, 28)
 
 
 @pytest.mark.slow
 def test_heavy_top_conserves_energy_and_casimirs_t100():
     """Heavy top: energy and both Casimirs conserved to >= 30 digits over t = 100 (dps 40)."""
-    tr = reference_trajectory(su2(), Z, Z, TOP_I, GRAV, ["0.1", "0.2", "0"], ["0.3", "0.2", "2"],
-                              [0, 25, 50, 75, 100], dps=40, system="body")
+    tr = reference_trajectory(
+        su2(),
+        Z,
+        Z,
+        TOP_I,
+        GRAV,
+        ["0.1", "0.2", "0"],
+        ["0.3", "0.2", "2"],
+        [0, 25, 50, 75, 100],
+        dps=40,
+        system="body",
+    )
     _assert_conserved(tr, 30)
 
 
 def test_precision_ladder_agrees():
     """The run at dps and at dps + 15 (tolerance 10^-10 smaller) agree to >= dps - 3 digits."""
-    tr = reference_trajectory(su2(), Z, Z, TOP_I, GRAV, ["0.1", "0.2", "0"], ["0.3", "0.2", "2"],
-                              [3], dps=25, system="body", check=True)
+    tr = reference_trajectory(
+        su2(),
+        Z,
+        Z,
+        TOP_I,
+        GRAV,
+        ["0.1", "0.2", "0"],
+        ["0.3", "0.2", "2"],
+        [3],
+        dps=25,
+        system="body",
+        check=True,
+    )
     assert tr.digits >= 22
 
 
@@ -88,8 +122,12 @@ def test_full_state_flow_with_rebasing_matches_reduced_flow():
     """(x, pi) flow of vier10/vier11 re-based through g_ref: pi and Gamma = Ad(g)^T gamma equal the
     Euler-Poisson flow of (pi, Gamma) (twee17 corrected, twee18), and g stays in SU(2)."""
     x0, pi0 = ["0.5", "0.6", "0.3"], ["0.3", "0.2", "2"]
-    full = reference_trajectory(su2(), Z, Z, TOP_I, GRAV, x0, pi0, ["0.5", "1"], dps=20, system="full")
-    body = reference_trajectory(su2(), Z, Z, TOP_I, GRAV, x0, pi0, ["0.5", "1"], dps=20, system="body")
+    full = reference_trajectory(
+        su2(), Z, Z, TOP_I, GRAV, x0, pi0, ["0.5", "1"], dps=20, system="full"
+    )
+    body = reference_trajectory(
+        su2(), Z, Z, TOP_I, GRAV, x0, pi0, ["0.5", "1"], dps=20, system="body"
+    )
     assert full.rebases >= 1
     assert mp_digits(full.pi, body.pi) >= 18
     assert mp_digits(full.Gamma, body.Gamma) >= 18
@@ -99,15 +137,26 @@ def test_full_state_flow_with_rebasing_matches_reduced_flow():
         assert mpmath.mnorm(unit, 1) < mpmath.mpf(10) ** -18
         assert abs(mpmath.det(g) - 1) < mpmath.mpf(10) ** -18
         # x reported through the representation: exp(x^a E_a) == g
-        X = sum((mpmath.mpf(full.x[-1][a]) * mpmath.matrix(su2().rep[a].tolist()) for a in range(3)),
-                mpmath.zeros(2, 2))
+        X = sum(
+            (mpmath.mpf(full.x[-1][a]) * mpmath.matrix(su2().rep[a].tolist()) for a in range(3)),
+            mpmath.zeros(2, 2),
+        )
         assert mpmath.mnorm(mpmath.expm(X) - g, 1) < mpmath.mpf(10) ** -18
 
 
 def test_reference_flow_protocol_shape_and_zero_time():
     """Protocol flow: t = 0 returns the initial state; float inputs give float64 arrays of shape (n,)."""
     f = su2().f
-    x, pi = reference_flow(f, np.zeros((3, 3)), np.zeros((3, 3)), np.eye(3), None,
-                           np.array([0.1, 0.2, 0.3]), np.array([1.0, 0.5, 0.2]), 0.0, dps=20)
+    x, pi = reference_flow(
+        f,
+        np.zeros((3, 3)),
+        np.zeros((3, 3)),
+        np.eye(3),
+        None,
+        np.array([0.1, 0.2, 0.3]),
+        np.array([1.0, 0.5, 0.2]),
+        0.0,
+        dps=20,
+    )
     assert x.dtype == float and x.shape == (3,)
     assert np.array_equal(x, [0.1, 0.2, 0.3]) and np.array_equal(pi, [1.0, 0.5, 0.2])

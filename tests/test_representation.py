@@ -14,6 +14,7 @@ import scipy.linalg
 import sympy
 from hypothesis import given, settings
 from hypothesis import strategies as st
+
 from tstarg.properties.strategies import basis_changes, lie_algebras
 from tstarg.refimpl import LieAlgebra
 from tstarg.refimpl._catalogue import CATALOGUE_NAMES, catalogue, heisenberg, su2

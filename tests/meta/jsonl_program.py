@@ -24,9 +24,9 @@ def main() -> None:
     ap.add_argument("--only", nargs="*", default=None)
     ap.add_argument("--state", default=None)
     a = ap.parse_args()
-    from tstarg.refimpl.fast import implementation as fast
-
     import os
+
+    from tstarg.refimpl.fast import implementation as fast
 
     count = int(open(a.state).read() or 0) if a.state and os.path.exists(a.state) else 0
     for line in sys.stdin:
@@ -40,16 +40,31 @@ def main() -> None:
             time.sleep(3600)
         if count == a.crash_on:
             sys.exit(3)
-        if (a.only is not None and method not in a.only) or method not in ("poisson_tensor", "hamiltonian_vector_field"):
+        if (a.only is not None and method not in a.only) or method not in (
+            "poisson_tensor",
+            "hamiltonian_vector_field",
+        ):
             reply = {"id": rid, "error": f"unknown method {method}"}
         else:
             try:
-                arr = {k: (np.asarray(v, dtype=float) if v is not None and k != "potential" else v) for k, v in args.items()}
+                arr = {
+                    k: (np.asarray(v, dtype=float) if v is not None and k != "potential" else v)
+                    for k, v in args.items()
+                }
                 if method == "poisson_tensor":
-                    res = fast.poisson_tensor(arr["f"], arr["theta"], arr["upsilon"], arr["x"], arr["pi"]).tolist()
+                    res = fast.poisson_tensor(
+                        arr["f"], arr["theta"], arr["upsilon"], arr["x"], arr["pi"]
+                    ).tolist()
                 else:
-                    xd, pd = fast.hamiltonian_vector_field(arr["f"], arr["theta"], arr["upsilon"], arr["inertia"],
-                                                           arr["potential"], arr["x"], arr["pi"])
+                    xd, pd = fast.hamiltonian_vector_field(
+                        arr["f"],
+                        arr["theta"],
+                        arr["upsilon"],
+                        arr["inertia"],
+                        arr["potential"],
+                        arr["x"],
+                        arr["pi"],
+                    )
                     res = [xd.tolist(), pd.tolist()]
                 reply = {"id": rid, "result": res}
             except ValueError as exc:

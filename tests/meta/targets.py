@@ -11,6 +11,7 @@ import sys
 import time
 
 import numpy as np
+
 from tstarg.refimpl.fast import implementation as _fast
 
 

@@ -6,8 +6,6 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-import pytest
-
 from tstarg.reports.certification import certify
 from tstarg.reports.jsonl import CommandImplementation, ProgramFailure
 
@@ -26,10 +24,18 @@ def test_cmd_implementation_certifies():
 
 def test_hang_and_crash_are_reported_and_harness_finishes(tmp_path):
     # requests 1-3 are the capability probe; request 5 hangs, request 8 crashes (counted across restarts)
-    impl = CommandImplementation(f"{PROGRAM} --hang-on 5 --crash-on 8 --state {tmp_path / 'count'}", timeout=2)
+    impl = CommandImplementation(
+        f"{PROGRAM} --hang-on 5 --crash-on 8 --state {tmp_path / 'count'}", timeout=2
+    )
     try:
-        cert = certify(impl, max_examples=6, seed=0, target="--cmd flaky", checks=["poisson_tensor.reference"],
-                       shrink=False)  # only the verdict and the incidents are checked
+        cert = certify(
+            impl,
+            max_examples=6,
+            seed=0,
+            target="--cmd flaky",
+            checks=["poisson_tensor.reference"],
+            shrink=False,
+        )  # only the verdict and the incidents are checked
     finally:
         impl.close()
     kinds = [i["kind"] for i in cert.incidents]
@@ -40,8 +46,21 @@ def test_hang_and_crash_are_reported_and_harness_finishes(tmp_path):
 def test_cli_reports_incidents(tmp_path, capsys):
     from tstarg.reports.cli import main
 
-    rc = main(["certify", "--cmd", f"{PROGRAM} --hang-on 6 --crash-on 9 --state {tmp_path / 'count'}", "--timeout", "2",
-               "--max-examples", "4", "--out", str(tmp_path), "--workers", "1"])  # one program: the count is global
+    rc = main(
+        [
+            "certify",
+            "--cmd",
+            f"{PROGRAM} --hang-on 6 --crash-on 9 --state {tmp_path / 'count'}",
+            "--timeout",
+            "2",
+            "--max-examples",
+            "4",
+            "--out",
+            str(tmp_path),
+            "--workers",
+            "1",
+        ]
+    )  # one program: the count is global
     out = capsys.readouterr().out
     assert rc == 1 and "hang" in out and "crash" in out
     assert (tmp_path / "certificate.json").exists() and (tmp_path / "certificate.md").exists()
@@ -51,7 +70,12 @@ def test_unknown_method_is_skipped():
     impl = CommandImplementation(f"{PROGRAM} --only poisson_tensor", timeout=20)
     try:
         assert not hasattr(impl, "hamiltonian_vector_field")
-        cert = certify(impl, max_examples=3, seed=0, checks=["hamiltonian_vector_field.reference", "poisson_tensor.antisymmetry"])
+        cert = certify(
+            impl,
+            max_examples=3,
+            seed=0,
+            checks=["hamiltonian_vector_field.reference", "poisson_tensor.antisymmetry"],
+        )
     finally:
         impl.close()
     assert "hamiltonian_vector_field.reference" in cert.skipped and cert.passed

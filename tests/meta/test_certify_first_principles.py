@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 from hypothesis import settings
+
 from tstarg.reports.certification import certify
 
 

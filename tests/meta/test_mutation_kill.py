@@ -9,6 +9,7 @@ from __future__ import annotations
 from typing import ClassVar
 
 import pytest
+
 from tstarg.reports.certification import certify
 from tstarg.reports.mutants import MUTANT_CHECKS, MUTATIONS, Plain
 
@@ -16,7 +17,12 @@ SEED = 0
 EXAMPLES = 10
 
 
-SLOW = {"energy_dissipation", "flow.drift", "flow.long", "plain"}  # 25-70 s each on a loaded machine
+SLOW = {
+    "energy_dissipation",
+    "flow.drift",
+    "flow.long",
+    "plain",
+}  # 25-70 s each on a loaded machine
 
 
 def _params(names):
@@ -26,13 +32,24 @@ def _params(names):
 @pytest.mark.parametrize("mutation", _params(sorted(MUTATIONS)))
 def test_certify_rejects_mutant(mutation):
     impl = Plain(mutation)
-    cert = certify(impl, max_examples=EXAMPLES, seed=SEED, target=f"tstarg.reports.mutants:Plain({mutation!r})",
-                   checks=MUTANT_CHECKS.get(mutation), stop_on_failure=True, shrink=False)
+    cert = certify(
+        impl,
+        max_examples=EXAMPLES,
+        seed=SEED,
+        target=f"tstarg.reports.mutants:Plain({mutation!r})",
+        checks=MUTANT_CHECKS.get(mutation),
+        stop_on_failure=True,
+        shrink=False,
+    )
     assert cert.checks, cert.summary()
-    assert not cert.passed, f"mutation {mutation!r} ({MUTATIONS[mutation]}) survived:\n{cert.summary()}"
+    assert not cert.passed, (
+        f"mutation {mutation!r} ({MUTATIONS[mutation]}) survived:\n{cert.summary()}"
+    )
 
 
-@pytest.mark.parametrize("clause", _params(sorted({c for cs in MUTANT_CHECKS.values() for c in cs})))
+@pytest.mark.parametrize(
+    "clause", _params(sorted({c for cs in MUTANT_CHECKS.values() for c in cs}))
+)
 def test_correct_plain_passes_each_planted_clause(clause):
     """The clause that kills a planted mutant accepts the correct implementation (same budget)."""
     from tstarg.refimpl.fast import implementation as fast
@@ -42,7 +59,9 @@ def test_correct_plain_passes_each_planted_clause(clause):
         impl = _FastPoisson(fast)
     if clause == "domain.refusal":
         impl = _Su2Only()
-    cert = certify(impl, max_examples=EXAMPLES, seed=SEED, target="plain", checks=[clause], shrink=False)
+    cert = certify(
+        impl, max_examples=EXAMPLES, seed=SEED, target="plain", checks=[clause], shrink=False
+    )
     assert cert.checks and cert.passed, cert.summary()
 
 
@@ -69,6 +88,7 @@ class _Su2Only(Plain):
 
     def _guard(self, f):
         import numpy as np
+
         from tstarg.refimpl import catalogue
 
         if not np.array_equal(np.asarray(f, dtype=float), catalogue("su(2)").f):
@@ -93,10 +113,26 @@ def test_certify_accepts_correct_implementations(target):
     from tstarg.refimpl.reference import Reference
 
     impl = {"plain": Plain(None), "fast": fast, "reference": Reference(30)}[target]
-    checks = None if target != "reference" else [c for c in ("poisson_tensor.reference", "poisson_tensor.antisymmetry",
-                                                              "hamiltonian_vector_field.reference")]
-    cert = certify(impl, max_examples=EXAMPLES if target != "plain" else 5, seed=SEED, target=target, shrink=False,
-                   checks=checks)
+    checks = (
+        None
+        if target != "reference"
+        else [
+            c
+            for c in (
+                "poisson_tensor.reference",
+                "poisson_tensor.antisymmetry",
+                "hamiltonian_vector_field.reference",
+            )
+        ]
+    )
+    cert = certify(
+        impl,
+        max_examples=EXAMPLES if target != "plain" else 5,
+        seed=SEED,
+        target=target,
+        shrink=False,
+        checks=checks,
+    )
     assert cert.passed, cert.summary()
 
 
@@ -104,5 +140,13 @@ def test_mutation_catalogue_is_large_enough():
     """The issue asks for at least 15 plausible mistakes, each described, and one per new clause."""
     assert len(MUTATIONS) >= 15 and all(len(v) > 20 for v in MUTATIONS.values())
     clauses = {c for cs in MUTANT_CHECKS.values() for c in cs}
-    assert {"protocol.inputs", "poisson_tensor.batch", "flow.long", "flow.order", "flow.drift", "flow.poisson_map",
-            "domain.refusal", "poisson_tensor.antisymmetry"} <= clauses
+    assert {
+        "protocol.inputs",
+        "poisson_tensor.batch",
+        "flow.long",
+        "flow.order",
+        "flow.drift",
+        "flow.poisson_map",
+        "domain.refusal",
+        "poisson_tensor.antisymmetry",
+    } <= clauses
