@@ -13,11 +13,15 @@ Systems
 Error control (per trajectory, never shared)
     The kernel's Jorba-Zou control bounds the *local* remainder by ``eps * max(1, ||y||)`` per step. A
     global tolerance ``tol`` (max-norm over ``pi`` and ``Ad(g)``, the absolute error of what the user
-    gets) is met by two runs: ``A`` at ``eps = tol / 100`` and ``B`` at ``eps / 100``; ``|A - B|``
-    estimates the error of ``A`` (``B`` is about a hundred times more accurate: the local remainders,
-    hence the global error of the method, scale with ``eps``), and ``B`` is returned when
-    ``|A - B| <= tol`` on that trajectory. A trajectory over the bound is run again with ``eps`` lowered by the observed excess
-    (times 10), until it passes or ``eps`` reaches the float64 floor (then ``ValueError`` names it).
+    gets) is met by two runs (:func:`local_tolerances`): ``A`` at ``eps_A = tol / 100`` (not below
+    1e-13) and ``B`` at ``eps_B = min(eps_A / 10, 1e-13)``. ``B`` is the answer, at least ten times
+    tighter than ``A``, so ``|A - B|`` estimates the error of ``A`` (the local remainders, hence the
+    global error of the method, scale with ``eps``) and exceeds the error of ``B``; ``B`` is returned
+    when ``|A - B| <= tol`` on that trajectory. A trajectory over the bound is run again with ``eps_A``
+    lowered by the observed excess (times 10), until it passes or ``eps_A`` reaches :data:`EPS_FLOOR`
+    (then ``ValueError`` names it). Not seen by ``|A - B|``: the rounding of the starting point itself
+    (the same in both runs), amplified by the flow's sensitivity -- about 1e-13 on the heavy top over
+    ``T = 100``; tolerances near that floor are not certified by the two runs.
 """
 
 from __future__ import annotations
@@ -41,10 +45,22 @@ __all__ = [
 EPS = np.finfo(float).eps
 PATH = _ct.PATH
 _FIELDS: dict = {}
-SAFETY = 1e-2  # B's local tolerance relative to A's
-EPS_FLOOR = 1e-14  # the floor of A's local tolerance (B's is 1e-16, the Jorba-Zou order 20)
-FIRST = 1e-2  # A's first local tolerance relative to the global one (global/local error ~ 10-100
+SAFETY = 1e-1  # B's local tolerance relative to A's, at most (B_MAX caps it further)
+B_MAX = (
+    1e-13  # B's local tolerance is never above this: B is the answer, kept near the float64 floor
+)
+EPS_B_FLOOR = 1e-16  # the floor of B's local tolerance (the Jorba-Zou order 20)
+EPS_FLOOR = 1e-14  # the floor of A's local tolerance when a trajectory is run again
+A_START_MIN = (
+    1e-13  # A's first local tolerance is never below this (global error of A ~ 1e-13 there)
+)
+FIRST = 1e-2  # A's first local tolerance relative to the global one (global/local error ~ 5-20
 # over 10^2-10^3 steps, so one pair of runs usually suffices)
+FAST_UNROLL_TERMS = (
+    2800  # B's order is capped where the unrolled kernel stays this small (measured on
+)
+# the heavy top's full state, 20 monomials: order 16 (2720 terms) runs 0.71 us/step, order 17-18 1.0-1.1
+# us/step -- 40 % more per step for 12 % more arithmetic; the shorter kernel wins even with more steps)
 
 
 def _field(model, full: bool) -> _ct.CompiledField:
@@ -145,10 +161,185 @@ def compiled_taylor_body(
     }
 
 
+# ---------------------------------------------------------------- per-call glue, compiled
+# Starting state, error estimate and logarithm of the su(2) full state, one loop over the trajectories
+# each (the numpy versions above cost ~10 us of call overhead apiece on one trajectory). Same formulas:
+# x_to_quat, quat_rotation (Gamma(0) = Ad(exp x0)^T gamma), the |A - B| estimate, quat_to_x.
+def _start_py(X, P, gamma, grav, y0):
+    q = x_to_quat(X)
+    y0[:, :3] = P.T
+    if grav:
+        y0[:, 3:6] = np.einsum("Nmb,m->Nb", quat_rotation(q), gamma)
+    y0[:, -4:] = q.T
+
+
+def _estimate_py(A, B, n, est):
+    dpi = np.max(np.abs(A[:, :n] - B[:, :n]), axis=1)
+    dAd = 2.0 * np.sqrt(np.sum((A[:, -4:] - B[:, -4:]) ** 2, axis=1))
+    d = np.maximum(dpi, dAd)
+    est[:] = np.where(np.isfinite(d), d, np.inf)
+
+
+def _log_py(B, x):
+    x[:] = quat_to_x(B[:, -4:].T).T
+
+
+if _ct.HAVE_NUMBA:
+    import math
+
+    from numba import njit
+
+    @njit(cache=True, nogil=True)
+    def _start(X, P, gamma, grav, y0):  # pragma: no cover - compiled; same as _start_py
+        for j in range(X.shape[1]):
+            x0, x1, x2 = X[0, j], X[1, j], X[2, j]
+            t = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+            s = math.sin(t / 2) / t if t > 0 else 0.5
+            w, a, b, c = math.cos(t / 2), s * x0, s * x1, s * x2
+            y0[j, 0], y0[j, 1], y0[j, 2] = P[0, j], P[1, j], P[2, j]
+            if grav:  # Gamma_b = sum_m R_mb gamma_m, R = (w^2 - |v|^2) 1 + 2 v v^T + 2 w [v]_x (quat_rotation)
+                r = w * w - a * a - b * b - c * c
+                g0, g1, g2 = gamma[0], gamma[1], gamma[2]
+                y0[j, 3] = (
+                    g0 * (r + 2 * a * a)
+                    + g1 * (2 * b * a + 2 * w * c)
+                    + g2 * (2 * c * a - 2 * w * b)
+                )
+                y0[j, 4] = (
+                    g0 * (2 * a * b - 2 * w * c)
+                    + g1 * (r + 2 * b * b)
+                    + g2 * (2 * c * b + 2 * w * a)
+                )
+                y0[j, 5] = (
+                    g0 * (2 * a * c + 2 * w * b)
+                    + g1 * (2 * b * c - 2 * w * a)
+                    + g2 * (r + 2 * c * c)
+                )
+            k = y0.shape[1] - 4
+            y0[j, k], y0[j, k + 1], y0[j, k + 2], y0[j, k + 3] = w, a, b, c
+
+    @njit(cache=True, nogil=True)
+    def _estimate(A, B, n, est):  # pragma: no cover - compiled; same as _estimate_py
+        d = A.shape[1]
+        for j in range(A.shape[0]):
+            m = 0.0
+            for c in range(n):
+                m = max(m, abs(A[j, c] - B[j, c]))
+            s = 0.0
+            for c in range(d - 4, d):
+                s += (A[j, c] - B[j, c]) ** 2
+            m = max(m, 2.0 * math.sqrt(s))
+            est[j] = m if math.isfinite(m) else np.inf
+
+    @njit(cache=True, nogil=True)
+    def _log(B, x):  # pragma: no cover - compiled; same as _log_py
+        d = B.shape[1]
+        for j in range(B.shape[0]):
+            w, a, b, c = B[j, d - 4], B[j, d - 3], B[j, d - 2], B[j, d - 1]
+            s = math.sqrt(a * a + b * b + c * c)
+            fac = 2.0 * math.atan2(s, w) / s if s > 0 else 2.0
+            x[0, j], x[1, j], x[2, j] = a * fac, b * fac, c * fac
+else:  # pragma: no cover - exercised only where numba is missing
+    _start, _estimate, _log = _start_py, _estimate_py, _log_py
+
+
+def _full_field(model) -> _ct.CompiledField:
+    """The compiled full-state field, kept on the (cached, immutable) model: no key hashing per call."""
+    cf = model.__dict__.get("_taylor_full_field")
+    if cf is None:
+        cf = model.__dict__["_taylor_full_field"] = _field(model, True)
+    return cf
+
+
 def _full_run(model, y0, t, eps):
-    cf = _field(model, True)
-    y, steps = _ct.taylor_adaptive(cf, y0, t, eps)
+    y, steps = _ct.taylor_adaptive(_full_field(model), y0, t, eps)
     return y.T, steps
+
+
+def local_tolerances(tol: float) -> tuple[float, float]:
+    """``(eps_A, eps_B)``: the first local tolerances of the checking run ``A`` and the returned run ``B``.
+
+    ``A`` runs at ``FIRST * tol`` (its global error is then about ``tol / 5``: global/local ~ 5-20 over
+    the ``10^2 - 10^3`` steps of ``|t| ~ 100``), not below :data:`A_START_MIN`. ``B`` runs at
+    ``SAFETY * eps_A`` but at most :data:`B_MAX`: ``B``, the answer, is always near the float64 floor,
+    ten or more times tighter than ``A``, so ``|A - B|`` is about the error of ``A`` and exceeds that of
+    ``B``. Costs (heavy top, T = 100): ``B`` at 1e-13 about 1.6 times ``A`` at 1e-8; a checking run
+    as accurate as ``B`` would double the cost instead."""
+    eps_a = min(max(FIRST * tol, A_START_MIN), 1e-3)
+    return eps_a, _eps_b(eps_a)
+
+
+def _eps_b(eps_a: float) -> float:
+    return max(min(eps_a * SAFETY, B_MAX), EPS_B_FLOOR)
+
+
+def _order_b(cf, eps_b: float) -> int:
+    """B's order: Jorba-Zou's for ``eps_b``, capped where the unrolled kernel stays short (at least 12)."""
+    P = _ct.adaptive_order(eps_b)
+    m = max(len(cf.mons), 1)
+    while P > 12 and m * P * (P + 1) // 2 > FAST_UNROLL_TERMS:
+        P -= 1
+    return P
+
+
+_NO_GAMMA = np.zeros(3)
+
+
+def _run_pair(model, y0, t, e, n):
+    """Runs ``A`` (local tolerance ``e``) and ``B`` on the rows ``y0``: ``(B, est, steps of B)``."""
+    cf = _full_field(model)
+    A, _ = _ct.taylor_adaptive(cf, y0, t, e)
+    eb = _eps_b(e)
+    B, sB = _ct.taylor_adaptive(cf, y0, t, eb, _order_b(cf, eb))
+    if np.any(sB < 0):
+        raise ValueError(
+            f"compiled Taylor flow: trajectories {np.flatnonzero(sB < 0)[:10].tolist()} became non-finite "
+            f"before t = {t} (diverged); no point is dropped"
+        )
+    est = np.empty(len(y0))
+    _estimate(A, B, n, est)
+    return B, est, sB
+
+
+def _refine(eps, est, tol):
+    """The lowered local tolerance of the trajectories over the bound (by the observed excess, times 10)."""
+    shrink = np.minimum(tol / np.maximum(est, tol) / 10, 0.1)
+    return np.maximum(eps * shrink, EPS_FLOOR)
+
+
+def _pair(model, y0, t, eps, n, tol):
+    for _ in range(8):
+        B, est, steps = _run_pair(model, y0, t, eps, n)
+        if est[0] <= tol:
+            break
+        new = float(_refine(np.array([eps]), est, tol)[0])
+        if new >= eps:
+            break
+        eps = new
+    return B, est, steps
+
+
+def _batch(model, y0, t, eps_a, n, tol):
+    N = len(y0)
+    eps = np.full(N, eps_a)
+    todo = np.arange(N)
+    res = np.empty_like(y0)
+    est = np.empty(N)
+    steps = np.empty(N, dtype=np.int64)
+    for _ in range(8):
+        # one tolerance per call: group the trajectories still to do by their eps
+        for e in np.unique(eps[todo]):
+            idx = todo[eps[todo] == e]
+            res[idx], est[idx], steps[idx] = _run_pair(model, y0[idx], t, float(e), n)
+        over = todo[est[todo] > tol]
+        if over.size == 0:
+            break
+        new = _refine(eps[over], est[over], tol)
+        if np.all(new >= eps[over]):
+            break
+        eps[over] = new
+        todo = over
+    return res, est, steps
 
 
 def compiled_taylor_flow(model, x0, pi0, t: float, tol: float) -> dict:
@@ -161,56 +352,28 @@ def compiled_taylor_flow(model, x0, pi0, t: float, tol: float) -> dict:
     if not supports_full(model):
         raise ValueError("compiled Taylor full state: written for su(2)/so(3) with Upsilon = 0")
     n, N = pi0.shape
-    G0 = _gamma0(model, x0)
-    q0 = x_to_quat(x0)
-    y0 = np.concatenate([pi0] + ([] if G0 is None else [G0]) + [q0]).T
-    eps = np.full(N, min(max(FIRST * tol, EPS_FLOOR), 1e-3))
-    todo = np.arange(N)
-    res = np.empty((y0.shape[1], N))
-    est = np.empty(N)
-    steps = np.empty(N, dtype=np.int64)
-    for _ in range(8):
-        # one tolerance per call: group the trajectories still to do by their eps
-        for e in np.unique(eps[todo]):
-            idx = todo[eps[todo] == e]
-            A, _ = _full_run(model, y0[idx], t, e)
-            B, sB = _full_run(model, y0[idx], t, e * SAFETY)
-            bad = (sB < 0) | np.any(~np.isfinite(B), axis=0)
-            if np.any(bad):
-                raise ValueError(
-                    f"compiled Taylor flow: trajectories {idx[bad][:10].tolist()} became non-finite before t = {t} "
-                    "(diverged); no point is dropped"
-                )
-            dpi = np.max(np.abs(A[:n] - B[:n]), axis=0)
-            # every entry of Ad(g) = R(q) is a quadratic form q^T M q with ||M||_2 = 1 (unit quaternions), so
-            # |R(q)_ij - R(q')_ij| = |(q - q')^T M (q + q')| <= 2 ||q - q'||_2: a bound, no rotation formed
-            dAd = 2.0 * np.sqrt(np.sum((A[-4:] - B[-4:]) ** 2, axis=0))
-            d = np.maximum(dpi, dAd)
-            d = np.where(np.isfinite(d), d, np.inf)
-            res[:, idx] = B
-            est[idx] = d
-            steps[idx] = sB
-        over = todo[est[todo] > tol]
-        if over.size == 0:
-            break
-        shrink = np.minimum(tol / np.maximum(est[over], tol) / 10, 0.1)
-        new = np.maximum(eps[over] * shrink, EPS_FLOOR)
-        if np.all(new >= eps[over]):
-            break
-        eps[over] = new
-        todo = over
+    d = n + (n if model.gravity else 0) + 4
+    y0 = np.empty((N, d))
+    _start(x0, pi0, model.gamma if model.gravity else _NO_GAMMA, model.gravity, y0)
+    eps_a, _ = local_tolerances(tol)
+    if N == 1:  # one trajectory: no grouping, no index arrays
+        res, est, steps = _pair(model, y0, t, eps_a, n, tol)
+    else:
+        res, est, steps = _batch(model, y0, t, eps_a, n, tol)
     over = np.flatnonzero(est > tol)
     if over.size:
         raise ValueError(
             f"compiled Taylor flow: tolerance {tol} not reached on trajectories {over[:10].tolist()} "
             f"(estimated errors {est[over][:3].tolist()}) at the float64 floor of the local tolerance"
         )
-    q = res[-4:]
+    x = np.empty((n, N))
+    _log(res, x)
+    res = res.T
     return {
         "pi": res[:n],
-        "Gamma": None if G0 is None else res[n : 2 * n],
-        "quat": q,
-        "x": quat_to_x(q),
+        "Gamma": res[n : 2 * n] if model.gravity else None,
+        "quat": res[-4:],
+        "x": x,
         "Ad": None,
         "rebases": np.zeros(N, dtype=int),
         "steps": steps,

@@ -47,6 +47,8 @@ fitted by ``tests/test_flow_orders.py``):
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from . import _compiled_taylor as _ct
@@ -730,6 +732,91 @@ def check_tolerance(tol) -> float:
     return v
 
 
+_MODELS: dict = {}
+_MODELS_MAX = 64  # validated models kept (keyed on the bytes of the inputs), oldest dropped first
+
+
+def _numeric_key(a):
+    """``(dtype, shape, bytes)`` of a plain numeric array-like, or None (not cacheable: object arrays,
+    LieAlgebra instances, strings; those take the uncached route through full validation)."""
+    if isinstance(a, LieAlgebra):
+        return None
+    try:
+        arr = np.asarray(a)
+    except Exception:  # noqa: BLE001 - anything odd is validated (and refused by name) uncached
+        return None
+    if arr.dtype.kind not in "fiub":
+        return None
+    return (arr.dtype.str, arr.shape, arr.tobytes())
+
+
+def _potential_key(potential):
+    if potential is None:
+        return ("none",)
+    if not (isinstance(potential, dict) and set(potential) == {"kind", "L", "gamma"}):
+        return None
+    kind, L, gamma = (
+        potential["kind"],
+        _numeric_key(potential["L"]),
+        _numeric_key(potential["gamma"]),
+    )
+    if not isinstance(kind, str) or L is None or gamma is None:
+        return None
+    return (kind, L, gamma)
+
+
+def cached_model(f, theta, upsilon, inertia, potential) -> NumpyModel:
+    """The validated :class:`NumpyModel`, cached on the bytes (dtype, shape, values) of the inputs.
+
+    Validation is a function of the values alone, so a model whose inputs carry the same bytes as an
+    earlier one is that model: the second call skips validation and preparation (inverse inertia,
+    su(2) detection, compiled fields). Inputs that are not plain numeric arrays are validated afresh
+    every time. The caller's arrays are only read (their bytes copied into the key)."""
+    keys = [_numeric_key(a) for a in (f, theta, upsilon, inertia)] + [_potential_key(potential)]
+    if any(k is None for k in keys):
+        return NumpyModel(f, theta, upsilon, inertia, potential)
+    key = tuple(keys)
+    model = _MODELS.get(key)
+    if model is None:
+        model = NumpyModel(f, theta, upsilon, inertia, potential)
+        if len(_MODELS) >= _MODELS_MAX:
+            _MODELS.pop(next(iter(_MODELS)))
+        _MODELS[key] = model
+    return model
+
+
+def _points(x0, pi0, n: int):
+    """:func:`check_points` (batched), with a shortcut for float64 arrays of the right shape whose
+    entries are all finite (nothing to convert or report; anything else gets the full check and its
+    messages). The arrays are returned as given: callers copy before writing."""
+    if (
+        type(x0) is np.ndarray
+        and type(pi0) is np.ndarray
+        and x0.dtype == np.float64
+        and pi0.dtype == np.float64
+        and x0.shape == pi0.shape
+        and x0.shape[-1:] == (n,)
+        and np.isfinite(x0).all()
+        and np.isfinite(pi0).all()
+    ):
+        return x0, pi0
+    return check_points(x0, pi0, n, batched=True)
+
+
+def _check_rates(model: NumpyModel, pa, tv: float) -> None:
+    """:func:`check_flow_rates` on the cached model: its inputs ``||I^-1||_2`` and ``max|f|`` are
+    computed once per model; the check itself runs (and raises, naming the point) only when the same
+    bound, evaluated here on ``max |pi|`` over the batch, could exceed the budget."""
+    c = model.__dict__.get("_rate_const")
+    if c is None:
+        inv_norm = 1.0 / float(np.linalg.eigvalsh(0.5 * (model.inertia + model.inertia.T))[0])
+        fmax = max(1.0, float(np.max(np.abs(model.f)))) if model.f.size else 1.0
+        c = model.__dict__["_rate_const"] = inv_norm * fmax
+    size = float(np.max(np.abs(pa))) * math.sqrt(model.n) if pa.size else 0.0
+    if not abs(tv) * c * max(1.0, size) <= 0.5 * 2.0**14 * (2 + abs(tv)):  # half the budget: margin
+        check_flow_rates(model.f, model.inertia, pa, tv)
+
+
 def _default_method(model: NumpyModel, *, full: bool = False) -> Method:
     """The fastest method meeting a tolerance: the compiled adaptive Taylor method on the su(2) full
     state (``full``) when numba is present, else DOP853 (``Upsilon = 0``) or Gauss6 (``Upsilon != 0``)."""
@@ -771,14 +858,16 @@ def fast_flow(
     degenerate set (naming them), trajectories that reach it, and algebras whose representation
     cannot be built (:class:`refimpl._representation.RepresentationError`).
     """
-    tv = check_time(t, allow_negative=True)
+    # plain float t: the exact conversion of check_time is the identity (the same checks, no mpmath)
+    tv = float(t) if type(t) in (float, np.float64) and math.isfinite(t) else None
+    tv = check_time(t, allow_negative=True) if tv is None else tv
     tol = check_tolerance(tol)
     check_flow_request(tv, tol, steps, method_name, METHODS)  # issue 15 hook: the stated budget
-    model = NumpyModel(f, theta, upsilon, inertia, potential)
+    model = cached_model(f, theta, upsilon, inertia, potential)
     n = model.n
-    xa, pa = check_points(x0, pi0, n, batched=True)
+    xa, pa = _points(x0, pi0, n)
     if steps is None:  # issue 15 hook: refuse points too fast for the step-doubling budget
-        check_flow_rates(model.f, model.inertia, pa, tv)
+        _check_rates(model, pa, tv)
     shape = xa.shape[:-1]
     X = np.ascontiguousarray(xa.reshape(-1, n).T)
     P = np.ascontiguousarray(pa.reshape(-1, n).T)
