@@ -13,15 +13,19 @@ Systems
 Error control (per trajectory, never shared)
     The kernel's Jorba-Zou control bounds the *local* remainder by ``eps * max(1, ||y||)`` per step. A
     global tolerance ``tol`` (max-norm over ``pi`` and ``Ad(g)``, the absolute error of what the user
-    gets) is met by two runs (:func:`local_tolerances`): ``A`` at ``eps_A = tol / 100`` (not below
-    1e-13) and ``B`` at ``eps_B = min(eps_A / 10, 1e-13)``. ``B`` is the answer, at least ten times
-    tighter than ``A``, so ``|A - B|`` estimates the error of ``A`` (the local remainders, hence the
-    global error of the method, scale with ``eps``) and exceeds the error of ``B``; ``B`` is returned
-    when ``|A - B| <= tol`` on that trajectory. A trajectory over the bound is run again with ``eps_A``
-    lowered by the observed excess (times 10), until it passes or ``eps_A`` reaches :data:`EPS_FLOOR`
-    (then ``ValueError`` names it). Not seen by ``|A - B|``: the rounding of the starting point itself
-    (the same in both runs), amplified by the flow's sensitivity -- about 1e-13 on the heavy top over
-    ``T = 100``; tolerances near that floor are not certified by the two runs.
+    gets) is met by two runs (:func:`local_tolerances`): a checking run ``A`` and the answer ``B``, at
+    least ten times tighter and near the float64 floor (``eps_B <= 1e-13``). The global error of the
+    method scales with ``eps`` (the local remainders do), so ``d = |A - B|`` is about the error of
+    ``A`` and exceeds that of ``B``; when ``B`` is far tighter than ``A`` (``eps_A >= 1e-12``), the same
+    proportionality (Shampine 1985, global error estimation with two tolerances) gives the smaller
+    estimate ``PROP (eps_B / eps_A) d`` with the safety factor ``PROP = 30`` (the ratio global error /
+    ``eps`` varies by a factor 2-4 over ``eps`` = 1e-8 ... 1e-13 on the heavy and the asymmetric top).
+    ``B`` is returned when the estimate is at most ``tol`` on that trajectory. A trajectory over it is
+    run again with ``eps_A`` lowered by the observed excess (times 10), until it passes or ``eps_A``
+    reaches :data:`EPS_FLOOR` (then ``ValueError`` names it). Not seen by ``d``: the rounding of the
+    starting point (the same in both runs) amplified by the flow's sensitivity -- about 1e-13 on the
+    heavy top over ``T = 100``, 1e-11 on the asymmetric top; tolerances near that floor are refused when
+    ``d`` sees it, and are not certified by the two runs otherwise.
 """
 
 from __future__ import annotations
@@ -54,6 +58,14 @@ EPS_FLOOR = 1e-14  # the floor of A's local tolerance when a trajectory is run a
 A_START_MIN = (
     1e-13  # A's first local tolerance is never below this (global error of A ~ 1e-13 there)
 )
+A_LOOSE = (
+    1e-8  # A's local tolerance for tol >= A_LOOSE_FROM: the cheapest Taylor run on the heavy top
+)
+# (order 11; looser tolerances lower the order and take more steps)
+A_LOOSE_FROM = 1e-10  # from here on 30 kappa 1e-13 <= tol for amplifications kappa = err/eps <= 30
+PROP_MIN_A = 1e-12  # the proportionality estimate only for A at this local tolerance or looser
+PROP_MIN_B = 1e-14  # ... and B at this local tolerance or looser
+PROP = 30.0  # safety factor of the proportionality estimate err(B) ~ (eps_B / eps_A) |A - B|
 FIRST = 1e-2  # A's first local tolerance relative to the global one (global/local error ~ 5-20
 # over 10^2-10^3 steps, so one pair of runs usually suffices)
 FAST_UNROLL_TERMS = (
@@ -259,13 +271,15 @@ def _full_run(model, y0, t, eps):
 def local_tolerances(tol: float) -> tuple[float, float]:
     """``(eps_A, eps_B)``: the first local tolerances of the checking run ``A`` and the returned run ``B``.
 
-    ``A`` runs at ``FIRST * tol`` (its global error is then about ``tol / 5``: global/local ~ 5-20 over
-    the ``10^2 - 10^3`` steps of ``|t| ~ 100``), not below :data:`A_START_MIN`. ``B`` runs at
-    ``SAFETY * eps_A`` but at most :data:`B_MAX`: ``B``, the answer, is always near the float64 floor,
-    ten or more times tighter than ``A``, so ``|A - B|`` is about the error of ``A`` and exceeds that of
-    ``B``. Costs (heavy top, T = 100): ``B`` at 1e-13 about 1.6 times ``A`` at 1e-8; a checking run
-    as accurate as ``B`` would double the cost instead."""
-    eps_a = min(max(FIRST * tol, A_START_MIN), 1e-3)
+    ``B``, the answer, runs at ``SAFETY * eps_A`` but at most :data:`B_MAX` (always near the float64
+    floor). ``A`` runs at :data:`A_LOOSE` for ``tol >= A_LOOSE_FROM`` (the estimate is then the
+    proportional one, ``PROP (eps_B/eps_A) |A - B|``, which does not depend on ``eps_A``), else at
+    ``FIRST * tol`` (global error about ``tol / 5``: global/local ~ 5-20 over the ``10^2 - 10^3``
+    steps of ``|t| ~ 100``, and ``|A - B| <= tol`` decides), not below :data:`A_START_MIN`. Costs
+    (heavy top, T = 100): ``A`` at 1e-8 about 0.6 of ``B`` at 1e-13."""
+    if tol >= A_LOOSE_FROM:  # the proportionality estimate decides: A as cheap as possible
+        return A_LOOSE, _eps_b(A_LOOSE)
+    eps_a = max(FIRST * tol, A_START_MIN)
     return eps_a, _eps_b(eps_a)
 
 
@@ -285,59 +299,78 @@ def _order_b(cf, eps_b: float) -> int:
 _NO_GAMMA = np.zeros(3)
 
 
-def _run_pair(model, y0, t, e, n):
-    """Runs ``A`` (local tolerance ``e``) and ``B`` on the rows ``y0``: ``(B, est, steps of B)``."""
-    cf = _full_field(model)
-    A, _ = _ct.taylor_adaptive(cf, y0, t, e)
-    eb = _eps_b(e)
-    B, sB = _ct.taylor_adaptive(cf, y0, t, eb, _order_b(cf, eb))
-    if np.any(sB < 0):
+def _run(model, y0, t, eps, order=None):
+    y, steps = _ct.taylor_adaptive(_full_field(model), y0, t, eps, order)
+    if np.any(steps < 0):
         raise ValueError(
-            f"compiled Taylor flow: trajectories {np.flatnonzero(sB < 0)[:10].tolist()} became non-finite "
+            f"compiled Taylor flow: trajectories {np.flatnonzero(steps < 0)[:10].tolist()} became non-finite "
             f"before t = {t} (diverged); no point is dropped"
         )
-    est = np.empty(len(y0))
-    _estimate(A, B, n, est)
-    return B, est, sB
+    return y, steps
 
 
-def _refine(eps, est, tol):
-    """The lowered local tolerance of the trajectories over the bound (by the observed excess, times 10)."""
-    shrink = np.minimum(tol / np.maximum(est, tol) / 10, 0.1)
-    return np.maximum(eps * shrink, EPS_FLOOR)
+def _control(model, y0, t, eps_a0, n, tol):
+    """The two-run control of the module docstring on the rows of ``y0``: ``(B, estimate, steps of B)``.
 
-
-def _pair(model, y0, t, eps, n, tol):
-    for _ in range(8):
-        B, est, steps = _run_pair(model, y0, t, eps, n)
-        if est[0] <= tol:
-            break
-        new = float(_refine(np.array([eps]), est, tol)[0])
-        if new >= eps:
-            break
-        eps = new
-    return B, est, steps
-
-
-def _batch(model, y0, t, eps_a, n, tol):
+    Trajectories are grouped by their local tolerances (one tolerance per kernel call); a trajectory
+    run again keeps its ``B`` when ``B``'s tolerance does not change (only ``A`` is run again)."""
     N = len(y0)
-    eps = np.full(N, eps_a)
-    todo = np.arange(N)
+    cf = _full_field(model)
+    eps_a = np.full(N, eps_a0)
+    eps_b = np.full(N, _eps_b(eps_a0))
+    have_a = np.full(N, -1.0)  # the local tolerances of the A and B held (-1: none yet)
+    have_b = np.full(N, -1.0)
+    Ares = np.empty_like(y0)
     res = np.empty_like(y0)
-    est = np.empty(N)
-    steps = np.empty(N, dtype=np.int64)
+    est = np.full(N, np.inf)
+    steps = np.zeros(N, dtype=np.int64)
+    d = np.empty(N)
+    todo = np.arange(N)
     for _ in range(8):
-        # one tolerance per call: group the trajectories still to do by their eps
-        for e in np.unique(eps[todo]):
-            idx = todo[eps[todo] == e]
-            res[idx], est[idx], steps[idx] = _run_pair(model, y0[idx], t, float(e), n)
+        for X, have, out, ep, kind in (
+            (Ares, have_a, None, eps_a, "A"),
+            (res, have_b, steps, eps_b, "B"),
+        ):
+            need = todo[have[todo] != ep[todo]]
+            for e in np.unique(ep[need]) if need.size > 1 else ep[need]:
+                idx = need if need.size == 1 else need[ep[need] == e]
+                order = _order_b(cf, float(e)) if kind == "B" else None
+                y, st = _run(model, y0 if N == 1 else y0[idx], t, float(e), order)
+                X[idx], have[idx] = y, e
+                if out is not None:
+                    out[idx] = st
+        di = np.empty(todo.size)
+        if N == 1:
+            _estimate(Ares, res, n, di)
+        else:
+            _estimate(Ares[todo], res[todo], n, di)
+        d[todo] = di
+        # B is at least 1/SAFETY times tighter than A: |A - B| ~ err(A) > err(B); with a much tighter B the
+        # tolerance proportionality of the global error (Shampine 1985) gives the smaller estimate
+        # gives the smaller estimate -- only while both runs stay clear of the rounding floor, where the
+        # global error stops scaling with eps (A at 1e-12 or looser, B at 1e-14 or looser: the estimate
+        # 30 kappa eps_B then exceeds the floor, about kappa 1e-14 on the heavy and the asymmetric top)
+        ea, eb = eps_a[todo], eps_b[todo]
+        prop = (ea >= PROP_MIN_A) & (eb >= PROP_MIN_B)
+        est[todo] = np.where(prop, np.minimum(di, PROP * (eb / ea) * di), di)
         over = todo[est[todo] > tol]
         if over.size == 0:
             break
-        new = _refine(eps[over], est[over], tol)
-        if np.all(new >= eps[over]):
+        # run again: a tighter B alone when the proportional estimate then passes with a margin of 2 (A
+        # is kept: one run), else a tighter A (and B with it) by the observed excess, times 10
+        moved = False
+        for k in over.tolist():
+            eb_req = tol * eps_a[k] / (PROP * max(d[k], 1e-300)) / 2
+            if eps_a[k] >= PROP_MIN_A and PROP_MIN_B <= eb_req < eps_b[k]:
+                eps_b[k] = eb_req
+                moved = True
+                continue
+            new = max(eps_a[k] * min(tol / max(d[k], tol) / 10, 0.1), EPS_FLOOR)
+            if new < eps_a[k]:
+                eps_a[k], eps_b[k] = new, _eps_b(new)
+                moved = True
+        if not moved:
             break
-        eps[over] = new
         todo = over
     return res, est, steps
 
@@ -356,10 +389,7 @@ def compiled_taylor_flow(model, x0, pi0, t: float, tol: float) -> dict:
     y0 = np.empty((N, d))
     _start(x0, pi0, model.gamma if model.gravity else _NO_GAMMA, model.gravity, y0)
     eps_a, _ = local_tolerances(tol)
-    if N == 1:  # one trajectory: no grouping, no index arrays
-        res, est, steps = _pair(model, y0, t, eps_a, n, tol)
-    else:
-        res, est, steps = _batch(model, y0, t, eps_a, n, tol)
+    res, est, steps = _control(model, y0, t, eps_a, n, tol)
     over = np.flatnonzero(est > tol)
     if over.size:
         raise ValueError(
