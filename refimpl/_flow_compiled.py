@@ -153,9 +153,16 @@ def compiled_taylor_body(
             "compiled Taylor: the body field is a quadratic polynomial only for Upsilon = 0 (vier6)"
         )
     n, N = pi0.shape
-    G0 = _gamma0(model, x0)
-    y0 = (pi0 if G0 is None else np.concatenate([pi0, G0])).T
-    cf = _field(model, False)
+    if model.su2 and model.gravity:  # Gamma(0) from the unit quaternion of exp(x0) (compiled, no expm)
+        buf = np.empty((N, 10))
+        _start(np.ascontiguousarray(x0), np.ascontiguousarray(pi0), model.gamma, True, buf)
+        y0, G0 = buf[:, :6], True
+    else:
+        G0 = _gamma0(model, x0)
+        y0 = (pi0 if G0 is None else np.concatenate([pi0, G0])).T
+    cf = model.__dict__.get("_taylor_body_field")
+    if cf is None:
+        cf = model.__dict__["_taylor_body_field"] = _field(model, False)
     if nsteps is not None:
         y = _ct.taylor_fixed(cf, y0, t / nsteps, int(nsteps), int(order))
         steps = np.full(N, int(nsteps))

@@ -231,6 +231,19 @@ def flow_problem(name: str, quick: bool = False) -> FlowProblem:
             100.0,
             "closed",
         )
+    elif name == "asym_heavy_top":
+        p = FlowProblem(
+            "asym_heavy_top",
+            "heavy asymmetric top (su(2), I = diag(1, 1.3, 0.5), L = (0.1, 0, 1), gamma = -e3; the "
+            "'asymmetric' top of tests/benchmarks/test_bench_flows.py: no constant component)",
+            "su(2)",
+            [[1.0, 0, 0], [0, 1.3, 0], [0, 0, 0.5]],
+            {"kind": "gravity", "L": [0.1, 0.0, 1.0], "gamma": [0.0, 0.0, -1.0]},
+            [0.1, 0.2, 0.0],
+            [0.3, 0.2, 2.0],
+            100.0,
+            "gbs",
+        )
     elif name == "modified_top":
         p = FlowProblem(
             "modified_top",
@@ -257,8 +270,9 @@ def flow_problem(name: str, quick: bool = False) -> FlowProblem:
 
 FLOW_PROBLEMS = ("heavy_top", "free_top")  # the default run
 EXTRA_PROBLEMS = (
-    "modified_top",
-)  # on request (--problems): Upsilon != 0, vier10/vier11 with Phi solves
+    "modified_top",  # Upsilon != 0, vier10/vier11 with Phi solves
+    "asym_heavy_top",  # the heavy top without a constant component (no pi_3 dropped from the products)
+)  # on request (--problems)
 
 
 def reference_task(item) -> dict:

@@ -48,7 +48,7 @@ def add_arguments(p) -> None:
         "--problems",
         default=None,
         help="comma-separated flow problems (default: heavy_top,free_top; also: modified_top, "
-        "Theta and Upsilon != 0)",
+        "Theta and Upsilon != 0; asym_heavy_top, the heavy top without a constant component)",
     )
     p.add_argument(
         "--methods",
