@@ -57,6 +57,7 @@ from ._algebra import LieAlgebra
 from ._flow_compiled import (
     compiled_taylor_body,
     compiled_taylor_flow,
+    compiled_taylor_samples,
     quat_to_x,
     supports_full,
     x_to_quat,
@@ -970,6 +971,7 @@ def fast_trajectory(
     method_name=None,
     system: str = "full",
     progress=None,
+    tol: float | None = None,
 ):
     """A batch ``(N, n)`` sampled at ``samples`` equally spaced times in ``[0, t_end]``.
 
@@ -981,7 +983,8 @@ def fast_trajectory(
     tv = check_time(t_end, "t_end", allow_negative=True)
     if tv == 0:
         raise ValueError("t_end must be non-zero for a trajectory")
-    if samples < 2 or steps_per_sample < 1:
+    adaptive = method_name in METHODS and METHODS[method_name].adaptive
+    if samples < 2 or (steps_per_sample < 1 and not adaptive):
         raise ValueError(
             f"samples must be >= 2 and steps_per_sample >= 1, got {samples}, {steps_per_sample}"
         )
@@ -992,6 +995,34 @@ def fast_trajectory(
     P = np.ascontiguousarray(np.atleast_2d(pa).reshape(-1, n).T)
     _check_start(model, P)
     meth = METHODS[method_name] if method_name else _default_method(model)
+    if meth.adaptive:  # steps from the tolerance, per trajectory; steps_per_sample is not used
+        if tol is None:
+            raise ValueError(
+                f"method {meth.name} is adaptive: give tol (a tolerance), not a step count"
+            )
+        ok, why = meth.applies(model)
+        if not ok:
+            raise ValueError(f"method {meth.name} does not apply: {why}")
+        full = system == "full"
+        times = np.linspace(0, tv, samples)
+        res = compiled_taylor_samples(
+            model, X, P, times, check_tolerance(tol), full=full, progress=progress
+        )
+        xs = g = None
+        if full:
+            q = res["quat"]  # (T, 4, N)
+            xs = np.stack([quat_to_x(q[k]).T for k in range(samples)])
+            g = np.stack([quat_matrix(q[k]) for k in range(samples)])
+        return {
+            "times": times,
+            "pi": np.transpose(res["pi"], (0, 2, 1)).copy(),
+            "method": meth,
+            "path": res["path"],
+            "Gamma": None if res["Gamma"] is None else np.transpose(res["Gamma"], (0, 2, 1)).copy(),
+            "x": xs,
+            "g": g,
+            "error_estimate": res["error_estimate"],
+        }
     nsteps = (samples - 1) * steps_per_sample
     rec = {"pi": [], "Gamma": [], "x": []}
 
@@ -1021,6 +1052,7 @@ def fast_trajectory(
         "times": np.linspace(0, tv, samples),
         "pi": np.stack(rec["pi"]),
         "method": meth,
+        "path": "numpy",
         "Gamma": np.stack(rec["Gamma"]) if rec["Gamma"] else None,
         "x": xs,
         "g": g,

@@ -405,6 +405,56 @@ def run_heyoka(problem: FlowProblem, model, tol: float) -> np.ndarray:
     return np.array(ta.state)[:, None]
 
 
+def heyoka_batch_integrator(problem: FlowProblem, model, tol: float, width: int | None = None):
+    """heyoka's ``taylor_adaptive_batch`` (SIMD width ``width``, default heyoka's recommended one) on the
+    body field of :func:`heyoka_integrator`, JIT-compiled once per tolerance (compile time in
+    :data:`HEYOKA_COMPILE` under ``(name, T, tol, "batch")``). Returns ``(ta, width)``."""
+    import heyoka as hy  # optional contender
+
+    from tstarg.refimpl._taylor import quadratic_field
+
+    width = int(width or hy.recommended_simd_size())
+    key = (problem.name, problem.T, float(tol), "batch", width)
+    if key in _HEYOKA:
+        return _HEYOKA[key]
+    F = quadratic_field(model)
+    ys = hy.make_vars(*[f"y{c}" for c in range(F.d)])
+    rhs = []
+    for c in range(F.d):
+        e = 0.0 * ys[0]
+        for (i, j), q in F.quad[c].items():
+            e = e + float(q) * ys[i] * ys[j]
+        for i, q in F.lin[c].items():
+            e = e + float(q) * ys[i]
+        rhs.append(e)
+    y0 = np.repeat(problem.y0()[:, None], width, axis=1)
+    t0 = time.process_time()
+    ta = hy.taylor_adaptive_batch(list(zip(ys, rhs)), y0, tol=float(tol))
+    HEYOKA_COMPILE[key[:4]] = time.process_time() - t0
+    _HEYOKA[key] = (ta, width)
+    return _HEYOKA[key]
+
+
+def run_heyoka_batch(problem: FlowProblem, model, tol: float, Y0: np.ndarray) -> np.ndarray:
+    """End states ``(d, M)`` of heyoka's batch integrator for the body states ``Y0`` (d, M), ``width``
+    trajectories per call (the last chunk padded with copies of its first column); each trajectory
+    keeps its own step size (heyoka's batch mode)."""
+    ta, W = heyoka_batch_integrator(problem, model, tol)
+    d, M = Y0.shape
+    out = np.empty((d, M))
+    T = float(problem.T)
+    for k in range(0, M, W):
+        chunk = Y0[:, k : k + W]
+        m = chunk.shape[1]
+        ta.set_time(0.0)
+        if m < W:
+            chunk = np.concatenate([chunk, np.repeat(chunk[:, :1], W - m, axis=1)], axis=1)
+        ta.state[:] = chunk
+        ta.propagate_until(T)
+        out[:, k : k + m] = ta.state[:, :m]
+    return out
+
+
 def run_fast(problem: FlowProblem, model, name: str, nsteps, y0=None) -> np.ndarray:
     """End state(s) ``(d, N)`` of the fast method ``name`` with ``nsteps`` fixed steps (for an adaptive
     method: ``nsteps`` is its tolerance)."""
