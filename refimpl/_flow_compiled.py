@@ -326,6 +326,17 @@ def _control(model, y0, t, eps_a0, n, tol):
     run again keeps its ``B`` when ``B``'s tolerance does not change (only ``A`` is run again)."""
     N = len(y0)
     cf = _full_field(model)
+    if N == 1:  # one trajectory, first pair: scalars only (the common protocol call)
+        eb0 = _eps_b(eps_a0)
+        A, _ = _run(model, y0, t, eps_a0)
+        B, sB = _run(model, y0, t, eb0, _order_b(cf, eb0))
+        d1 = np.empty(1)
+        _estimate(A, B, n, d1)
+        e1 = float(d1[0])
+        if eps_a0 >= PROP_MIN_A and eb0 >= PROP_MIN_B:
+            e1 = min(e1, PROP * (eb0 / eps_a0) * e1)
+        if e1 <= tol:
+            return B, np.array([e1]), sB
     eps_a = np.full(N, eps_a0)
     eps_b = np.full(N, _eps_b(eps_a0))
     have_a = np.full(N, -1.0)  # the local tolerances of the A and B held (-1: none yet)
