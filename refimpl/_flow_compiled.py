@@ -337,6 +337,9 @@ def _control(model, y0, t, eps_a0, n, tol):
             e1 = min(e1, PROP * (eb0 / eps_a0) * e1)
         if e1 <= tol:
             return B, np.array([e1]), sB
+        first = (A, B, sB)  # kept: the loop below starts from this pair
+    else:
+        first = None
     eps_a = np.full(N, eps_a0)
     eps_b = np.full(N, _eps_b(eps_a0))
     have_a = np.full(N, -1.0)  # the local tolerances of the A and B held (-1: none yet)
@@ -347,6 +350,9 @@ def _control(model, y0, t, eps_a0, n, tol):
     steps = np.zeros(N, dtype=np.int64)
     d = np.empty(N)
     todo = np.arange(N)
+    if first is not None:
+        Ares[:], res[:], steps[:] = first
+        have_a[:], have_b[:] = eps_a0, _eps_b(eps_a0)
     for _ in range(8):
         for X, have, out, ep, kind in (
             (Ares, have_a, None, eps_a, "A"),
