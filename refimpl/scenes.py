@@ -19,7 +19,9 @@ The planner (:func:`plan`) states each choice and what it skipped:
   reduced Euler-Poisson system ``(pi, Gamma)`` replaces ``g``;
 * no Phi solve when ``Upsilon = 0`` (``Phi = 1``);
 * the method: Gauss-Legendre order 6 when ``Upsilon != 0`` (symplectic for
-  omega_L), else the Lie-Poisson splitting for su(2) with diagonal inertia at
+  omega_L), else the compiled adaptive Taylor method (numba present; body
+  systems and the su(2) full state: order and steps from ``tol`` per
+  trajectory, two runs keep every trajectory within ``tol``), else the Lie-Poisson splitting for su(2) with diagonal inertia at
   loose tolerances (``tol >= 1e-6``), else fixed-step DOP853 (as generated
   scalar code for a single trajectory of a body system); the step count
   comes from a pilot run on ``[0, min(t_end, 1)]`` with doubling until the
