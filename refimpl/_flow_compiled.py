@@ -14,9 +14,10 @@ Error control (per trajectory, never shared)
     The kernel's Jorba-Zou control bounds the *local* remainder by ``eps * max(1, ||y||)`` per step. A
     global tolerance ``tol`` (max-norm over ``pi`` and ``Ad(g)``, the absolute error of what the user
     gets) is met by two runs (:func:`local_tolerances`): a checking run ``A`` and the answer ``B``, at
-    least ten times tighter and near the float64 floor (``eps_B <= 1e-13``). The global error of the
-    method scales with ``eps`` (the local remainders do), so ``d = |A - B|`` is about the error of
-    ``A`` and exceeds that of ``B``; when ``B`` is far tighter than ``A`` (``eps_A >= 1e-12``), the same
+    least ``1/SAFETY = 3.3`` times tighter and near the float64 floor (``eps_B <= 1e-13``). The global
+    error of the method scales with ``eps`` (the local remainders do), so ``d = |A - B|`` is about the
+    error of ``A`` and exceeds that of ``B``: with ``r = eps_B/eps_A <= 1/2``,
+    ``d >= (1 - r) err(A) = (1 - r)/r err(B) >= err(B)``; when ``B`` is far tighter than ``A`` (``eps_A >= 1e-12``), the same
     proportionality (Shampine 1985, global error estimation with two tolerances) gives the smaller
     estimate ``PROP (eps_B / eps_A) d`` with the safety factor ``PROP = 30`` (the ratio global error /
     ``eps`` varies by a factor 2-4 over ``eps`` = 1e-8 ... 1e-13 on the heavy and the asymmetric top).
@@ -50,7 +51,10 @@ __all__ = [
 EPS = np.finfo(float).eps
 PATH = _ct.PATH
 _FIELDS: dict = {}
-SAFETY = 1e-1  # B's local tolerance relative to A's, at most (B_MAX caps it further)
+SAFETY = (
+    0.3  # B's local tolerance relative to A's, at most (B_MAX caps it further); any r <= 1/2 makes
+)
+# |A - B| >= err(B) under proportionality, and 0.3 keeps B's extra steps few where A is near the floor
 B_MAX = (
     1e-13  # B's local tolerance is never above this: B is the answer, kept near the float64 floor
 )
