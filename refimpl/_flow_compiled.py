@@ -500,8 +500,9 @@ def compiled_taylor_flow(model, x0, pi0, t: float, tol: float) -> dict:
     (max-norm over ``pi`` and ``Ad(g)`` per trajectory; the two-run control of the module docstring).
 
     Returns ``pi``, ``Gamma``, ``x``, ``quat`` (``Ad(g) = quat_rotation(quat)``), ``Ad`` (None), ``rebases`` (zeros: no chart is used), ``steps``
-    (of the returned run), ``error_estimate`` (``|A - B|`` per trajectory, an upper estimate of the
-    returned run's error) and ``path`` (``numba`` or ``python``)."""
+    (of the returned run), ``error_estimate`` (per trajectory: ``|A - B|`` or its proportional form,
+    see the module docstring; an estimate of the returned run's error from above, blind to the
+    rounding floor of the starting point) and ``path`` (``numba`` or ``python``)."""
     if not supports_full(model):
         raise ValueError("compiled Taylor full state: written for su(2)/so(3) with Upsilon = 0")
     n, N = pi0.shape
