@@ -809,6 +809,12 @@ def _expm_batch(A: np.ndarray, su2: bool) -> np.ndarray:
         s1 = np.where(small, 1 - t2 / 6, np.sin(ts) / ts)
         s2 = np.where(small, 0.5 - t2 / 24, (1 - np.cos(ts)) / (ts * ts))
         return np.eye(n) + s1[:, None, None] * A + s2[:, None, None] * (A @ A)
+    finite = np.isfinite(A).all(axis=(-2, -1))
+    if not finite.all():  # a diverged stage of an implicit step: NaN there, the others computed
+        out = np.full(A.shape, np.nan)
+        if finite.any():
+            out[finite] = _expm_batch(A[finite], su2)
+        return out
     norm = float(np.max(_frob(A))) if A.size else 0.0
     s = max(0, int(np.ceil(np.log2(max(norm, 1e-300) / 0.25))))
     X = A / 2.0**s

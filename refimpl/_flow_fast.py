@@ -523,6 +523,9 @@ def _x_from_rep(model, rep: Representation, G_ref, x, Ad, rebases):
     ``rho``, else of ``Ad(g)`` corrected by the centre, documented choice on the cut locus)."""
     out = x.copy()
     for j in np.flatnonzero(rebases):
+        if not (np.all(np.isfinite(x[:, j])) and np.all(np.isfinite(Ad[j]))):
+            out[:, j] = np.nan  # a diverged run (too few steps): the caller refines or reports it
+            continue
         g = G_ref[j] @ rep.exp(x[:, j])
         out[:, j] = rep.log(g, Ad[j])
     return out
@@ -895,10 +898,31 @@ def fast_flow(
         out = integrate_fast(model, meth, X, P, tv, int(steps), system="full")
     else:
         N = int(8 + 4 * np.ceil(abs(tv)))
-        prev = integrate_fast(model, meth, X, P, tv, N, system="full")
+
+        def run(N):
+            # too coarse a step can make an implicit stage iteration diverge, or carry a stage
+            # onto a singular Phi: that run is discarded (None) and the steps doubled again
+            try:
+                with np.errstate(all="ignore"):
+                    res = integrate_fast(model, meth, X, P, tv, N, system="full")
+            except (np.linalg.LinAlgError, FloatingPointError):
+                return None
+            return res if np.all(np.isfinite(res["pi"])) else None
+
+        prev, failed = run(N), 0
         for _ in range(14):
             N *= 2
-            out = integrate_fast(model, meth, X, P, tv, N, system="full")
+            out = run(N)
+            if out is None or prev is None:
+                failed += out is None
+                if failed >= 3:  # a regular trajectory stops failing once the steps are fine
+                    raise ValueError(
+                        f"fast_flow: {failed} runs (up to {N} steps) diverged or met a singular "
+                        f"Phi before t = {tv}: the trajectory reaches or grazes the degenerate set "
+                        "Pi_1 (vier12)"
+                    )
+                prev = out
+                continue
             diff = np.max(
                 np.abs(np.concatenate([out["pi"] - prev["pi"], _xdiff(out, prev)])), axis=0
             )
@@ -906,7 +930,13 @@ def fast_flow(
                 break
             prev = out
         else:
-            raise ValueError(f"fast_flow: tolerance {tol} not reached with {N} steps")
+            why = (
+                f" ({failed} runs diverged or met a singular Phi: the trajectory may reach the "
+                "degenerate set Pi_1, vier12)"
+                if failed
+                else ""
+            )
+            raise ValueError(f"fast_flow: tolerance {tol} not reached with {N} steps{why}")
     bad_pi = ~np.all(np.isfinite(out["pi"]), axis=0)
     if np.any(bad_pi):
         raise ValueError(
