@@ -119,22 +119,7 @@ def test_issue_cases_fast_against_reference_T1(name):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    "name",
-    [
-        pytest.param(
-            n,
-            marks=pytest.mark.xfail(
-                reason="known: with gravity the reference reached ~20.6 digits at dps 30 (37 without "
-                "gravity); not yet traced (issue 13 report)",
-                strict=False,
-            ),
-        )
-        if "heavy top" in n
-        else n
-        for n in CASES
-    ],
-)
+@pytest.mark.parametrize("name", list(CASES))
 def test_issue_cases_reference_30_digits_T1(name, monkeypatch):
     """reference (dps 30) >= 30 digits at T = 1 against the reference at dps 45 re-based at
     ||ad_x||_1 > 0.4 instead of 1 (a different sequence of charts)."""
@@ -152,22 +137,7 @@ def test_issue_cases_reference_30_digits_T1(name, monkeypatch):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    "name",
-    [
-        pytest.param(
-            n,
-            marks=pytest.mark.xfail(
-                reason="known: Bianchi III at T = 10 has |x| ~ 90; pi and Ad(g) agree to 11.5 digits but the "
-                "logarithm amplifies the float64 error (x to ~6 digits); see the issue 13 report",
-                strict=False,
-            ),
-        )
-        if n == "Bianchi III + cocycle"
-        else n
-        for n in CASES
-    ],
-)
+@pytest.mark.parametrize("name", list(CASES))
 def test_issue_cases_fast_T10(name):
     """fast >= 10 digits at T = 10 against the reference (dps 20), chart-free (Ad(g), pi) and on x."""
     args = CASES[name]()
