@@ -20,6 +20,13 @@ body equations keep their form; only the potential changes, through
 the flow moves ``exp(x)`` into ``g_ref`` (kept as ``Ad(g_ref)`` and as a matrix
 of the algebra's representation) and resets ``x = 0``.
 
+Structure constants: re-basing relies on ``[ad_x, ad_y] = ad_[x,y]`` (Jacobi). Constants given in
+float64 satisfy it only to ~1e-17, and then the flow depends on where it re-bases from about the
+18th digit on; the flows therefore integrate the Lie algebra the numbers stand for
+(:func:`lie_constants_mp`: the rationals the floats are roundings of, else the input when Jacobi
+holds at the working precision, else the nearest Lie algebra). ``ReferenceTrajectory.notes`` names
+the choice.
+
 Integrator: Gragg-Bulirsch-Stoer extrapolation (:func:`refimpl._integrators.gbs_mp`)
 at ``dps + GUARD`` digits with local tolerance ``10^-(dps + 5)``. The result is
 certified by a ladder: :func:`reference_trajectory` with ``check=True`` repeats
@@ -50,6 +57,7 @@ __all__ = [
     "reference_trajectory",
     "reference_flow",
     "euler_top_closed_form",
+    "lie_constants_mp",
 ]
 
 GUARD = 15
