@@ -3,7 +3,8 @@ in any basis, re-based through the representation built from ``f``; ``x(t)`` wit
 
 Independent routes: the fast flow (numpy, float64, its own re-basing schedule ``||ad_x||_F > 1``)
 against the mpmath reference (``||ad_x||_1 > 1``); for the 30-digit claims the reference against
-itself at 15 more digits with a different re-basing threshold (another path through the charts).
+itself at 15 more digits with a different re-basing threshold (another path through the charts)
+and against the reduced body system (Euler / Euler-Poisson: no chart at all).
 Chart-free comparisons use ``Ad(g(t)) = exp(ad_x(t))`` and ``pi(t)``.
 """
 
