@@ -114,3 +114,35 @@ def test_reference_long_flow(name):
     drift = _report(f"reference {name}", inv)
     scale = np.maximum(1.0, np.max(np.abs(inv), axis=0))
     assert np.all(drift <= 1e-11 * scale), drift
+
+
+@pytest.mark.parametrize("name", list(MODELS))
+def test_reference_cost_per_unit_time_stays_flat(name, monkeypatch):
+    """Re-basing keeps the chart small, so the work per unit of time does not grow with T: accepted
+    GBS steps (a deterministic work count; CPU time printed, not asserted) per unit time on (10, 100]
+    at most 1.5 times that on (1, 10], with the flow re-based along the way."""
+    import time
+
+    from tstarg.refimpl import _flow_reference
+
+    orig = _flow_reference.gbs_mp
+    log = []
+    t0 = time.process_time()
+
+    def counted(F, y, t_end, **kw):
+        res = orig(F, y, t_end, **kw)
+        log.append((float(t_end), res.steps, time.process_time() - t0))
+        return res
+
+    monkeypatch.setattr(_flow_reference, "gbs_mp", counted)
+    model = MODELS[name]()
+    tr = reference_trajectory(*model, [1, 10, 100], dps=15)
+    (t1, s1, c1), (t10, s10, c10), (t100, s100, c100) = log
+    rate_10, rate_100 = s10 / (t10 - t1), s100 / (t100 - t10)
+    print(
+        f"reference {name} dps 15: steps/unit {s1 / t1:.2f} {rate_10:.2f} {rate_100:.2f}; "
+        f"CPU s/unit {c1 / t1:.2f} {(c10 - c1) / (t10 - t1):.2f} {(c100 - c10) / (t100 - t10):.2f}; "
+        f"rebases {tr.rebases}"
+    )
+    assert rate_100 <= 1.5 * rate_10
+    assert tr.rebases >= 10  # the flow did leave the first chart and was re-based
