@@ -32,7 +32,11 @@ The degenerate set (vier12)
     ``log10(cond_max)`` of float64's 16 digits, and ``Delta = det Phi`` is zero within that accuracy), the
     trajectory is stopped and :func:`rational_taylor_body` raises
     :class:`refimpl._errors.DegeneratePointError` naming the trajectory, the time reached and the
-    condition number. No value past that point is returned.
+    condition number. A trajectory that runs into the set in finite time (where ``Delta ~ (t* - t)`` and
+    the field grows like ``1/Delta``) shows it first as a collapse of the Jorba-Zou step (the radius of
+    convergence is the distance to the singularity): a step below ``STALL * t`` with a finite state
+    raises the same error, with the time reached and the largest ``cond_inf`` seen. No value past that
+    point is returned.
 
 Compilation: per structure, never per model
     The kernel source is generated from the *structure* only -- the dimension, the nonzero pattern of
@@ -62,7 +66,7 @@ __all__ = [
 
 PATH = _ct.PATH
 COND_MAX = 1e12  # cond_inf(Psi_0) above this: the point is treated as on the degenerate set (vier12)
-_ZERO = 0.0
+STALL = 64 * float(np.finfo(float).eps)  # a step below STALL * t cannot advance t reliably: stalled
 
 
 class RationalField:
@@ -293,8 +297,10 @@ def kernel_source(rf: RationalField) -> str:
         "if a2 > 0.0:",
         I1 + "h = min(h, (s / a2) ** e2)",
         "h *= damp",
-        "if not (h > 0.0):",
-        I1 + "status = -1",
+        # no step (the coefficients overflowed) or a step collapsed below float64's resolution of t:
+        # a real singularity of the field ahead (vier12); the caller checks the state is finite
+        "if not (h > stall * t):",
+        I1 + "status = -4",
         I1 + "break",
         "if t + h >= Tabs:",
         I1 + "h = Tabs - t",
@@ -348,6 +354,7 @@ def kernel_source(rf: RationalField) -> str:
         I1 + "damp = math.exp(-0.7 / (P - 1))",
         I1 + "e1 = 1.0 / (P - 1)",
         I1 + "e2 = 1.0 / P",
+        I1 + f"stall = {STALL!r}",
         I1 + "for it in range(N):",
     ]
     src += [I2 + f"PI[{c}, 0] = y0[it, {c}]" for c in range(n)]
@@ -381,10 +388,13 @@ _KERNELS: dict = {}
 
 def rational_kernel(rf: RationalField):
     """The compiled module of the structure of ``rf`` (written and imported once per structure)."""
-    src = kernel_source(rf)
-    mod = _KERNELS.get(src)
+    mod = getattr(rf, "_mod", None)
     if mod is None:
-        mod = _KERNELS[src] = _ct._import_kernel_module(src)
+        src = kernel_source(rf)
+        mod = _KERNELS.get(src)
+        if mod is None:
+            mod = _KERNELS[src] = _ct._import_kernel_module(src)
+        rf._mod = mod
     return mod
 
 
@@ -399,9 +409,10 @@ def rational_taylor_adaptive(
 ):
     """Adaptive Taylor over ``[0, T]`` for every row of ``y0`` (N, d) at the local tolerance ``tol``.
 
-    Returns ``(y(T), steps, t_end, cond)`` with ``steps[i] = -1`` (non-finite or no step possible),
-    ``-2`` (degenerate set: ``cond_inf(Psi_0) > cond_max`` or a zero pivot) or ``-3`` (more than
-    ``max_steps``); ``t_end`` the time reached and ``cond`` the largest ``cond_inf(Psi_0)`` seen."""
+    Returns ``(y(T), steps, t_end, cond)`` with ``steps[i] = -1`` (non-finite state),
+    ``-2`` (degenerate set: ``cond_inf(Psi_0) > cond_max`` or a zero pivot), ``-3`` (more than
+    ``max_steps``) or ``-4`` (no step: the coefficients overflowed or the step fell below ``STALL * t``,
+    a real singularity ahead); ``t_end`` the time reached and ``cond`` the largest ``cond_inf(Psi_0)`` seen."""
     P = _ct.adaptive_order(tol) if order is None else int(order)
     if P < 2:
         raise ValueError(f"order must be >= 2, got {P}")
@@ -477,6 +488,15 @@ def rational_taylor_body(
             f"rational Taylor flow: trajectories {deg[:10].tolist()} reached the degenerate set Pi_1 "
             f"(vier12) at t = {tend[deg[:3]].tolist()}: cond_inf(Phi) = {conds[deg[:3]].tolist()} > "
             f"{cond_max:g} (Delta = det Phi = 0 to float64 accuracy); no value past that point is returned"
+        )
+    stall = np.flatnonzero((steps == -4) & np.all(np.isfinite(y), axis=1))
+    if stall.size:
+        raise DegeneratePointError(
+            f"rational Taylor flow: trajectories {stall[:10].tolist()} reach the degenerate set Pi_1 (vier12) "
+            f"at about t = {tend[stall[:3]].tolist()}: the step size collapsed (below {STALL:.2g} t, or the Taylor "
+            "coefficients overflowed) while the "
+            f"state stayed finite and cond_inf(Phi) grew to {conds[stall[:3]].tolist()} (the field's only "
+            "real singularities are the zeros of Delta = det Phi); no value past that point is returned"
         )
     bad = np.flatnonzero(steps < 0)
     if bad.size:
