@@ -49,6 +49,8 @@ Compilation: per structure, never per model
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from . import _compiled_taylor as _ct
@@ -65,7 +67,9 @@ __all__ = [
 ]
 
 PATH = _ct.PATH
-COND_MAX = 1e12  # cond_inf(Psi_0) above this: the point is treated as on the degenerate set (vier12)
+COND_MAX = (
+    1e12  # cond_inf(Psi_0) above this: the point is treated as on the degenerate set (vier12)
+)
 STALL = 64 * float(np.finfo(float).eps)  # a step below STALL * t cannot advance t reliably: stalled
 
 
@@ -82,6 +86,8 @@ class RationalField:
         self.n = n
         self.gravity = bool(model.gravity)
         self.trip = [tuple(int(i) for i in t) for t in np.argwhere(f != 0.0)]
+        self.trip_arr = np.array(self.trip, dtype=np.int64).reshape(-1, 3)
+        self.gamma = None if not self.gravity else np.ascontiguousarray(model.gamma, dtype=float)
         self.fv = np.array([f[t] for t in self.trip], dtype=float)
         self.theta = np.ascontiguousarray(model.theta, dtype=float)
         self.U = np.ascontiguousarray(model.upsilon, dtype=float)
@@ -153,6 +159,60 @@ def invert(A, Ainv, n):
             r += abs(M[i, n + j])
         inorm = max(inorm, r)
     return anorm * inorm
+
+
+@njit(cache=True, nogil=True)
+def gamma0(x0, trip, fv, gamma, out):
+    """out[i] = Ad(exp x0[i])^T gamma = exp(ad_x^T) gamma (twee16), ``(ad_x)_mb = x_a f^m_ab``: the Taylor
+    series of exp on the vector, scaled to ||A/2^s||_inf <= 1/2 and applied 2^s times."""
+    N, n = x0.shape
+    A = np.zeros((n, n))
+    v = np.empty(n)
+    term = np.empty(n)
+    acc = np.empty(n)
+    for it in range(N):
+        for i in range(n):
+            for j in range(n):
+                A[i, j] = 0.0
+        for t in range(trip.shape[0]):
+            A[trip[t, 2], trip[t, 0]] += x0[it, trip[t, 1]] * fv[t]
+        nrm = 0.0
+        for i in range(n):
+            r = 0.0
+            for j in range(n):
+                r += abs(A[i, j])
+            nrm = max(nrm, r)
+        s = 0
+        while nrm > 0.5:
+            nrm *= 0.5
+            s += 1
+        scale = 0.5**s
+        for i in range(n):
+            v[i] = gamma[i]
+        for _ in range(2**s):
+            vmax = 0.0
+            for i in range(n):
+                term[i] = v[i]
+                acc[i] = v[i]
+                vmax = max(vmax, abs(v[i]))
+            for k in range(1, 40):
+                c = scale / k
+                tmax = 0.0
+                for i in range(n):
+                    r = 0.0
+                    for j in range(n):
+                        r += A[i, j] * term[j]
+                    v[i] = r * c
+                for i in range(n):
+                    term[i] = v[i]
+                    acc[i] += v[i]
+                    tmax = max(tmax, abs(v[i]))
+                if tmax <= 1e-17 * vmax:
+                    break
+            for i in range(n):
+                v[i] = acc[i]
+        for i in range(n):
+            out[it, i] = v[i]
 '''
 
 
@@ -203,7 +263,9 @@ def kernel_source(rf: RationalField) -> str:
     # ---- Psi_0 = 1 + U S_0 and its inverse; the condition number
     for a in range(n):
         for b in range(n):
-            terms = [f"fv{t} * PI[{m}, 0]" for t, (m, aa, bb) in enumerate(trip) if (aa, bb) == (a, b)]
+            terms = [
+                f"fv{t} * PI[{m}, 0]" for t, (m, aa, bb) in enumerate(trip) if (aa, bb) == (a, b)
+            ]
             if nzT[a, b]:
                 terms.append(f"- th[{a}, {b}]")
             body.append(f"S0[{a}, {b}] = {_sum(terms).replace('+ -', '-')}")
@@ -444,7 +506,23 @@ def rational_taylor_adaptive(
 _FIELDS: dict = {}
 
 
+_BY_MODEL: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # model object -> its field
+
+
 def _field(model) -> RationalField:
+    try:
+        return _BY_MODEL[model]
+    except (KeyError, TypeError):
+        pass
+    rf = _field_by_numbers(model)
+    try:
+        _BY_MODEL[model] = rf
+    except TypeError:  # not weak-referenceable: the numbers' key below serves
+        pass
+    return rf
+
+
+def _field_by_numbers(model) -> RationalField:
     key = (
         model.f.tobytes(),
         model.theta.tobytes(),
@@ -475,13 +553,36 @@ def rational_taylor_body(
     ``cond_phi`` (the largest ``cond_inf(Phi)`` met per trajectory). Raises
     :class:`refimpl._errors.DegeneratePointError` when a trajectory reaches the degenerate set and
     ``ValueError`` when it becomes non-finite or exceeds the step budget (naming the trajectories)."""
-    from ._flow_compiled import _gamma0
-
     n, N = pi0.shape
-    G0 = _gamma0(model, x0)
-    y0 = (pi0 if G0 is None else np.concatenate([pi0, G0])).T
     rf = _field(model)
+    if rf.gravity:  # Gamma0 = Ad(exp x0)^T gamma (twee16), compiled beside the kernel
+        y0 = np.empty((N, 2 * n))
+        y0[:, :n] = pi0.T
+        G0 = np.empty((N, n))
+        rational_kernel(rf).gamma0(
+            np.ascontiguousarray(x0.T, dtype=float), rf.trip_arr, rf.fv, rf.gamma, G0
+        )
+        y0[:, n:] = G0
+    else:
+        y0 = pi0.T
+        G0 = None
     y, steps, tend, conds = rational_taylor_adaptive(rf, y0, t, tol, order, cond_max=cond_max)
+    if steps.min() < 0:
+        _raise_failed(y, steps, tend, conds, t, cond_max)
+    y = y.T
+    return {
+        "pi": y[:n],
+        "Gamma": None if G0 is None else y[n:],
+        "x": None,
+        "Ad": None,
+        "quat": None,
+        "rebases": np.zeros(N, dtype=int),
+        "steps": steps,
+        "cond_phi": conds,
+    }
+
+
+def _raise_failed(y, steps, tend, conds, t, cond_max):
     deg = np.flatnonzero(steps == -2)
     if deg.size:
         raise DegeneratePointError(
@@ -504,14 +605,3 @@ def rational_taylor_body(
             f"rational Taylor flow: trajectories {bad[:10].tolist()} became non-finite or exceeded the step "
             f"budget before t = {t} (stopped at t = {tend[bad[:3]].tolist()}); no point is dropped"
         )
-    y = y.T
-    return {
-        "pi": y[:n],
-        "Gamma": None if G0 is None else y[n:],
-        "x": None,
-        "Ad": None,
-        "quat": None,
-        "rebases": np.zeros(N, dtype=int),
-        "steps": steps,
-        "cond_phi": conds,
-    }

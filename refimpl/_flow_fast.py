@@ -52,6 +52,7 @@ import numpy as np
 from . import _compiled_taylor as _ct
 from . import _fast_kernels as _fast
 from ._algebra import LieAlgebra
+from ._compiled_rational import rational_taylor_body
 from ._flow_compiled import (
     compiled_taylor_body,
     compiled_taylor_flow,
@@ -59,7 +60,6 @@ from ._flow_compiled import (
     supports_full,
     x_to_quat,
 )
-from ._compiled_rational import rational_taylor_body
 from ._flow_reference import check_time
 from ._integrators import DOP853, ExplicitRK, GaussLegendre, triple_jump_weights
 from ._representation import Representation, representation_for
@@ -341,7 +341,9 @@ def integrate_fast(
             raise ValueError(f"method {meth.name} is adaptive: it has no fixed steps to observe")
         if meth.kind == "taylor-rational":  # Upsilon != 0 (refimpl._compiled_rational), body only
             if system != "body":
-                raise ValueError(f"method {meth.name} integrates the body system only (no configuration)")
+                raise ValueError(
+                    f"method {meth.name} integrates the body system only (no configuration)"
+                )
             return rational_taylor_body(model, x0, pi0, t, tol=tol)
         if system == "body":
             return compiled_taylor_body(model, x0, pi0, t, tol=tol)

@@ -421,14 +421,14 @@ def heyoka_rational_rhs(model):
 
     n = model.n
     if n > 4:
-        raise ValueError(f"heyoka_rational_rhs: written for n <= 4 (cofactor expansion), got n = {n}")
+        raise ValueError(
+            f"heyoka_rational_rhs: written for n <= 4 (cofactor expansion), got n = {n}"
+        )
     grav = model.gravity
     ys = hy.make_vars(*[f"y{c}" for c in range(2 * n if grav else n)])
     pi, G = ys[:n], (ys[n:] if grav else None)
     f, th, U, Ii = model.f, model.theta, model.upsilon, model.Iinv
-    S = [
-        [_hy_sum([(f[m, a, b], pi[m]) for m in range(n)]) for b in range(n)] for a in range(n)
-    ]
+    S = [[_hy_sum([(f[m, a, b], pi[m]) for m in range(n)]) for b in range(n)] for a in range(n)]
     S = [
         [
             (S[a][b] - float(th[a, b]) if S[a][b] is not None else hy.expression(-float(th[a, b])))
@@ -479,12 +479,28 @@ def heyoka_rational_rhs(model):
         return rows if rows is not None else zero
 
     Om = [
-        mv(_hy_sum([(1.0, adj[a][b] * ro[b]) for b in range(n) if adj[a][b] is not None and ro[b] is not None]))
+        mv(
+            _hy_sum(
+                [
+                    (1.0, adj[a][b] * ro[b])
+                    for b in range(n)
+                    if adj[a][b] is not None and ro[b] is not None
+                ]
+            )
+        )
         / det
         for a in range(n)
     ]
     pd = [
-        mv(_hy_sum([(1.0, adj[b][a] * rp[b]) for b in range(n) if adj[b][a] is not None and rp[b] is not None]))
+        mv(
+            _hy_sum(
+                [
+                    (1.0, adj[b][a] * rp[b])
+                    for b in range(n)
+                    if adj[b][a] is not None and rp[b] is not None
+                ]
+            )
+        )
         / det
         for a in range(n)
     ]
@@ -492,7 +508,10 @@ def heyoka_rational_rhs(model):
     if grav:
         for mu in range(n):
             t = [
-                (f[a, b, mu], Om[b] * G[a]) for a in range(n) for b in range(n) if f[a, b, mu] != 0.0
+                (f[a, b, mu], Om[b] * G[a])
+                for a in range(n)
+                for b in range(n)
+                if f[a, b, mu] != 0.0
             ]
             e = _hy_sum(t)
             rhs.append(zero if e is None else e)
