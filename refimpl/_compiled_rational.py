@@ -119,9 +119,9 @@ except ImportError:  # plain-Python path
 
 
 @njit(cache=True, nogil=True)
-def invert(A, Ainv, n):
-    """Gauss-Jordan with partial pivoting: Ainv = A^-1; returns cond_inf(A) (inf when a pivot is 0)."""
-    M = np.empty((n, 2 * n))
+def invert(A, Ainv, n, M):
+    """Gauss-Jordan with partial pivoting: Ainv = A^-1 (M: an (n, 2n) work array); returns cond_inf(A)
+    (inf when a pivot is 0)."""
     anorm = 0.0
     for i in range(n):
         r = 0.0
@@ -276,7 +276,7 @@ def kernel_source(rf: RationalField) -> str:
         I2 + "for c in range(n):",
         I3 + "acc += U[a, c] * S0[c, b]",
         I2 + "Psi[a, b] = acc",
-        "cnd = invert(Psi, Mi, n)",
+        "cnd = invert(Psi, Mi, n, GJ)",
         "if not (cnd <= cond_max):",
         I1 + "status = -2",
         I1 + "cond_seen = cnd",
@@ -410,6 +410,7 @@ def kernel_source(rf: RationalField) -> str:
         I1 + "S0 = np.zeros((n, n))",
         I1 + "Psi = np.zeros((n, n))",
         I1 + "Mi = np.zeros((n, n))",
+        I1 + "GJ = np.zeros((n, 2 * n))",
         I1 + f"comp = np.zeros({d})",
         I1 + "sgn = 1.0 if T >= 0 else -1.0",
         I1 + "Tabs = abs(T)",
