@@ -55,6 +55,7 @@ import scipy.linalg
 from . import _compiled_taylor as _ct
 from . import _fast_kernels as _fast
 from ._algebra import LieAlgebra
+from ._compiled_rational import rational_taylor_body
 from ._flow_compiled import (
     compiled_taylor_body,
     compiled_taylor_flow,
@@ -342,6 +343,12 @@ def integrate_fast(
         tol = check_tolerance(tol)
         if observe is not None:
             raise ValueError(f"method {meth.name} is adaptive: it has no fixed steps to observe")
+        if meth.kind == "taylor-rational":  # Upsilon != 0 (refimpl._compiled_rational), body only
+            if system != "body":
+                raise ValueError(
+                    f"method {meth.name} integrates the body system only (no configuration)"
+                )
+            return rational_taylor_body(model, x0, pi0, t, tol=tol)
         if system == "body":
             return compiled_taylor_body(model, x0, pi0, t, tol=tol)
         if not supports_full(model):

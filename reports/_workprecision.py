@@ -368,9 +368,10 @@ HEYOKA_COMPILE: dict = {}  # (problem, tol) -> CPU seconds of heyoka's JIT compi
 
 
 def heyoka_integrator(problem: FlowProblem, model, tol: float):
-    """heyoka's ``taylor_adaptive`` on the same body field (the polynomial of
-    :func:`refimpl._taylor.quadratic_field`, ``Upsilon = 0``), built and JIT-compiled once per tolerance;
-    the compile time is recorded in :data:`HEYOKA_COMPILE`, apart from the run times."""
+    """heyoka's ``taylor_adaptive`` on the same body field, built and JIT-compiled once per tolerance:
+    the polynomial of :func:`refimpl._taylor.quadratic_field` when ``Upsilon = 0``, else the rational
+    field of :func:`heyoka_rational_rhs` (vier10/vier11 through the adjugate and determinant of Psi).
+    The compile time is recorded in :data:`HEYOKA_COMPILE`, apart from the run times."""
     import heyoka as hy  # optional contender
 
     from tstarg.refimpl._taylor import quadratic_field
@@ -378,22 +379,157 @@ def heyoka_integrator(problem: FlowProblem, model, tol: float):
     key = (problem.name, problem.T, float(tol))
     if key in _HEYOKA:
         return _HEYOKA[key]
-    F = quadratic_field(model)
-    ys = hy.make_vars(*[f"y{c}" for c in range(F.d)])
-    rhs = []
-    for c in range(F.d):
-        e = 0.0 * ys[0]
-        for (i, j), q in F.quad[c].items():
-            e = e + float(q) * ys[i] * ys[j]
-        for i, q in F.lin[c].items():
-            e = e + float(q) * ys[i]
-        rhs.append(e)
+    if model.upsilon_zero:
+        F = quadratic_field(model)
+        ys = hy.make_vars(*[f"y{c}" for c in range(F.d)])
+        rhs = []
+        for c in range(F.d):
+            e = 0.0 * ys[0]
+            for (i, j), q in F.quad[c].items():
+                e = e + float(q) * ys[i] * ys[j]
+            for i, q in F.lin[c].items():
+                e = e + float(q) * ys[i]
+            rhs.append(e)
+    else:
+        ys, rhs = heyoka_rational_rhs(model)
     y0 = problem.y0()
     t0 = time.process_time()
     ta = hy.taylor_adaptive(list(zip(ys, rhs)), y0.tolist(), tol=float(tol))
     HEYOKA_COMPILE[key] = time.process_time() - t0
     _HEYOKA[key] = (ta, y0)
     return _HEYOKA[key]
+
+
+def _hy_sum(terms):
+    """Sum of heyoka expressions (``coef, expr``) with the zero coefficients left out (None if empty)."""
+    out = None
+    for c, e in terms:
+        if c == 0.0:
+            continue
+        t = e if c == 1.0 else float(c) * e
+        out = t if out is None else out + t
+    return out
+
+
+def _hy_det(M):
+    """Determinant of a small square matrix of heyoka expressions (None = 0) by cofactor expansion."""
+    n = len(M)
+    if n == 1:
+        return M[0][0]
+    terms = []
+    for j in range(n):
+        if M[0][j] is None:
+            continue
+        md = _hy_det([[M[i][c] for c in range(n) if c != j] for i in range(1, n)])
+        if md is not None:
+            terms.append((1.0 if j % 2 == 0 else -1.0, M[0][j] * md))
+    return _hy_sum(terms)
+
+
+def heyoka_rational_rhs(model):
+    """The body field with ``Upsilon != 0`` in heyoka expressions (vier10/vier11, as
+    :meth:`refimpl._flow_fast.NumpyModel.omega_pidot`): ``Psi = 1 + Upsilon S(pi)``, ``Omega = adj(Psi) (dK -
+    Upsilon dV) / det Psi``, ``pidot = adj(Psi)^T (-dV - S dK) / det Psi`` (``Phi = Psi^T``), ``Gammadot_mu =
+    Omega^b f^a_{b mu} Gamma_a``. Written for ``n <= 4`` (cofactor expansion); returns ``(vars, rhs)``."""
+    import heyoka as hy  # optional contender
+
+    n = model.n
+    if n > 4:
+        raise ValueError(
+            f"heyoka_rational_rhs: written for n <= 4 (cofactor expansion), got n = {n}"
+        )
+    grav = model.gravity
+    ys = hy.make_vars(*[f"y{c}" for c in range(2 * n if grav else n)])
+    pi, G = ys[:n], (ys[n:] if grav else None)
+    f, th, U, Ii = model.f, model.theta, model.upsilon, model.Iinv
+    S = [[_hy_sum([(f[m, a, b], pi[m]) for m in range(n)]) for b in range(n)] for a in range(n)]
+    S = [
+        [
+            (S[a][b] - float(th[a, b]) if S[a][b] is not None else hy.expression(-float(th[a, b])))
+            if th[a, b] != 0.0
+            else S[a][b]
+            for b in range(n)
+        ]
+        for a in range(n)
+    ]
+    Psi = []
+    for a in range(n):
+        row = []
+        for b in range(n):
+            e = _hy_sum([(U[a, c], S[c][b]) for c in range(n) if S[c][b] is not None])
+            if a == b:
+                e = hy.expression(1.0) if e is None else 1.0 + e
+            row.append(e)
+        Psi.append(row)
+    det = _hy_det(Psi)
+    # adj(Psi)_ab = (-1)^(a+b) det(minor_ba)
+    adj = [[None] * n for _ in range(n)]
+    for a in range(n):
+        for b in range(n):
+            minor = [[Psi[i][c] for c in range(n) if c != a] for i in range(n) if i != b]
+            md = _hy_det(minor) if n > 1 else hy.expression(1.0)
+            adj[a][b] = None if md is None else (md if (a + b) % 2 == 0 else -md)
+    dK = [_hy_sum([(Ii[a, b], pi[b]) for b in range(n)]) for a in range(n)]
+    dV = (
+        [_hy_sum([(-model.G_L[a, b], G[b]) for b in range(n)]) for a in range(n)]
+        if grav
+        else [None] * n
+    )
+    ro = []
+    for a in range(n):
+        t = [(1.0, dK[a])] if dK[a] is not None else []
+        t += [(-U[a, b], dV[b]) for b in range(n) if dV[b] is not None]
+        ro.append(_hy_sum(t))
+    rp = []
+    for a in range(n):
+        t = [(-1.0, dV[a])] if dV[a] is not None else []
+        for b in range(n):
+            if S[a][b] is not None and dK[b] is not None:
+                t.append((-1.0, S[a][b] * dK[b]))
+        rp.append(_hy_sum(t))
+    zero = hy.expression(0.0)
+
+    def mv(rows):
+        return rows if rows is not None else zero
+
+    Om = [
+        mv(
+            _hy_sum(
+                [
+                    (1.0, adj[a][b] * ro[b])
+                    for b in range(n)
+                    if adj[a][b] is not None and ro[b] is not None
+                ]
+            )
+        )
+        / det
+        for a in range(n)
+    ]
+    pd = [
+        mv(
+            _hy_sum(
+                [
+                    (1.0, adj[b][a] * rp[b])
+                    for b in range(n)
+                    if adj[b][a] is not None and rp[b] is not None
+                ]
+            )
+        )
+        / det
+        for a in range(n)
+    ]
+    rhs = list(pd)
+    if grav:
+        for mu in range(n):
+            t = [
+                (f[a, b, mu], Om[b] * G[a])
+                for a in range(n)
+                for b in range(n)
+                if f[a, b, mu] != 0.0
+            ]
+            e = _hy_sum(t)
+            rhs.append(zero if e is None else e)
+    return ys, rhs
 
 
 def run_heyoka(problem: FlowProblem, model, tol: float) -> np.ndarray:

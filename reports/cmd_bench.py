@@ -272,7 +272,7 @@ def main(args) -> int:
                     S["target_cap"],
                 )
             )
-        if heyoka and p.model().upsilon_zero:
+        if heyoka:  # Upsilon != 0: the rational field of wp.heyoka_rational_rhs
             items.append(
                 (
                     name,

@@ -7,11 +7,11 @@ list (or one more entry in an existing family), plus its name in :data:`FAMILIES
 
 from __future__ import annotations
 
-from . import gauss, rk, splitting, taylor
+from . import gauss, rational, rk, splitting, taylor
 from .base import Method
 
 __all__ = ["FAMILIES", "METHODS", "Method"]
 
-FAMILIES = (rk, gauss, taylor, splitting)
+FAMILIES = (rk, gauss, taylor, splitting, rational)
 
 METHODS: dict[str, Method] = {m.name: m for fam in FAMILIES for m in fam.INTEGRATORS}
