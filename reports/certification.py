@@ -300,6 +300,8 @@ class Domain:
             parts.append(f"|t| <= {self.max_abs_t:g}")
         if self.negative_t is False:
             parts.append("t >= 0")
+        if self.negative_t is True:
+            parts.append("t of either sign")
         return ", ".join(parts)
 
 
@@ -425,11 +427,17 @@ class _Judge:
     ``Ad(g)`` carried along (``d Ad(g)/dt = Ad(g) ad_Omega`` for ``g^-1 dg/dt = Omega``), chart-free;
     ``x`` is integrated too (``xdot = phi1(-ad_x)^-1 Omega``) until ``||ad_x||_2`` reaches
     ``0.9 * 2 pi``, after which only ``(pi, Ad)`` are carried. Gravity: ``Gamma = Ad(g)^T gamma``,
-    ``dV_b = -Gamma_m f^m_bc L^c`` (twee15/twee16)."""
+    ``dV_b = -Gamma_m f^m_bc L^c`` (twee15/twee16).
 
-    def __init__(self, f, theta, ups, inertia, potential):
+    ``group=True`` on an algebra with a non-trivial centre ``z`` (where ``Ad`` cannot see the
+    central part of ``g``) also carries ``G = rho(g)`` in a faithful representation ``rho``
+    (:func:`_centre_representation`): ``dG/dt = G rho(Omega)``."""
+
+    def __init__(self, f, theta, ups, inertia, potential, group=False):
         self.f, self.theta, self.U = (np.array(a, dtype=float) for a in (f, theta, ups))
         self.n = self.f.shape[0]
+        self.rep = _centre_representation(self.f) if group else None
+        self.r = 0 if self.rep is None else self.rep.dim
         self.Iinv = np.linalg.inv(np.array(inertia, dtype=float))
         self.pot = (
             None
@@ -450,12 +458,15 @@ class _Judge:
         return Omega, pidot
 
     def rhs(self, t, y, with_x):
-        n = self.n
+        n, r = self.n, self.r
         pi, Ad = y[:n], y[n : n + n * n].reshape(n, n)
         Omega, pidot = self.body(pi, Ad)
         out = [pidot, (Ad @ _ad(self.f, Omega)).ravel()]
+        if r:
+            G = y[n + n * n : n + n * n + r * r].reshape(r, r)
+            out.append((G @ self.rep.matrix(Omega)).ravel())
         if with_x:
-            x = y[n + n * n :]
+            x = y[n + n * n + r * r :]
             out.append(np.linalg.solve(_phi1(-_ad(self.f, x)), Omega))
         return np.concatenate(out)
 
@@ -466,17 +477,23 @@ class _Judge:
         return H
 
     def run(self, x0, pi0, t, rtol=JUDGE_RTOL):
-        """``(x or None, pi, Ad)`` at ``t`` (``x`` None once it approached the chart edge)."""
-        n = self.n
+        """``(x or None, pi, Ad)`` at ``t`` (``x`` None once it approached the chart edge); with
+        ``group``, ``G = rho(g(t))`` in :attr:`last_group` (None without a centre)."""
+        n, r = self.n, self.r
+        k = n + n * n + r * r  # where x starts in the state
         Ad0 = scipy.linalg.expm(_ad(self.f, x0))
-        y0 = np.concatenate([pi0, Ad0.ravel(), x0])
+        G0 = [] if r == 0 else [self.rep.exp(np.asarray(x0, float)).ravel()]
+        y0 = np.concatenate([pi0, Ad0.ravel(), *G0, x0])
         scale = max(1.0, float(np.max(np.abs(y0))))
+        self.last_group = None
 
         def edge(s, y, w):
-            return np.linalg.norm(_ad(self.f, y[n + n * n :]), 2) - 0.9 * 2 * np.pi
+            return np.linalg.norm(_ad(self.f, y[k:]), 2) - 0.9 * 2 * np.pi
 
         edge.terminal = True
         if t == 0:
+            if r:
+                self.last_group = G0[0].reshape(r, r)
             return np.array(x0, float), np.array(pi0, float), Ad0
         sol = solve_ivp(
             self.rhs,
@@ -495,7 +512,7 @@ class _Judge:
             sol = solve_ivp(
                 self.rhs,
                 (sol.t[-1], t),
-                y[: n + n * n],
+                y[:k],
                 method="DOP853",
                 rtol=rtol,
                 atol=rtol * scale,
@@ -503,27 +520,67 @@ class _Judge:
             )
             if sol.status < 0:
                 raise ArithmeticError(f"judge failed: {sol.message}")
-            return None, sol.y[:n, -1], sol.y[n:, -1].reshape(n, n)
-        return y[n + n * n :], y[:n], y[n : n + n * n].reshape(n, n)
+            y, x = sol.y[:, -1], None
+        else:
+            x = y[k:]
+        if r:
+            self.last_group = y[n + n * n : k].reshape(r, r)
+        return x, y[:n], y[n : n + n * n].reshape(n, n)
 
     def judged(self, x0, pi0, t):
         """The judge at rtol 1e-13 and its error (the difference from a run at rtol 1e-12)."""
         a = self.run(x0, pi0, t)
+        ga = self.last_group
         b = self.run(x0, pi0, t, rtol=10 * JUDGE_RTOL)
         ex = None if a[0] is None or b[0] is None else float(np.max(np.abs(a[0] - b[0])))
-        return a, (ex, float(np.max(np.abs(a[1] - b[1]))), float(np.max(np.abs(a[2] - b[2]))))
+        errs = (ex, float(np.max(np.abs(a[1] - b[1]))), float(np.max(np.abs(a[2] - b[2]))))
+        if ga is None:
+            return a, errs
+        return a, errs + (float(np.max(np.abs(ga - self.last_group))),), ga
+
+
+def _centre_representation(f):
+    """A faithful representation of ``f`` (refimpl's, :func:`refimpl._representation.representation_for`)
+    when the centre is non-trivial, where ``Ad(g) = expm(ad_x)`` is blind to the central part of
+    ``g``; None for a trivial centre (``Ad`` is then faithful on the image of exp up to the finite
+    kernel the flows' ``x`` comparison sees) or when no representation can be built."""
+    from tstarg.refimpl._representation import RepresentationError, representation_for
+
+    f = np.asarray(f, dtype=float)
+    n = f.shape[0]
+    if np.linalg.matrix_rank(f.transpose(0, 2, 1).reshape(n * n, n)) == n:
+        return None  # trivial centre: ad_z = f[:, a, :] z^a = 0 only for z = 0
+    try:
+        return representation_for(f)
+    except RepresentationError:
+        return None
 
 
 def _compare_state(
-    impl, f, got_x, got_pi, ref_x, ref_pi, ref_Ad, tol_abs, judge_err=(0.0, 0.0, 0.0)
+    impl,
+    f,
+    got_x,
+    got_pi,
+    ref_x,
+    ref_pi,
+    ref_Ad,
+    tol_abs,
+    judge_err=(0.0, 0.0, 0.0),
+    ref_G=None,
+    rep=None,
 ):
     """Worst error/tolerance over ``pi``, ``x`` (where it is unique: ``||ad_x||_2 < pi`` at the
-    judge's end point, the principal logarithm) and ``Ad(g)`` (always; chart-free).
+    judge's end point, the principal logarithm), ``Ad(g)`` (always; chart-free) and, given
+    ``ref_G = rho(g)`` in the faithful representation ``rep``, ``rho(g)`` itself (chart-free and
+    faithful: it sees the central part of ``g`` that ``Ad`` cannot).
 
     A state error ``delta`` in ``x`` moves ``Ad = expm(ad_x)`` by at most
-    ``||Ad||_2 ||f||_F ||phi1(-ad_x)||_2 sqrt(n) |delta|_inf`` (left-trivialised derivative of exp)."""
+    ``||Ad||_2 ||f||_F ||phi1(-ad_x)||_2 sqrt(n) |delta|_inf`` (left-trivialised derivative of exp:
+    ``exp(x + delta) = exp(x) exp(phi1(-ad_x) delta + O(delta^2))``), and ``rho(exp(x))`` by the same
+    with ``||rho||_F`` (the norm of the stacked matrices ``rho(e_a)``) for ``||f||_F``."""
     n = f.shape[0]
-    ex, ep, ea = (0.0 if v is None else v for v in judge_err)
+    ex, ep, ea = (0.0 if v is None else v for v in judge_err[:3])
+    eg = 0.0 if len(judge_err) < 4 or judge_err[3] is None else judge_err[3]
     ratios = [_max_err(got_pi, ref_pi) / (tol_abs + 2 * ep)]
     if ref_x is not None and np.linalg.norm(_ad(f, ref_x), 2) < np.pi:
         ratios.append(_max_err(got_x, ref_x) / (tol_abs + 2 * ex))
@@ -542,6 +599,24 @@ def _compare_state(
                 + 8 * n * EPS64 * np.abs(ref_Ad).max()
             )
         )
+        if ref_G is not None and rep is not None:
+            got_G = rep.exp(got_x)
+            r = rep.dim
+            amp_g = (
+                np.linalg.norm(ref_G, 2)
+                * max(float(np.linalg.norm(rep.mats)), 1e-300)
+                * np.linalg.norm(_phi1(-_ad(f, got_x)), 2)
+            )
+            # expm's own rounding: c r eps exp(||rho(x)||_1) max|G| (its error grows with the norm)
+            cond_exp = math.exp(min(50.0, float(np.linalg.norm(rep.matrix(got_x), 1))))
+            ratios.append(
+                _max_err(got_G, ref_G)
+                / (
+                    tol_abs * math.sqrt(n) * max(amp_g, 1.0)
+                    + 2 * eg
+                    + 8 * r * EPS64 * cond_exp * np.abs(ref_G).max()
+                )
+            )
     else:
         ratios.append(math.inf)
     return max(ratios)
@@ -845,6 +920,16 @@ def _judge_state(f, theta, ups, inertia, pot, x, pi, t):
         ("judge",) + _key(f, theta, ups, inertia, pot, x, pi, float(t)),
         lambda: _Judge(f, theta, ups, inertia, pot).judged(x, pi, t),
     )
+
+
+def _judge_group(f, theta, ups, inertia, pot, x, pi, t):
+    """``((x, pi, Ad), errors, G)`` of the float64 judge carrying ``G = rho(g)`` as well where the
+    centre is non-trivial (``G`` None and three errors otherwise; four with ``G``), cached by value."""
+    out = _FLOW_CACHE.get(
+        ("judge-group",) + _key(f, theta, ups, inertia, pot, x, pi, float(t)),
+        lambda: _Judge(f, theta, ups, inertia, pot, group=True).judged(x, pi, t),
+    )
+    return out if len(out) == 3 else (*out, None)
 
 
 def _inputs(impl, dom, stats):
@@ -1166,10 +1251,22 @@ def _flow_reference(impl, dom, stats):
         gx, gp = _finite_array(out[0], (n,), "x(t)"), _finite_array(out[1], (n,), "pi(t)")
         scale = max(1.0, float(np.max(np.abs(np.concatenate(want)))))
         tol = _flow_tol(impl, n, cond, frame) * scale
+        crep = _centre_representation(f)
         ratio = _compare_state(
-            impl, f, gx, gp, want[0], want[1], scipy.linalg.expm(_ad(f, want[0])), tol
+            impl,
+            f,
+            gx,
+            gp,
+            want[0],
+            want[1],
+            scipy.linalg.expm(_ad(f, want[0])),
+            tol,
+            ref_G=None if crep is None else crep.exp(want[0]),
+            rep=crep,
         )
         err = _max_err(np.concatenate([gx, gp]), np.concatenate(want))
+        if t < 0:
+            _count(stats, "negative t judged")
         _aim(ratio, "flow ratio")
         return ratio, _digits(err, scale)
 
@@ -1197,7 +1294,7 @@ def _flow_long(impl, dom, stats):
             stats["redrawn: over the work limit"] = stats.get("redrawn: over the work limit", 0) + 1
             reject()
         try:
-            (jx, jp, jA), jerr = _judge_state(f, theta, ups, inertia, pot, x, pi, t)
+            (jx, jp, jA), jerr, jG = _judge_group(f, theta, ups, inertia, pot, x, pi, t)
         except (ArithmeticError, np.linalg.LinAlgError):
             stats["redrawn: judge failed"] = stats.get("redrawn: judge failed", 0) + 1
             reject()
@@ -1214,7 +1311,12 @@ def _flow_long(impl, dom, stats):
         if out is None:
             return None
         gx, gp = _finite_array(out[0], (n,), "x(t)"), _finite_array(out[1], (n,), "pi(t)")
-        ratio = _compare_state(impl, f, gx, gp, jx, jp, jA, tol, jerr)
+        crep = None if jG is None else _centre_representation(f)
+        ratio = _compare_state(impl, f, gx, gp, jx, jp, jA, tol, jerr, ref_G=jG, rep=crep)
+        if jG is not None:
+            _count(stats, "compared through a faithful representation (non-trivial centre)")
+        if t < 0:
+            _count(stats, "negative t judged")
         _aim(ratio, "long flow ratio")
         return ratio, None
 
@@ -1826,6 +1928,11 @@ def _certify(
         for k, v in stats.items():
             if k.startswith(("redrawn", "negative t refused")) or "refused past" in k:
                 cert.notes.append(f"{cid}: {k}: {v}")
+        if stats.get("negative t judged"):
+            cert.notes.append(
+                f"{cid}: flow at negative times judged on {stats['negative t judged']} examples"
+                + (" (negative_t declared: a refusal fails)" if dom.negative_t else "")
+            )
         if "negative t refused (ValueError)" in stats and not any("t < 0" in n for n in cert.notes):
             cert.notes.append(
                 f"flow at t < 0 refused by the implementation (ValueError: "

@@ -48,6 +48,8 @@ MUTATIONS = {
     "energy_dissipation": "a flow that damps pi by (1 - 1e-7 |t|) (energy drifts linearly)",
     "not_a_poisson_map": "declares poisson_integrator = True but takes plain RK4 steps (not a Poisson map)",
     "domain_ignored": "declares an su(2)-only domain but returns numbers for every algebra",
+    "centre_lost": "a flow that re-bases through Ad(g) for |t| >= 1 and so drops the central part "
+    "of x (Ad(g) and pi stay right; g is wrong along the centre)",
 }
 
 
@@ -65,6 +67,7 @@ MUTANT_CHECKS = {
     "energy_dissipation": ["flow.drift"],
     "not_a_poisson_map": ["flow.poisson_map"],
     "domain_ignored": ["domain.refusal"],
+    "centre_lost": ["flow.long"],
 }
 """The clause each mutant is planted against: certified on that check only, it must fail (the
 clause has teeth by itself); the others run the whole battery."""
@@ -295,6 +298,11 @@ class Plain:
             z = z + h * (k1 / 6 + w2 * k2 + k3 / 3 + k4 / 6)
         if m == "energy_dissipation":
             z[n:] *= 1 - 1e-7 * abs(t)
+        if m == "centre_lost":
+            ff = np.asarray(f, dtype=float)
+            if abs(t) >= 1:
+                Zc = scipy.linalg.null_space(ff.transpose(0, 2, 1).reshape(n * n, n))
+                z[:n] -= Zc @ (Zc.T @ z[:n])  # Ad(exp(x)) is unchanged: only the centre moves
         return z[:n], z[n:]
 
     flow_tolerance = 1e-8
