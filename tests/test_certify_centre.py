@@ -1,0 +1,109 @@
+"""Certification gaps of issue 12 closed: the centre of an algebra, and negative times.
+
+* ``Ad(g) = expm(ad_x)`` cannot see the central part of ``g`` (``ad_z = 0`` for ``z`` central), so
+  where ``x`` is not compared (past the principal region) a flow wrong only along the centre used to
+  pass; the flow checks now also compare ``rho(g)`` in a faithful representation ``rho``.
+* ``refimpl.fast`` and ``refimpl.reference`` declare ``negative_t``: a refusal of ``t < 0`` fails.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+from tstarg.refimpl import catalogue
+from tstarg.refimpl.fast import implementation as fast
+from tstarg.refimpl.reference import implementation as reference
+from tstarg.reports import certification as C
+
+EPS = np.finfo(float).eps
+
+
+def _h3_problem():
+    f = np.array(catalogue("h(3)").f, dtype=float)
+    n = f.shape[0]
+    z = np.zeros((n, n))
+    inertia = np.diag([1.0, 2.0, 3.0])
+    x0, pi0 = np.array([0.3, -0.2, 0.1]), np.array([1.0, 0.5, -0.7])
+    return f, z, inertia, x0, pi0
+
+
+def _centre(f):
+    n = f.shape[0]
+    return scipy.linalg.null_space(f.transpose(0, 2, 1).reshape(n * n, n))
+
+
+def test_ad_is_blind_to_the_centre_and_rho_is_not():
+    """On h(3) at t = 2: fast's x(t) passes the chart-free comparison against the judge; x moved by
+    1e-4 along the centre leaves Ad(g) unchanged to rounding (ad_z = 0: an independent fact), so
+    without x and rho(g) it would pass too; rho(g) rejects it."""
+    f, z, inertia, x0, pi0 = _h3_problem()
+    t = 2.0
+    (jx, jp, jA), jerr, jG = C._judge_group(f, z, z, inertia, None, x0, pi0, t)
+    rep = C._centre_representation(f)
+    assert jG is not None and rep is not None and len(jerr) == 4
+    gx, gp = fast.flow(f, z, z, inertia, None, x0, pi0, t)
+    tol = 1e-9 * max(1.0, float(np.max(np.abs(jp))))
+    assert C._compare_state(fast, f, gx, gp, jx, jp, jA, tol, jerr, ref_G=jG, rep=rep) <= 1.0
+    Z = _centre(f)
+    assert Z.shape[1] == 1
+    bad = gx + 1e-4 * Z[:, 0]
+    Ad_good, Ad_bad = (scipy.linalg.expm(C._ad(f, v)) for v in (gx, bad))
+    # ad_x does not involve x's central component: the same matrix up to the rounding of forming
+    # ad_x, which expm carries as c n eps |Ad| (c = 8)
+    assert np.max(np.abs(Ad_good - Ad_bad)) <= 8 * 3 * EPS * np.abs(Ad_good).max()
+    blind = C._compare_state(fast, f, bad, gp, None, jp, jA, tol, jerr)
+    seeing = C._compare_state(fast, f, bad, gp, None, jp, jA, tol, jerr, ref_G=jG, rep=rep)
+    assert blind <= 1.0 < seeing, (blind, seeing)
+
+
+def test_trivial_centre_needs_no_representation():
+    """su(2) and sl(2,R) have a trivial centre (Ad is faithful up to a finite kernel): no extra
+    group carried; h(3), R^3 and Bianchi II have one."""
+    for name in ("su(2)", "sl(2,R)", "se(3)"):
+        assert C._centre_representation(catalogue(name).f) is None, name
+    for name in ("h(3)", "R^3", "Bianchi II"):
+        assert C._centre_representation(catalogue(name).f) is not None, name
+
+
+def test_fast_and_reference_declare_negative_times():
+    for impl in (fast, reference):
+        dom = C.declared_domain(impl)
+        assert dom.negative_t is True and "t of either sign" in dom.describe()
+
+
+class _RefusesBackwards:
+    """refimpl.fast's flow, refusing t < 0 with a ValueError."""
+
+    name = "refuses t < 0"
+    flow_tolerance = fast.flow_tolerance
+
+    def __init__(self, declare: bool):
+        if declare:
+            self.domain = {"negative_t": True}
+
+    def flow(self, f, theta, upsilon, inertia, potential, x0, pi0, t):
+        if t < 0:
+            raise ValueError("t < 0 is not supported")
+        return fast.flow(f, theta, upsilon, inertia, potential, x0, pi0, t)
+
+
+@pytest.mark.parametrize("declare", [True, False])
+def test_refusing_negative_times_fails_only_when_declared(declare):
+    """Declared negative_t: a refusal of t < 0 fails the check; undeclared: it is accepted and the
+    certificate says negative times are not certified."""
+    cert = C.certify(
+        _RefusesBackwards(declare),
+        max_examples=9,
+        seed=0,
+        target="refuses",
+        checks=["flow.long"],
+        stop_on_failure=True,
+        shrink=False,
+    )
+    if declare:
+        assert not cert.passed, cert.summary()
+    else:
+        assert cert.passed, cert.summary()
+        assert any("negative times are not certified" in n for n in cert.notes), cert.notes
