@@ -801,6 +801,24 @@ def _as_lists(a):
     )
 
 
+def _odd_layout(a):
+    """``a`` with the same values in an unusual, read-only memory layout: a vector as a strided view
+    (every other element of a larger buffer), a matrix or ``f`` in Fortran order."""
+    if a is None:
+        return None
+    if isinstance(a, dict):
+        return {k: (v if k == "kind" else _odd_layout(v)) for k, v in a.items()}
+    a = np.asarray(a, dtype=float)
+    if a.ndim == 1:
+        buf = np.zeros(2 * a.size)
+        buf[::2] = a
+        v = buf[::2]
+    else:
+        v = np.asfortranarray(a)
+    v.flags.writeable = False
+    return v
+
+
 def _batch(impl, dom, stats):
     """Every batched method: leading axes of rank 0..3 (sizes 1 included), arrays or nested lists;
     each point of the batch equals that point evaluated alone (same implementation)."""
@@ -811,7 +829,7 @@ def _batch(impl, dom, stats):
     ]
 
     def body(ex):
-        model, inertia, pot, shape, pts, as_list, t = ex
+        model, inertia, pot, shape, pts, as_list, t, big = ex
         out = [
             one_method(m, model, inertia, pot, shape, pts, as_list, t)
             for m in methods
@@ -819,7 +837,56 @@ def _batch(impl, dom, stats):
         ]
         if not out or any(o is None for o in out):
             return None
+        out += [large_batch(m, model, inertia, pot, *big) for m in methods if m != "flow"]
         return max(out), None
+
+    def large_batch(method, model, inertia, pot, size, seed):
+        """One long leading axis (``size`` up to 1025 points, past the small shapes above and past
+        a 1024-point chunk): every point must come back in its place. The points are compared with
+        single calls at the first three, the last three and 24 random indices (a dropped, shifted,
+        stale or chunk-misaligned point changes at least one of them)."""
+        _name, f, theta, ups, _, _ = model
+        n = f.shape[0]
+        rng = np.random.default_rng(seed)
+        X = rng.uniform(-0.5, 0.5, (size, n))
+        Pm = rng.uniform(-2.0, 2.0, (size, n))
+        conds = np.empty(size)
+        for k in range(size):  # redraw the (rare) points near the degenerate set: cond <= 1e6
+            for _ in range(20):
+                c, fr = _conditioning(f, theta, ups, X[k], Pm[k])
+                if math.isfinite(c) and c <= 1e6:
+                    break
+                Pm[k] = rng.uniform(-2.0, 2.0, n)
+            else:
+                return 0.0
+            conds[k] = c * fr
+        extra = () if method == "poisson_tensor" else (inertia, pot)
+        out = _call(impl, method, f, theta, ups, *extra, X.copy(), Pm.copy())
+        out = (out,) if method == "poisson_tensor" else out
+        shapes = [(size, 2 * n, 2 * n)] if method == "poisson_tensor" else [(size, n)] * 2
+        got = [
+            _finite_array(o, s, f"batched {method} ({size} points on one axis)")
+            for o, s in zip(out, shapes)
+        ]
+        idx = sorted({0, 1, 2, size - 3, size - 2, size - 1} | set(rng.integers(0, size, 24)))
+        worst = 0.0
+        for k in idx:
+            one = _call(impl, method, f, theta, ups, *extra, X[k].copy(), Pm[k].copy())
+            one = (one,) if method == "poisson_tensor" else one
+            for g, o in zip(got, one):
+                o = np.asarray(o, dtype=float)
+                scale = max(1.0, float(np.max(np.abs(o))))
+                # the batched point and the single call are the same computation up to rounding:
+                # c n eps cond scale, cond of that point (conditioning of Phi times the frame's)
+                tol = C_CERT * n * _eps_impl(impl) * conds[k] * scale
+                err = _max_err(g[k], o)
+                if err > tol:
+                    raise AssertionError(
+                        f"batched {method} with {size} points: point {k} differs from the same "
+                        f"point evaluated alone by {err:.3g} (tolerance {tol:.3g})"
+                    )
+                worst = max(worst, err / tol)
+        return worst
 
     def one_method(method, model, inertia, pot, shape, pts, as_list, t):
         _name, f, theta, ups, _, _ = model
@@ -893,6 +960,10 @@ def _batch(impl, dom, stats):
             pts,
             draw(st.booleans(), label="as lists"),
             0.05,
+            (
+                draw(st.sampled_from([9, 17, 1025]), label="large batch size"),
+                draw(st.integers(0, 2**32 - 1), label="large batch seed"),
+            ),
         )
 
     return body, strat()
@@ -1102,6 +1173,16 @@ def _inputs(impl, dom, stats):
                 )
                 worst = max(
                     worst, err_ratio(method, lst, refs["A"], src[0], tol_for("A", refs["A"]))
+                )
+                # other memory layouts, read-only: strided views (vectors), Fortran order
+                # (matrices and f); a kernel that assumes C-contiguous data, or writes into its
+                # inputs, fails here
+                odd = call(method, [_odd_layout(a) for a in data("A")], t)
+                odd = check_out(
+                    method, odd, n, "inputs as read-only strided / Fortran-ordered arrays"
+                )
+                worst = max(
+                    worst, err_ratio(method, odd, refs["A"], src[0], tol_for("A", refs["A"]))
                 )
         return worst
 

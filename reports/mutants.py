@@ -50,6 +50,8 @@ MUTATIONS = {
     "domain_ignored": "declares an su(2)-only domain but returns numbers for every algebra",
     "centre_lost": "a flow that re-bases through Ad(g) for |t| >= 1 and so drops the central part "
     "of x (Ad(g) and pi stay right; g is wrong along the centre)",
+    "batch_tail_stale": "a batch of more than 8 points returns the next-to-last point's result in the last place",
+    "layout_assumed": "f read from its memory buffer as if C-ordered (a Fortran-ordered f is scrambled)",
 }
 
 
@@ -68,6 +70,8 @@ MUTANT_CHECKS = {
     "not_a_poisson_map": ["flow.poisson_map"],
     "domain_ignored": ["domain.refusal"],
     "centre_lost": ["flow.long"],
+    "batch_tail_stale": ["poisson_tensor.batch"],
+    "layout_assumed": ["protocol.inputs"],
 }
 """The clause each mutant is planted against: certified on that check only, it must fail (the
 clause has teeth by itself); the others run the whole battery."""
@@ -99,7 +103,10 @@ class Plain:
         self.mutation = mutation
         self.name = f"plain[{mutation or 'correct'}]"
         self.version = "test"
-        self.batched = mutation in ("batch_first_point", "batch_flattened") or mutation is None
+        self.batched = (
+            mutation in ("batch_first_point", "batch_flattened", "batch_tail_stale")
+            or mutation is None
+        )
         self._cache: dict = {}
         if mutation == "not_a_poisson_map":
             self.poisson_integrator = True
@@ -131,6 +138,9 @@ class Plain:
     def _prep(self, f, theta, upsilon):
         if self.mutation == "stale_cache":
             f = self._cache.setdefault(("f", id(f)), np.array(f, dtype=float))
+        if self.mutation == "layout_assumed":  # the raw buffer, read back as C order
+            a = np.asarray(f, dtype=float)
+            f = np.frombuffer(a.tobytes(order="A")).reshape(a.shape)
         f = np.asarray(f, dtype=float)
         if self.mutation == "f_sign":
             f = -f
@@ -201,6 +211,8 @@ class Plain:
             else:
                 out.append(self._tensor(f, theta, upsilon, X[k], Pm[k]))
         n = X.shape[1]
+        if self.mutation == "batch_tail_stale" and len(out) > 8:
+            out[-1] = out[-2]
         if self.mutation == "batch_flattened":
             return np.array(out).reshape(-1, 2 * n, 2 * n)
         return np.array(out).reshape(x.shape[:-1] + (2 * n, 2 * n))
