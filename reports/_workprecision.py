@@ -768,8 +768,12 @@ def plot_work_precision(
             [p["time"] for p in pts],
             [p["error"] for p in pts],
             ls="-" if family == "tstarg" else "--",
-            marker=("o", "^", "v", "D")[k // 10 % 4] if family == "tstarg" else "s",
-            ms=4,
+            marker=("o", "^", "v", "D")[k // 10 % 4]
+            if family == "tstarg"
+            else "*"  # a third-party contender (bench --impl/--cmd) stands out
+            if pts[0].get("family") == "impl"
+            else "s",
+            ms=9 if pts[0].get("family") == "impl" else 4,
             color=colors[k % 10] if family == "tstarg" else others[(k * 3 + 1) % 8],
             label=m,
         )
