@@ -993,6 +993,46 @@ def _judge_state(f, theta, ups, inertia, pot, x, pi, t):
     )
 
 
+DEGENERATE_APPROACH = 1e-6
+"""A trajectory whose ``sigma_min(Phi) / sigma_max(Phi)`` falls to this value has reached the degenerate
+set Pi_1 (vier7, vier12) to float64 accuracy: the vector field blows up like ``1/Delta`` there and the
+flow ends (a correct implementation may return garbage, refuse, or never return)."""
+
+
+def _meets_degenerate_set(f, theta, ups, inertia, pot, x, pi, t) -> bool:
+    """Whether the trajectory from ``(x, pi)`` reaches the degenerate set before ``|t|``: the body system
+    of :class:`_Judge` (``pi`` and ``Ad``) at rtol 1e-8 with a terminal event at
+    ``sigma_min(Phi) / sigma_max(Phi) = DEGENERATE_APPROACH``; a failed integration counts as reaching
+    it. Never with ``Upsilon = 0`` (``Phi = 1``)."""
+    if not np.any(ups) or t == 0:
+        return False
+    judge = _Judge(f, theta, ups, inertia, pot)
+    n = judge.n
+    y0 = np.concatenate([np.asarray(pi, float), scipy.linalg.expm(_ad(judge.f, x)).ravel()])
+
+    def approach(s, y, w):
+        S = np.einsum("m,mab->ab", y[:n], judge.f) - judge.theta
+        sv = np.linalg.svd(np.eye(n) + S @ judge.U, compute_uv=False)
+        return sv[-1] / sv[0] - DEGENERATE_APPROACH
+
+    approach.terminal = True
+    with np.errstate(all="ignore"):
+        try:
+            sol = solve_ivp(
+                judge.rhs,
+                (0.0, float(t)),
+                y0,
+                method="DOP853",
+                rtol=1e-8,
+                atol=1e-10,
+                args=(False,),
+                events=approach,
+            )
+        except (ArithmeticError, np.linalg.LinAlgError, ValueError):
+            return True
+    return sol.status != 0
+
+
 def _judge_group(f, theta, ups, inertia, pot, x, pi, t):
     """``((x, pi, Ad), errors, G)`` of the float64 judge carrying ``G = rho(g)`` as well where the
     centre is non-trivial (``G`` None and three errors otherwise; four with ``G``), cached by value."""
@@ -1477,6 +1517,9 @@ def _flow_drift(impl, dom, stats):
         # long in units of the motion's own time scale: |T| (1 + rho) = LONG_WORK_LIMIT at most
         rate = reference_work(f, theta, ups, inertia, pot, x, pi, 1.0) / n**3
         T = min(T_max, DRIFT_WORK_LIMIT / rate)
+        if _meets_degenerate_set(f, theta, ups, inertia, pot, x, pi, T):
+            _count(stats, "redrawn: the trajectory reaches the degenerate set")
+            reject()  # the flow ends there: no drift law applies (and an implementation may hang)
         judge = _Judge(f, theta, ups, inertia, pot)
         H0 = judge.energy(pi, scipy.linalg.expm(_ad(f, x)))
         Iinv = judge.Iinv

@@ -107,3 +107,31 @@ def test_refusing_negative_times_fails_only_when_declared(declare):
     else:
         assert C._flow_call(impl, dom, stats, args, -0.5) is None
         assert stats["negative t refused (ValueError)"] == 1
+
+
+def test_drift_redraws_trajectories_that_reach_the_degenerate_set():
+    """A Bianchi VIII example (Theta, Upsilon, non-diagonal inertia; found when the correct Plain
+    failed flow.drift with ratio 5.9e6 and refimpl.fast's flow never returned): det Phi falls from
+    0.44 towards 0 near t = 0.9, where the flow ends. The drift check now redraws it; before that
+    time nothing is flagged. Independent evidence: det Phi along fast's own flow decreases to a tenth."""
+    f = np.array(catalogue("Bianchi VIII").f, dtype=float)
+    th = np.array([[0.0, -0.25, 0.0], [0.25, 0.0, 0.5], [0.0, -0.5, 0.0]])
+    U = np.array([[0.0, -0.1875, -0.4375], [0.1875, 0.0, -0.1875], [0.4375, 0.1875, 0.0]])
+    x = np.array([0.0, 0.0, 0.5480601913286396])
+    pi = np.array([-1.3606332689411351, -0.0387247688371013, 2e-05])
+    inertia = np.array(
+        [
+            [1.6100721965348175, -0.615282632151689, 0.05900301576368905],
+            [-0.615282632151689, 2.6448087184355566, 0.5479808786107018],
+            [0.05900301576368905, 0.5479808786107018, 2.2675545755728113],
+        ]
+    )
+
+    def det_phi(p):
+        S = np.einsum("m,mab->ab", p, f) - th
+        return np.linalg.det(np.eye(3) + S @ U)
+
+    assert not C._meets_degenerate_set(f, th, U, inertia, None, x, pi, 0.5)
+    assert C._meets_degenerate_set(f, th, U, inertia, None, x, pi, 1.25)
+    _, p85 = fast.flow(f, th, U, inertia, None, x, pi, 0.85)
+    assert 0 < det_phi(p85) < 0.1 * det_phi(pi)
