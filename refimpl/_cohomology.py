@@ -113,14 +113,35 @@ def _float_nullspace(m: np.ndarray, scale: float) -> np.ndarray:
     return vt[rank:].T
 
 
+_COCYCLE_CACHE: dict = {}
+_COCYCLE_CACHE_SIZE = 256
+
+
 def cocycle_basis(alg: LieAlgebra, exact: bool | None = None) -> list[np.ndarray]:
-    """A basis of ``Z^2``: antisymmetric ``(n, n)`` matrices with ``delta_2 Theta = 0``."""
+    """A basis of ``Z^2``: antisymmetric ``(n, n)`` matrices with ``delta_2 Theta = 0``.
+
+    Cached on the structure constants (their float bytes, and their exact values where the
+    algebra is exact): Hypothesis draws cocycles of the same algebra many times, and the exact
+    nullspace of su(3)'s 28 x 56 system takes seconds. Each call returns fresh copies."""
     exact = alg.is_exact if exact is None else exact
-    m = _delta2_matrix(alg, exact)
-    if exact:
-        return [_unpack(alg, list(v), True) for v in m.nullspace(simplify=True)]
-    ns = _float_nullspace(m, float(np.max(np.abs(alg.f))) if alg.f.size else 1.0)
-    return [_unpack(alg, ns[:, i], False) for i in range(ns.shape[1])]
+    key = (
+        exact,
+        alg.f.shape,
+        alg.f.tobytes(),
+        str(alg.f_exact.tolist()) if alg.is_exact else None,
+    )
+    hit = _COCYCLE_CACHE.get(key)
+    if hit is None:
+        m = _delta2_matrix(alg, exact)
+        if exact:
+            hit = [_unpack(alg, list(v), True) for v in m.nullspace(simplify=True)]
+        else:
+            ns = _float_nullspace(m, float(np.max(np.abs(alg.f))) if alg.f.size else 1.0)
+            hit = [_unpack(alg, ns[:, i], False) for i in range(ns.shape[1])]
+        if len(_COCYCLE_CACHE) >= _COCYCLE_CACHE_SIZE:
+            _COCYCLE_CACHE.pop(next(iter(_COCYCLE_CACHE)))
+        _COCYCLE_CACHE[key] = hit
+    return [b.copy() for b in hit]
 
 
 def coboundary_basis(alg: LieAlgebra, exact: bool | None = None) -> list[np.ndarray]:

@@ -74,6 +74,7 @@ class CompiledField:
 
     __slots__ = (
         "_key",
+        "_kernels",
         "const",
         "d",
         "lcoef",
@@ -87,6 +88,7 @@ class CompiledField:
     )
 
     def __init__(self, F):
+        self._kernels: dict = {}
         d = F.d
         mons = F.monomials()
         slot = {ij: m for m, ij in enumerate(mons)}
@@ -556,8 +558,11 @@ def taylor_adaptive(
     y = np.ascontiguousarray(y0, dtype=float)
     out = np.empty_like(y)
     steps = np.zeros(y.shape[0], dtype=np.int64)
-    mod = structure_kernels(cf, P)
-    if mod is not None and _unrolls(cf, P):
+    kern = cf._kernels.get(P)  # per field and order: the module and whether it is unrolled
+    if kern is None:
+        kern = cf._kernels[P] = (structure_kernels(cf, P), _unrolls(cf, P))
+    mod, unrolled = kern
+    if mod is not None and unrolled:
         mod.adaptive(y, float(T), float(tol), int(max_steps), cf.qcoef, cf.lcoef, out, steps)
     elif mod is not None:
         mod.adaptive(y, float(T), float(tol), P, int(max_steps), cf.qcoef, cf.lcoef, out, steps)

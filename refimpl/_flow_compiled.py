@@ -13,11 +13,20 @@ Systems
 Error control (per trajectory, never shared)
     The kernel's Jorba-Zou control bounds the *local* remainder by ``eps * max(1, ||y||)`` per step. A
     global tolerance ``tol`` (max-norm over ``pi`` and ``Ad(g)``, the absolute error of what the user
-    gets) is met by two runs: ``A`` at ``eps = tol / 100`` and ``B`` at ``eps / 100``; ``|A - B|``
-    estimates the error of ``A`` (``B`` is about a hundred times more accurate: the local remainders,
-    hence the global error of the method, scale with ``eps``), and ``B`` is returned when
-    ``|A - B| <= tol`` on that trajectory. A trajectory over the bound is run again with ``eps`` lowered by the observed excess
-    (times 10), until it passes or ``eps`` reaches the float64 floor (then ``ValueError`` names it).
+    gets) is met by two runs (:func:`local_tolerances`): a checking run ``A`` and the answer ``B``, at
+    least ``1/SAFETY = 3.3`` times tighter and near the float64 floor (``eps_B <= 1e-13``). The global
+    error of the method scales with ``eps`` (the local remainders do), so ``d = |A - B|`` is about the
+    error of ``A`` and exceeds that of ``B``: with ``r = eps_B/eps_A <= 1/2``,
+    ``d >= (1 - r) err(A) = (1 - r)/r err(B) >= err(B)``; when ``B`` is far tighter than ``A`` (``eps_A >= 1e-12``), the same
+    proportionality (Shampine 1985, global error estimation with two tolerances) gives the smaller
+    estimate ``PROP (eps_B / eps_A) d`` with the safety factor ``PROP = 30`` (the ratio global error /
+    ``eps`` varies by a factor 2-4 over ``eps`` = 1e-8 ... 1e-13 on the heavy and the asymmetric top).
+    ``B`` is returned when the estimate is at most ``tol`` on that trajectory. A trajectory over it is
+    run again with ``eps_A`` lowered by the observed excess (times 10), until it passes or ``eps_A``
+    reaches :data:`EPS_FLOOR` (then ``ValueError`` names it). Not seen by ``d``: the rounding of the
+    starting point (the same in both runs) amplified by the flow's sensitivity -- about 1e-13 on the
+    heavy top over ``T = 100``, 1e-11 on the asymmetric top; tolerances near that floor are refused when
+    ``d`` sees it, and are not certified by the two runs otherwise.
 """
 
 from __future__ import annotations
@@ -30,6 +39,7 @@ from ._taylor import quadratic_field, quadratic_field_su2_full
 
 __all__ = [
     "PATH",
+    "compiled_taylor_samples",
     "compiled_taylor_body",
     "compiled_taylor_flow",
     "quat_rotation",
@@ -41,10 +51,33 @@ __all__ = [
 EPS = np.finfo(float).eps
 PATH = _ct.PATH
 _FIELDS: dict = {}
-SAFETY = 1e-2  # B's local tolerance relative to A's
-EPS_FLOOR = 1e-14  # the floor of A's local tolerance (B's is 1e-16, the Jorba-Zou order 20)
-FIRST = 1e-2  # A's first local tolerance relative to the global one (global/local error ~ 10-100
+SAFETY = (
+    0.3  # B's local tolerance relative to A's, at most (B_MAX caps it further); any r <= 1/2 makes
+)
+# |A - B| >= err(B) under proportionality, and 0.3 keeps B's extra steps few where A is near the floor
+B_MAX = (
+    1e-13  # B's local tolerance is never above this: B is the answer, kept near the float64 floor
+)
+EPS_B_FLOOR = 1e-16  # the floor of B's local tolerance (the Jorba-Zou order 20)
+EPS_FLOOR = 1e-14  # the floor of A's local tolerance when a trajectory is run again
+A_START_MIN = (
+    1e-13  # A's first local tolerance is never below this (global error of A ~ 1e-13 there)
+)
+A_LOOSE = (
+    1e-8  # A's local tolerance for tol >= A_LOOSE_FROM: the cheapest Taylor run on the heavy top
+)
+# (order 11; looser tolerances lower the order and take more steps)
+A_LOOSE_FROM = 1e-10  # from here on 30 kappa 1e-13 <= tol for amplifications kappa = err/eps <= 30
+PROP_MIN_A = 1e-12  # the proportionality estimate only for A at this local tolerance or looser
+PROP_MIN_B = 1e-14  # ... and B at this local tolerance or looser
+PROP = 30.0  # safety factor of the proportionality estimate err(B) ~ (eps_B / eps_A) |A - B|
+FIRST = 1e-2  # A's first local tolerance relative to the global one (global/local error ~ 5-20
 # over 10^2-10^3 steps, so one pair of runs usually suffices)
+FAST_UNROLL_TERMS = (
+    2800  # B's order is capped where the unrolled kernel stays this small (measured on
+)
+# the heavy top's full state, 20 monomials: order 16 (2720 terms) runs 0.71 us/step, order 17-18 1.0-1.1
+# us/step -- 40 % more per step for 12 % more arithmetic; the shorter kernel wins even with more steps)
 
 
 def _field(model, full: bool) -> _ct.CompiledField:
@@ -125,9 +158,18 @@ def compiled_taylor_body(
             "compiled Taylor: the body field is a quadratic polynomial only for Upsilon = 0 (vier6)"
         )
     n, N = pi0.shape
-    G0 = _gamma0(model, x0)
-    y0 = (pi0 if G0 is None else np.concatenate([pi0, G0])).T
-    cf = _field(model, False)
+    if (
+        model.su2 and model.gravity
+    ):  # Gamma(0) from the unit quaternion of exp(x0) (compiled, no expm)
+        buf = np.empty((N, 10))
+        _start(np.ascontiguousarray(x0), np.ascontiguousarray(pi0), model.gamma, True, buf)
+        y0, G0 = buf[:, :6], True
+    else:
+        G0 = _gamma0(model, x0)
+        y0 = (pi0 if G0 is None else np.concatenate([pi0, G0])).T
+    cf = model.__dict__.get("_taylor_body_field")
+    if cf is None:
+        cf = model.__dict__["_taylor_body_field"] = _field(model, False)
     if nsteps is not None:
         y = _ct.taylor_fixed(cf, y0, t / nsteps, int(nsteps), int(order))
         steps = np.full(N, int(nsteps))
@@ -145,10 +187,312 @@ def compiled_taylor_body(
     }
 
 
+# ---------------------------------------------------------------- per-call glue, compiled
+# Starting state, error estimate and logarithm of the su(2) full state, one loop over the trajectories
+# each (the numpy versions above cost ~10 us of call overhead apiece on one trajectory). Same formulas:
+# x_to_quat, quat_rotation (Gamma(0) = Ad(exp x0)^T gamma), the |A - B| estimate, quat_to_x.
+def _start_py(X, P, gamma, grav, y0):
+    q = x_to_quat(X)
+    y0[:, :3] = P.T
+    if grav:
+        y0[:, 3:6] = np.einsum("Nmb,m->Nb", quat_rotation(q), gamma)
+    y0[:, -4:] = q.T
+
+
+def _estimate_py(A, B, n, est):
+    dpi = np.max(np.abs(A[:, :n] - B[:, :n]), axis=1)
+    dAd = 2.0 * np.sqrt(np.sum((A[:, -4:] - B[:, -4:]) ** 2, axis=1))
+    d = np.maximum(dpi, dAd)
+    est[:] = np.where(np.isfinite(d), d, np.inf)
+
+
+def _log_py(B, x):
+    x[:] = quat_to_x(B[:, -4:].T).T
+
+
+if _ct.HAVE_NUMBA:
+    import math
+
+    from numba import njit
+
+    @njit(cache=True, nogil=True)
+    def _start(X, P, gamma, grav, y0):  # pragma: no cover - compiled; same as _start_py
+        for j in range(X.shape[1]):
+            x0, x1, x2 = X[0, j], X[1, j], X[2, j]
+            t = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+            s = math.sin(t / 2) / t if t > 0 else 0.5
+            w, a, b, c = math.cos(t / 2), s * x0, s * x1, s * x2
+            y0[j, 0], y0[j, 1], y0[j, 2] = P[0, j], P[1, j], P[2, j]
+            if grav:  # Gamma_b = sum_m R_mb gamma_m, R = (w^2 - |v|^2) 1 + 2 v v^T + 2 w [v]_x (quat_rotation)
+                r = w * w - a * a - b * b - c * c
+                g0, g1, g2 = gamma[0], gamma[1], gamma[2]
+                y0[j, 3] = (
+                    g0 * (r + 2 * a * a)
+                    + g1 * (2 * b * a + 2 * w * c)
+                    + g2 * (2 * c * a - 2 * w * b)
+                )
+                y0[j, 4] = (
+                    g0 * (2 * a * b - 2 * w * c)
+                    + g1 * (r + 2 * b * b)
+                    + g2 * (2 * c * b + 2 * w * a)
+                )
+                y0[j, 5] = (
+                    g0 * (2 * a * c + 2 * w * b)
+                    + g1 * (2 * b * c - 2 * w * a)
+                    + g2 * (r + 2 * c * c)
+                )
+            k = y0.shape[1] - 4
+            y0[j, k], y0[j, k + 1], y0[j, k + 2], y0[j, k + 3] = w, a, b, c
+
+    @njit(cache=True, nogil=True)
+    def _estimate(A, B, n, est):  # pragma: no cover - compiled; same as _estimate_py
+        d = A.shape[1]
+        for j in range(A.shape[0]):
+            m = 0.0
+            for c in range(n):
+                m = max(m, abs(A[j, c] - B[j, c]))
+            s = 0.0
+            for c in range(d - 4, d):
+                s += (A[j, c] - B[j, c]) ** 2
+            m = max(m, 2.0 * math.sqrt(s))
+            est[j] = m if math.isfinite(m) else np.inf
+
+    @njit(cache=True, nogil=True)
+    def _log(B, x):  # pragma: no cover - compiled; same as _log_py
+        d = B.shape[1]
+        for j in range(B.shape[0]):
+            w, a, b, c = B[j, d - 4], B[j, d - 3], B[j, d - 2], B[j, d - 1]
+            s = math.sqrt(a * a + b * b + c * c)
+            fac = 2.0 * math.atan2(s, w) / s if s > 0 else 2.0
+            x[0, j], x[1, j], x[2, j] = a * fac, b * fac, c * fac
+else:  # pragma: no cover - exercised only where numba is missing
+    _start, _estimate, _log = _start_py, _estimate_py, _log_py
+
+
+def _full_field(model) -> _ct.CompiledField:
+    """The compiled full-state field, kept on the (cached, immutable) model: no key hashing per call."""
+    cf = model.__dict__.get("_taylor_full_field")
+    if cf is None:
+        cf = model.__dict__["_taylor_full_field"] = _field(model, True)
+    return cf
+
+
 def _full_run(model, y0, t, eps):
-    cf = _field(model, True)
-    y, steps = _ct.taylor_adaptive(cf, y0, t, eps)
+    y, steps = _ct.taylor_adaptive(_full_field(model), y0, t, eps)
     return y.T, steps
+
+
+def local_tolerances(tol: float) -> tuple[float, float]:
+    """``(eps_A, eps_B)``: the first local tolerances of the checking run ``A`` and the returned run ``B``.
+
+    ``B``, the answer, runs at ``SAFETY * eps_A`` but at most :data:`B_MAX` (always near the float64
+    floor). ``A`` runs at :data:`A_LOOSE` for ``tol >= A_LOOSE_FROM`` (the estimate is then the
+    proportional one, ``PROP (eps_B/eps_A) |A - B|``, which does not depend on ``eps_A``), else at
+    ``FIRST * tol`` (global error about ``tol / 5``: global/local ~ 5-20 over the ``10^2 - 10^3``
+    steps of ``|t| ~ 100``, and ``|A - B| <= tol`` decides), not below :data:`A_START_MIN`. Costs
+    (heavy top, T = 100): ``A`` at 1e-8 about 0.6 of ``B`` at 1e-13."""
+    if tol >= A_LOOSE_FROM:  # the proportionality estimate decides: A as cheap as possible
+        return A_LOOSE, _eps_b(A_LOOSE)
+    eps_a = max(FIRST * tol, A_START_MIN)
+    return eps_a, _eps_b(eps_a)
+
+
+def _eps_b(eps_a: float) -> float:
+    return max(min(eps_a * SAFETY, B_MAX), EPS_B_FLOOR)
+
+
+def _order_b(cf, eps_b: float) -> int:
+    """B's order: Jorba-Zou's for ``eps_b``, capped where the unrolled kernel stays short (at least 12)."""
+    P = _ct.adaptive_order(eps_b)
+    m = max(len(cf.mons), 1)
+    while P > 12 and m * P * (P + 1) // 2 > FAST_UNROLL_TERMS:
+        P -= 1
+    return P
+
+
+_NO_GAMMA = np.zeros(3)
+
+
+def _run(model, y0, t, eps, order=None):
+    y, steps = _ct.taylor_adaptive(_full_field(model), y0, t, eps, order)
+    if np.any(steps < 0):
+        raise ValueError(
+            f"compiled Taylor flow: trajectories {np.flatnonzero(steps < 0)[:10].tolist()} became non-finite "
+            f"before t = {t} (diverged); no point is dropped"
+        )
+    return y, steps
+
+
+def _control(model, y0, t, eps_a0, n, tol):
+    """The two-run control of the module docstring on the rows of ``y0``: ``(B, estimate, steps of B)``.
+
+    Trajectories are grouped by their local tolerances (one tolerance per kernel call); a trajectory
+    run again keeps its ``B`` when ``B``'s tolerance does not change (only ``A`` is run again)."""
+    N = len(y0)
+    cf = _full_field(model)
+    if N == 1:  # one trajectory, first pair: scalars only (the common protocol call)
+        eb0 = _eps_b(eps_a0)
+        A, _ = _run(model, y0, t, eps_a0)
+        B, sB = _run(model, y0, t, eb0, _order_b(cf, eb0))
+        d1 = np.empty(1)
+        _estimate(A, B, n, d1)
+        e1 = float(d1[0])
+        if eps_a0 >= PROP_MIN_A and eb0 >= PROP_MIN_B:
+            e1 = min(e1, PROP * (eb0 / eps_a0) * e1)
+        if e1 <= tol:
+            return B, np.array([e1]), sB
+        first = (A, B, sB)  # kept: the loop below starts from this pair
+    else:
+        first = None
+    eps_a = np.full(N, eps_a0)
+    eps_b = np.full(N, _eps_b(eps_a0))
+    have_a = np.full(N, -1.0)  # the local tolerances of the A and B held (-1: none yet)
+    have_b = np.full(N, -1.0)
+    Ares = np.empty_like(y0)
+    res = np.empty_like(y0)
+    est = np.full(N, np.inf)
+    steps = np.zeros(N, dtype=np.int64)
+    d = np.empty(N)
+    todo = np.arange(N)
+    if first is not None:
+        Ares[:], res[:], steps[:] = first
+        have_a[:], have_b[:] = eps_a0, _eps_b(eps_a0)
+    for _ in range(8):
+        for X, have, out, ep, kind in (
+            (Ares, have_a, None, eps_a, "A"),
+            (res, have_b, steps, eps_b, "B"),
+        ):
+            need = todo[have[todo] != ep[todo]]
+            for e in np.unique(ep[need]) if need.size > 1 else ep[need]:
+                idx = need if need.size == 1 else need[ep[need] == e]
+                order = _order_b(cf, float(e)) if kind == "B" else None
+                y, st = _run(model, y0 if N == 1 else y0[idx], t, float(e), order)
+                X[idx], have[idx] = y, e
+                if out is not None:
+                    out[idx] = st
+        di = np.empty(todo.size)
+        if N == 1:
+            _estimate(Ares, res, n, di)
+        else:
+            _estimate(Ares[todo], res[todo], n, di)
+        d[todo] = di
+        # B is at least 1/SAFETY times tighter than A: |A - B| ~ err(A) > err(B); with a much tighter B the
+        # tolerance proportionality of the global error (Shampine 1985) gives the smaller estimate
+        # gives the smaller estimate -- only while both runs stay clear of the rounding floor, where the
+        # global error stops scaling with eps (A at 1e-12 or looser, B at 1e-14 or looser: the estimate
+        # 30 kappa eps_B then exceeds the floor, about kappa 1e-14 on the heavy and the asymmetric top)
+        ea, eb = eps_a[todo], eps_b[todo]
+        prop = (ea >= PROP_MIN_A) & (eb >= PROP_MIN_B)
+        est[todo] = np.where(prop, np.minimum(di, PROP * (eb / ea) * di), di)
+        over = todo[est[todo] > tol]
+        if over.size == 0:
+            break
+        # run again: a tighter B alone when the proportional estimate then passes with a margin of 2 (A
+        # is kept: one run), else a tighter A (and B with it) by the observed excess, times 10
+        moved = False
+        for k in over.tolist():
+            eb_req = tol * eps_a[k] / (PROP * max(d[k], 1e-300)) / 2
+            if eps_a[k] >= PROP_MIN_A and PROP_MIN_B <= eb_req < eps_b[k]:
+                eps_b[k] = eb_req
+                moved = True
+                continue
+            new = max(eps_a[k] * min(tol / max(d[k], tol) / 10, 0.1), EPS_FLOOR)
+            if new < eps_a[k]:
+                eps_a[k], eps_b[k] = new, _eps_b(new)
+                moved = True
+        if not moved:
+            break
+        todo = over
+    return res, est, steps
+
+
+def compiled_taylor_samples(
+    model, x0, pi0, times, tol: float, *, full: bool, progress=None
+) -> dict:
+    """``N`` trajectories sampled at ``times`` (increasing from 0, or decreasing) with the two-run
+    control of the module docstring over the whole span: ``A`` and ``B`` each carry their own state
+    from sample to sample (never restarted from the other), and the estimate is the largest ``|A - B|``
+    (or its proportional form) over the samples, per trajectory; a trajectory over ``tol`` is run again
+    with a tighter ``A`` (and ``B``), at most three times, else ``ValueError`` names it.
+
+    ``full``: the su(2) state ``(pi, [Gamma,] q)``; else the body system ``(pi, [Gamma])``. Returns
+    ``pi``, ``Gamma`` (or None), ``quat`` (or None) as arrays ``(samples, d_part, N)``, ``error_estimate``
+    (N,), ``path``."""
+    n, N = pi0.shape
+    if full and not supports_full(model):
+        raise ValueError("compiled Taylor full state: written for su(2)/so(3) with Upsilon = 0")
+    grav = bool(model.gravity)
+    if model.su2 and (full or grav):
+        d = n + (n if grav else 0) + 4
+        buf = np.empty((N, d))
+        _start(
+            np.ascontiguousarray(x0),
+            np.ascontiguousarray(pi0),
+            model.gamma if grav else _NO_GAMMA,
+            grav,
+            buf,
+        )
+        y0 = buf if full else np.ascontiguousarray(buf[:, : d - 4])
+    else:
+        G0 = _gamma0(model, x0)
+        y0 = np.ascontiguousarray((pi0 if G0 is None else np.concatenate([pi0, G0])).T)
+    if full:
+        cf = _full_field(model)
+    else:
+        cf = model.__dict__.get("_taylor_body_field")
+        if cf is None:
+            cf = model.__dict__["_taylor_body_field"] = _field(model, False)
+    times = np.asarray(times, dtype=float)
+    eps_a, eps_b = local_tolerances(tol)
+    todo = np.arange(N)
+    Ys = np.empty((len(times), y0.shape[1], N))
+    Ys[0] = y0.T
+    est = np.full(N, np.inf)
+    for _ in range(4):
+        A, B = y0[todo].copy(), y0[todo].copy()
+        d = np.zeros(todo.size)
+        for k in range(1, len(times)):
+            dt = times[k] - times[k - 1]
+            A, sA = _ct.taylor_adaptive(cf, A, dt, eps_a)
+            B, sB = _ct.taylor_adaptive(cf, B, dt, eps_b, _order_b(cf, eps_b))
+            if np.any(sB < 0) or np.any(sA < 0):
+                bad = todo[(sA < 0) | (sB < 0)]
+                raise ValueError(
+                    f"compiled Taylor: trajectories {bad[:10].tolist()} became non-finite before t = {times[k]} "
+                    "(diverged); no point is dropped"
+                )
+            dk = np.empty(todo.size)
+            if full:
+                _estimate(A, B, n, dk)
+            else:
+                dk = np.max(np.abs(A - B), axis=1)
+            d = np.maximum(d, dk)
+            Ys[k][:, todo] = B.T
+            if progress is not None:
+                progress(k, len(times) - 1)
+        prop = eps_a >= PROP_MIN_A and eps_b >= PROP_MIN_B
+        est[todo] = np.minimum(d, PROP * (eps_b / eps_a) * d) if prop else d
+        over = todo[est[todo] > tol]
+        if over.size == 0:
+            break
+        new = max(eps_a * min(tol / float(np.max(est[over])) / 10, 0.1), EPS_FLOOR)
+        if new >= eps_a:
+            break
+        eps_a, eps_b, todo = new, _eps_b(new), over
+    over = np.flatnonzero(est > tol)
+    if over.size:
+        raise ValueError(
+            f"compiled Taylor: tolerance {tol} not reached on trajectories {over[:10].tolist()} (estimated "
+            f"errors {est[over][:3].tolist()}) at the float64 floor of the local tolerance"
+        )
+    nb = n + (n if grav else 0)
+    return {
+        "pi": Ys[:, :n],
+        "Gamma": Ys[:, n:nb] if grav else None,
+        "quat": Ys[:, nb:] if full else None,
+        "error_estimate": est,
+        "path": PATH,
+    }
 
 
 def compiled_taylor_flow(model, x0, pi0, t: float, tol: float) -> dict:
@@ -156,61 +500,31 @@ def compiled_taylor_flow(model, x0, pi0, t: float, tol: float) -> dict:
     (max-norm over ``pi`` and ``Ad(g)`` per trajectory; the two-run control of the module docstring).
 
     Returns ``pi``, ``Gamma``, ``x``, ``quat`` (``Ad(g) = quat_rotation(quat)``), ``Ad`` (None), ``rebases`` (zeros: no chart is used), ``steps``
-    (of the returned run), ``error_estimate`` (``|A - B|`` per trajectory, an upper estimate of the
-    returned run's error) and ``path`` (``numba`` or ``python``)."""
+    (of the returned run), ``error_estimate`` (per trajectory: ``|A - B|`` or its proportional form,
+    see the module docstring; an estimate of the returned run's error from above, blind to the
+    rounding floor of the starting point) and ``path`` (``numba`` or ``python``)."""
     if not supports_full(model):
         raise ValueError("compiled Taylor full state: written for su(2)/so(3) with Upsilon = 0")
     n, N = pi0.shape
-    G0 = _gamma0(model, x0)
-    q0 = x_to_quat(x0)
-    y0 = np.concatenate([pi0] + ([] if G0 is None else [G0]) + [q0]).T
-    eps = np.full(N, min(max(FIRST * tol, EPS_FLOOR), 1e-3))
-    todo = np.arange(N)
-    res = np.empty((y0.shape[1], N))
-    est = np.empty(N)
-    steps = np.empty(N, dtype=np.int64)
-    for _ in range(8):
-        # one tolerance per call: group the trajectories still to do by their eps
-        for e in np.unique(eps[todo]):
-            idx = todo[eps[todo] == e]
-            A, _ = _full_run(model, y0[idx], t, e)
-            B, sB = _full_run(model, y0[idx], t, e * SAFETY)
-            bad = (sB < 0) | np.any(~np.isfinite(B), axis=0)
-            if np.any(bad):
-                raise ValueError(
-                    f"compiled Taylor flow: trajectories {idx[bad][:10].tolist()} became non-finite before t = {t} "
-                    "(diverged); no point is dropped"
-                )
-            dpi = np.max(np.abs(A[:n] - B[:n]), axis=0)
-            # every entry of Ad(g) = R(q) is a quadratic form q^T M q with ||M||_2 = 1 (unit quaternions), so
-            # |R(q)_ij - R(q')_ij| = |(q - q')^T M (q + q')| <= 2 ||q - q'||_2: a bound, no rotation formed
-            dAd = 2.0 * np.sqrt(np.sum((A[-4:] - B[-4:]) ** 2, axis=0))
-            d = np.maximum(dpi, dAd)
-            d = np.where(np.isfinite(d), d, np.inf)
-            res[:, idx] = B
-            est[idx] = d
-            steps[idx] = sB
-        over = todo[est[todo] > tol]
-        if over.size == 0:
-            break
-        shrink = np.minimum(tol / np.maximum(est[over], tol) / 10, 0.1)
-        new = np.maximum(eps[over] * shrink, EPS_FLOOR)
-        if np.all(new >= eps[over]):
-            break
-        eps[over] = new
-        todo = over
+    d = n + (n if model.gravity else 0) + 4
+    y0 = np.empty((N, d))
+    _start(x0, pi0, model.gamma if model.gravity else _NO_GAMMA, model.gravity, y0)
+    eps_a, _ = local_tolerances(tol)
+    res, est, steps = _control(model, y0, t, eps_a, n, tol)
     over = np.flatnonzero(est > tol)
     if over.size:
         raise ValueError(
             f"compiled Taylor flow: tolerance {tol} not reached on trajectories {over[:10].tolist()} "
             f"(estimated errors {est[over][:3].tolist()}) at the float64 floor of the local tolerance"
         )
-    q = res[-4:]
+    x = np.empty((n, N))
+    _log(res, x)
+    res = res.T
     return {
         "pi": res[:n],
-        "Gamma": None if G0 is None else res[n : 2 * n],
-        "quat": q,
-        "x": quat_to_x(q),
+        "Gamma": res[n : 2 * n] if model.gravity else None,
+        "quat": res[-4:],
+        "x": x,
         "Ad": None,
         "rebases": np.zeros(N, dtype=int),
         "steps": steps,

@@ -47,6 +47,8 @@ fitted by ``tests/test_flow_orders.py``):
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from . import _compiled_taylor as _ct
@@ -55,6 +57,7 @@ from ._algebra import LieAlgebra
 from ._flow_compiled import (
     compiled_taylor_body,
     compiled_taylor_flow,
+    compiled_taylor_samples,
     quat_to_x,
     supports_full,
     x_to_quat,
@@ -730,6 +733,91 @@ def check_tolerance(tol) -> float:
     return v
 
 
+_MODELS: dict = {}
+_MODELS_MAX = 64  # validated models kept (keyed on the bytes of the inputs), oldest dropped first
+
+
+def _numeric_key(a):
+    """``(dtype, shape, bytes)`` of a plain numeric array-like, or None (not cacheable: object arrays,
+    LieAlgebra instances, strings; those take the uncached route through full validation)."""
+    if isinstance(a, LieAlgebra):
+        return None
+    try:
+        arr = np.asarray(a)
+    except Exception:  # noqa: BLE001 - anything odd is validated (and refused by name) uncached
+        return None
+    if arr.dtype.kind not in "fiub":
+        return None
+    return (arr.dtype.str, arr.shape, arr.tobytes())
+
+
+def _potential_key(potential):
+    if potential is None:
+        return ("none",)
+    if not (isinstance(potential, dict) and set(potential) == {"kind", "L", "gamma"}):
+        return None
+    kind, L, gamma = (
+        potential["kind"],
+        _numeric_key(potential["L"]),
+        _numeric_key(potential["gamma"]),
+    )
+    if not isinstance(kind, str) or L is None or gamma is None:
+        return None
+    return (kind, L, gamma)
+
+
+def cached_model(f, theta, upsilon, inertia, potential) -> NumpyModel:
+    """The validated :class:`NumpyModel`, cached on the bytes (dtype, shape, values) of the inputs.
+
+    Validation is a function of the values alone, so a model whose inputs carry the same bytes as an
+    earlier one is that model: the second call skips validation and preparation (inverse inertia,
+    su(2) detection, compiled fields). Inputs that are not plain numeric arrays are validated afresh
+    every time. The caller's arrays are only read (their bytes copied into the key)."""
+    keys = [_numeric_key(a) for a in (f, theta, upsilon, inertia)] + [_potential_key(potential)]
+    if any(k is None for k in keys):
+        return NumpyModel(f, theta, upsilon, inertia, potential)
+    key = tuple(keys)
+    model = _MODELS.get(key)
+    if model is None:
+        model = NumpyModel(f, theta, upsilon, inertia, potential)
+        if len(_MODELS) >= _MODELS_MAX:
+            _MODELS.pop(next(iter(_MODELS)))
+        _MODELS[key] = model
+    return model
+
+
+def _points(x0, pi0, n: int):
+    """:func:`check_points` (batched), with a shortcut for float64 arrays of the right shape whose
+    entries are all finite (nothing to convert or report; anything else gets the full check and its
+    messages). The arrays are returned as given: callers copy before writing."""
+    if (
+        type(x0) is np.ndarray
+        and type(pi0) is np.ndarray
+        and x0.dtype == np.float64
+        and pi0.dtype == np.float64
+        and x0.shape == pi0.shape
+        and x0.shape[-1:] == (n,)
+        and np.isfinite(x0).all()
+        and np.isfinite(pi0).all()
+    ):
+        return x0, pi0
+    return check_points(x0, pi0, n, batched=True)
+
+
+def _check_rates(model: NumpyModel, pa, tv: float) -> None:
+    """:func:`check_flow_rates` on the cached model: its inputs ``||I^-1||_2`` and ``max|f|`` are
+    computed once per model; the check itself runs (and raises, naming the point) only when the same
+    bound, evaluated here on ``max |pi|`` over the batch, could exceed the budget."""
+    c = model.__dict__.get("_rate_const")
+    if c is None:
+        inv_norm = 1.0 / float(np.linalg.eigvalsh(0.5 * (model.inertia + model.inertia.T))[0])
+        fmax = max(1.0, float(np.max(np.abs(model.f)))) if model.f.size else 1.0
+        c = model.__dict__["_rate_const"] = inv_norm * fmax
+    size = float(np.max(np.abs(pa))) * math.sqrt(model.n) if pa.size else 0.0
+    if not abs(tv) * c * max(1.0, size) <= 0.5 * 2.0**14 * (2 + abs(tv)):  # half the budget: margin
+        check_flow_rates(model.f, model.inertia, pa, tv)
+
+
 def _default_method(model: NumpyModel, *, full: bool = False) -> Method:
     """The fastest method meeting a tolerance: the compiled adaptive Taylor method on the su(2) full
     state (``full``) when numba is present, else DOP853 (``Upsilon = 0``) or Gauss6 (``Upsilon != 0``)."""
@@ -771,14 +859,16 @@ def fast_flow(
     degenerate set (naming them), trajectories that reach it, and algebras whose representation
     cannot be built (:class:`refimpl._representation.RepresentationError`).
     """
-    tv = check_time(t, allow_negative=True)
+    # plain float t: the exact conversion of check_time is the identity (the same checks, no mpmath)
+    tv = float(t) if type(t) in (float, np.float64) and math.isfinite(t) else None
+    tv = check_time(t, allow_negative=True) if tv is None else tv
     tol = check_tolerance(tol)
     check_flow_request(tv, tol, steps, method_name, METHODS)  # issue 15 hook: the stated budget
-    model = NumpyModel(f, theta, upsilon, inertia, potential)
+    model = cached_model(f, theta, upsilon, inertia, potential)
     n = model.n
-    xa, pa = check_points(x0, pi0, n, batched=True)
+    xa, pa = _points(x0, pi0, n)
     if steps is None:  # issue 15 hook: refuse points too fast for the step-doubling budget
-        check_flow_rates(model.f, model.inertia, pa, tv)
+        _check_rates(model, pa, tv)
     shape = xa.shape[:-1]
     X = np.ascontiguousarray(xa.reshape(-1, n).T)
     P = np.ascontiguousarray(pa.reshape(-1, n).T)
@@ -881,6 +971,7 @@ def fast_trajectory(
     method_name=None,
     system: str = "full",
     progress=None,
+    tol: float | None = None,
 ):
     """A batch ``(N, n)`` sampled at ``samples`` equally spaced times in ``[0, t_end]``.
 
@@ -892,7 +983,8 @@ def fast_trajectory(
     tv = check_time(t_end, "t_end", allow_negative=True)
     if tv == 0:
         raise ValueError("t_end must be non-zero for a trajectory")
-    if samples < 2 or steps_per_sample < 1:
+    adaptive = method_name in METHODS and METHODS[method_name].adaptive
+    if samples < 2 or (steps_per_sample < 1 and not adaptive):
         raise ValueError(
             f"samples must be >= 2 and steps_per_sample >= 1, got {samples}, {steps_per_sample}"
         )
@@ -903,6 +995,34 @@ def fast_trajectory(
     P = np.ascontiguousarray(np.atleast_2d(pa).reshape(-1, n).T)
     _check_start(model, P)
     meth = METHODS[method_name] if method_name else _default_method(model)
+    if meth.adaptive:  # steps from the tolerance, per trajectory; steps_per_sample is not used
+        if tol is None:
+            raise ValueError(
+                f"method {meth.name} is adaptive: give tol (a tolerance), not a step count"
+            )
+        ok, why = meth.applies(model)
+        if not ok:
+            raise ValueError(f"method {meth.name} does not apply: {why}")
+        full = system == "full"
+        times = np.linspace(0, tv, samples)
+        res = compiled_taylor_samples(
+            model, X, P, times, check_tolerance(tol), full=full, progress=progress
+        )
+        xs = g = None
+        if full:
+            q = res["quat"]  # (T, 4, N)
+            xs = np.stack([quat_to_x(q[k]).T for k in range(samples)])
+            g = np.stack([quat_matrix(q[k]) for k in range(samples)])
+        return {
+            "times": times,
+            "pi": np.transpose(res["pi"], (0, 2, 1)).copy(),
+            "method": meth,
+            "path": res["path"],
+            "Gamma": None if res["Gamma"] is None else np.transpose(res["Gamma"], (0, 2, 1)).copy(),
+            "x": xs,
+            "g": g,
+            "error_estimate": res["error_estimate"],
+        }
     nsteps = (samples - 1) * steps_per_sample
     rec = {"pi": [], "Gamma": [], "x": []}
 
@@ -932,6 +1052,7 @@ def fast_trajectory(
         "times": np.linspace(0, tv, samples),
         "pi": np.stack(rec["pi"]),
         "method": meth,
+        "path": "numpy",
         "Gamma": np.stack(rec["Gamma"]) if rec["Gamma"] else None,
         "x": xs,
         "g": g,

@@ -19,7 +19,9 @@ The planner (:func:`plan`) states each choice and what it skipped:
   reduced Euler-Poisson system ``(pi, Gamma)`` replaces ``g``;
 * no Phi solve when ``Upsilon = 0`` (``Phi = 1``);
 * the method: Gauss-Legendre order 6 when ``Upsilon != 0`` (symplectic for
-  omega_L), else the Lie-Poisson splitting for su(2) with diagonal inertia at
+  omega_L), else the compiled adaptive Taylor method (numba present; body
+  systems and the su(2) full state: order and steps from ``tol`` per
+  trajectory, two runs keep every trajectory within ``tol``), else the Lie-Poisson splitting for su(2) with diagonal inertia at
   loose tolerances (``tol >= 1e-6``), else fixed-step DOP853 (as generated
   scalar code for a single trajectory of a body system); the step count
   comes from a pilot run on ``[0, min(t_end, 1)]`` with doubling until the
@@ -105,7 +107,12 @@ class Plan:
     def describe(self) -> str:
         lines = [
             f"system: {self.system}",
-            f"method: {self.method} ({self.steps_per_sample} steps per sample)",
+            f"method: {self.method} "
+            + (
+                f"({self.steps_per_sample} steps per sample)"
+                if self.steps_per_sample
+                else "(adaptive: steps from the tolerance, per trajectory)"
+            ),
         ]
         lines += [f"chose: {r}" for r in self.reasons]
         lines += [f"skipped: {s}" for s in self.skipped]
@@ -356,6 +363,13 @@ def plan(scene: Scene) -> Plan:
     elif phi:
         name = "gauss6"
         reasons.append("Upsilon != 0: Gauss-Legendre (order 6) keeps omega_L's structure")
+    elif _adaptive_taylor_applies(model, system):
+        name = "taylor"
+        reasons.append(
+            "Upsilon = 0, a quadratic polynomial field: the compiled adaptive Taylor method (numba; "
+            "order and steps per trajectory from the tolerance, Jorba-Zou), two runs per trajectory "
+            "keep every trajectory within tol (refimpl._flow_compiled)"
+        )
     elif METHODS["splitting4"].applies(model)[0] and scene.tol >= 1e-6:
         name = "splitting4"
         reasons.append(
@@ -378,8 +392,21 @@ def plan(scene: Scene) -> Plan:
     else:
         name = "dop853"
         reasons.append("explicit 8th-order RK (DOP853 tableau), batched over the trajectories")
+    if METHODS[name].adaptive:  # no pilot: the steps follow from tol per trajectory
+        return Plan(system, name, 0, phi, skipped, reasons)
     steps = _pilot_steps(model, METHODS[name], scene, system)
     return Plan(system, name, steps, phi, skipped, reasons)
+
+
+def _adaptive_taylor_applies(model, system: str) -> bool:
+    """The compiled adaptive Taylor method covers the body systems with ``Upsilon = 0`` and the su(2)
+    full state (:func:`refimpl._flow_compiled.supports_full`), when numba is importable."""
+    from . import _compiled_taylor
+    from ._flow_compiled import supports_full
+
+    if not (_compiled_taylor.HAVE_NUMBA and model.upsilon_zero):
+        return False
+    return system == "body" or supports_full(model)
 
 
 def _pilot_steps(model, meth, scene, system) -> int:
@@ -417,6 +444,7 @@ def run_scene(scene: Scene, the_plan: Plan | None = None, progress=None) -> dict
         method_name=p.method,
         system=p.system,
         progress=progress,
+        tol=scene.tol,
     )
     out = {"times": tr["times"], "pi": tr["pi"]}
     if tr["Gamma"] is not None:

@@ -238,6 +238,19 @@ def flow_problem(name: str, quick: bool = False) -> FlowProblem:
             100.0,
             "closed",
         )
+    elif name == "asym_heavy_top":
+        p = FlowProblem(
+            "asym_heavy_top",
+            "heavy asymmetric top (su(2), I = diag(1, 1.3, 0.5), L = (0.1, 0, 1), gamma = -e3; the "
+            "'asymmetric' top of tests/benchmarks/test_bench_flows.py: no constant component)",
+            "su(2)",
+            [[1.0, 0, 0], [0, 1.3, 0], [0, 0, 0.5]],
+            {"kind": "gravity", "L": [0.1, 0.0, 1.0], "gamma": [0.0, 0.0, -1.0]},
+            [0.1, 0.2, 0.0],
+            [0.3, 0.2, 2.0],
+            100.0,
+            "gbs",
+        )
     elif name == "modified_top":
         p = FlowProblem(
             "modified_top",
@@ -264,8 +277,9 @@ def flow_problem(name: str, quick: bool = False) -> FlowProblem:
 
 FLOW_PROBLEMS = ("heavy_top", "free_top")  # the default run
 EXTRA_PROBLEMS = (
-    "modified_top",
-)  # on request (--problems): Upsilon != 0, vier10/vier11 with Phi solves
+    "modified_top",  # Upsilon != 0, vier10/vier11 with Phi solves
+    "asym_heavy_top",  # the heavy top without a constant component (no pi_3 dropped from the products)
+)  # on request (--problems)
 
 
 def reference_task(item) -> dict:
@@ -396,6 +410,56 @@ def run_heyoka(problem: FlowProblem, model, tol: float) -> np.ndarray:
     ta.state[:] = y0
     ta.propagate_until(float(problem.T))
     return np.array(ta.state)[:, None]
+
+
+def heyoka_batch_integrator(problem: FlowProblem, model, tol: float, width: int | None = None):
+    """heyoka's ``taylor_adaptive_batch`` (SIMD width ``width``, default heyoka's recommended one) on the
+    body field of :func:`heyoka_integrator`, JIT-compiled once per tolerance (compile time in
+    :data:`HEYOKA_COMPILE` under ``(name, T, tol, "batch")``). Returns ``(ta, width)``."""
+    import heyoka as hy  # optional contender
+
+    from tstarg.refimpl._taylor import quadratic_field
+
+    width = int(width or hy.recommended_simd_size())
+    key = (problem.name, problem.T, float(tol), "batch", width)
+    if key in _HEYOKA:
+        return _HEYOKA[key]
+    F = quadratic_field(model)
+    ys = hy.make_vars(*[f"y{c}" for c in range(F.d)])
+    rhs = []
+    for c in range(F.d):
+        e = 0.0 * ys[0]
+        for (i, j), q in F.quad[c].items():
+            e = e + float(q) * ys[i] * ys[j]
+        for i, q in F.lin[c].items():
+            e = e + float(q) * ys[i]
+        rhs.append(e)
+    y0 = np.repeat(problem.y0()[:, None], width, axis=1)
+    t0 = time.process_time()
+    ta = hy.taylor_adaptive_batch(list(zip(ys, rhs)), y0, tol=float(tol))
+    HEYOKA_COMPILE[key[:4]] = time.process_time() - t0
+    _HEYOKA[key] = (ta, width)
+    return _HEYOKA[key]
+
+
+def run_heyoka_batch(problem: FlowProblem, model, tol: float, Y0: np.ndarray) -> np.ndarray:
+    """End states ``(d, M)`` of heyoka's batch integrator for the body states ``Y0`` (d, M), ``width``
+    trajectories per call (the last chunk padded with copies of its first column); each trajectory
+    keeps its own step size (heyoka's batch mode)."""
+    ta, W = heyoka_batch_integrator(problem, model, tol)
+    d, M = Y0.shape
+    out = np.empty((d, M))
+    T = float(problem.T)
+    for k in range(0, M, W):
+        chunk = Y0[:, k : k + W]
+        m = chunk.shape[1]
+        ta.set_time(0.0)
+        if m < W:
+            chunk = np.concatenate([chunk, np.repeat(chunk[:, :1], W - m, axis=1)], axis=1)
+        ta.state[:] = chunk
+        ta.propagate_until(T)
+        out[:, k : k + m] = ta.state[:, :m]
+    return out
 
 
 def run_fast(problem: FlowProblem, model, name: str, nsteps, y0=None) -> np.ndarray:

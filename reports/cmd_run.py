@@ -88,9 +88,19 @@ def main(args) -> int:
     except (ValueError, OSError) as exc:
         print(f"tstarg run: {exc}", file=sys.stderr)
         return 2
+    from tstarg.refimpl import _compiled_taylor
+
     print(f"scene: {scene.name}")
     print(the_plan.describe())
-    long_run = scene.samples * the_plan.steps_per_sample * scene.x0.shape[0] > 20000
+    print(
+        "path: "
+        + (
+            f"{_compiled_taylor.PATH} (compiled Taylor kernels)"
+            if the_plan.method == "taylor"
+            else "numpy (generated scalar Python for single-trajectory body systems)"
+        )
+    )
+    long_run = scene.samples * max(the_plan.steps_per_sample, 1) * scene.x0.shape[0] > 20000
     out = run_scene(scene, the_plan, progress=_Progress(long_run and not args.quiet))
     # the default folder is named from the scene file, sanitised: a file named "...toml" must not
     # resolve to reports/ itself (issue 15); a concurrent run on the same folder gets its own

@@ -51,6 +51,7 @@ MUTATIONS = {
     "centre_lost": "a flow that re-bases through Ad(g) for |t| >= 1 and so drops the central part "
     "of x (Ad(g) and pi stay right; g is wrong along the centre)",
     "batch_tail_stale": "a batch of more than 8 points returns the next-to-last point's result in the last place",
+    "small_dims_only": "past dimension 6 the frame L(g,e) is truncated to 1 + ad_x/2 (a fixed-size series buffer)",
     "layout_assumed": "f read from its memory buffer as if C-ordered (a Fortran-ordered f is scrambled)",
 }
 
@@ -72,6 +73,7 @@ MUTANT_CHECKS = {
     "centre_lost": ["flow.long"],
     "batch_tail_stale": ["poisson_tensor.batch"],
     "layout_assumed": ["protocol.inputs"],
+    "small_dims_only": ["poisson_tensor.reference"],
 }
 """The clause each mutant is planted against: certified on that check only, it must fail (the
 clause has teeth by itself); the others run the whole battery."""
@@ -124,6 +126,8 @@ class Plain:
             return A
         if m == "frame_identity":
             return np.eye(len(x))
+        if m == "small_dims_only" and len(x) > 6:
+            return np.eye(len(x)) + 0.5 * ad
         L = np.linalg.inv(A)
         if m == "frame_half_missing":
             L = L + 0.5 * ad

@@ -246,3 +246,79 @@ def test_compilations_follow_structure_not_numbers(diag, theta, gravity, nums, s
     ct.taylor_fixed(cf, np.ones((1, cf.d)), 0.01, 1, 6)
     _SEEN.append(cf.structure_key())
     assert len(set(_SEEN)) <= 8
+
+
+def _reference_full(model_args, x0, pi0, T, rtol):
+    """(pi, Ad) at T by scipy's DOP853 on the 12 variables ``(pi, Ad(g))`` (``dAd/dt = Ad ad_Omega``,
+    ``Gamma = Ad^T gamma``): another formulation, another integrator."""
+    from scipy.integrate import solve_ivp
+
+    _f, _th, _up, I, pot = model_args
+    Ii = np.linalg.inv(I)
+    L, gam = (pot["L"], pot["gamma"]) if pot else (np.zeros(3), np.zeros(3))
+
+    def rhs(_t, y):
+        p, R = y[:3], y[3:].reshape(3, 3)
+        w = Ii @ p
+        G = R.T @ gam
+        return np.concatenate(
+            [np.cross(p, w) + np.cross(L, G), (R @ np.einsum("a,mab->mb", w, SU2.f)).ravel()]
+        )
+
+    Ad0 = expm(np.einsum("a,mab->mb", x0, SU2.f))
+    y0 = np.concatenate([pi0, Ad0.ravel()])
+    s = solve_ivp(rhs, (0, T), y0, method="DOP853", rtol=rtol, atol=rtol * 1e-2)
+    return s.y[:, -1]
+
+
+@needs_numba
+@pytest.mark.parametrize(
+    "I", [(1.0, 1.0, 0.5), (1.0, 2.0, 3.0)], ids=["Lagrange top", "asymmetric top"]
+)
+def test_two_run_control_meets_tolerance_and_its_estimate_covers_the_error(I):
+    """Heavy tops over T = 20 through the protocol's default route (compiled Taylor, two runs): at
+    ``tol`` = 1e-5, 1e-8, 1e-10 the error of ``pi`` and ``Ad(g)`` against scipy's DOP853 on the
+    ``(pi, Ad)`` formulation (rtol 1e-13; its own error estimated by the run at rtol 1e-12, times 10)
+    is at most ``tol``, and the control's ``error_estimate`` is at least the error (up to the reference's
+    error and the rounding of the starting point, 1e3 eps, the same in both runs: see
+    refimpl._flow_compiled)."""
+    from tstarg.refimpl._flow_compiled import compiled_taylor_flow
+
+    pot = {"kind": "gravity", "L": np.array([0.0, 0.0, 1.0]), "gamma": np.array([0.0, 0.0, -1.0])}
+    args = (SU2.f, Z, Z, np.diag(I), pot)
+    x0, pi0, T = np.array([0.1, 0.2, 0.0]), np.array([0.3, 0.2, 2.0]), 20.0
+    r13 = _reference_full(args, x0, pi0, T, 1e-13)
+    r12 = _reference_full(args, x0, pi0, T, 1e-12)
+    ref_err = 10 * np.max(np.abs(r13 - r12))
+    assert ref_err < 1e-9
+    model = NumpyModel(*args)
+    for tol in (1e-5, 1e-8, 1e-10):
+        out = compiled_taylor_flow(model, x0[:, None], pi0[:, None], T, tol)
+        Ad = quat_rotation(out["quat"])[0]
+        err = max(np.max(np.abs(out["pi"][:, 0] - r13[:3])), np.max(np.abs(Ad.ravel() - r13[3:])))
+        assert np.isfinite(err) and err <= tol + ref_err, (tol, err, ref_err)
+        assert err <= out["error_estimate"][0] + ref_err + 1e3 * EPS, (
+            tol,
+            err,
+            out["error_estimate"],
+        )
+
+
+def test_model_cache_keys_on_values_not_identity():
+    """Models A, B, A through the same refilled caller arrays (a cache keyed on ``id`` or on the shape
+    would return A's flow for B): each flow equals the flow of a freshly built, uncached model, and a
+    list input gives the flow of the equal array."""
+    from tstarg.refimpl._flow_fast import cached_model
+
+    I = np.diag([1.0, 1.3, 0.5])
+    x0, pi0 = np.array([0.3, -0.2, 0.5]), np.array([0.4, -0.3, 1.2])
+    outs = []
+    for scale in (1.0, 2.0, 1.0):
+        I[0, 0] = scale
+        assert cached_model(SU2.f, Z, Z, I, GRAV).inertia[0, 0] == scale
+        outs.append(fast_flow(SU2.f, Z, Z, I, GRAV, x0, pi0, 3.0, tol=1e-9))
+    I[0, 0] = 2.0
+    fresh = fast_flow(SU2.f, Z, Z, I.tolist(), GRAV, x0.tolist(), pi0.tolist(), 3.0, tol=1e-9)
+    assert np.array_equal(outs[0][1], outs[2][1])
+    assert np.array_equal(outs[1][1], fresh[1]) and np.array_equal(outs[1][0], fresh[0])
+    assert not np.array_equal(outs[0][1], outs[1][1])
