@@ -79,6 +79,7 @@ class Fast(FastCore, Implementation):
     """
 
     flow_tolerance = 1e-10  # the default tolerance of refimpl.flows.fast_flow (worst trajectory)
+    domain = {"negative_t": True}  # flows run backwards too: certified for t < 0, a refusal fails
 
     def flow(self, f, theta, upsilon, inertia, potential, x0, pi0, t):
         """Protocol method 3: ``(x, pi)`` at time ``t``, batched (:func:`refimpl.flows.fast_flow`)."""

@@ -49,6 +49,8 @@ class Reference(ReferenceCore, Implementation):
     protocol method 3 adds the reference flow.
     """
 
+    domain = {"negative_t": True}  # flows run backwards too: certified for t < 0, a refusal fails
+
     def flow(self, f, theta, upsilon, inertia, potential, x0, pi0, t):
         """Protocol method 3: ``(x, pi)`` at time ``t`` at this instance's precision
         (:func:`refimpl.flows.reference_flow`)."""

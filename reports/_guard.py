@@ -45,6 +45,7 @@ ATTRIBUTES = (
     "flow_tolerance",
     "order",
     "poisson_integrator",
+    "domain",  # the declared domain (certification.declared_domain): hidden, it was never certified
 )
 
 
@@ -409,11 +410,13 @@ def certify_target(
         max_examples=first.max_examples,
         xfailed=dict(kwargs.get("xfails") or {}),
         command=first.command,
+        domain=first.domain,  # what was certified, and the notes on it, survive the merge
     )
     for part in parts:
         cert.checks.extend(part.checks)
         cert.skipped.update(part.skipped)
         cert.incidents.extend(part.incidents)
+        cert.notes.extend(n for n in part.notes if n not in cert.notes)
     cert.skipped.update({k: v for k, v in pre.items() if k not in cert.skipped})
     cert.skipped = {k: cert.skipped[k] for k in CHECKS if k in cert.skipped}
     for c in cert.checks:

@@ -41,6 +41,13 @@ __all__ = [
     "bracket_cases",
     "bracket_error_task",
     "fast_methods",
+    "impl_body_state",
+    "impl_bracket_calls",
+    "impl_flow_call",
+    "impl_flow_setting",
+    "impl_ladder",
+    "impl_time_at",
+    "bracket_error_of_task",
     "flow_error",
     "flow_problem",
     "fmt_err",
@@ -961,8 +968,12 @@ def plot_work_precision(
             [p["time"] for p in pts],
             [p["error"] for p in pts],
             ls="-" if family == "tstarg" else "--",
-            marker=("o", "^", "v", "D")[k // 10 % 4] if family == "tstarg" else "s",
-            ms=4,
+            marker=("o", "^", "v", "D")[k // 10 % 4]
+            if family == "tstarg"
+            else "*"  # a third-party contender (bench --impl/--cmd) stands out
+            if pts[0].get("family") == "impl"
+            else "s",
+            ms=9 if pts[0].get("family") == "impl" else 4,
             color=colors[k % 10] if family == "tstarg" else others[(k * 3 + 1) % 8],
             label=m,
         )
@@ -1015,3 +1026,154 @@ def fmt_time(t) -> str:
     if t < 1:
         return f"{t * 1e3:.2f} ms"
     return f"{t:.2f} s"
+
+
+# ------------------------------------------------------------------ a third-party implementation
+# ``tstarg bench --impl module:object`` / ``--cmd "PROGRAM ARGS"``: an implementation of the
+# protocol (DESIGN.md; the object ``tstarg certify`` takes) on the same diagrams as ours.
+
+
+def impl_flow_setting(impl) -> str:
+    """How the implementation's ``flow`` can be driven over a work-precision ladder: ``"steps"``
+    when it takes the protocol's optional ``steps=`` keyword (DESIGN.md: a fixed step count; a
+    JSON-lines program is asked for ``steps`` only when its ``capabilities`` declare an ``order``),
+    ``"tol"`` when it takes a ``tol=`` keyword, else ``"default"``: one point at its own accuracy."""
+    import inspect
+
+    from .jsonl import CommandImplementation
+
+    if isinstance(impl, CommandImplementation):
+        return "steps" if getattr(impl, "order", None) is not None else "default"
+    try:
+        params = inspect.signature(impl.flow).parameters
+    except (TypeError, ValueError):
+        return "default"
+    if "steps" in params:
+        return "steps"
+    if "tol" in params:
+        return "tol"
+    return "default"
+
+
+def impl_flow_args(problem: FlowProblem):
+    """The protocol arguments ``(f, theta, upsilon, inertia, potential, x0, pi0, t)`` of a problem."""
+    alg, th, up, inertia, pot = problem.arrays()
+    x0 = np.array(problem.x0, dtype=float)
+    pi0 = np.array(problem.pi0, dtype=float)
+    return (np.array(alg.f, dtype=float), th, up, inertia, pot, x0, pi0, float(problem.T))
+
+
+def impl_flow_call(impl, problem: FlowProblem, setting_name: str, setting):
+    """A zero-argument callable running the implementation's ``flow`` once on the problem's
+    arguments (built once, outside the timed call; the protocol forbids mutating them)."""
+    args = impl_flow_args(problem)
+    kw = {} if setting_name == "default" else {setting_name: setting}
+    return lambda: impl.flow(*args, **kw)
+
+
+def impl_body_state(problem: FlowProblem, x, pi) -> np.ndarray:
+    """The protocol's full state ``(x, pi)`` at ``T`` as the body state the error is judged on:
+    ``pi`` and, with gravity, ``Gamma = Ad(exp(x))^T gamma`` (twee16, as :meth:`FlowProblem.y0`)."""
+    from scipy.linalg import expm
+
+    alg, _, _, _, pot = problem.arrays()
+    pi = np.asarray(pi, dtype=float).reshape(-1)
+    if pot is None:
+        return pi
+    x = np.asarray(x, dtype=float).reshape(-1)
+    adx = np.einsum("a,mab->mb", x, alg.f)
+    return np.concatenate([pi, expm(adx).T @ pot["gamma"]])
+
+
+def impl_ladder(impl, problem: FlowProblem, ref, floor: float, quick: bool) -> dict:
+    """Walk the implementation's ladder (:func:`impl_flow_settings`) in this process and judge every
+    setting with :func:`flow_error` against the same reference values as ours.
+
+    Step ladders run from ``N0 = max(4, 1.25 T)`` by the same rule as ours (:func:`step_ladder`,
+    the declared order), tolerance ladders over :func:`tol_ladder`; the walk stops as ours does
+    (the floor reached, or two rungs without halving once below 1e-8), and at the first error the
+    implementation raises (recorded as the stop)."""
+    name = impl_flow_setting(impl)
+    if name == "steps":
+        n0 = max(4, round(1.25 * problem.T))
+        ladder = step_ladder(getattr(impl, "order", None), n0, n0 * 2 ** (3 if quick else 6))
+    elif name == "tol":
+        ladder = tol_ladder(quick)
+    else:
+        ladder = [None]
+    points, stop, flat = [], "end of ladder", 0
+    for s in ladder:
+        try:
+            with np.errstate(over="ignore", invalid="ignore"):
+                x, pi = impl_flow_call(impl, problem, name, s)()
+            y = impl_body_state(problem, x, pi)
+        except Exception as exc:  # noqa: BLE001 - third-party code: any failure ends its ladder, named
+            stop = f"{type(exc).__name__} at {name} {s}: {exc}"[:300]
+            break
+        err = flow_error(y, ref)
+        points.append({"setting": s, "error": err})
+        if not math.isfinite(err):
+            continue
+        if err <= floor:
+            stop = f"error <= floor {floor:g}"
+            break
+        if len(points) >= 2 and points[-2]["error"] < 1e-8 and err > 0.5 * points[-2]["error"]:
+            flat += 1
+            if flat >= 2:
+                stop = "error stopped decreasing (round-off)"
+                break
+        else:
+            flat = 0
+    return {"setting_name": name, "ladder": ladder, "points": points, "stop": stop}
+
+
+def impl_time_at(points: list[dict], target: float) -> float:
+    """The implementation's time at error ``target`` on its own front (:func:`time_at_error`)."""
+    return time_at_error([p["time"] for p in points], [p["error"] for p in points], target)
+
+
+def bracket_error_of_task(item) -> float:
+    """Task: the bracket error (:func:`bracket_error_task`'s measure) of a given float64 tensor.
+
+    ``item = (case index, quick, point index, P as nested lists, high)``; ``P`` non-finite or of the
+    wrong shape gives ``inf``."""
+    import mpmath
+
+    from tstarg.refimpl import catalogue
+
+    ci, quick, pj, P, high = item
+    case = bracket_cases(quick)[ci]
+    alg = catalogue(case["algebra"])
+    Pref = _ref_P(
+        alg, case["theta"], case["upsilon"], case["x"][pj], case["pi"][pj], high, "closed"
+    )
+    P = np.asarray(P, dtype=float)
+    if P.shape != (Pref.rows, Pref.cols) or not np.all(np.isfinite(P)):
+        return math.inf
+    with mpmath.workdps(high + 10):
+        nrm = max(abs(Pref[i, j]) for i in range(Pref.rows) for j in range(Pref.cols))
+        num = max(
+            abs(mpmath.mpf(float(P[i, j])) - Pref[i, j])
+            for i in range(Pref.rows)
+            for j in range(Pref.cols)
+        )
+        return float(num / nrm)
+
+
+def impl_bracket_calls(impl, case: dict, batched: bool) -> list[tuple[str, int, object]]:
+    """``(label suffix, points, callable)`` for the implementation's ``poisson_tensor`` on a bracket
+    case: one call per point, and (``batched``) one call on the whole batch."""
+    from tstarg.refimpl import catalogue
+
+    f = np.array(catalogue(case["algebra"]).f, dtype=float)
+    th, U, X, Pi = case["theta"], case["upsilon"], case["x"], case["pi"]
+    out = [
+        (
+            "one call per point",
+            len(X),
+            lambda: [impl.poisson_tensor(f, th, U, X[i], Pi[i]) for i in range(len(X))],
+        )
+    ]
+    if batched:
+        out.append(("batch", len(X), lambda: impl.poisson_tensor(f, th, U, X, Pi)))
+    return out

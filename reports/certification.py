@@ -300,6 +300,8 @@ class Domain:
             parts.append(f"|t| <= {self.max_abs_t:g}")
         if self.negative_t is False:
             parts.append("t >= 0")
+        if self.negative_t is True:
+            parts.append("t of either sign")
         return ", ".join(parts)
 
 
@@ -432,11 +434,17 @@ class _Judge:
     ``Ad(g)`` carried along (``d Ad(g)/dt = Ad(g) ad_Omega`` for ``g^-1 dg/dt = Omega``), chart-free;
     ``x`` is integrated too (``xdot = phi1(-ad_x)^-1 Omega``) until ``||ad_x||_2`` reaches
     ``0.9 * 2 pi``, after which only ``(pi, Ad)`` are carried. Gravity: ``Gamma = Ad(g)^T gamma``,
-    ``dV_b = -Gamma_m f^m_bc L^c`` (twee15/twee16)."""
+    ``dV_b = -Gamma_m f^m_bc L^c`` (twee15/twee16).
 
-    def __init__(self, f, theta, ups, inertia, potential):
+    ``group=True`` on an algebra with a non-trivial centre ``z`` (where ``Ad`` cannot see the
+    central part of ``g``) also carries ``G = rho(g)`` in a faithful representation ``rho``
+    (:func:`_centre_representation`): ``dG/dt = G rho(Omega)``."""
+
+    def __init__(self, f, theta, ups, inertia, potential, group=False):
         self.f, self.theta, self.U = (np.array(a, dtype=float) for a in (f, theta, ups))
         self.n = self.f.shape[0]
+        self.rep = _centre_representation(self.f) if group else None
+        self.r = 0 if self.rep is None else self.rep.dim
         self.Iinv = np.linalg.inv(np.array(inertia, dtype=float))
         self.pot = (
             None
@@ -457,12 +465,15 @@ class _Judge:
         return Omega, pidot
 
     def rhs(self, t, y, with_x):
-        n = self.n
+        n, r = self.n, self.r
         pi, Ad = y[:n], y[n : n + n * n].reshape(n, n)
         Omega, pidot = self.body(pi, Ad)
         out = [pidot, (Ad @ _ad(self.f, Omega)).ravel()]
+        if r:
+            G = y[n + n * n : n + n * n + r * r].reshape(r, r)
+            out.append((G @ self.rep.matrix(Omega)).ravel())
         if with_x:
-            x = y[n + n * n :]
+            x = y[n + n * n + r * r :]
             out.append(np.linalg.solve(_phi1(-_ad(self.f, x)), Omega))
         return np.concatenate(out)
 
@@ -473,17 +484,23 @@ class _Judge:
         return H
 
     def run(self, x0, pi0, t, rtol=JUDGE_RTOL):
-        """``(x or None, pi, Ad)`` at ``t`` (``x`` None once it approached the chart edge)."""
-        n = self.n
+        """``(x or None, pi, Ad)`` at ``t`` (``x`` None once it approached the chart edge); with
+        ``group``, ``G = rho(g(t))`` in :attr:`last_group` (None without a centre)."""
+        n, r = self.n, self.r
+        k = n + n * n + r * r  # where x starts in the state
         Ad0 = scipy.linalg.expm(_ad(self.f, x0))
-        y0 = np.concatenate([pi0, Ad0.ravel(), x0])
+        G0 = [] if r == 0 else [self.rep.exp(np.asarray(x0, float)).ravel()]
+        y0 = np.concatenate([pi0, Ad0.ravel(), *G0, x0])
         scale = max(1.0, float(np.max(np.abs(y0))))
+        self.last_group = None
 
         def edge(s, y, w):
-            return np.linalg.norm(_ad(self.f, y[n + n * n :]), 2) - 0.9 * 2 * np.pi
+            return np.linalg.norm(_ad(self.f, y[k:]), 2) - 0.9 * 2 * np.pi
 
         edge.terminal = True
         if t == 0:
+            if r:
+                self.last_group = G0[0].reshape(r, r)
             return np.array(x0, float), np.array(pi0, float), Ad0
         sol = solve_ivp(
             self.rhs,
@@ -502,7 +519,7 @@ class _Judge:
             sol = solve_ivp(
                 self.rhs,
                 (sol.t[-1], t),
-                y[: n + n * n],
+                y[:k],
                 method="DOP853",
                 rtol=rtol,
                 atol=rtol * scale,
@@ -510,27 +527,67 @@ class _Judge:
             )
             if sol.status < 0:
                 raise ArithmeticError(f"judge failed: {sol.message}")
-            return None, sol.y[:n, -1], sol.y[n:, -1].reshape(n, n)
-        return y[n + n * n :], y[:n], y[n : n + n * n].reshape(n, n)
+            y, x = sol.y[:, -1], None
+        else:
+            x = y[k:]
+        if r:
+            self.last_group = y[n + n * n : k].reshape(r, r)
+        return x, y[:n], y[n : n + n * n].reshape(n, n)
 
     def judged(self, x0, pi0, t):
         """The judge at rtol 1e-13 and its error (the difference from a run at rtol 1e-12)."""
         a = self.run(x0, pi0, t)
+        ga = self.last_group
         b = self.run(x0, pi0, t, rtol=10 * JUDGE_RTOL)
         ex = None if a[0] is None or b[0] is None else float(np.max(np.abs(a[0] - b[0])))
-        return a, (ex, float(np.max(np.abs(a[1] - b[1]))), float(np.max(np.abs(a[2] - b[2]))))
+        errs = (ex, float(np.max(np.abs(a[1] - b[1]))), float(np.max(np.abs(a[2] - b[2]))))
+        if ga is None:
+            return a, errs
+        return a, errs + (float(np.max(np.abs(ga - self.last_group))),), ga
+
+
+def _centre_representation(f):
+    """A faithful representation of ``f`` (refimpl's, :func:`refimpl._representation.representation_for`)
+    when the centre is non-trivial, where ``Ad(g) = expm(ad_x)`` is blind to the central part of
+    ``g``; None for a trivial centre (``Ad`` is then faithful on the image of exp up to the finite
+    kernel the flows' ``x`` comparison sees) or when no representation can be built."""
+    from tstarg.refimpl._representation import RepresentationError, representation_for
+
+    f = np.asarray(f, dtype=float)
+    n = f.shape[0]
+    if np.linalg.matrix_rank(f.transpose(0, 2, 1).reshape(n * n, n)) == n:
+        return None  # trivial centre: ad_z = f[:, a, :] z^a = 0 only for z = 0
+    try:
+        return representation_for(f)
+    except RepresentationError:
+        return None
 
 
 def _compare_state(
-    impl, f, got_x, got_pi, ref_x, ref_pi, ref_Ad, tol_abs, judge_err=(0.0, 0.0, 0.0)
+    impl,
+    f,
+    got_x,
+    got_pi,
+    ref_x,
+    ref_pi,
+    ref_Ad,
+    tol_abs,
+    judge_err=(0.0, 0.0, 0.0),
+    ref_G=None,
+    rep=None,
 ):
     """Worst error/tolerance over ``pi``, ``x`` (where it is unique: ``||ad_x||_2 < pi`` at the
-    judge's end point, the principal logarithm) and ``Ad(g)`` (always; chart-free).
+    judge's end point, the principal logarithm), ``Ad(g)`` (always; chart-free) and, given
+    ``ref_G = rho(g)`` in the faithful representation ``rep``, ``rho(g)`` itself (chart-free and
+    faithful: it sees the central part of ``g`` that ``Ad`` cannot).
 
     A state error ``delta`` in ``x`` moves ``Ad = expm(ad_x)`` by at most
-    ``||Ad||_2 ||f||_F ||phi1(-ad_x)||_2 sqrt(n) |delta|_inf`` (left-trivialised derivative of exp)."""
+    ``||Ad||_2 ||f||_F ||phi1(-ad_x)||_2 sqrt(n) |delta|_inf`` (left-trivialised derivative of exp:
+    ``exp(x + delta) = exp(x) exp(phi1(-ad_x) delta + O(delta^2))``), and ``rho(exp(x))`` by the same
+    with ``||rho||_F`` (the norm of the stacked matrices ``rho(e_a)``) for ``||f||_F``."""
     n = f.shape[0]
-    ex, ep, ea = (0.0 if v is None else v for v in judge_err)
+    ex, ep, ea = (0.0 if v is None else v for v in judge_err[:3])
+    eg = 0.0 if len(judge_err) < 4 or judge_err[3] is None else judge_err[3]
     ratios = [_max_err(got_pi, ref_pi) / (tol_abs + 2 * ep)]
     if ref_x is not None and np.linalg.norm(_ad(f, ref_x), 2) < np.pi:
         ratios.append(_max_err(got_x, ref_x) / (tol_abs + 2 * ex))
@@ -549,6 +606,24 @@ def _compare_state(
                 + 8 * n * EPS64 * np.abs(ref_Ad).max()
             )
         )
+        if ref_G is not None and rep is not None:
+            got_G = rep.exp(got_x)
+            r = rep.dim
+            amp_g = (
+                np.linalg.norm(ref_G, 2)
+                * max(float(np.linalg.norm(rep.mats)), 1e-300)
+                * np.linalg.norm(_phi1(-_ad(f, got_x)), 2)
+            )
+            # expm's own rounding: c r eps exp(||rho(x)||_1) max|G| (its error grows with the norm)
+            cond_exp = math.exp(min(50.0, float(np.linalg.norm(rep.matrix(got_x), 1))))
+            ratios.append(
+                _max_err(got_G, ref_G)
+                / (
+                    tol_abs * math.sqrt(n) * max(amp_g, 1.0)
+                    + 2 * eg
+                    + 8 * r * EPS64 * cond_exp * np.abs(ref_G).max()
+                )
+            )
     else:
         ratios.append(math.inf)
     return max(ratios)
@@ -925,6 +1000,56 @@ def _judge_state(f, theta, ups, inertia, pot, x, pi, t):
     )
 
 
+DEGENERATE_APPROACH = 1e-6
+"""A trajectory whose ``sigma_min(Phi) / sigma_max(Phi)`` falls to this value has reached the degenerate
+set Pi_1 (vier7, vier12) to float64 accuracy: the vector field blows up like ``1/Delta`` there and the
+flow ends (a correct implementation may return garbage, refuse, or never return)."""
+
+
+def _meets_degenerate_set(f, theta, ups, inertia, pot, x, pi, t) -> bool:
+    """Whether the trajectory from ``(x, pi)`` reaches the degenerate set before ``|t|``: the body system
+    of :class:`_Judge` (``pi`` and ``Ad``) at rtol 1e-8 with a terminal event at
+    ``sigma_min(Phi) / sigma_max(Phi) = DEGENERATE_APPROACH``; a failed integration counts as reaching
+    it. Never with ``Upsilon = 0`` (``Phi = 1``)."""
+    if not np.any(ups) or t == 0:
+        return False
+    judge = _Judge(f, theta, ups, inertia, pot)
+    n = judge.n
+    y0 = np.concatenate([np.asarray(pi, float), scipy.linalg.expm(_ad(judge.f, x)).ravel()])
+
+    def approach(s, y, w):
+        S = np.einsum("m,mab->ab", y[:n], judge.f) - judge.theta
+        sv = np.linalg.svd(np.eye(n) + S @ judge.U, compute_uv=False)
+        return sv[-1] / sv[0] - DEGENERATE_APPROACH
+
+    approach.terminal = True
+    with np.errstate(all="ignore"):
+        try:
+            sol = solve_ivp(
+                judge.rhs,
+                (0.0, float(t)),
+                y0,
+                method="DOP853",
+                rtol=1e-8,
+                atol=1e-10,
+                args=(False,),
+                events=approach,
+            )
+        except (ArithmeticError, np.linalg.LinAlgError, ValueError):
+            return True
+    return sol.status != 0
+
+
+def _judge_group(f, theta, ups, inertia, pot, x, pi, t):
+    """``((x, pi, Ad), errors, G)`` of the float64 judge carrying ``G = rho(g)`` as well where the
+    centre is non-trivial (``G`` None and three errors otherwise; four with ``G``), cached by value."""
+    out = _FLOW_CACHE.get(
+        ("judge-group",) + _key(f, theta, ups, inertia, pot, x, pi, float(t)),
+        lambda: _Judge(f, theta, ups, inertia, pot, group=True).judged(x, pi, t),
+    )
+    return out if len(out) == 3 else (*out, None)
+
+
 def _inputs(impl, dom, stats):
     """Caller's arrays unchanged; lists accepted; outputs finite float64 of the protocol's shapes;
     interleaved models through the same (refilled) caller buffers agree with independent judges."""
@@ -1261,10 +1386,22 @@ def _flow_reference(impl, dom, stats):
             gp = _finite_array(out[1], (n,), f"pi(t) at t = {tt:g}")
             scale = max(1.0, float(np.max(np.abs(np.concatenate(want)))))
             tol = _flow_tol(impl, n, cond, frame) * scale
+            crep = _centre_representation(f)
             ratio = _compare_state(
-                impl, f, gx, gp, want[0], want[1], scipy.linalg.expm(_ad(f, want[0])), tol
+                impl,
+                f,
+                gx,
+                gp,
+                want[0],
+                want[1],
+                scipy.linalg.expm(_ad(f, want[0])),
+                tol,
+                ref_G=None if crep is None else crep.exp(want[0]),
+                rep=crep,
             )
             err = _max_err(np.concatenate([gx, gp]), np.concatenate(want))
+            if tt < 0:
+                _count(stats, "negative t judged")
             if ratio > 1 and tt < 0:
                 _count(stats, "failed backwards (t < 0, from the reference end point)")
             worst = max(worst, ratio)
@@ -1296,7 +1433,7 @@ def _flow_long(impl, dom, stats):
             stats["redrawn: over the work limit"] = stats.get("redrawn: over the work limit", 0) + 1
             reject()
         try:
-            (jx, jp, jA), jerr = _judge_state(f, theta, ups, inertia, pot, x, pi, t)
+            (jx, jp, jA), jerr, jG = _judge_group(f, theta, ups, inertia, pot, x, pi, t)
         except (ArithmeticError, np.linalg.LinAlgError):
             stats["redrawn: judge failed"] = stats.get("redrawn: judge failed", 0) + 1
             reject()
@@ -1313,7 +1450,12 @@ def _flow_long(impl, dom, stats):
         if out is None:
             return None
         gx, gp = _finite_array(out[0], (n,), "x(t)"), _finite_array(out[1], (n,), "pi(t)")
-        ratio = _compare_state(impl, f, gx, gp, jx, jp, jA, tol, jerr)
+        crep = None if jG is None else _centre_representation(f)
+        ratio = _compare_state(impl, f, gx, gp, jx, jp, jA, tol, jerr, ref_G=jG, rep=crep)
+        if jG is not None:
+            _count(stats, "compared through a faithful representation (non-trivial centre)")
+        if t < 0:
+            _count(stats, "negative t judged")
         _aim(ratio, "long flow ratio")
         return ratio, None
 
@@ -1393,6 +1535,9 @@ def _flow_drift(impl, dom, stats):
         # long in units of the motion's own time scale: |T| (1 + rho) = LONG_WORK_LIMIT at most
         rate = reference_work(f, theta, ups, inertia, pot, x, pi, 1.0) / n**3
         T = min(T_max, DRIFT_WORK_LIMIT / rate)
+        if _meets_degenerate_set(f, theta, ups, inertia, pot, x, pi, T):
+            _count(stats, "redrawn: the trajectory reaches the degenerate set")
+            reject()  # the flow ends there: no drift law applies (and an implementation may hang)
         judge = _Judge(f, theta, ups, inertia, pot)
         H0 = judge.energy(pi, scipy.linalg.expm(_ad(f, x)))
         Iinv = judge.Iinv
@@ -1936,6 +2081,11 @@ def _certify(
         for k, v in stats.items():
             if k.startswith(("redrawn", "negative t refused")) or "refused past" in k:
                 cert.notes.append(f"{cid}: {k}: {v}")
+        if stats.get("negative t judged"):
+            cert.notes.append(
+                f"{cid}: flow at negative times judged on {stats['negative t judged']} examples"
+                + (" (negative_t declared: a refusal fails)" if dom.negative_t else "")
+            )
         if "negative t refused (ValueError)" in stats and not any("t < 0" in n for n in cert.notes):
             cert.notes.append(
                 f"flow at t < 0 refused by the implementation (ValueError: "

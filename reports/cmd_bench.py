@@ -75,6 +75,26 @@ def add_arguments(p) -> None:
         action="store_true",
         help="leave out the heyoka contender (included when heyoka is importable: pip install .[bench])",
     )
+    g = p.add_mutually_exclusive_group()
+    g.add_argument(
+        "--impl",
+        default=None,
+        metavar="MODULE:OBJECT",
+        help="a third-party implementation of the protocol (what tstarg certify takes) on the same "
+        "diagrams: its flow on each problem, its poisson_tensor on the bracket cases",
+    )
+    g.add_argument(
+        "--cmd",
+        default=None,
+        metavar='"PROGRAM ARGS"',
+        help="the same for a program speaking the JSON-lines protocol (docs/protocol.md)",
+    )
+    p.add_argument(
+        "--timeout",
+        type=float,
+        default=600.0,
+        help="with --cmd: seconds per request (default 600: a flow to t = 100 may be long)",
+    )
     add_parallel_arguments(p)
 
 
@@ -187,23 +207,36 @@ def main(args) -> int:
     from threadpoolctl import threadpool_limits
 
     threadpool_limits(1)
-    import numpy as np
-
     from . import _workprecision as wp
-    from ._parallel import describe, map_tasks, parallel_options
+    from ._parallel import parallel_options
 
     t_start = time.perf_counter()
     try:
-        opts = parallel_options(args)
+        parallel_options(args)  # a bad --workers/--scheduler is refused here, by name
         problems = args.problems.split(",") if args.problems else list(wp.FLOW_PROBLEMS)
         for name in problems:
             wp.flow_problem(name)
         from tstarg.refimpl.flows import method
 
         method(args.batch_method)
+        contender = _load_contender(args)
     except ValueError as exc:
         print(f"tstarg bench: {exc}", file=sys.stderr)
         return 2
+    try:
+        return _main(args, problems, contender, t_start)
+    finally:
+        if contender is not None:
+            contender.close()
+
+
+def _main(args, problems, contender, t_start) -> int:
+    import numpy as np
+
+    from . import _workprecision as wp
+    from ._parallel import describe, map_tasks, parallel_options
+
+    opts = parallel_options(args)
     S = _settings(args.quick)
     if args.ref_dps is not None:
         if args.ref_dps < 15:
@@ -306,7 +339,10 @@ def main(args) -> int:
         f"  error ladders done ({sum(len(l['points']) for l in ladders)} runs); timing serially...",
         flush=True,
     )
+    if contender is not None:
+        report["impl"] = contender.describe()
     for name, ref in zip(problems, refs):
+        extra = () if contender is None else contender.flow_rows(wp, name, args.quick, ref, S)
         report["flows"][name] = _time_flow(
             wp,
             np,
@@ -317,7 +353,10 @@ def main(args) -> int:
             skipped[name],
             out,
             S["rounds"],
+            extra=extra,
         )
+        if contender is not None:
+            contender.flow_ratios(wp, name, report["flows"][name])
         _print_flow(report["flows"][name])
     report["compile"] = {
         "tstarg": {
@@ -331,7 +370,20 @@ def main(args) -> int:
 
     # ---- 2. brackets
     if not args.no_brackets:
-        report["brackets"] = _brackets(wp, np, args.quick, S, opts, out, map_tasks)
+        report["brackets"] = _brackets(
+            wp,
+            np,
+            args.quick,
+            S,
+            opts,
+            out,
+            map_tasks,
+            extra=None
+            if contender is None
+            else contender.bracket_rows(wp, args.quick, S, opts, map_tasks),
+        )
+        if contender is not None:
+            contender.bracket_ratios(report["brackets"])
         for row in report["brackets"]["summary"]:
             print(
                 f"  brackets {row['algebra']:6s} {row['method']:28s} worst error {wp.fmt_err(row['error'])} "
@@ -387,7 +439,17 @@ def main(args) -> int:
 
 def _argv(args) -> list[str]:
     parts = []
-    for k in ("out", "problems", "methods", "ref_dps", "batch_method", "workers", "scheduler"):
+    for k in (
+        "out",
+        "problems",
+        "methods",
+        "ref_dps",
+        "batch_method",
+        "workers",
+        "scheduler",
+        "impl",
+        "cmd",
+    ):
         v = getattr(args, k, None)
         if v is not None and not (k == "batch_method" and v == "taylor20"):
             parts += [f"--{k.replace('_', '-')}", str(v)]
@@ -418,7 +480,7 @@ def _json_default(o):
     return str(o)
 
 
-def _time_flow(wp, np, name, quick, ref, ladders, skipped, out, rounds) -> dict:
+def _time_flow(wp, np, name, quick, ref, ladders, skipped, out, rounds, extra=()) -> dict:
     from tstarg.refimpl.flows import METHODS
 
     p = wp.flow_problem(name, quick)
@@ -466,6 +528,9 @@ def _time_flow(wp, np, name, quick, ref, ladders, skipped, out, rounds) -> dict:
                         **pt,
                     }
                 )
+    for row, call in extra:  # a third-party contender (--impl/--cmd), timed interleaved with ours
+        rows.append(row)
+        calls.append(call)
     for row, tm in zip(
         rows, wp.time_points(calls, groups=[r["method"] for r in rows], max_rounds=rounds)
     ):
@@ -572,7 +637,7 @@ def _print_flow(res) -> None:
             print(f"    error {r['label']}: {r['note']}")
 
 
-def _brackets(wp, np, quick, S, opts, out, map_tasks) -> dict:
+def _brackets(wp, np, quick, S, opts, out, map_tasks, extra=None) -> dict:
     cases = wp.bracket_cases(quick)
     methods = [
         ("fast batch", "fast", None, "closed"),
@@ -626,6 +691,10 @@ def _brackets(wp, np, quick, S, opts, out, map_tasks) -> dict:
                     "family": "tstarg" if kind.startswith("fast") else "reference",
                 }
             )
+    if extra is not None:  # a third-party contender (--impl/--cmd): its rows and timed calls
+        xrows, xcalls = extra(cases)
+        rows += xrows
+        calls += xcalls
     for row, tm in zip(rows, wp.time_points(calls, max_rounds=min(5, S["rounds"]))):
         row.update(tm)
         row["time_per_point"] = tm["time"] / row["points"]
@@ -888,8 +957,12 @@ def render_markdown(rep: dict) -> str:
             "|---|---|---|---|---|---|---|",
         ]
         for r in sorted(f["points"], key=lambda r: (r["method"], r["time"])):
-            st = {"steps": f"N = {r['setting']}", "tol": f"tol = {r['setting']:.0e}"}.get(
-                r["setting_name"], f"rtol = {r['setting']:.1e}"
+            st = (
+                "its default accuracy"  # a contender whose flow takes neither steps= nor tol=
+                if r["setting"] is None
+                else {"steps": f"N = {r['setting']}", "tol": f"tol = {r['setting']:.0e}"}.get(
+                    r["setting_name"], f"rtol = {r['setting']:.1e}"
+                )
             )
             if "nfev" in r:
                 st += f" ({r['nfev']} rhs evals)"
@@ -946,6 +1019,8 @@ def render_markdown(rep: dict) -> str:
                 f"{fmt_err(r['traj0_vs_reference'])} | {fmt_err(r['scipy_worst_vs_fine'])} |"
             )
         L.append("")
+    if "impl" in rep:
+        L += _impl_markdown(rep)
     if "batch_heyoka" in rep:
         b = rep["batch_heyoka"]
         L += [
@@ -963,3 +1038,261 @@ def render_markdown(rep: dict) -> str:
         L.append("")
     L += ["## Environment", "", "```", json.dumps(rep["environment"], indent=1), "```", ""]
     return "\n".join(L)
+
+
+# ------------------------------------------------------------------ a third-party contender
+def _load_contender(args):
+    """The ``--impl``/``--cmd`` contender, or None; a clear ``ValueError`` naming a bad spec."""
+    if getattr(args, "impl", None) is None and getattr(args, "cmd", None) is None:
+        return None
+    from .jsonl import CommandImplementation, ProgramFailure, check_timeout
+
+    if args.cmd is not None:
+        what = f"--cmd {args.cmd!r}"
+        timeout = check_timeout(args.timeout, "--timeout")
+        try:
+            obj = CommandImplementation(args.cmd, timeout=timeout, startup_timeout=timeout)
+        except (ProgramFailure, OSError) as exc:
+            raise ValueError(f"{what}: the program cannot be used: {exc}") from None
+        provided = [m for m in ("flow", "poisson_tensor") if m not in obj._missing]
+    else:
+        from ._imports import import_module, resolve
+
+        what = f"--impl {args.impl!r}"
+        try:
+            obj = (
+                resolve(args.impl, what="--impl") if ":" in args.impl else import_module(args.impl)
+            )
+        except ImportError as exc:
+            raise ValueError(f"{what}: cannot import it: {exc}") from None
+        provided = [m for m in ("flow", "poisson_tensor") if callable(getattr(obj, m, None))]
+    if not provided:
+        if isinstance(obj, CommandImplementation):
+            obj.close()
+        raise ValueError(
+            f"{what} provides neither flow nor poisson_tensor (the protocol methods tstarg bench "
+            "times: DESIGN.md, the implementation protocol)"
+        )
+    return _Contender(obj, what, provided)
+
+
+class _Contender:
+    """A third-party implementation of the protocol on the work-precision diagrams.
+
+    Flows: its ``flow`` on each problem's full state ``(x0, pi0)`` to ``T`` over the settings
+    :func:`reports._workprecision.impl_flow_setting` finds (``steps=``, ``tol=``, or one point),
+    judged by the same error function against the same reference as ours (``Gamma`` from its ``x``),
+    timed in the same :func:`time_points` call as ours, scipy and heyoka (interleaved, CPU time,
+    best of repeats). Brackets: its ``poisson_tensor`` one call per point (and on the whole batch
+    when it declares ``batched``), judged like ours at every point of the same cases."""
+
+    def __init__(self, obj, what: str, provided: list[str]):
+        self.obj, self.what, self.provided = obj, what, provided
+        self.name = str(getattr(obj, "name", None) or what)
+        self.label = f"impl {self.name}"
+        self.ladders: dict = {}
+
+    def close(self) -> None:
+        close = getattr(self.obj, "close", None)
+        from .jsonl import CommandImplementation
+
+        if isinstance(self.obj, CommandImplementation) and callable(close):
+            close()
+
+    def describe(self) -> dict:
+        from ._workprecision import impl_flow_setting
+
+        return {
+            "name": self.name,
+            "spec": self.what,
+            "version": str(getattr(self.obj, "version", "")),
+            "provides": self.provided,
+            "flow_setting": impl_flow_setting(self.obj) if "flow" in self.provided else None,
+            "batched": bool(getattr(self.obj, "batched", False)),
+            "note": (
+                "its flow integrates the protocol's full state (x, pi) from (x0, pi0); ours, scipy "
+                "and heyoka integrate the body system (pi, Gamma); its error is judged on pi and "
+                "Gamma = Ad(exp(x))^T gamma against the same reference"
+            ),
+        }
+
+    def flow_rows(self, wp, name, quick, ref, S) -> list:
+        """``(row, callable)`` per point of its ladder on problem ``name`` (errors judged here)."""
+        if "flow" not in self.provided:
+            return []
+        p = wp.flow_problem(name, quick)
+        lad = wp.impl_ladder(self.obj, p, ref["values"], S["floor"], quick)
+        self.ladders[name] = lad
+        print(
+            f"  {name}: {self.label}: {len(lad['points'])} points ({lad['setting_name']}); "
+            f"stop: {lad['stop']}",
+            flush=True,
+        )
+        return [
+            (
+                {
+                    "method": self.label,
+                    "family": "impl",
+                    "setting_name": lad["setting_name"],
+                    **pt,
+                },
+                wp.impl_flow_call(self.obj, p, lad["setting_name"], pt["setting"]),
+            )
+            for pt in lad["points"]
+        ]
+
+    def flow_ratios(self, wp, name: str, flow: dict) -> None:
+        """Add its time at each error target and the ratios ``impl / ours`` (the best tstarg method
+        there) and ``impl / heyoka`` to the problem's ratio rows."""
+        pts = [r for r in flow["points"] if r["method"] == self.label]
+        if not pts:
+            return
+        for r in flow["ratios"]:
+            t = wp.impl_time_at(pts, r["target"])
+            ok = math.isfinite(t)
+            r["t_impl"] = t if ok else None
+            r["ratio_impl_over_ours"] = t / r["t_best"] if ok and r.get("t_best") else None
+            r["ratio_impl_over_heyoka"] = t / r["t_heyoka"] if ok and r.get("t_heyoka") else None
+        flow["impl_stop"] = self.ladders.get(name, {}).get("stop")
+
+    def bracket_rows(self, wp, quick, S, opts, map_tasks):
+        """The ``extra`` hook of :func:`_brackets`: its tensors at every point (judged in parallel
+        by :func:`reports._workprecision.bracket_error_of_task`) and its timed calls."""
+        import numpy as np
+
+        if "poisson_tensor" not in self.provided:
+            return None
+        obj = self.obj
+
+        def extra(cases):
+            from tstarg.refimpl import catalogue
+
+            items, rows, calls = [], [], []
+            for ci, case in enumerate(cases):
+                f = np.array(catalogue(case["algebra"]).f, dtype=float)
+                for j in range(len(case["x"])):
+                    try:
+                        P = np.asarray(
+                            obj.poisson_tensor(
+                                f, case["theta"], case["upsilon"], case["x"][j], case["pi"][j]
+                            ),
+                            dtype=float,
+                        ).tolist()
+                    except Exception as exc:  # noqa: BLE001 - third-party code: judged, not trusted
+                        P = f"{type(exc).__name__}: {exc}"[:200]
+                    items.append((ci, quick, j, P, S["bracket_high"]))
+            errs = map_tasks(wp.bracket_error_of_task, items, **opts)
+            k = 0
+            for ci, case in enumerate(cases):
+                m = len(case["x"])
+                err = max(errs[k : k + m])
+                k += m
+                for suffix, pts, call in wp.impl_bracket_calls(
+                    obj, case, bool(getattr(obj, "batched", False))
+                ):
+                    rows.append(
+                        {
+                            "algebra": case["algebra"],
+                            "method": f"{self.label}, {suffix}",
+                            "dps": None,
+                            "route": "impl",
+                            "error": err,
+                            "points": pts,
+                            "family": "impl",
+                        }
+                    )
+                    calls.append(call)
+            return rows, calls
+
+        return extra
+
+    def bracket_ratios(self, br: dict) -> None:
+        """Ratios of its time per point over ours, per algebra: one call per point against ours one
+        call per point, its batch against our batch."""
+        out = []
+        for alg in dict.fromkeys(r["algebra"] for r in br["summary"]):
+            rows = {r["method"]: r for r in br["summary"] if r["algebra"] == alg}
+            for suffix, ours in (
+                ("one call per point", "fast, one call per point"),
+                ("batch", "fast batch"),
+            ):
+                mine = rows.get(f"{self.label}, {suffix}")
+                if mine is None or ours not in rows:
+                    continue
+                out.append(
+                    {
+                        "algebra": alg,
+                        "impl": mine["method"],
+                        "ours": ours,
+                        "impl_error": mine["error"],
+                        "ours_error": rows[ours]["error"],
+                        "impl_time_per_point": mine["time_per_point"],
+                        "ours_time_per_point": rows[ours]["time_per_point"],
+                        "ratio_impl_over_ours": mine["time_per_point"]
+                        / rows[ours]["time_per_point"],
+                    }
+                )
+        br["impl_ratios"] = out
+
+
+def _impl_markdown(rep: dict) -> list[str]:
+    """The report's section on the ``--impl``/``--cmd`` contender."""
+    from ._workprecision import fmt_err, fmt_time
+
+    im = rep["impl"]
+    L = [
+        f"## Third-party implementation: {im['name']}",
+        "",
+        f"- given as {im['spec']} (version {im['version'] or '-'}); provides {', '.join(im['provides'])}; "
+        f"flow driven by: {im['flow_setting'] or '-'} "
+        "(`steps=`: a step ladder; `tol=`: a tolerance ladder; default: one point)",
+        f"- {im['note']}",
+        "- times from the same interleaved runs as ours (CPU time, best of repeats); ratio > 1: "
+        "the implementation is slower; a point more accurate than a target is charged at that "
+        "target (an upper bound: with one point, every coarser target gets the same time)",
+        "",
+    ]
+    for name, f in rep["flows"].items():
+        pts = [r for r in f["points"] if r.get("family") == "impl"]
+        if not pts:
+            continue
+        L += [
+            f"### Flow: {f['title']}, t = {f['T']:g}",
+            "",
+            "| error | impl time | best tstarg method | its time | ratio impl / ours | heyoka time | "
+            "ratio impl / heyoka |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        for r in f["ratios"]:
+            ro, rh = r.get("ratio_impl_over_ours"), r.get("ratio_impl_over_heyoka")
+            L.append(
+                f"| {r['label']} | {fmt_time(r.get('t_impl')) if r.get('t_impl') else 'not reached'} | "
+                f"{r['best_tstarg'] or 'not reached'} | {fmt_time(r['t_best'])} | "
+                f"{f'{ro:.3g}' if ro is not None else '-'} | "
+                f"{fmt_time(r['t_heyoka']) if r.get('t_heyoka') else '-'} | "
+                f"{f'{rh:.3g}' if rh is not None else '-'} |"
+            )
+        L += ["", "| setting | error | CPU time | on front |", "|---|---|---|---|"]
+        for r in sorted(pts, key=lambda r: r["time"]):
+            L.append(
+                f"| {r['setting_name']} {'' if r['setting'] is None else r['setting']} | "
+                f"{fmt_err(r['error'])} | {fmt_time(r['time'])} | {'**yes**' if r['on_front'] else ''} |"
+            )
+        L.append("")
+    br = rep.get("brackets", {}).get("impl_ratios")
+    if br:
+        L += [
+            "### Brackets (Poisson tensor, time per point)",
+            "",
+            "| algebra | impl | its worst error | its time | ours | our worst error | our time | "
+            "ratio impl / ours |",
+            "|---|---|---|---|---|---|---|---|",
+        ]
+        for r in br:
+            L.append(
+                f"| {r['algebra']} | {r['impl']} | {fmt_err(r['impl_error'])} | "
+                f"{fmt_time(r['impl_time_per_point'])} | {r['ours']} | {fmt_err(r['ours_error'])} | "
+                f"{fmt_time(r['ours_time_per_point'])} | {r['ratio_impl_over_ours']:.3g} |"
+            )
+        L.append("")
+    return L

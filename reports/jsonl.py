@@ -417,12 +417,18 @@ class CommandImplementation:
         if method in METHODS and method not in self.__dict__.get("_missing", set()):
             names = METHODS[method]
 
-            def call(*args):
+            def call(*args, **kw):
                 if len(args) != len(names):
                     raise TypeError(
                         f"{method} takes {len(names)} arguments ({', '.join(names)}), got {len(args)}"
                     )
-                return self.request(method, dict(zip(names, args)))
+                extra = {}
+                if kw:  # the protocol's one optional argument: flow's steps (docs/protocol.md)
+                    if method != "flow" or set(kw) != {"steps"}:
+                        raise TypeError(f"{method} got unexpected keyword arguments {sorted(kw)}")
+                    if kw["steps"] is not None:
+                        extra["steps"] = int(kw["steps"])
+                return self.request(method, {**dict(zip(names, args)), **extra})
 
             return call
         raise AttributeError(method)

@@ -48,6 +48,8 @@ MUTATIONS = {
     "energy_dissipation": "a flow that damps pi by (1 - 1e-7 |t|) (energy drifts linearly)",
     "not_a_poisson_map": "declares poisson_integrator = True but takes plain RK4 steps (not a Poisson map)",
     "domain_ignored": "declares an su(2)-only domain but returns numbers for every algebra",
+    "centre_lost": "a flow that re-bases through Ad(g) for |t| >= 1 and so drops the central part "
+    "of x (Ad(g) and pi stay right; g is wrong along the centre)",
     "batch_tail_stale": "a batch of more than 8 points returns the next-to-last point's result in the last place",
     "small_dims_only": "past dimension 6 the frame L(g,e) is truncated to 1 + ad_x/2 (a fixed-size series buffer)",
     "layout_assumed": "f read from its memory buffer as if C-ordered (a Fortran-ordered f is scrambled)",
@@ -68,6 +70,7 @@ MUTANT_CHECKS = {
     "energy_dissipation": ["flow.drift"],
     "not_a_poisson_map": ["flow.poisson_map"],
     "domain_ignored": ["domain.refusal"],
+    "centre_lost": ["flow.long"],
     "batch_tail_stale": ["poisson_tensor.batch"],
     "layout_assumed": ["protocol.inputs"],
     "small_dims_only": ["poisson_tensor.reference"],
@@ -311,6 +314,11 @@ class Plain:
             z = z + h * (k1 / 6 + w2 * k2 + k3 / 3 + k4 / 6)
         if m == "energy_dissipation":
             z[n:] *= 1 - 1e-7 * abs(t)
+        if m == "centre_lost":
+            ff = np.asarray(f, dtype=float)
+            if abs(t) >= 1:
+                Zc = scipy.linalg.null_space(ff.transpose(0, 2, 1).reshape(n * n, n))
+                z[:n] -= Zc @ (Zc.T @ z[:n])  # Ad(exp(x)) is unchanged: only the centre moves
         return z[:n], z[n:]
 
     flow_tolerance = 1e-8

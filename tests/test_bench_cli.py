@@ -295,6 +295,103 @@ def test_modified_structure_problem_uses_general_methods():
     assert e8 < e4 and e8 <= 1e3 * 1e-8 and e4 <= 1e3 * 1e-4
 
 
+# ------------------------------------------------------------------ --impl / --cmd contenders
+@pytest.fixture(scope="module")
+def impl_run(tmp_path_factory):
+    """The quick bench with the plain first-principles implementation (reports.mutants:CORRECT,
+    written independently of refimpl.fast; its flow takes steps=) as a contender."""
+    out = tmp_path_factory.mktemp("bench_impl")
+    argv = ["bench", "--quick", "--problems", "free_top", "--no-batch", "--no-heyoka"]
+    argv += ["--impl", "tstarg.reports.mutants:CORRECT", "--out", str(out), "--workers", "1"]
+    rc = cli.main(argv)
+    return rc, out, json.loads((out / "report.json").read_text())
+
+
+def test_impl_contender_appears_in_reports(impl_run):
+    """The contender is in report.json (its points on the flow diagram, its bracket rows, ratios
+    impl / ours at every error target it reaches) and in report.md's tables, by its name."""
+    rc, out, rep = impl_run
+    assert rc == 0
+    name = "impl plain[correct]"
+    assert rep["impl"]["name"] == "plain[correct]" and rep["impl"]["flow_setting"] == "steps"
+    pts = [p for p in rep["flows"]["free_top"]["points"] if p["method"] == name]
+    assert len(pts) >= 2 and all(p["family"] == "impl" and p["time"] > 0 for p in pts)
+    reached = [r for r in rep["flows"]["free_top"]["ratios"] if r.get("t_impl")]
+    assert reached and all(r["ratio_impl_over_ours"] > 0 for r in reached if r["t_best"])
+    algebras = {r["algebra"] for r in rep["brackets"]["impl_ratios"]}
+    assert algebras == {"su(2)", "se(3)"}
+    md = (out / "report.md").read_text()
+    assert "## Third-party implementation: plain[correct]" in md
+    assert "ratio impl / ours" in md and "ratio impl / heyoka" in md and name in md
+
+
+def test_impl_flow_errors_are_judged_and_show_rk4_order(impl_run):
+    """Recorded contender errors agree with an independent judge (scipy DOP853 at rtol 1e-13 on the
+    body system, not the closed form the bench uses) to within the judge's own error, and fall
+    with the order of Plain's classical RK4 (slope >= 3.5 between doubling step counts)."""
+    from scipy.integrate import solve_ivp
+
+    from tstarg.reports.mutants import CORRECT
+
+    _, _, rep = impl_run
+    p = wp.flow_problem("free_top", True)
+    F = p.model().body_rhs()
+    sol = solve_ivp(
+        lambda t, y: F(y[:, None])[:, 0], (0, p.T), p.y0(), method="DOP853", rtol=1e-13, atol=1e-13
+    )
+    judge = sol.y[:, -1]
+    pts = sorted(
+        (q for q in rep["flows"]["free_top"]["points"] if q["family"] == "impl"),
+        key=lambda q: q["setting"],
+    )
+    for q in pts:
+        x, pi = CORRECT.flow(*wp.impl_flow_args(p), steps=q["setting"])
+        e = float(np.max(np.abs(wp.impl_body_state(p, x, pi) - judge)))
+        # the two judges differ by the DOP853 judge's error: ~1e-13 per unit time over t = 10, x 10
+        assert abs(e - q["error"]) <= 1e-10 + 1e-6 * q["error"], (q, e)
+    errs = [q["error"] for q in pts if q["error"] > 1e-11]
+    for a, b in zip(errs, errs[1:]):
+        assert math.log2(a / b) >= 3.5, errs
+
+
+def test_cmd_contender_runs_a_jsonl_program(tmp_path):
+    """``--cmd`` with the JSON-lines test program (refimpl.fast behind the protocol): one point
+    (its flow takes no steps), within fast's promised flow tolerance (1e-10, x 10 x scale |pi| ~ 2.3)."""
+    import sys
+    from pathlib import Path
+
+    prog = Path(__file__).parent / "meta" / "jsonl_program.py"
+    argv = ["bench", "--quick", "--problems", "free_top", "--no-batch", "--no-heyoka"]
+    argv += ["--no-brackets", "--cmd", f"{sys.executable} {prog} --flow", "--out", str(tmp_path)]
+    rc = cli.main([*argv, "--workers", "1"])
+    assert rc == 0
+    rep = json.loads((tmp_path / "report.json").read_text())
+    pts = [p for p in rep["flows"]["free_top"]["points"] if p["family"] == "impl"]
+    assert len(pts) == 1 and pts[0]["setting"] is None
+    assert pts[0]["error"] is not None and pts[0]["error"] <= 10 * 1e-10 * 2.3
+    assert "Third-party implementation" in (tmp_path / "report.md").read_text()
+
+
+@pytest.mark.parametrize(
+    "argv, msg",
+    [
+        (["--impl", "tstarg_no_such_module:impl"], "--impl 'tstarg_no_such_module:impl'"),
+        (["--impl", "tstarg.reports.mutants:NO_SUCH"], "has no attribute 'NO_SUCH'"),
+        (["--impl", "tests.meta.targets:not_an_implementation"], "provides neither flow nor"),
+        (["--impl", "no-colon-here!"], "cannot import"),
+        (["--cmd", "/nonexistent/program"], "--cmd '/nonexistent/program'"),
+    ],
+)
+def test_bad_contender_fails_by_name(tmp_path, capsys, argv, msg):
+    """An unimportable module, a missing object, an object without the timed methods or a program
+    that does not start: exit 2, and the message names the spec."""
+    rc = cli.main(["bench", "--quick", "--out", str(tmp_path / "o"), *argv])
+    assert rc == 2
+    err = capsys.readouterr().err
+    assert msg in err, err
+    assert not (tmp_path / "o").exists()  # nothing written, nothing run
+
+
 def test_quick_run_races_the_batch_against_heyoka(quick_run):
     """With heyoka installed, the quick run times the largest batch against ``taylor_adaptive_batch``:
     heyoka, our adaptive ``taylor`` and the fixed-step batch method, each with its worst error against

@@ -62,7 +62,7 @@ def test_draws_only_inside_and_says_so():
     impl = Su2NoUpsilon()
     cert = certify(impl, max_examples=4, seed=0, shrink=False, checks=[*CHEAP, "flow.long"])
     assert cert.passed, cert.summary()
-    assert cert.domain == "su(2), Upsilon = 0, |t| <= 5"
+    assert cert.domain == "su(2), Upsilon = 0, |t| <= 5, t of either sign"
     assert "certified for: su(2), Upsilon = 0, |t| <= 5" in cert.to_markdown()
     refusal = next(c for c in cert.checks if c.name == "domain.refusal")
     assert refusal.examples > 0

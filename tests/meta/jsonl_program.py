@@ -1,8 +1,9 @@
 """A protocol implementation over JSON lines (for tests of ``tstarg certify --cmd``).
 
-Usage: ``python jsonl_program.py [--hang-on K] [--crash-on K] [--state FILE] [--only METHOD ...]``:
-answers with refimpl.fast, but sleeps forever on the K-th request (a hang) or exits on
-the K-th request (a crash); methods not in ``--only`` are answered "unknown method".
+Usage: ``python jsonl_program.py [--hang-on K] [--crash-on K] [--state FILE] [--only METHOD ...]
+[--flow]``: answers with refimpl.fast, but sleeps forever on the K-th request (a hang) or exits on
+the K-th request (a crash); methods not in ``--only`` are answered "unknown method". ``flow`` is
+answered only with ``--flow`` (used by ``tstarg bench --cmd``).
 With ``--state FILE`` the request count survives restarts (the harness restarts a hung or
 crashed program), so each incident happens once.
 """
@@ -23,6 +24,7 @@ def main() -> None:
     ap.add_argument("--crash-on", type=int, default=-1)
     ap.add_argument("--only", nargs="*", default=None)
     ap.add_argument("--state", default=None)
+    ap.add_argument("--flow", action="store_true", help="answer flow too (refimpl.fast)")
     a = ap.parse_args()
     import os
 
@@ -43,6 +45,7 @@ def main() -> None:
         if (a.only is not None and method not in a.only) or method not in (
             "poisson_tensor",
             "hamiltonian_vector_field",
+            *(("flow",) if a.flow else ()),
         ):
             reply = {"id": rid, "error": f"unknown method {method}"}
         else:
@@ -55,6 +58,15 @@ def main() -> None:
                     res = fast.poisson_tensor(
                         arr["f"], arr["theta"], arr["upsilon"], arr["x"], arr["pi"]
                     ).tolist()
+                elif method == "flow":
+                    xs, ps = fast.flow(
+                        *(arr[k] for k in ("f", "theta", "upsilon", "inertia")),
+                        arr["potential"],
+                        arr["x0"],
+                        arr["pi0"],
+                        float(arr["t"]),
+                    )
+                    res = [xs.tolist(), ps.tolist()]
                 else:
                     xd, pd = fast.hamiltonian_vector_field(
                         arr["f"],

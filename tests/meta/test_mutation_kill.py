@@ -18,6 +18,7 @@ EXAMPLES = 10
 
 
 SLOW = {
+    "centre_lost",
     "energy_dissipation",
     "flow.drift",
     "flow.long",
