@@ -1592,6 +1592,8 @@ def _flow_poisson_map(impl, dom, stats):
         if rate == 0:
             reject()  # a state at rest: every method maps it to itself
         t = min(float(np.clip(1.0 / rate, 0.25, 1.0)), dom.max_abs_t or math.inf)
+        if _meets_degenerate_set(f, theta, ups, inertia, pot, x, pi, t):
+            reject()  # no Poisson map past Pi_1 (and the differences below start within 1e-3)
         cond, _frame = _conditioning(f, theta, ups, x, pi)
         if not math.isfinite(cond) or cond > 1e3:
             return None
