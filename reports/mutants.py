@@ -45,7 +45,7 @@ MUTATIONS = {
     "flow_abs_time": "the flow integrates to |t| (negative times run forward)",
     "flow_fixed_steps": "a flow with 40 RK4 steps whatever t (fine for short times, wrong for long ones)",
     "order_overclaimed": "declares order 4 but integrates with Kutta's third-order method",
-    "energy_dissipation": "a flow that damps pi by (1 - 1e-7 |t|) (energy drifts linearly)",
+    "energy_dissipation": "a flow that damps pi by (1 - 1e-6 |t|) (energy drifts linearly, 100 times its declared flow_tolerance per unit time)",
     "not_a_poisson_map": "declares poisson_integrator = True but takes plain RK4 steps (not a Poisson map)",
     "domain_ignored": "declares an su(2)-only domain but returns numbers for every algebra",
     "centre_lost": "a flow that re-bases through Ad(g) for |t| >= 1 and so drops the central part "
@@ -313,7 +313,7 @@ class Plain:
             k4 = F(z + h * k3)
             z = z + h * (k1 / 6 + w2 * k2 + k3 / 3 + k4 / 6)
         if m == "energy_dissipation":
-            z[n:] *= 1 - 1e-7 * abs(t)
+            z[n:] *= 1 - 1e-6 * abs(t)
         if m == "centre_lost":
             ff = np.asarray(f, dtype=float)
             if abs(t) >= 1:
