@@ -637,7 +637,7 @@ class FastCore:
                 P = Pp.reshape(batch_shape + (6, 6))
             else:
                 P = P.reshape((6, 6) + batch_shape)
-            path = "su2-closed-form" + ("" if up is not None else ", Upsilon = 0: no Phi" + "; numpy")
+            path = "su2-closed-form" + ("" if up is not None else ", Upsilon = 0: no Phi") + "; numpy"
         else:
             buf = None
             if out is not None and layout == "points":
@@ -654,7 +654,7 @@ class FastCore:
                 P = dst
             else:
                 P = np.moveaxis(P, 0, -1).reshape((2 * n, 2 * n) + batch_shape)
-            path = "generic" + ("" if up is not None else ", Upsilon = 0: no Phi" + "; numpy")
+            path = "generic" + ("" if up is not None else ", Upsilon = 0: no Phi") + "; numpy"
         return _mark_outside(
             PoissonBatch(
                 P=P,
