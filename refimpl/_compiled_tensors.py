@@ -639,37 +639,28 @@ def _module(name: str, src: str):
     return mod
 
 
-def _consts() -> dict:
-    from ._fast_kernels import C_P, EPS, SERIES_BINS, TWO_PI
-
-    return {
-        "EPS": float(EPS),
-        "C_P": float(C_P),
-        "TWO_PI": float(TWO_PI),
-        "SERIES_MAX": float(SERIES_BINS[-1]),
-    }
-
-
-def _fill(src: str, **values) -> str:
-    for k, v in {**_consts(), **values}.items():
-        src = src.replace("{" + k + "!r}", repr(v)).replace("{" + k + "}", str(v))
+def _fill(src: str, consts: dict) -> str:
+    """The kernel source with the error model's constants (``EPS``, ``C_P``, ``TWO_PI``,
+    ``SERIES_MAX``, given by :mod:`refimpl._fast_kernels`) written in as literals."""
+    for k in ("EPS", "C_P", "TWO_PI", "SERIES_MAX"):
+        src = src.replace("{" + k + "!r}", repr(float(consts[k])))
     return src
 
 
-def _su2_module():
-    return _module("su2", _fill(_SU2_SRC))
+def _su2_module(consts: dict):
+    return _module("su2", _fill(_SU2_SRC, consts))
 
 
-def _generic_module():
-    return _module("generic", _fill(_GENERIC_SRC))
+def _generic_module(consts: dict):
+    return _module("generic", _fill(_GENERIC_SRC, consts))
 
 
-def su2_poisson(x, p, xi, tau, out, cond, sens, bound, degen, outside) -> None:
+def su2_poisson(x, p, xi, tau, out, cond, sens, bound, degen, outside, *, consts: dict) -> None:
     """The su(2) closed form for ``x``, ``p`` (``(N, 3)`` views) into ``out`` (an ``(N, 6, 6)`` view).
 
     ``xi`` (Theta) and ``tau`` (Upsilon) are 3-vectors or None. ``outside`` receives the chart mask;
-    the caller marks those points (they are computed at ``x = 0``)."""
-    mod = _su2_module()
+    the caller marks those points (they are computed at ``x = 0``). ``consts``: see :func:`_fill`."""
+    mod = _su2_module(consts)
     z = np.zeros(3)
     mod.su2(
         x,
@@ -687,15 +678,15 @@ def su2_poisson(x, p, xi, tau, out, cond, sens, bound, degen, outside) -> None:
     )
 
 
-def generic_poisson(f, theta, upsilon, x, p, out, cond, sens, bound, degen) -> np.ndarray:
+def generic_poisson(
+    f, theta, upsilon, x, p, out, cond, sens, bound, degen, *, bern, consts: dict
+) -> np.ndarray:
     """The generic path for ``x``, ``p`` (``(N, n)`` views) into ``out`` (an ``(N, 2n, 2n)`` view).
 
-    Returns ``r >= ||ad_x||_2 / 2 pi`` per point (the caller's chart pre-filter)."""
-    from ._fast_kernels import _bernoulli_even, _series_terms
-
+    ``bern``: ``1, B_2/2!, B_4/4!, ...`` with enough terms for ``r = SERIES_MAX``; ``consts``: see
+    :func:`_fill`. Returns ``r >= ||ad_x||_2 / 2 pi`` per point (the caller's chart pre-filter)."""
     n = f.shape[0]
-    mod = _generic_module()
-    bern = np.concatenate([[1.0], _bernoulli_even(_series_terms(_consts()["SERIES_MAX"]))])
+    mod = _generic_module(consts)
     phi1c = _phi1_coeffs()
     z = np.zeros((n, n))
     r = np.empty(x.shape[0])

@@ -512,6 +512,18 @@ def _generic_poisson_chunk(f, theta, upsilon, x, p, P, cond_out, sens_out, bound
     degen_out[...] = degen
 
 
+# ------------------------------------------------ constants of the compiled kernels
+def _ct_consts() -> dict:
+    """The error model's constants, written into the compiled kernels' source (refimpl._compiled_tensors)."""
+    return {"EPS": EPS, "C_P": C_P, "TWO_PI": TWO_PI, "SERIES_MAX": SERIES_BINS[-1]}
+
+
+@lru_cache(maxsize=1)
+def _ct_bernoulli() -> np.ndarray:
+    """``1, b_1, ..., b_K`` with K the number of series terms at ``r = SERIES_BINS[-1]``."""
+    return np.concatenate([[1.0], _bernoulli_even(_series_terms(SERIES_BINS[-1]))])
+
+
 # ----------------------------------------------------------------- the class
 class FastCore:
     """The fast float64 implementation (protocol methods ``poisson_tensor``, ``hamiltonian_vector_field``).
@@ -705,11 +717,12 @@ class FastCore:
         if _is_su2(f):
             _ctens.su2_poisson(
                 xv, pv, _su2_theta_to_xi(th), _su2_upsilon_to_tau(up), P, cond, sens, bound, degen,
-                outside,
+                outside, consts=_ct_consts(),
             )  # fmt: skip
             path = "su2-closed-form"
         else:
-            r = _ctens.generic_poisson(f, th, up, xv, pv, P, cond, sens, bound, degen)
+            kw = {"bern": _ct_bernoulli(), "consts": _ct_consts()}
+            r = _ctens.generic_poisson(f, th, up, xv, pv, P, cond, sens, bound, degen, **kw)
             # the chart (refimpl._validate.outside_chart) only where the norm bound reaches its edge;
             # those points are recomputed at x = 0, as the numpy path's hook does
             cand = np.flatnonzero(~(r < (1 - 1e-3) * (1 - 1e-6)))
@@ -722,7 +735,7 @@ class FastCore:
                     subd = np.zeros(m, dtype=bool)
                     _ctens.generic_poisson(
                         f, th, up, np.zeros((m, n)), np.ascontiguousarray(pv[off]),
-                        sub[0], sub[1], sub[2], sub[3], subd,
+                        sub[0], sub[1], sub[2], sub[3], subd, **kw,
                     )  # fmt: skip
                     P[off], cond[off], sens[off], bound[off], degen[off] = *sub, subd
             path = "generic"
