@@ -417,14 +417,15 @@ def _poly(W, coeffs, K, pows, acc, blk, tmp, Ws):
 
 
 @njit(
-    "void(f8[:, :, :], f8[:, :], b1, f8[:, :], b1, f8[:], f8[:], f8[:, :], f8[:, :], f8[:, :, :],"
-    " f8[:], f8[:], f8[:], b1[:], f8[:])",
+    "void(i8[:, :], f8[:], f8[:, :], b1, f8[:, :], b1, f8[:], f8[:], f8[:, :], f8[:, :],"
+    " f8[:, :, :], f8[:], f8[:], f8[:], b1[:], f8[:])",
     cache=True,
     nogil=True,
     error_model="numpy",
 )
-def generic(f, theta, has_theta, ups, has_ups, bern, phi1c, x, p, out,
+def generic(fidx, fval, theta, has_theta, ups, has_ups, bern, phi1c, x, p, out,
             cond, sens, bound, degen, rr):
+    # f enters as its nonzero entries f[fidx[e, 0], fidx[e, 1], fidx[e, 2]] = fval[e]
     N = x.shape[0]
     NDIM = x.shape[1]
     n = NDIM
@@ -441,7 +442,7 @@ def generic(f, theta, has_theta, ups, has_ups, bern, phi1c, x, p, out,
     T4 = np.empty((n, n))
     T5 = np.empty((n, n))
     pows = np.empty((8, n, n))
-    absf = np.abs(f)
+    nnz = fval.shape[0]
     absth = np.abs(theta)
     un = 0.0
     for i in range(n):
@@ -456,17 +457,16 @@ def generic(f, theta, has_theta, ups, has_ups, bern, phi1c, x, p, out,
                 S[i, j] = 0.0
                 T1[i, j] = 0.0
                 T2[i, j] = 0.0
-        for a in range(n):
-            xa = x[k, a]
-            pa = p[k, a]
-            axa = abs(xa)
-            apa = abs(pa)
-            for i in range(n):
-                for j in range(n):
-                    A[i, j] += xa * f[i, a, j]
-                    T2[i, j] += axa * absf[i, a, j]
-                    S[i, j] += pa * f[a, i, j]
-                    T1[i, j] += apa * absf[a, i, j]
+        for e in range(nnz):
+            i = fidx[e, 0]
+            a = fidx[e, 1]
+            j = fidx[e, 2]
+            v = fval[e]
+            av = abs(v)
+            A[i, j] += x[k, a] * v  # ad_x = sum_a x_a f^i_aj
+            T2[i, j] += abs(x[k, a]) * av
+            S[a, j] += p[k, i] * v  # S_aj = sum_i pi_i f^i_aj
+            T1[a, j] += abs(p[k, i]) * av
         if has_theta:
             for i in range(n):
                 for j in range(n):
@@ -589,15 +589,9 @@ def generic(f, theta, has_theta, ups, has_ups, bern, phi1c, x, p, out,
         if not has_ups:
             data = n * Sabs
         else:
-            # first order in dS: ||L U Phi^-1||_F^2 + ||Phi^-1||_F^2, Phi^-1 = Psi^-T
-            for i in range(n):
-                for j in range(n):
-                    acc = 0.0
-                    for l in range(n):
-                        acc += ups[i, l] * Pi[j, l]
-                    T1[i, j] = acc
-            _mm(L, T1, T2)
-            fl = _frob(T2)
+            # first order in dS: ||L U Phi^-1||_F^2 + ||Phi^-1||_F^2, Phi^-1 = Psi^-T; since
+            # U Phi^-1 = Psi^-1 U, L U Phi^-1 = Pxp U, still in T1
+            fl = _frob(T1)
             fp = _frob(Pi)
             data = Sabs * (fl * fl + fp * fp)
         bnd = C_P * n * EPS * frame * (eff * scale + data + Aabs * pmax)
@@ -687,11 +681,15 @@ def generic_poisson(
     :func:`_fill`. Returns ``r >= ||ad_x||_2 / 2 pi`` per point (the caller's chart pre-filter)."""
     n = f.shape[0]
     mod = _generic_module(consts)
+    fc = np.ascontiguousarray(f, dtype=float)
+    fidx = np.argwhere(fc != 0).astype(np.int64).reshape(-1, 3)
+    fval = fc[fc != 0]
     phi1c = _phi1_coeffs()
     z = np.zeros((n, n))
     r = np.empty(x.shape[0])
     mod.generic(
-        np.ascontiguousarray(f, dtype=float),
+        fidx,
+        fval,
         z if theta is None else np.ascontiguousarray(theta, dtype=float),
         theta is not None,
         z if upsilon is None else np.ascontiguousarray(upsilon, dtype=float),
