@@ -60,15 +60,23 @@ PATH = "numba" if HAVE_NUMBA else "numpy"
 _SU2_SRC = '''
 import math
 import numpy as np
-from numba import njit
+from numba import njit, types
 
 EPS = {EPS!r}
+# inputs are read-only views of any layout (the caller's arrays, never written); outputs writable
+R1 = types.Array(types.float64, 1, "A", readonly=True)
+R2 = types.Array(types.float64, 2, "A", readonly=True)
+I2 = types.Array(types.int64, 2, "A", readonly=True)
+W1 = types.Array(types.float64, 1, "A")
+W3 = types.Array(types.float64, 3, "A")
+B1 = types.Array(types.boolean, 1, "A")
+b1 = types.boolean
 C_P = {C_P!r}
 TWO_PI = {TWO_PI!r}
 
 
 @njit(
-    "void(f8[:, :], f8[:, :], f8[:], b1, f8[:], b1, f8[:, :, :], f8[:], f8[:], f8[:], b1[:], b1[:])",
+    types.void(R2, R2, R1, b1, R1, b1, W3, W1, W1, W1, B1, B1),
     cache=True,
     nogil=True,
     error_model="numpy",
@@ -300,9 +308,17 @@ def su2(x, p, xi, has_xi, tau, has_tau, out, cond, sens, bound, degen, outside):
 _GENERIC_SRC = '''
 import math
 import numpy as np
-from numba import njit
+from numba import njit, types
 
 EPS = {EPS!r}
+# inputs are read-only views of any layout (the caller's arrays, never written); outputs writable
+R1 = types.Array(types.float64, 1, "A", readonly=True)
+R2 = types.Array(types.float64, 2, "A", readonly=True)
+I2 = types.Array(types.int64, 2, "A", readonly=True)
+W1 = types.Array(types.float64, 1, "A")
+W3 = types.Array(types.float64, 3, "A")
+B1 = types.Array(types.boolean, 1, "A")
+b1 = types.boolean
 C_P = {C_P!r}
 TWO_PI = {TWO_PI!r}
 SERIES_MAX = {SERIES_MAX!r}
@@ -417,8 +433,7 @@ def _poly(W, coeffs, K, pows, acc, blk, tmp, Ws):
 
 
 @njit(
-    "void(i8[:, :], f8[:], f8[:, :], b1, f8[:, :], b1, f8[:], f8[:], f8[:, :], f8[:, :],"
-    " f8[:, :, :], f8[:], f8[:], f8[:], b1[:], f8[:])",
+    types.void(I2, R1, R2, b1, R2, b1, R1, R1, R2, R2, W3, W1, W1, W1, B1, W1),
     cache=True,
     nogil=True,
     error_model="numpy",

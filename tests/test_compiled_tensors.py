@@ -243,3 +243,31 @@ def test_one_compilation_for_every_model():
             fast.poisson_batch(alg.f, theta, ups, x, pi)
             fast.poisson_batch(alg.f, theta, ups, x.T, pi.T, layout="components")
     assert ct.compile_count() == before
+
+
+@pytest.mark.parametrize("name", ["su(2)", "su(3)"])
+@pytest.mark.parametrize("layout", ["points", "components"])
+def test_read_only_and_broadcast_inputs(name, layout):
+    """Read-only arrays and zero-stride broadcasts are accepted and give what their writable copies give."""
+    alg = catalogue(name)
+    n = alg.dim
+    rng = np.random.default_rng(4)
+    theta, ups = _model(alg, 3, rng)
+    x, pi = _points(alg, 5, rng, spread=0.5)
+    if layout == "components":
+        x, pi = x.T.copy(), pi.T.copy()
+    want = fast.poisson_batch(alg.f, theta, ups, x, pi, layout=layout)
+    ro_x, ro_pi = x.copy(), pi.copy()
+    ro_x.setflags(write=False)
+    ro_pi.setflags(write=False)
+    got = fast.poisson_batch(alg.f, theta, ups, ro_x, ro_pi, layout=layout)
+    assert np.array_equal(got.P, want.P) and np.array_equal(got.error_bound, want.error_bound)
+    shape = (n, 4) if layout == "components" else (4, n)
+    one_x = x[:, 1] if layout == "components" else x[1]
+    one_pi = pi[:, 1] if layout == "components" else pi[1]
+    bx = np.broadcast_to(one_x[:, None] if layout == "components" else one_x, shape)
+    bp = np.broadcast_to(one_pi[:, None] if layout == "components" else one_pi, shape)
+    b = fast.poisson_batch(alg.f, theta, ups, bx, bp, layout=layout)
+    P1 = want.P[..., 1] if layout == "components" else want.P[1]
+    for k in range(4):
+        assert np.array_equal(b.P[..., k] if layout == "components" else b.P[k], P1)
