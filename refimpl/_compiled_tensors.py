@@ -57,7 +57,7 @@ PATH = "numba" if HAVE_NUMBA else "numpy"
 # ------------------------------------------------------------------------------- the su(2) kernel
 # One point per iteration; the formulas, their order and the bound are those of
 # refimpl._fast_kernels._su2_poisson_chunk and _su2_frame_coeffs (see their comments).
-_SU2_SRC = '''
+_SU2_SRC = """
 import math
 import numpy as np
 from numba import njit, types
@@ -300,12 +300,12 @@ def su2(x, p, xi, has_xi, tau, has_tau, out, cond, sens, bound, degen, outside):
         out[k, 5, 3] = -qi1
         out[k, 5, 4] = qi0
         out[k, 5, 5] = 0.0
-'''
+"""
 
 # --------------------------------------------------------------------------- the generic kernel
 # One point per iteration, n = x.shape[1] at run time; the formulas are those of
 # refimpl._fast_kernels._generic_poisson_chunk, _frames_generic, _summand_norms (see there).
-_GENERIC_SRC = '''
+_GENERIC_SRC = """
 import math
 import numpy as np
 from numba import njit, types
@@ -622,7 +622,7 @@ def generic(fidx, fval, theta, has_theta, ups, has_ups, bern, phi1c, x, p, out,
         cond[k] = cnd
         sens[k] = sn
         bound[k] = bnd
-'''
+"""
 
 _MODULES: dict = {}
 

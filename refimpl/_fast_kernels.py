@@ -649,7 +649,9 @@ class FastCore:
                 P = Pp.reshape(batch_shape + (6, 6))
             else:
                 P = P.reshape((6, 6) + batch_shape)
-            path = "su2-closed-form" + ("" if up is not None else ", Upsilon = 0: no Phi") + "; numpy"
+            path = (
+                "su2-closed-form" + ("" if up is not None else ", Upsilon = 0: no Phi") + "; numpy"
+            )
         else:
             buf = None
             if out is not None and layout == "points":

@@ -569,7 +569,9 @@ def _fast_path(case: dict) -> str:
     from tstarg.refimpl.fast import Fast
 
     f = catalogue(case["algebra"]).f
-    return Fast().poisson_batch(f, case["theta"], case["upsilon"], case["x"][:1], case["pi"][:1]).path
+    return (
+        Fast().poisson_batch(f, case["theta"], case["upsilon"], case["x"][:1], case["pi"][:1]).path
+    )
 
 
 def _brackets(wp, np, quick, S, opts, out, map_tasks) -> dict:

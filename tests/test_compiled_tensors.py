@@ -25,7 +25,9 @@ EPS = np.finfo(float).eps
 def _model(alg, kind: int, rng):
     """Theta (a coboundary -xi.f, a cocycle on every algebra) and Upsilon, each present or not."""
     n = alg.dim
-    theta = -np.einsum("k,kab->ab", rng.normal(size=n) * 0.3, alg.f) if kind & 1 else np.zeros((n, n))
+    theta = (
+        -np.einsum("k,kab->ab", rng.normal(size=n) * 0.3, alg.f) if kind & 1 else np.zeros((n, n))
+    )
     u = rng.normal(size=(n, n)) * 0.15
     ups = u - u.T if kind & 2 else np.zeros((n, n))
     return theta, ups
@@ -99,6 +101,8 @@ def test_compiled_bound_contains_reference_error(name):
     P_ref = np.array([REF.poisson_tensor(alg.f, theta, ups, x[k], pi[k]) for k in range(len(x))])
     assert P_ref.shape == (len(x), 2 * n, 2 * n)
     assert_within_bound(res.P, P_ref, res.error_bound, f"compiled {name} vs reference")
+    num = fast.poisson_batch(alg.f, theta, ups, x, pi, compiled=False)  # the fallback, same judge
+    assert_within_bound(num.P, P_ref, num.error_bound, f"numpy {name} vs reference")
 
 
 @pytest.mark.reference
@@ -128,7 +132,9 @@ def test_non_finite_input_refused_as_by_numpy(name, bad, which):
     (x if which == "x" else pi)[1, 2, n - 1] = bad
     msgs = []
     for compiled in (True, False):
-        with pytest.raises(ValueError, match=rf"{which} contains NaN or infinity at point\(s\) \(1, 2\)") as e:
+        with pytest.raises(
+            ValueError, match=rf"{which} contains NaN or infinity at point\(s\) \(1, 2\)"
+        ) as e:
             fast.poisson_batch(alg.f, np.zeros((n, n)), np.zeros((n, n)), x, pi, compiled=compiled)
         msgs.append(str(e.value))
     assert msgs[0] == msgs[1]
@@ -166,7 +172,6 @@ def test_batch_shapes_of_the_protocol(name, batch):
 def test_caller_arrays_untouched(name, layout):
     """Inputs (points inside and outside the chart, non-contiguous views) and the model are not written."""
     alg = catalogue(name)
-    n = alg.dim
     rng = np.random.default_rng(2)
     theta, ups = _model(alg, 3, rng)
     x, pi = _points(alg, 12, rng, spread=1.6)
