@@ -656,12 +656,21 @@ def _fill(src: str, consts: dict) -> str:
     return src
 
 
+_BY_CONSTS: dict = {}
+
+
 def _su2_module(consts: dict):
-    return _module("su2", _fill(_SU2_SRC, consts))
+    key = ("su2", *consts.items())
+    if key not in _BY_CONSTS:
+        _BY_CONSTS[key] = _module("su2", _fill(_SU2_SRC, consts))
+    return _BY_CONSTS[key]
 
 
 def _generic_module(consts: dict):
-    return _module("generic", _fill(_GENERIC_SRC, consts))
+    key = ("generic", *consts.items())
+    if key not in _BY_CONSTS:
+        _BY_CONSTS[key] = _module("generic", _fill(_GENERIC_SRC, consts))
+    return _BY_CONSTS[key]
 
 
 def su2_poisson(x, p, xi, tau, out, cond, sens, bound, degen, outside, *, consts: dict) -> None:
