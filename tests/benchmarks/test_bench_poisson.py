@@ -22,8 +22,9 @@ size, ``src.copy()`` of ``N (2n)^2`` doubles (it reads as many bytes as it write
 tensor reads, and pays the first touch of new pages as the tensor's output does). Targets: su(2) at
 10^6 points <= 4x the floor (goal 2x), su(3) at 10^5 points <= 25x. The numpy kernels
 (``compiled=False``) run in the same rounds for comparison, and so does a call given ``out=``
-(a reused buffer) against the touched floor (``np.copyto`` into memory already written). CPU time (``time.process_time``), the
-contenders interleaved round by round, the best of the rounds; only same-run ratios are quoted::
+(a reused buffer) against the touched floor (``np.copyto`` into memory already written). CPU time
+(``time.process_time``), the contenders interleaved round by round, the best of the rounds; only
+same-run ratios are quoted::
 
     OPENBLAS_NUM_THREADS=1 python -m pytest -p no:cacheprovider -n 0 -m slow -s \
         tests/benchmarks/test_bench_poisson.py -k memory_floor
