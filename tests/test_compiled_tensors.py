@@ -276,3 +276,18 @@ def test_read_only_and_broadcast_inputs(name, layout):
     P1 = want.P[..., 1] if layout == "components" else want.P[1]
     for k in range(4):
         assert np.array_equal(b.P[..., k] if layout == "components" else b.P[k], P1)
+
+
+@pytest.mark.parametrize("name", ["su(2)", "sl(3,R)"])
+def test_finite_input_whose_sum_overflows_is_accepted(name):
+    """The compiled path's quick finiteness test (one sum per array) falls back to the full check
+    when a sum overflows: finite momenta near the float64 limit are accepted, as by numpy."""
+    alg = catalogue(name)
+    n = alg.dim
+    x, pi = np.full((3, n), 0.1), np.full((3, n), 1e308)
+    with np.errstate(over="ignore"):
+        assert not np.isfinite(np.sum(pi))
+    c, p = _both(alg, np.zeros((n, n)), np.zeros((n, n)), x, pi)
+    assert np.array_equal(c.degenerate, p.degenerate)
+    assert np.array_equal(c.outside_chart, p.outside_chart)
+    assert np.array_equal(np.isfinite(c.P), np.isfinite(p.P))
