@@ -27,9 +27,11 @@ Differences from the numpy path (all inside the same error model)
       (the numpy path uses the largest ``r`` of a bin of points); the tail bound
       ``3.3 r^(2K+2)/(1 - r^2) <= eps/8`` holds for every point either way.
     * ``phi1`` by scaling and squaring scales each point by its own Frobenius norm (numpy: the batch's
-      largest), and the inverses (``Psi^-1``, ``phi1^-1``) are Gauss-Jordan elimination with partial
-      pivoting on the n x n scratch (numpy: LAPACK ``getrf``/``getri``); an exactly zero pivot gives
-      NaN, as numpy's per-point fallback does.
+      largest), and the inverses (``Psi^-1``, ``phi1^-1``) are an LU factorization with partial
+      pivoting and one triangular solve pair per column (numpy: LAPACK ``getrf``/``getri``); an
+      exactly zero pivot gives NaN, as numpy's per-point fallback does. (Gauss-Jordan elimination,
+      tried first, is not backward stable: on se(3) at |pi| ~ 1e6 it lost four more digits in
+      ``S Psi^-1`` and broke the bound; tests/test_compiled_tensors.py keeps that point.)
     * Points on the chart edge: the kernel computes the norm bound ``||ad_x||_2 <= min(||.||_F,
       sqrt(||.||_1 ||.||_inf))`` it needs anyway; only points where that bound reaches the edge are
       handed to :func:`refimpl._validate.outside_chart` (eigenvalues), and those are recomputed at
@@ -348,13 +350,15 @@ def _frob(a):
 
 
 @njit(cache=True, nogil=True)
-def _inv(a, w, out):
+def _inv(a, w, perm, out):
+    # out = a^-1 as LAPACK getrf + solves: LU with partial pivoting on the scratch w, then a forward
+    # and a back substitution per column of the identity (each column backward stable; Gauss-Jordan
+    # is not, and lost 4 more digits in S Psi^-1 at |pi| ~ 1e6). NaN at an exactly zero pivot.
     NDIM = a.shape[0]
-    # out = a^-1 by Gauss-Jordan with partial pivoting on the scratch w; NaN at an exactly zero pivot
     for i in range(NDIM):
+        perm[i] = i
         for j in range(NDIM):
             w[i, j] = a[i, j]
-            out[i, j] = 1.0 if i == j else 0.0
     for col in range(NDIM):
         piv = col
         best = abs(w[col, col])
@@ -373,20 +377,28 @@ def _inv(a, w, out):
                 tmp = w[col, j]
                 w[col, j] = w[piv, j]
                 w[piv, j] = tmp
-                tmp = out[col, j]
-                out[col, j] = out[piv, j]
-                out[piv, j] = tmp
-        d = 1.0 / w[col, col]
-        for j in range(NDIM):
-            w[col, j] *= d
-            out[col, j] *= d
+            t = perm[col]
+            perm[col] = perm[piv]
+            perm[piv] = t
+        d = w[col, col]
+        for i in range(col + 1, NDIM):
+            m = w[i, col] / d
+            w[i, col] = m
+            if m != 0.0:
+                for j in range(col + 1, NDIM):
+                    w[i, j] -= m * w[col, j]
+    for c in range(NDIM):
+        # column c of a^-1: solve L U y = e_(perm^-1 c)
         for i in range(NDIM):
-            if i != col:
-                m = w[i, col]
-                if m != 0.0:
-                    for j in range(NDIM):
-                        w[i, j] -= m * w[col, j]
-                        out[i, j] -= m * out[col, j]
+            b = 1.0 if perm[i] == c else 0.0
+            for k in range(i):
+                b -= w[i, k] * out[k, c]
+            out[i, c] = b
+        for i in range(NDIM - 1, -1, -1):
+            b = out[i, c]
+            for k in range(i + 1, NDIM):
+                b -= w[i, k] * out[k, c]
+            out[i, c] = b / w[i, i]
 
 
 @njit(cache=True, nogil=True)
@@ -457,6 +469,7 @@ def generic(fidx, fval, theta, has_theta, ups, has_ups, bern, phi1c, x, p, out,
     T4 = np.empty((n, n))
     T5 = np.empty((n, n))
     pows = np.empty((8, n, n))
+    perm = np.empty(n, dtype=np.int64)
     nnz = fval.shape[0]
     absth = np.abs(theta)
     un = 0.0
@@ -549,7 +562,7 @@ def generic(fidx, fval, theta, has_theta, ups, has_ups, bern, phi1c, x, p, out,
                     for i in range(n):
                         for j in range(n):
                             T5[i, j] = T2[i, j]
-            _inv(T4, T1, L)
+            _inv(T4, T1, perm, L)
         Lfin = True
         for i in range(n):
             for j in range(n):
@@ -569,7 +582,7 @@ def generic(fidx, fval, theta, has_theta, ups, has_ups, bern, phi1c, x, p, out,
             _mm(ups, S, Psi)
             for i in range(n):
                 Psi[i, i] += 1.0
-            _inv(Psi, T1, Pi)
+            _inv(Psi, T1, perm, Pi)
             sn = _frob(Pi) * (1 + _frob(S) * un) / math.sqrt(n)
             if not math.isfinite(sn):
                 sn = np.inf

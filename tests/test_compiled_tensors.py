@@ -291,3 +291,37 @@ def test_finite_input_whose_sum_overflows_is_accepted(name):
     assert np.array_equal(c.degenerate, p.degenerate)
     assert np.array_equal(c.outside_chart, p.outside_chart)
     assert np.array_equal(np.isfinite(c.P), np.isfinite(p.P))
+
+
+@pytest.mark.reference
+def test_inverse_is_backward_stable_at_large_momenta():
+    """Found by tests/test_fast_vs_reference.py (se(3), large_momenta): at |pi| ~ 1e6 with cond(Psi) ~
+    1e6, a Gauss-Jordan inverse lost four more digits in S Psi^-1 than LAPACK's and broke the bound
+    (error 5.6e-6 against a bound of 5.1e-7). The LU inverse keeps the error within the bound."""
+    alg = catalogue("se(3)")
+    th = np.array(
+        [
+            [0.0, -0.5, -1.125, 0.0, -0.75, 0.25],
+            [0.5, 0.0, 0.5, 0.75, 0.0, -0.25],
+            [1.125, -0.5, 0.0, -0.25, 0.25, 0.0],
+            [0.0, -0.75, 0.25, 0.0, 0.0, 0.0],
+            [0.75, 0.0, -0.25, 0.0, 0.0, 0.0],
+            [-0.25, 0.25, 0.0, 0.0, 0.0, 0.0],
+        ]
+    )
+    ups = np.array(
+        [
+            [0.0, 0.5625, -0.0625, 0.125, -0.125, -0.375],
+            [-0.5625, 0.0, -0.5625, 0.0625, 0.4375, 0.1875],
+            [0.0625, 0.5625, 0.0, 0.3125, -0.0625, -0.375],
+            [-0.125, -0.0625, -0.3125, 0.0, 0.0625, -0.3125],
+            [0.125, -0.4375, 0.0625, -0.0625, 0.0, 0.0],
+            [0.375, -0.1875, 0.375, 0.3125, 0.0, 0.0],
+        ]
+    )
+    x = np.zeros((1, 6))
+    pi = np.array([[0.0, 0.0, 0.0, 830644.25518733, -804967.24108081, 0.0]])
+    res = fast.poisson_batch(alg.f, th, ups, x, pi, compiled=True)
+    assert not res.degenerate[0] and res.cond_phi[0] > 1e5  # the ill-conditioned regime
+    P_ref = REF.poisson_tensor(alg.f, th, ups, x[0], pi[0])
+    assert_within_bound(res.P, P_ref[None], res.error_bound, "compiled se(3), |pi| ~ 1e6")
