@@ -8,8 +8,10 @@ from functools import lru_cache
 
 import numpy as np
 
+from . import _compiled_tensors as _ctens
 from ._errors import ChartError, DegeneratePointError
 from ._validate import (
+    MAX_ELEMENTS,
     check_inertia,
     check_points,
     check_potential,
@@ -511,6 +513,39 @@ def _generic_poisson_chunk(f, theta, upsilon, x, p, P, cond_out, sens_out, bound
     degen_out[...] = degen
 
 
+def _check_points_fast(x, pi, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`refimpl._validate.check_points` (batched), with its per-point finiteness pass replaced by
+    one sum per array for float64 arrays of the right shapes: a sum is finite only if every entry
+    is (NaN and inf propagate, inf - inf is NaN). Otherwise, and whenever a sum is not finite
+    (a bad entry, or finite entries whose sum overflows), ``check_points`` itself decides and
+    raises its own error naming the input and the points."""
+    if (
+        isinstance(x, np.ndarray)
+        and isinstance(pi, np.ndarray)
+        and x.dtype == np.float64
+        and pi.dtype == np.float64
+        and x.shape == pi.shape
+        and x.shape[-1:] == (n,)
+        and x.size <= MAX_ELEMENTS
+    ):
+        with np.errstate(all="ignore"):
+            if np.isfinite(np.sum(x)) and np.isfinite(np.sum(pi)):
+                return x, pi
+    return check_points(x, pi, n, batched=True)
+
+
+# ------------------------------------------------ constants of the compiled kernels
+def _ct_consts() -> dict:
+    """The error model's constants, written into the compiled kernels' source (refimpl._compiled_tensors)."""
+    return {"EPS": EPS, "C_P": C_P, "TWO_PI": TWO_PI, "SERIES_MAX": SERIES_BINS[-1]}
+
+
+@lru_cache(maxsize=1)
+def _ct_bernoulli() -> np.ndarray:
+    """``1, b_1, ..., b_K`` with K the number of series terms at ``r = SERIES_BINS[-1]``."""
+    return np.concatenate([[1.0], _bernoulli_even(_series_terms(SERIES_BINS[-1]))])
+
+
 # ----------------------------------------------------------------- the class
 class FastCore:
     """The fast float64 implementation (protocol methods ``poisson_tensor``, ``hamiltonian_vector_field``).
@@ -537,7 +572,16 @@ class FastCore:
         return f, (None if not th.any() else th), (None if not up.any() else up)
 
     def poisson_batch(
-        self, f, theta, upsilon, x, pi, *, layout: str = "points", out: np.ndarray | None = None
+        self,
+        f,
+        theta,
+        upsilon,
+        x,
+        pi,
+        *,
+        layout: str = "points",
+        out: np.ndarray | None = None,
+        compiled: bool | None = None,
     ) -> PoissonBatch:
         """Poisson tensors of a batch with ``cond_phi``, ``error_bound`` and ``degenerate`` per point.
 
@@ -549,9 +593,19 @@ class FastCore:
         ``out``: an optional float64 C-contiguous array of ``P``'s shape to
         write into (repeated calls then reuse memory instead of paying the
         operating system's first-touch cost of a fresh 2n x 2n x N array).
+
+        ``compiled``: ``None`` (default) runs the numba kernels of
+        :mod:`refimpl._compiled_tensors` when numba imports, else the numpy kernels; ``True``
+        requires numba; ``False`` forces numpy. ``path`` names what ran.
         """
         f, th, up = self._model(f, theta, upsilon)
         n = f.shape[0]
+        if compiled is None:
+            compiled = _ctens.HAVE_NUMBA
+        elif compiled and not _ctens.HAVE_NUMBA:
+            raise ValueError("compiled=True needs numba, which cannot be imported here")
+        if compiled:
+            return self._poisson_compiled(f, th, up, x, pi, layout, out)
         if layout == "components":
             xa, pa = np.asarray(x), np.asarray(pi)
             if xa.ndim == 0 or pa.ndim == 0:
@@ -617,7 +671,9 @@ class FastCore:
                 P = Pp.reshape(batch_shape + (6, 6))
             else:
                 P = P.reshape((6, 6) + batch_shape)
-            path = "su2-closed-form" + ("" if up is not None else ", Upsilon = 0: no Phi")
+            path = (
+                "su2-closed-form" + ("" if up is not None else ", Upsilon = 0: no Phi") + "; numpy"
+            )
         else:
             buf = None
             if out is not None and layout == "points":
@@ -634,7 +690,7 @@ class FastCore:
                 P = dst
             else:
                 P = np.moveaxis(P, 0, -1).reshape((2 * n, 2 * n) + batch_shape)
-            path = "generic" + ("" if up is not None else ", Upsilon = 0: no Phi")
+            path = "generic" + ("" if up is not None else ", Upsilon = 0: no Phi") + "; numpy"
         return _mark_outside(
             PoissonBatch(
                 P=P,
@@ -648,6 +704,75 @@ class FastCore:
             outside,
             (P,),
             layout == "points",
+        )
+
+    def _poisson_compiled(self, f, th, up, x, pi, layout, out) -> PoissonBatch:
+        """:meth:`poisson_batch` on the numba kernels, written straight into the requested layout."""
+        n = f.shape[0]
+        if layout == "components":
+            xa, pa = np.asarray(x), np.asarray(pi)
+            if xa.ndim == 0 or pa.ndim == 0:
+                raise ValueError(
+                    f"x and pi must have shape (n, ...) for layout='components', got {xa.shape} and {pa.shape}"
+                )
+            xa_pts, pa_pts = _check_points_fast(np.moveaxis(xa, 0, -1), np.moveaxis(pa, 0, -1), n)
+            batch_shape = xa_pts.shape[:-1]
+            N = int(np.prod(batch_shape, dtype=int))
+            # (N, n) views of the components-first inputs (a copy only if they are not contiguous)
+            xv = np.moveaxis(xa_pts, -1, 0).reshape(n, N).T
+            pv = np.moveaxis(pa_pts, -1, 0).reshape(n, N).T
+            shape = (2 * n, 2 * n) + batch_shape
+            Pfull = np.empty(shape) if out is None else self._check_out(out, shape)
+            P = Pfull.reshape(2 * n, 2 * n, N).transpose(2, 0, 1)
+        elif layout == "points":
+            xa_pts, pa_pts = _check_points_fast(x, pi, n)
+            batch_shape = xa_pts.shape[:-1]
+            N = int(np.prod(batch_shape, dtype=int))
+            xv, pv = xa_pts.reshape(N, n), pa_pts.reshape(N, n)
+            shape = batch_shape + (2 * n, 2 * n)
+            Pfull = np.empty(shape) if out is None else self._check_out(out, shape)
+            P = Pfull.reshape(N, 2 * n, 2 * n)
+        else:
+            raise ValueError(f"layout must be 'points' or 'components', got {layout!r}")
+        cond, sens, bound = np.empty(N), np.empty(N), np.empty(N)
+        degen, outside = np.zeros(N, dtype=bool), np.zeros(N, dtype=bool)
+        if _is_su2(f):
+            _ctens.su2_poisson(
+                xv, pv, _su2_theta_to_xi(th), _su2_upsilon_to_tau(up), P, cond, sens, bound, degen,
+                outside, consts=_ct_consts(),
+            )  # fmt: skip
+            path = "su2-closed-form"
+        else:
+            kw = {"bern": _ct_bernoulli(), "consts": _ct_consts()}
+            r = _ctens.generic_poisson(f, th, up, xv, pv, P, cond, sens, bound, degen, **kw)
+            # the chart (refimpl._validate.outside_chart) only where the norm bound reaches its edge;
+            # those points are recomputed at x = 0, as the numpy path's hook does
+            cand = np.flatnonzero(~(r < (1 - 1e-3) * (1 - 1e-6)))
+            if cand.size:
+                off = cand[outside_chart(f, np.ascontiguousarray(xv[cand]))]
+                if off.size:
+                    outside[off] = True
+                    m = off.size
+                    sub = (np.empty((m, 2 * n, 2 * n)), np.empty(m), np.empty(m), np.empty(m))
+                    subd = np.zeros(m, dtype=bool)
+                    _ctens.generic_poisson(
+                        f, th, up, np.zeros((m, n)), np.ascontiguousarray(pv[off]),
+                        sub[0], sub[1], sub[2], sub[3], subd, **kw,
+                    )  # fmt: skip
+                    P[off], cond[off], sens[off], bound[off], degen[off] = *sub, subd
+            path = "generic"
+        path += ("" if up is not None else ", Upsilon = 0: no Phi") + "; compiled (numba)"
+        if outside.any():
+            P[outside] = np.nan
+            bound[outside] = np.inf
+        return PoissonBatch(
+            P=Pfull,
+            cond_phi=cond.reshape(batch_shape),
+            cond_data=sens.reshape(batch_shape),
+            error_bound=bound.reshape(batch_shape),
+            degenerate=degen.reshape(batch_shape),
+            path=path,
+            outside_chart=outside.reshape(batch_shape),
         )
 
     @staticmethod

@@ -637,6 +637,17 @@ def _print_flow(res) -> None:
             print(f"    error {r['label']}: {r['note']}")
 
 
+def _fast_path(case: dict) -> str:
+    """The ``path`` of the fast implementation's Poisson tensor on a bracket case (names the kernels)."""
+    from tstarg.refimpl import catalogue
+    from tstarg.refimpl.fast import Fast
+
+    f = catalogue(case["algebra"]).f
+    return (
+        Fast().poisson_batch(f, case["theta"], case["upsilon"], case["x"][:1], case["pi"][:1]).path
+    )
+
+
 def _brackets(wp, np, quick, S, opts, out, map_tasks, extra=None) -> dict:
     cases = wp.bracket_cases(quick)
     methods = [
@@ -727,6 +738,7 @@ def _brackets(wp, np, quick, S, opts, out, map_tasks, extra=None) -> dict:
                 "points": len(c["x"]),
                 "xi_theta": "coboundary -xi.f",
                 "upsilon": np.asarray(c["upsilon"]).tolist(),
+                "fast_path": _fast_path(c),  # which kernels ran: compiled (numba) or numpy
             }
             for c in cases
         ],
@@ -980,6 +992,8 @@ def render_markdown(rep: dict) -> str:
             "".join(f"![brackets]({fig}) " for fig in b["figures"]),
             "",
             f"- error: {b['error']}",
+            "- fast kernels: "
+            + "; ".join(f"{c['algebra']}: {c.get('fast_path', '?')}" for c in b["cases"]),
             "- Theta = -xi.f (a coboundary, zeven3), Upsilon random antisymmetric, points with cond(Phi) < 1e3",
             "- the mpmath reference works at dps + 12 guard digits, so its errors lie far below 10^-dps",
             "",
