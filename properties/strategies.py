@@ -53,6 +53,7 @@ __all__ = [
     "jacobi_breaking_constants",
     "non_cocycles",
     "degeneracy_condition",
+    "central_tolerance",
 ]
 
 EPS = float(np.finfo(float).eps)
@@ -619,6 +620,13 @@ def _degenerate_roots(f, theta, upsilon, pi0, d):  # candidates only: points() v
     return [r for r in roots if np.isfinite(r) and abs(r) < 1e6]
 
 
+def central_tolerance(algebra: LieAlgebra) -> float:
+    """Bound on ``max|ad_x|`` per unit ``max|x|`` that float64 rounding alone can produce when
+    ``x`` is central: each entry is a sum of n products, so ``4 n^2 eps max|f|``."""
+    n = algebra.dim
+    return 4 * n * n * float(np.finfo(float).eps) * float(np.max(np.abs(algebra.f), initial=0.0))
+
+
 def points(algebra: LieAlgebra, theta=None, upsilon=None, *, regime: str = "generic"):
     """A point ``(x, pi)`` (float64 arrays) in a conditioning ``regime`` (see the module docstring).
 
@@ -657,10 +665,16 @@ def _points(draw, algebra, theta, upsilon, regime):
         if not x.any():
             return x, pi
         x = x / np.max(np.abs(x))
-        adx = np.einsum("a,mab->mb", x, algebra.f)
-        nrm = np.linalg.norm(adx)
-        if nrm == 0:
+        # Components below eps of the largest do not change the direction, but they can make
+        # ad_x subnormal (x = (1, 1e-308, 0) on b(2)): ||ad_x|| then squares to 0 in the norm and
+        # the rescaling would overflow. They are flushed to zero.
+        x = np.where(np.abs(x) < np.finfo(float).eps, 0.0, x)
+        adx = algebra.ad(x)
+        # A direction central up to rounding (||ad_x|| <= n eps max|f| with |x| <= 1) has no chart
+        # boundary either: scaling rounding noise up to 2 pi would be meaningless.
+        if np.max(np.abs(adx)) <= central_tolerance(algebra) * np.max(np.abs(x)):
             return x, pi
+        nrm = np.linalg.norm(adx)
         return x * (rho * 2 * np.pi / nrm), pi
     # near_degenerate
     if theta is None or upsilon is None:

@@ -235,6 +235,9 @@ def test_points_regimes_deliver_their_conditioning(data):
     x, _ = data.draw(S.points(alg, regime="near_chart_boundary"))
     rho = np.linalg.norm(alg.ad(x)) / (2 * np.pi)
     # error model: x is scaled by rho 2 pi / ||ad_x||; a norm and a scaling, each a few n eps relative
-    assert min(abs(rho - r) for r in (0.6, 0.8, 0.9)) <= 16 * alg.dim * EPS or not alg.ad(x).any()
+    # a direction central up to rounding is returned unscaled: its ad_x is at most the strategy's
+    # central tolerance (4 n^2 eps max|f| max|x|, the rounding of a sum of n products)
+    central = np.max(np.abs(alg.ad(x))) <= S.central_tolerance(alg) * np.max(np.abs(x))
+    assert min(abs(rho - r) for r in (0.6, 0.8, 0.9)) <= 16 * alg.dim * EPS or central
     x, pi = data.draw(S.points(alg, regime="generic"))
     assert np.all(np.abs(x) <= 0.8) and np.all(np.abs(pi) <= 2)
