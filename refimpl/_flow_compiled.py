@@ -278,7 +278,7 @@ def _full_field(model) -> _ct.CompiledField:
 
 
 def _full_run(model, y0, t, eps):
-    y, steps = _ct.taylor_adaptive(_full_field(model), y0, t, eps)
+    y, steps = _ct.taylor_adaptive(_full_field(model), y0, t, eps, _ct.adaptive_order(eps))
     return y.T, steps
 
 
@@ -314,6 +314,8 @@ _NO_GAMMA = np.zeros(3)
 
 
 def _run(model, y0, t, eps, order=None):
+    # the two-run control was tuned on Jorba-Zou's order (the checking run A): no ORDER_BIAS here
+    order = _ct.adaptive_order(eps) if order is None else order
     y, steps = _ct.taylor_adaptive(_full_field(model), y0, t, eps, order)
     if np.any(steps < 0):
         raise ValueError(
@@ -453,7 +455,7 @@ def compiled_taylor_samples(
         d = np.zeros(todo.size)
         for k in range(1, len(times)):
             dt = times[k] - times[k - 1]
-            A, sA = _ct.taylor_adaptive(cf, A, dt, eps_a)
+            A, sA = _ct.taylor_adaptive(cf, A, dt, eps_a, _ct.adaptive_order(eps_a))
             B, sB = _ct.taylor_adaptive(cf, B, dt, eps_b, _order_b(cf, eps_b))
             if np.any(sB < 0) or np.any(sA < 0):
                 bad = todo[(sA < 0) | (sB < 0)]

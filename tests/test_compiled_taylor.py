@@ -94,9 +94,38 @@ def test_plain_python_path_equals_compiled_path():
     assert np.max(np.abs(ct.taylor_fixed(cf, y0, 0.1, 10, 10) - out_py)) <= 64 * EPS * 10 * 4
     fast, sf = ct.taylor_adaptive(cf, y0, 3.0, 1e-10)
     slow, ss = np.empty_like(y0), np.zeros(3, dtype=np.int64)
-    ct._py_adaptive(cf, y0, 3.0, 1e-10, ct.adaptive_order(1e-10), 10**6, slow, ss)
+    ct._py_adaptive(cf, y0, 3.0, 1e-10, ct.default_order(cf, 1e-10), 10**6, slow, ss)
     assert np.all(np.abs(sf - ss) <= 1)  # a step size on the rounding edge may add one step
     assert np.max(np.abs(fast - slow)) <= 1e-10 * 4  # both within the local tolerance of each other
+
+
+@needs_numba
+@pytest.mark.parametrize("label", list(MODELS))
+@pytest.mark.parametrize("T", [2.5, -1.5])
+def test_batch_kernel_runs_every_trajectory_as_the_single_kernel_does(label, T):
+    """The SIMD batch kernel (lanes refilled as trajectories finish) against the single-trajectory kernel
+    run row by row: same control per trajectory, so the same step counts, and end states equal to
+    rounding (error model 8 eps * steps * scale; the two codes are the same statements, so in practice
+    bit-identical). 2 W + 3 trajectories exercise refills and idle lanes; a row that blows up (y = 1e200)
+    is reported as failed (NaN, steps -1) without touching its neighbours, and the caller's array is
+    not written."""
+    model = MODELS[label]()
+    cf = ct.compiled_field(quadratic_field(model))
+    W = ct.BATCH_WIDTH
+    y0 = _y0(model, np.random.default_rng(7), 2 * W + 3).T.copy()
+    y0[W + 1] = 1e200  # quadratic field: overflows within the first step
+    keep = y0.copy()
+    got, steps = ct.taylor_adaptive(cf, y0, T, 1e-11, batch=True)
+    assert np.array_equal(y0, keep)
+    for n in range(y0.shape[0]):
+        one, s1 = ct.taylor_adaptive(cf, y0[n : n + 1], T, 1e-11, batch=False)
+        if n == W + 1:
+            assert steps[n] == -1 and s1[0] == -1 and np.all(np.isnan(got[n]))
+            continue
+        assert steps[n] == s1[0] > 0
+        scale = max(1.0, float(np.max(np.abs(one))))
+        assert np.all(np.isfinite(got[n]))
+        assert np.max(np.abs(got[n] - one[0])) <= 8 * EPS * steps[n] * scale
 
 
 def test_adaptive_free_asymmetric_top_meets_elliptic_closed_form():
