@@ -39,6 +39,7 @@ import contextlib
 import io
 import math
 import signal
+import struct
 import threading
 import time
 import traceback
@@ -235,6 +236,8 @@ def encode(v: Any) -> Any:
         return {"array": encode(v.tolist()), "dtype": str(v.dtype)}
     if isinstance(v, (np.floating, float)):
         v = float(v)
+        if math.isnan(v):  # a NaN's sign and payload bits are kept too (Hypothesis draws them)
+            return {"float": "nan", "bits": struct.pack("<d", v).hex()}
         return v if math.isfinite(v) else {"float": repr(v)}
     if isinstance(v, (np.integer,)):
         return int(v)
@@ -266,6 +269,8 @@ def decode(v: Any) -> Any:
     if "object_array" in v:
         return np.array([decode(x) for x in v["object_array"]], dtype=object).reshape(v["shape"])
     if "float" in v:
+        if "bits" in v:
+            return struct.unpack("<d", bytes.fromhex(v["bits"]))[0]
         return float(v["float"])
     if "tuple" in v:
         return tuple(decode(x) for x in v["tuple"])
