@@ -22,6 +22,13 @@ The series recurrence (Jorba and Zou 2005; the quotient rule of automatic differ
     ``n x n`` matrix ``Psi_0`` per step (Gauss-Jordan with partial pivoting) serves all orders; it is the
     exact recurrence (no truncation beyond the order ``P``).
 
+The su(2)/so(3) full state (``RationalField(model, quat=True)``)
+    appends the group element as the unit quaternion ``q`` (``g = q_0 - i q.sigma``, as
+    :func:`refimpl._taylor.quadratic_field_su2_full`): ``dq/dt = q * (0, Omega/2)``, bilinear in ``q`` and
+    ``Omega``, so ``q_{k+1} = (1/(k+1)) sum_j q_j * (0, Omega_{k-j}/2)`` from the ``Omega_k`` above. The
+    state is ``(pi, [Gamma,] q)`` in the layout of the quadratic full state, and the two-run control of
+    :mod:`refimpl._flow_compiled` runs it for the protocol's ``flow`` when ``Upsilon != 0``.
+
 Step size and order: those of :mod:`refimpl._compiled_taylor` (Jorba-Zou, ``P = ceil(-ln(tol)/2 + 1)``,
 ``h`` from the last two coefficients of ``(pi, Gamma)``, a local error about ``tol * max(1, ||y||)``),
 and the update is a compensated (Kahan) sum.
@@ -63,6 +70,7 @@ __all__ = [
     "rational_field",
     "rational_kernel",
     "rational_taylor_adaptive",
+    "rational_run",
     "rational_taylor_body",
 ]
 
@@ -80,8 +88,13 @@ class RationalField:
     ``Iinv``, ``GL``, ``UGL`` are dense ``(n, n)`` arrays whose zero patterns are part of the structure.
     """
 
-    def __init__(self, model):
+    def __init__(self, model, quat: bool = False):
         n = model.n
+        if quat and not model.su2:
+            raise ValueError(
+                "RationalField(quat=True): the quaternion kinematics are written for su(2)/so(3)"
+            )
+        self.quat = bool(quat)
         f = np.asarray(model.f, dtype=float)
         self.n = n
         self.gravity = bool(model.gravity)
@@ -95,7 +108,7 @@ class RationalField:
         GL = model.G_L if self.gravity else np.zeros((n, n))
         self.GL = np.ascontiguousarray(GL, dtype=float)
         self.UGL = np.ascontiguousarray(self.U @ self.GL)
-        self.d = 2 * n if self.gravity else n
+        self.d = (2 * n if self.gravity else n) + (4 if self.quat else 0)
 
     def args(self):
         return (self.fv, self.theta, self.U, self.Iinv, self.GL, self.UGL)
@@ -231,6 +244,11 @@ def _matvec(name: str, mask: np.ndarray, vec: str, transpose: bool = False) -> l
     return rows
 
 
+def _levi(a: int, b: int, c: int) -> int:
+    """The Levi-Civita symbol eps_abc (0-based indices)."""
+    return (a - b) * (b - c) * (c - a) // 2
+
+
 def _sum(terms) -> str:
     return " + ".join(terms) if terms else "0.0"
 
@@ -339,9 +357,31 @@ def kernel_source(rf: RationalField) -> str:
         cg = contract("og", lambda m, a, b: b, lambda m, a, b: (a, m))
         for mu in range(n):
             kb.append(f"GA[{mu}, k + 1] = ({_sum(cg[mu])}) * {inv}")
+    if rf.quat:
+        # the group element as the unit quaternion q (g = q_0 - i q.sigma, refimpl._taylor.
+        # quadratic_field_su2_full): dq/dt = q * (0, Omega/2), i.e. dq_0/dt = -1/2 q.Omega and
+        # dq/dt = 1/2 (q_0 Omega + q x Omega); bilinear in (q, Omega): Cauchy products with OM
+        qb = ["for j in range(k + 1):"]
+        kb += [f"qo_{i}_{b} = 0.0" for i in range(4) for b in range(n)]
+        kb += qb + [
+            I1 + f"qo_{i}_{b} += QQ[{i}, j] * OM[{b}, k - j]" for i in range(4) for b in range(n)
+        ]
+        kb.append(
+            f"QQ[0, k + 1] = -0.5 * ({' + '.join(f'qo_{b + 1}_{b}' for b in range(n))}) * {inv}"
+        )
+        for a in range(n):
+            cross = []
+            for e in range(n):
+                for b in range(n):
+                    sgn = _levi(a, e, b)
+                    if sgn:
+                        cross.append(f"{'+' if sgn > 0 else '-'} qo_{e + 1}_{b}")
+            kb.append(f"QQ[{a + 1}, k + 1] = 0.5 * (qo_0_{a} {' '.join(cross)}) * {inv}")
     body += [I1 + x for x in kb]
 
     rows = [("PI", c) for c in range(n)] + ([("GA", c) for c in range(n)] if grav else [])
+    if rf.quat:
+        rows += [("QQ", c) for c in range(4)]
 
     def amax(k):
         e = f"abs({rows[0][0]}[{rows[0][1]}, {k}])"
@@ -407,6 +447,7 @@ def kernel_source(rf: RationalField) -> str:
         I1 + "OM = np.zeros((n, P + 1))",
         I1 + "DK = np.zeros((n, P + 1))",
         I1 + "W = np.zeros((n, P + 1))",
+        I1 + "QQ = np.zeros((4, P + 1))",
         I1 + "S0 = np.zeros((n, n))",
         I1 + "Psi = np.zeros((n, n))",
         I1 + "Mi = np.zeros((n, n))",
@@ -420,9 +461,8 @@ def kernel_source(rf: RationalField) -> str:
         I1 + f"stall = {STALL!r}",
         I1 + "for it in range(N):",
     ]
-    src += [I2 + f"PI[{c}, 0] = y0[it, {c}]" for c in range(n)]
-    if grav:
-        src += [I2 + f"GA[{c}, 0] = y0[it, {n + c}]" for c in range(n)]
+    for c, (r, i) in enumerate(rows):
+        src.append(I2 + f"{r}[{i}, 0] = y0[it, {c}]")
     src += [
         I2 + f"for c in range({d}):",
         I3 + "comp[c] = 0.0",
@@ -434,9 +474,8 @@ def kernel_source(rf: RationalField) -> str:
     ]
     src += [I3 + x for x in body]
     src += [I3 + x for x in step]
-    src += [I2 + f"out[it, {c}] = PI[{c}, 0]" for c in range(n)]
-    if grav:
-        src += [I2 + f"out[it, {n + c}] = GA[{c}, 0]" for c in range(n)]
+    for c, (r, i) in enumerate(rows):
+        src.append(I2 + f"out[it, {c}] = {r}[{i}, 0]")
     src += [
         I2 + "nsteps[it] = nst if status == 0 else status",
         I2 + "tend[it] = sgn * t",
@@ -510,21 +549,24 @@ _FIELDS: dict = {}
 _BY_MODEL: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # model object -> its field
 
 
-def _field(model) -> RationalField:
+def _field(model, quat: bool = False) -> RationalField:
+    """The rational field of ``model`` (the body system, or with ``quat`` the su(2) full state
+    ``(pi, [Gamma,] q)``), kept per model object and per numbers."""
     try:
-        return _BY_MODEL[model]
+        return _BY_MODEL[model][quat]
     except (KeyError, TypeError):
         pass
-    rf = _field_by_numbers(model)
+    rf = _field_by_numbers(model, quat)
     try:
-        _BY_MODEL[model] = rf
+        _BY_MODEL.setdefault(model, {})[quat] = rf
     except TypeError:  # not weak-referenceable: the numbers' key below serves
         pass
     return rf
 
 
-def _field_by_numbers(model) -> RationalField:
+def _field_by_numbers(model, quat: bool = False) -> RationalField:
     key = (
+        quat,
         model.f.tobytes(),
         model.theta.tobytes(),
         model.upsilon.tobytes(),
@@ -533,8 +575,18 @@ def _field_by_numbers(model) -> RationalField:
     )
     rf = _FIELDS.get(key)
     if rf is None:
-        rf = _FIELDS[key] = RationalField(model)
+        rf = _FIELDS[key] = RationalField(model, quat)
     return rf
+
+
+def rational_run(rf: RationalField, y0, t: float, tol: float, order: int | None = None):
+    """``(y(t), steps)`` for the rows of ``y0`` at the local tolerance ``tol``; raises as
+    :func:`rational_taylor_body` does (:class:`refimpl._errors.DegeneratePointError` on the degenerate
+    set, ``ValueError`` for a non-finite state or the step budget), naming the trajectories."""
+    y, steps, tend, conds = rational_taylor_adaptive(rf, y0, t, tol, order)
+    if steps.min() < 0:
+        _raise_failed(y, steps, tend, conds, t, COND_MAX)
+    return y, steps
 
 
 def rational_taylor_body(

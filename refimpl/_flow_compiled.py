@@ -1,4 +1,8 @@
-"""Flows by the compiled adaptive Taylor method (Upsilon = 0): body systems and the su(2) full state.
+"""Flows by the compiled adaptive Taylor methods: body systems and the su(2) full state.
+
+``Upsilon = 0``: the quadratic fields below (:mod:`refimpl._compiled_taylor`); ``Upsilon != 0``: the
+rational fields of :mod:`refimpl._compiled_rational` (the solve by Phi as a series recurrence), with the
+same state layout and the same two-run control (:func:`_runner` picks the kernel).
 
 Systems
     ``body``: ``(pi)`` or ``(pi, Gamma)`` -- the quadratic field of :func:`refimpl._taylor.quadratic_field`
@@ -33,6 +37,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import _compiled_rational as _cr
 from . import _compiled_taylor as _ct
 from . import _fast_kernels as _fast
 from ._taylor import quadratic_field, quadratic_field_su2_full
@@ -95,8 +100,25 @@ def _field(model, full: bool) -> _ct.CompiledField:
 
 
 def supports_full(model) -> bool:
-    """The compiled full-state Taylor flow covers su(2)/so(3) with ``Upsilon = 0``."""
-    return bool(model.upsilon_zero and model.su2)
+    """The compiled full-state Taylor flow covers su(2)/so(3): the quadratic field for ``Upsilon = 0``,
+    the rational one (:mod:`refimpl._compiled_rational` with the quaternion) otherwise."""
+    return bool(model.su2)
+
+
+def _runner(model, full: bool):
+    """``(run, order_b)`` for the two-run control: ``run(y0, t, eps, order)`` -> ``(y, steps)`` (raises
+    naming failed trajectories) and B's order for a local tolerance. Upsilon = 0: the quadratic
+    kernels of :mod:`refimpl._compiled_taylor`; else the rational kernel (one ``Psi_0`` inverse per
+    step; :class:`refimpl._errors.DegeneratePointError` on the degenerate set)."""
+    if model.upsilon_zero:
+        cf = _full_field(model) if full else _body_field(model)
+        return (lambda y0, t, eps, order=None: _run_cf(cf, y0, t, eps, order)), (
+            lambda e: _order_b(cf, e)
+        )
+    rf = _cr._field(model, quat=full)
+    return (lambda y0, t, eps, order=None: _cr.rational_run(rf, y0, t, eps, order)), (
+        _ct.adaptive_order
+    )
 
 
 def quat_to_x(q):
@@ -167,9 +189,7 @@ def compiled_taylor_body(
     else:
         G0 = _gamma0(model, x0)
         y0 = (pi0 if G0 is None else np.concatenate([pi0, G0])).T
-    cf = model.__dict__.get("_taylor_body_field")
-    if cf is None:
-        cf = model.__dict__["_taylor_body_field"] = _field(model, False)
+    cf = _body_field(model)
     if nsteps is not None:
         y = _ct.taylor_fixed(cf, y0, t / nsteps, int(nsteps), int(order))
         steps = np.full(N, int(nsteps))
@@ -277,11 +297,6 @@ def _full_field(model) -> _ct.CompiledField:
     return cf
 
 
-def _full_run(model, y0, t, eps):
-    y, steps = _ct.taylor_adaptive(_full_field(model), y0, t, eps, _ct.adaptive_order(eps))
-    return y.T, steps
-
-
 def local_tolerances(tol: float) -> tuple[float, float]:
     """``(eps_A, eps_B)``: the first local tolerances of the checking run ``A`` and the returned run ``B``.
 
@@ -313,10 +328,17 @@ def _order_b(cf, eps_b: float) -> int:
 _NO_GAMMA = np.zeros(3)
 
 
-def _run(model, y0, t, eps, order=None):
+def _body_field(model) -> _ct.CompiledField:
+    cf = model.__dict__.get("_taylor_body_field")
+    if cf is None:
+        cf = model.__dict__["_taylor_body_field"] = _field(model, False)
+    return cf
+
+
+def _run_cf(cf, y0, t, eps, order=None):
     # the two-run control was tuned on Jorba-Zou's order (the checking run A): no ORDER_BIAS here
     order = _ct.adaptive_order(eps) if order is None else order
-    y, steps = _ct.taylor_adaptive(_full_field(model), y0, t, eps, order)
+    y, steps = _ct.taylor_adaptive(cf, y0, t, eps, order)
     if np.any(steps < 0):
         raise ValueError(
             f"compiled Taylor flow: trajectories {np.flatnonzero(steps < 0)[:10].tolist()} became non-finite "
@@ -331,11 +353,11 @@ def _control(model, y0, t, eps_a0, n, tol):
     Trajectories are grouped by their local tolerances (one tolerance per kernel call); a trajectory
     run again keeps its ``B`` when ``B``'s tolerance does not change (only ``A`` is run again)."""
     N = len(y0)
-    cf = _full_field(model)
+    run, order_b = _runner(model, True)
     if N == 1:  # one trajectory, first pair: scalars only (the common protocol call)
         eb0 = _eps_b(eps_a0)
-        A, _ = _run(model, y0, t, eps_a0)
-        B, sB = _run(model, y0, t, eb0, _order_b(cf, eb0))
+        A, _ = run(y0, t, eps_a0)
+        B, sB = run(y0, t, eb0, order_b(eb0))
         d1 = np.empty(1)
         _estimate(A, B, n, d1)
         e1 = float(d1[0])
@@ -367,8 +389,8 @@ def _control(model, y0, t, eps_a0, n, tol):
             need = todo[have[todo] != ep[todo]]
             for e in np.unique(ep[need]) if need.size > 1 else ep[need]:
                 idx = need if need.size == 1 else need[ep[need] == e]
-                order = _order_b(cf, float(e)) if kind == "B" else None
-                y, st = _run(model, y0 if N == 1 else y0[idx], t, float(e), order)
+                order = order_b(float(e)) if kind == "B" else None
+                y, st = run(y0 if N == 1 else y0[idx], t, float(e), order)
                 X[idx], have[idx] = y, e
                 if out is not None:
                     out[idx] = st
@@ -422,7 +444,7 @@ def compiled_taylor_samples(
     (N,), ``path``."""
     n, N = pi0.shape
     if full and not supports_full(model):
-        raise ValueError("compiled Taylor full state: written for su(2)/so(3) with Upsilon = 0")
+        raise ValueError("compiled Taylor full state: written for su(2)/so(3)")
     grav = bool(model.gravity)
     if model.su2 and (full or grav):
         d = n + (n if grav else 0) + 4
@@ -438,12 +460,7 @@ def compiled_taylor_samples(
     else:
         G0 = _gamma0(model, x0)
         y0 = np.ascontiguousarray((pi0 if G0 is None else np.concatenate([pi0, G0])).T)
-    if full:
-        cf = _full_field(model)
-    else:
-        cf = model.__dict__.get("_taylor_body_field")
-        if cf is None:
-            cf = model.__dict__["_taylor_body_field"] = _field(model, False)
+    run, order_b = _runner(model, full)
     times = np.asarray(times, dtype=float)
     eps_a, eps_b = local_tolerances(tol)
     todo = np.arange(N)
@@ -455,14 +472,8 @@ def compiled_taylor_samples(
         d = np.zeros(todo.size)
         for k in range(1, len(times)):
             dt = times[k] - times[k - 1]
-            A, sA = _ct.taylor_adaptive(cf, A, dt, eps_a, _ct.adaptive_order(eps_a))
-            B, sB = _ct.taylor_adaptive(cf, B, dt, eps_b, _order_b(cf, eps_b))
-            if np.any(sB < 0) or np.any(sA < 0):
-                bad = todo[(sA < 0) | (sB < 0)]
-                raise ValueError(
-                    f"compiled Taylor: trajectories {bad[:10].tolist()} became non-finite before t = {times[k]} "
-                    "(diverged); no point is dropped"
-                )
+            A, sA = run(A, dt, eps_a)
+            B, sB = run(B, dt, eps_b, order_b(eps_b))
             dk = np.empty(todo.size)
             if full:
                 _estimate(A, B, n, dk)
@@ -506,7 +517,7 @@ def compiled_taylor_flow(model, x0, pi0, t: float, tol: float) -> dict:
     see the module docstring; an estimate of the returned run's error from above, blind to the
     rounding floor of the starting point) and ``path`` (``numba`` or ``python``)."""
     if not supports_full(model):
-        raise ValueError("compiled Taylor full state: written for su(2)/so(3) with Upsilon = 0")
+        raise ValueError("compiled Taylor full state: written for su(2)/so(3)")
     n, N = pi0.shape
     d = n + (n if model.gravity else 0) + 4
     y0 = np.empty((N, d))

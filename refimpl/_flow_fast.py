@@ -343,12 +343,15 @@ def integrate_fast(
         tol = check_tolerance(tol)
         if observe is not None:
             raise ValueError(f"method {meth.name} is adaptive: it has no fixed steps to observe")
-        if meth.kind == "taylor-rational":  # Upsilon != 0 (refimpl._compiled_rational), body only
-            if system != "body":
+        if meth.kind == "taylor-rational":  # Upsilon != 0 (refimpl._compiled_rational)
+            if system == "body":
+                return rational_taylor_body(model, x0, pi0, t, tol=tol)
+            if not model.su2:
                 raise ValueError(
-                    f"method {meth.name} integrates the body system only (no configuration)"
+                    f"method {meth.name} integrates the full state on su(2)/so(3) only (the "
+                    "configuration as a quaternion); use system='body' or a re-basing method"
                 )
-            return rational_taylor_body(model, x0, pi0, t, tol=tol)
+            return compiled_taylor_flow(model, x0, pi0, t, tol)
         if system == "body":
             return compiled_taylor_body(model, x0, pi0, t, tol=tol)
         if not supports_full(model):
@@ -897,9 +900,10 @@ def _check_rates(model: NumpyModel, pa, tv: float) -> None:
 
 def _default_method(model: NumpyModel, *, full: bool = False) -> Method:
     """The fastest method meeting a tolerance: the compiled adaptive Taylor method on the su(2) full
-    state (``full``) when numba is present, else DOP853 (``Upsilon = 0``) or Gauss6 (``Upsilon != 0``)."""
+    state (``full``) when numba is present (``taylor``, or ``taylor-rational`` when ``Upsilon != 0``),
+    else DOP853 (``Upsilon = 0``) or Gauss6 (``Upsilon != 0``)."""
     if full and _ct.HAVE_NUMBA and supports_full(model):
-        return METHODS["taylor"]
+        return METHODS["taylor"] if model.upsilon_zero else METHODS["taylor-rational"]
     return METHODS["dop853"] if model.upsilon_zero else METHODS["gauss6"]
 
 
@@ -920,10 +924,10 @@ def fast_flow(
 ):
     """Protocol method 3, batched: ``(x, pi)`` at time ``t`` for every initial point.
 
-    ``method_name``: a key of :data:`METHODS` (default: the compiled adaptive Taylor method ``taylor``
-    on su(2)/so(3) with ``Upsilon = 0`` when numba is importable -- its two-run control keeps every
-    trajectory's error in ``pi`` and ``Ad(g)`` below ``tol``, see :mod:`refimpl._flow_compiled` --
-    else ``dop853``, or ``gauss6`` when ``Upsilon != 0``). ``steps``: a fixed step count; by
+    ``method_name``: a key of :data:`METHODS` (default on su(2)/so(3) when numba is importable: the
+    compiled adaptive Taylor method, ``taylor`` for ``Upsilon = 0`` and ``taylor-rational`` otherwise --
+    its two-run control keeps every trajectory's error in ``pi`` and ``Ad(g)`` below ``tol``, see
+    :mod:`refimpl._flow_compiled` -- else ``dop853``, or ``gauss6`` when ``Upsilon != 0``). ``steps``: a fixed step count; by
     default steps are doubled from ``8 + 4 t`` until the runs with ``N`` and
     ``2N`` steps differ by at most ``tol * (2^p - 1)`` (Richardson: the
     error of the finer run is then below ``tol``) on every trajectory.

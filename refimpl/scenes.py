@@ -360,6 +360,13 @@ def plan(scene: Scene) -> Plan:
         if not ok:
             raise ValueError(f"scene method {name!r} does not apply: {why}")
         reasons.append(f"method {name} requested by the scene")
+    elif phi and _rational_taylor_applies(model, system):
+        name = "taylor-rational"
+        reasons.append(
+            "Upsilon != 0, a rational field: the compiled adaptive Taylor method with the solve by "
+            "Phi as a series recurrence (numba; order and steps per trajectory from the tolerance), "
+            "two runs per trajectory keep every trajectory within tol (refimpl._compiled_rational)"
+        )
     elif phi:
         name = "gauss6"
         reasons.append("Upsilon != 0: Gauss-Legendre (order 6) keeps omega_L's structure")
@@ -407,6 +414,14 @@ def _adaptive_taylor_applies(model, system: str) -> bool:
     if not (_compiled_taylor.HAVE_NUMBA and model.upsilon_zero):
         return False
     return system == "body" or supports_full(model)
+
+
+def _rational_taylor_applies(model, system: str) -> bool:
+    """The compiled rational Taylor method covers the body systems with ``Upsilon != 0`` and the su(2)
+    full state, when numba is importable."""
+    from . import _compiled_taylor
+
+    return _compiled_taylor.HAVE_NUMBA and (system == "body" or bool(model.su2))
 
 
 def _pilot_steps(model, meth, scene, system) -> int:

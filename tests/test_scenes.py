@@ -12,6 +12,7 @@ import tstarg.refimpl._flow_fast as flow_fast
 from tstarg.refimpl.flows import load_scene, parse_scene, plan, run_scene
 
 SCENES = sorted((Path(__file__).resolve().parent.parent / "refimpl" / "scenes").glob("*.toml"))
+EPS = float(np.finfo(float).eps)
 BASE = {
     "algebra": "su(2)",
     "inertia_diagonal": [1.0, 2.0, 3.0],
@@ -81,13 +82,24 @@ def test_no_phi_solve_when_upsilon_zero(monkeypatch):
 
 
 def test_phi_solved_when_upsilon_nonzero(monkeypatch):
-    """Upsilon != 0 (control): Phi is solved and the Gauss method is chosen."""
+    """Upsilon != 0 (control): Phi is solved. With numba the planner takes the compiled rational
+    Taylor method (its Phi solve is the series recurrence inside the kernel), else Gauss6; a scene
+    that asks for Gauss6 solves by numpy. The two runs agree within the scene tolerance at every
+    sample (error model: each within tol of the flow, so 2 tol apart, plus 64 eps |pi| of rounding)."""
+    from tstarg.refimpl import _compiled_taylor
+
     sc = parse_scene({**BASE, "tau": [0.05, -0.1, 0.08]})
     p = plan(sc)
-    assert p.phi_solve and p.method == "gauss6"
+    assert p.phi_solve
+    assert p.method == ("taylor-rational" if _compiled_taylor.HAVE_NUMBA else "gauss6")
+    got = run_scene(sc, p)
+    sg = parse_scene({**BASE, "tau": [0.05, -0.1, 0.08], "method": "gauss6"})
     calls = _count_solves(monkeypatch)
-    run_scene(sc, p)
+    want = run_scene(sg, plan(sg))
     assert calls["n"] > 0
+    assert np.all(np.isfinite(got["pi"]))
+    tol = sc.tol
+    assert np.max(np.abs(got["pi"] - want["pi"])) <= 2 * tol + 64 * EPS * np.max(np.abs(want["pi"]))
 
 
 def test_planned_run_meets_the_tolerance():

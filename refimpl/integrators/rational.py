@@ -13,7 +13,9 @@ __all__ = ["INTEGRATORS", "RationalTaylorMethod"]
 @dataclass(frozen=True)
 class RationalTaylorMethod(Method):
     """Adaptive order and step from a tolerance (Jorba-Zou) on the body system ``(pi[, Gamma])`` with
-    ``Upsilon != 0``; raises :class:`refimpl._errors.DegeneratePointError` on the degenerate set."""
+    ``Upsilon != 0``, and on su(2)/so(3) the full state ``(pi, [Gamma,] q)`` under the two-run control
+    of :mod:`refimpl._flow_compiled`; raises :class:`refimpl._errors.DegeneratePointError` on the
+    degenerate set."""
 
     kind: str = "taylor-rational"
     adaptive: bool = True
@@ -24,7 +26,12 @@ class RationalTaylorMethod(Method):
                 False,
                 "Upsilon = 0: the field is polynomial and the method 'taylor' needs no Phi solve",
             )
-        return True, "body system only (pi, Gamma); no configuration"
+        if not model.su2:
+            return (
+                True,
+                "body system (pi, Gamma) on this algebra; the full state on su(2)/so(3) only",
+            )
+        return True, "body system (pi, Gamma), and the full state with the quaternion (su(2)/so(3))"
 
 
 INTEGRATORS = [RationalTaylorMethod("taylor-rational", 0)]
