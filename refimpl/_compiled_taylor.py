@@ -379,6 +379,41 @@ def _coefficient_lines(cf: CompiledField, P: int) -> tuple[list[str], list[int]]
     return body, [c for c in range(d) if c not in const]
 
 
+def _kernel_prologue(cf: CompiledField, P: int) -> list[str]:
+    """The first statements of an adaptive kernel: the field's numbers read once into locals, the
+    batch size, the direction and length of the time span, the step's safety factor."""
+    return _loads(cf) + [
+        "N = y0.shape[0]",
+        "sgn = 1.0 if T >= 0 else -1.0",
+        "Tabs = abs(T)",
+        f"damp = {math.exp(-0.7 / (P - 1))!r}",
+    ]
+
+
+def _loads(cf: CompiledField) -> list[str]:
+    """The field's numbers read once per call into locals ``q{t}``, ``l{t}``."""
+    return [f"q{t} = q[{t}]" for t in range(len(cf.qcoef))] + [
+        f"l{t} = l[{t}]" for t in range(len(cf.lcoef))
+    ]
+
+
+def _step_size_lines(P: int, xn: str, a1: str, a2: str, fail: list[str]) -> list[str]:
+    """The Jorba-Zou step of the module docstring from the expressions of ``max|y_0|`` and of the last
+    two coefficients' norms; ``fail`` runs when no positive step results (overflowed coefficients)."""
+    return [
+        f"s = tol * max(1.0, {xn})",
+        f"a1 = {a1}",
+        f"a2 = {a2}",
+        "h = np.inf",
+        "if a1 > 0.0:",
+        f"    h = (s / a1) ** {1.0 / (P - 1)!r}",
+        "if a2 > 0.0:",
+        f"    h = min(h, (s / a2) ** {1.0 / P!r})",
+        "h *= damp",
+        "if not (h > 0.0):",
+    ] + ["    " + x for x in fail]
+
+
 def _unrolled_source(cf: CompiledField, P: int) -> str:
     """A module with ``adaptive`` and ``fixed`` for the structure of ``cf`` at order ``P``, unrolled.
 
@@ -417,9 +452,7 @@ def _unrolled_source(cf: CompiledField, P: int) -> str:
             e = f"max({e}, {t})"
         return e
 
-    load = [f"q{t} = q[{t}]" for t in range(len(cf.qcoef))] + [
-        f"l{t} = l[{t}]" for t in range(len(cf.lcoef))
-    ]
+    load = _kernel_prologue(cf, P)
     unpack = [f"y{c}_0 = y0[n, {c}]" for c in range(d)] + [f"e{c} = 0.0" for c in var]
     store_ok = [f"out[n, {c}] = y{c}_0" for c in range(d)]
     fin = " and ".join(f"math.isfinite(y{c}_0)" for c in var) or "True"
@@ -434,29 +467,14 @@ def _unrolled_source(cf: CompiledField, P: int) -> str:
         "def adaptive(y0, T, tol, max_steps, q, l, out, nsteps):",
     ]
     src += [I1 + x for x in load]
-    src += [
-        I1 + "N = y0.shape[0]",
-        I1 + "sgn = 1.0 if T >= 0 else -1.0",
-        I1 + "Tabs = abs(T)",
-        I1 + f"damp = {math.exp(-0.7 / (P - 1))!r}",
-        I1 + "for n in range(N):",
-    ]
+    src += [I1 + "for n in range(N):"]
     src += [I2 + x for x in unpack]
     src += [I2 + "t = 0.0", I2 + "k = 0", I2 + "ok = True", I2 + "while t < Tabs:"]
     src += [I3 + x for x in body] + [I3 + "pass"]
     src += [
-        I3 + f"s = tol * max(1.0, {amax(0)})",
-        I3 + f"a1 = {amax(P - 1)}",
-        I3 + f"a2 = {amax(P)}",
-        I3 + "h = np.inf",
-        I3 + "if a1 > 0.0:",
-        I4 + f"h = (s / a1) ** {1.0 / (P - 1)!r}",
-        I3 + "if a2 > 0.0:",
-        I4 + f"h = min(h, (s / a2) ** {1.0 / P!r})",
-        I3 + "h *= damp",
-        I3 + "if not (h > 0.0):",
-        I4 + "ok = False",
-        I4 + "break",
+        I3 + x for x in _step_size_lines(P, amax(0), amax(P - 1), amax(P), ["ok = False", "break"])
+    ]
+    src += [
         I3 + "if t + h >= Tabs:",
         I4 + "h = Tabs - t",
         I4 + "t = Tabs",
@@ -480,7 +498,7 @@ def _unrolled_source(cf: CompiledField, P: int) -> str:
         _JIT,
         "def fixed(y0, h, nsteps, q, l, out):",
     ]
-    src += [I1 + x for x in load]
+    src += [I1 + x for x in _loads(cf)]
     src += [I1 + "for n in range(y0.shape[0]):"] + [I2 + x for x in unpack]
     src += (
         [I2 + "for _ in range(nsteps):"]
@@ -532,17 +550,11 @@ def _batch_source(cf: CompiledField, P: int, W: int = BATCH_WIDTH) -> str:
         return e
 
     I1, I2, I3, I4, I5 = ("    " * i for i in range(1, 6))
-    load = [f"q{t} = q[{t}]" for t in range(len(cf.qcoef))] + [
-        f"l{t} = l[{t}]" for t in range(len(cf.lcoef))
-    ]
+    load = _kernel_prologue(cf, P)
     src = ["import math", "import numpy as np", "from numba import njit", "", "", _JIT]
     src.append("def adaptive_batch(y0, T, tol, max_steps, q, l, out, nsteps):")
     src += [I1 + x for x in load]
     src += [
-        I1 + "N = y0.shape[0]",
-        I1 + "sgn = 1.0 if T >= 0 else -1.0",
-        I1 + "Tabs = abs(T)",
-        I1 + f"damp = {math.exp(-0.7 / (P - 1))!r}",
         I1 + f"B = np.zeros({R * W})",
         I1 + f"lane = np.full({W}, -1, dtype=np.int64)",
         I1 + f"tl = np.zeros({W})",
@@ -573,18 +585,11 @@ def _batch_source(cf: CompiledField, P: int, W: int = BATCH_WIDTH) -> str:
         I3 + f"{at(RH)} = 0.0",
         I3 + "if lane[w] < 0:",
         I4 + "continue",
-        I3 + f"s = tol * max(1.0, {at(RX)})",
-        I3 + f"a1 = {at(RA1)}",
-        I3 + f"a2 = {at(RA2)}",
-        I3 + "h = np.inf",
-        I3 + "if a1 > 0.0:",
-        I4 + f"h = (s / a1) ** {1.0 / (P - 1)!r}",
-        I3 + "if a2 > 0.0:",
-        I4 + f"h = min(h, (s / a2) ** {1.0 / P!r})",
-        I3 + "h *= damp",
-        I3 + "if not (h > 0.0):",
-        I4 + "bad[w] = True",
-        I4 + "continue",
+    ]
+    src += [
+        I3 + x for x in _step_size_lines(P, at(RX), at(RA1), at(RA2), ["bad[w] = True", "continue"])
+    ]
+    src += [
         I3 + "if tl[w] + h >= Tabs:",
         I4 + "h = Tabs - tl[w]",
         I4 + "tl[w] = Tabs",
