@@ -679,10 +679,53 @@ def _su2_module(consts: dict):
     return _BY_CONSTS[key]
 
 
-def _generic_module(consts: dict):
-    key = ("generic", *consts.items())
+SPECIALISE_FROM = 6
+"""Dimensions from which the generic kernel is compiled for its dimension: ``n`` becomes a literal and
+the ``n x n`` products keep each row of the result in ``n`` named accumulators (registers, packed
+into SIMD lanes by the compiler) instead of in memory, which the compiler must reload and store at
+every term because it cannot prove the arrays distinct. One more compilation per dimension, repaid
+where the per-point cost is highest (``n >= 6``: se(3), su(3), sl(3,R)); smaller algebras share one
+kernel with ``n`` read at run time. Every entry is summed in the same order either way."""
+
+_MM_LOOP = """    # c = a @ b (n x n)
+    for i in range(NDIM):
+        for j in range(NDIM):
+            c[i, j] = 0.0
+        for l in range(NDIM):
+            ail = a[i, l]
+            for j in range(NDIM):
+                c[i, j] += ail * b[l, j]"""
+
+
+def _mm_unrolled(n: int) -> str:
+    """The body of ``_mm`` for dimension ``n``: row ``i`` of ``a @ b`` in the accumulators ``c0..c{n-1}``,
+    terms added in the order ``l = 0, 1, ...`` (as the loop form)."""
+    acc = ", ".join(f"c{j}" for j in range(n))
+    lines = [f"    # c = a @ b ({n} x {n}), row by row in registers", f"    for i in range({n}):"]
+    lines.append(f"        {acc} = {', '.join('0.0' for _ in range(n))}")
+    lines.append(f"        for l in range({n}):")
+    lines.append("            ail = a[i, l]")
+    lines += [f"            c{j} += ail * b[l, {j}]" for j in range(n)]
+    lines += [f"        c[i, {j}] = c{j}" for j in range(n)]
+    return "\n".join(lines)
+
+
+def _generic_source(consts: dict, n: int | None) -> str:
+    src = _fill(_GENERIC_SRC, consts)
+    if n is not None:
+        assert _MM_LOOP in src
+        src = src.replace(_MM_LOOP, _mm_unrolled(int(n)))
+        for arr in ("a.shape[0]", "W.shape[0]", "x.shape[1]"):
+            src = src.replace(f"NDIM = {arr}", f"NDIM = {int(n)}")
+    return src
+
+
+def _generic_module(consts: dict, n: int | None = None):
+    dim = int(n) if n is not None and n >= SPECIALISE_FROM else None
+    key = ("generic", dim, *consts.items())
     if key not in _BY_CONSTS:
-        _BY_CONSTS[key] = _module("generic", _fill(_GENERIC_SRC, consts))
+        name = "generic" if dim is None else f"generic{dim}"
+        _BY_CONSTS[key] = _module(name, _generic_source(consts, dim))
     return _BY_CONSTS[key]
 
 
@@ -717,7 +760,7 @@ def generic_poisson(
     ``bern``: ``1, B_2/2!, B_4/4!, ...`` with enough terms for ``r = SERIES_MAX``; ``consts``: see
     :func:`_fill`. Returns ``r >= ||ad_x||_2 / 2 pi`` per point (the caller's chart pre-filter)."""
     n = f.shape[0]
-    mod = _generic_module(consts)
+    mod = _generic_module(consts, n)
     fc = np.ascontiguousarray(f, dtype=float)
     fidx = np.argwhere(fc != 0).astype(np.int64).reshape(-1, 3)
     fval = fc[fc != 0]
