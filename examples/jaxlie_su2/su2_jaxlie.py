@@ -5,7 +5,7 @@ It covers part of the model space and declares it (``domain``): su(2) in the cat
 Outside that domain every method raises ``ValueError`` naming the violated condition, as the
 certification checks. Certify it from a clone of tstarg::
 
-    PYTHONPATH=examples/jaxlie_su2:$PYTHONPATH tstarg certify su2_jaxlie:implementation --max-examples 10
+    PYTHONPATH=examples/jaxlie_su2:${PYTHONPATH:-} tstarg certify su2_jaxlie:implementation --max-examples 10
 
 The mathematics (CONVENTIONS.md of tstarg):
 

@@ -2,7 +2,7 @@
 
 Certify it from a clone of tstarg::
 
-    PYTHONPATH=examples/python:$PYTHONPATH tstarg certify my_implementation:implementation --max-examples 10
+    PYTHONPATH=examples/python:${PYTHONPATH:-} tstarg certify my_implementation:implementation --max-examples 10
 
 It provides ``poisson_tensor`` only (the other checks are skipped, with the reason, in the
 certificate). The mathematics is that of CONVENTIONS.md and the paper's vier9:
