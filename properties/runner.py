@@ -569,11 +569,13 @@ def run_property(
         res.detail = f"unsatisfiable: {exc}"
     except CheckAborted as exc:
         res.passed = False
+        res.worst_ratio = math.inf  # not judged to the end: no ratio may read as a pass
         res.detail = f"check aborted: {exc}"[:2000]
     except BaseException as exc:  # noqa: BLE001 - any failure of the check is its verdict
         res.passed = False
         res.detail = _strip_notes(exc)
         if state["failure"] is None:  # raised outside the body: while drawing the example
+            res.worst_ratio = math.inf
             # the innermost frames (where it was raised: the strategy's own code) and the error itself
             inner = traceback.extract_tb(exc.__traceback__)[-4:]
             tb = "".join(traceback.format_list(inner)) + "".join(
