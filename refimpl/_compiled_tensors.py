@@ -329,14 +329,7 @@ SERIES_MAX = {SERIES_MAX!r}
 @njit(cache=True, nogil=True)
 def _mm(a, b, c):
     NDIM = a.shape[0]
-    # c = a @ b (n x n)
-    for i in range(NDIM):
-        for j in range(NDIM):
-            c[i, j] = 0.0
-        for l in range(NDIM):
-            ail = a[i, l]
-            for j in range(NDIM):
-                c[i, j] += ail * b[l, j]
+{MM_BODY}
 
 
 @njit(cache=True, nogil=True)
@@ -711,10 +704,11 @@ def _mm_unrolled(n: int) -> str:
 
 
 def _generic_source(consts: dict, n: int | None) -> str:
+    """The generic kernel's source: ``n`` read at run time (None), or written in for dimension ``n``
+    with the products of :func:`_mm_unrolled`."""
     src = _fill(_GENERIC_SRC, consts)
+    src = src.replace("{MM_BODY}", _MM_LOOP if n is None else _mm_unrolled(int(n)))
     if n is not None:
-        assert _MM_LOOP in src
-        src = src.replace(_MM_LOOP, _mm_unrolled(int(n)))
         for arr in ("a.shape[0]", "W.shape[0]", "x.shape[1]"):
             src = src.replace(f"NDIM = {arr}", f"NDIM = {int(n)}")
     return src

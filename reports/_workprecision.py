@@ -496,35 +496,21 @@ def heyoka_rational_rhs(model):
         rp.append(_hy_sum(t))
     zero = hy.expression(0.0)
 
-    def mv(rows):
-        return rows if rows is not None else zero
+    def solve(r, transpose: bool):
+        """``adj(Psi) r / det`` (or with ``adj(Psi)^T``), zero entries left out."""
+        out = []
+        for a in range(n):
+            terms = []
+            for b in range(n):
+                m = adj[b][a] if transpose else adj[a][b]
+                if m is not None and r[b] is not None:
+                    terms.append((1.0, m * r[b]))
+            s = _hy_sum(terms)
+            out.append((s if s is not None else zero) / det)
+        return out
 
-    Om = [
-        mv(
-            _hy_sum(
-                [
-                    (1.0, adj[a][b] * ro[b])
-                    for b in range(n)
-                    if adj[a][b] is not None and ro[b] is not None
-                ]
-            )
-        )
-        / det
-        for a in range(n)
-    ]
-    pd = [
-        mv(
-            _hy_sum(
-                [
-                    (1.0, adj[b][a] * rp[b])
-                    for b in range(n)
-                    if adj[b][a] is not None and rp[b] is not None
-                ]
-            )
-        )
-        / det
-        for a in range(n)
-    ]
+    Om = solve(ro, False)
+    pd = solve(rp, True)
     rhs = list(pd)
     if grav:
         for mu in range(n):
