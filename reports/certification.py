@@ -105,7 +105,7 @@ from tstarg.properties.strategies import (
     points,
     upsilons,
 )
-from tstarg.refimpl import CATALOGUE_NAMES, catalogue, provides, su2
+from tstarg.refimpl import CATALOGUE_NAMES, catalogue, su2
 from tstarg.refimpl.flows import reference_flow
 from tstarg.refimpl.reference import DegeneratePointError, Reference
 from tstarg.refimpl.rigorous import Rigorous, UndecidedError, error_bounds
@@ -1917,7 +1917,7 @@ def certify(
 
 
 def _has(impl, method) -> bool:
-    return provides(impl, method)  # the protocol spec's test (refimpl/_protocol.py)
+    return callable(getattr(impl, method, None))
 
 
 def _applicable(impl, cid: str, dom: Domain) -> str | None:
