@@ -27,6 +27,7 @@ module targets do not apply: they need the worker's main thread).
 from __future__ import annotations
 
 import math
+import os
 import shlex
 import shutil
 import sys
@@ -35,10 +36,11 @@ from pathlib import Path
 
 from tstarg.properties.profiles import PROFILES as _PROFILES
 
-from ._atomic import claim_output
+from ._atomic import claim_output, write_text
+from ._certdoc import certificate_document, write_certificate_files
 from ._parallel import TaskError, add_parallel_arguments, describe, parallel_options
 from ._supervise import Died, run_supervised
-from .junit import write_junit
+from .environment import environment
 
 HELP = "certify an implementation (module, module:object or --cmd PROGRAM) against the reference"
 PROFILES = {name: p["certify_examples"] for name, p in _PROFILES.items()}  # properties.profiles
@@ -254,13 +256,21 @@ def main(args) -> int:
     for c in cert.checks:
         if not c.passed and "example" in c.extra:
             c.extra["example"]["replay"] = replay_cmd
-    from .certification import write_certificate
-
-    write_certificate(cert, out)
+    env = result.get("environment") if isinstance(result, dict) else None
+    doc = certificate_document(
+        cert,
+        environment=env or environment(),
+        target=target,
+        cmd=args.cmd,
+        pythonpath=_pythonpath(),
+        cwd=os.getcwd(),
+        out=out,
+    )
+    tail = ""
     if stderr_dir is not None:
         _merge_stderr(stderr_dir, out / "program-stderr.log")
-        _append_incident_tails(cert, out)
-    write_junit(cert.to_json(), out / "certificate.junit.xml")
+        tail = _incident_tails(cert)
+    write_certificate_files(cert, doc, out, tail)
     print(cert.summary())
     for c in cert.checks:
         if not c.passed and c.falsifying_example:
@@ -321,7 +331,7 @@ def _child(job: dict):
     cert = _run(spec, par, budget, dict(kw, provided=provided))
     if isinstance(cert, str):
         return {"kind": "broken", "message": cert}
-    return {"kind": "cert", "cert": cert}
+    return {"kind": "cert", "cert": cert, "environment": environment()}
 
 
 def _broken_certificate(target: str, seed, n: int, reason: str):
@@ -384,16 +394,17 @@ def _require_a_run(cert) -> None:
 
 
 def _merge_stderr(parts: Path, log: Path) -> None:
-    with open(log, "w", encoding="utf-8") as fh:
-        for part in sorted(parts.glob("*.log")):
-            text = part.read_text(encoding="utf-8", errors="replace")
-            fh.write(f"===== program stderr while running {part.stem} =====\n{text}")
-            if text and not text.endswith("\n"):
-                fh.write("\n")
+    chunks = []
+    for part in sorted(parts.glob("*.log")):
+        text = part.read_text(encoding="utf-8", errors="replace")
+        chunks.append(f"===== program stderr while running {part.stem} =====\n{text}")
+        if text and not text.endswith("\n"):
+            chunks.append("\n")
+    write_text(log, "".join(chunks))
     shutil.rmtree(parts, ignore_errors=True)
 
 
-def _append_incident_tails(cert, out: Path) -> None:
+def _incident_tails(cert) -> str:
     lines = [
         "",
         "## Program stderr",
@@ -412,8 +423,14 @@ def _append_incident_tails(cert, out: Path) -> None:
                 "  ```",
                 "",
             ]
-    with open(out / "certificate.md", "a", encoding="utf-8") as fh:
-        fh.write("\n".join(lines) + "\n")
+    return "\n".join(lines) + "\n"
+
+
+def _pythonpath() -> list[str]:
+    """What the target's import needs: the current folder (imported first, as ``python -m``
+    does) and the ``PYTHONPATH`` of this run."""
+    extra = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+    return [os.getcwd(), *(str(Path(p).resolve()) for p in extra)]
 
 
 def _read_replay(path: str) -> dict:
@@ -424,6 +441,18 @@ def _read_replay(path: str) -> dict:
 
     try:
         data = read_json_file(path, what="--replay")
+        if not {"implementation", "target", "checks"} <= set(data):
+            raise KeyError("a certificate has 'implementation', 'target' and 'checks'")
+        checks = data["checks"]
+        if not isinstance(checks, list) or not all(
+            isinstance(c, dict)
+            and isinstance(c.get("name"), str)
+            and isinstance(c.get("passed"), bool)
+            for c in checks
+        ):
+            raise TypeError(
+                "'checks' must be a list of objects with a string name and a boolean passed"
+            )
         examples = {
             c["name"]: runner.decode(c["extra"]["example"]["values"])
             for c in data.get("checks", [])

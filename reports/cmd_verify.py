@@ -377,6 +377,11 @@ def main(args) -> int:
         if spec.count(":") != 1:
             raise ValueError(f"--provider must be 'module:function', got {spec!r}")
     budget = _budget(args)
+    try:  # the baseline is read FIRST: a corrupt one stops the run before any check (issue 30)
+        baseline = _load_baseline(args)
+    except (ValueError, OSError) as exc:
+        print(f"tstarg verify: --baseline: {exc}", file=sys.stderr)
+        return 2
     print(
         f"tstarg verify: profile {args.profile}, {max_examples} examples per check, seed {args.seed}; "
         f"budgets: example {budget['example_seconds']:g} s, check {budget['check_seconds']:g} s, "
@@ -411,7 +416,7 @@ def main(args) -> int:
         "command": " ".join(["tstarg"] + sys.argv[1:]),
     }
     out = claim_output(Path(args.out))  # issue 15: a concurrent run gets its own folder and says so
-    _compare_with_baseline(args, report, results, out)
+    _compare_with_baseline(args, report, results, out, baseline)
     failed = [r for r in results if not r.passed]
     report.update(passed=not failed, n_failed=len(failed))
     print(render_table(results))
@@ -444,7 +449,20 @@ def main(args) -> int:
     return 1 if failed else 0
 
 
-def _compare_with_baseline(args, report: dict, results: list, out: Path) -> None:
+def _load_baseline(args) -> dict | None:
+    """The baseline report (None: ``--no-baseline``, or no committed baseline); read before any
+    check runs, so that a corrupt one costs nothing."""
+    from . import regression
+
+    if getattr(args, "no_baseline", False):
+        return None
+    path = getattr(args, "baseline", None) or regression.BASELINE
+    if getattr(args, "baseline", None) is None and not Path(path).exists():
+        return None
+    return regression.load_report(path)
+
+
+def _compare_with_baseline(args, report: dict, results: list, out: Path, base=None) -> None:
     """Compare with the baseline (unless ``--no-baseline``): add the two regression rows to
     ``results`` and ``report``, write ``compare.md`` and ``figures/compare.png``."""
     from . import regression
@@ -453,7 +471,7 @@ def _compare_with_baseline(args, report: dict, results: list, out: Path) -> None
         report["baseline_note"] = "not compared (--no-baseline)"
         return
     path = getattr(args, "baseline", None) or regression.BASELINE
-    if getattr(args, "baseline", None) is None and not Path(path).exists():
+    if base is None:
         report["baseline_note"] = f"no baseline at {path}: not compared"
         print(f"no baseline at {path}: not compared")
         return
@@ -461,7 +479,6 @@ def _compare_with_baseline(args, report: dict, results: list, out: Path) -> None
     slack = regression.DIGITS_SLACK if slack is None else slack
     factor = getattr(args, "speed_factor", None)
     factor = regression.SPEED_FACTOR if factor is None else factor
-    base = regression.load_report(path)
     cmp = regression.compare(
         base, dict(report, _path=str(out / "report.json")), digits_slack=slack, speed_factor=factor
     )
