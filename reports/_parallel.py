@@ -88,12 +88,19 @@ def _collect(items: Sequence, outcomes: Iterable) -> list:
 
 
 def map_tasks(
-    fn: Callable, items: Iterable, *, workers: int | None = None, scheduler: Any = None
+    fn: Callable,
+    items: Iterable,
+    *,
+    workers: int | None = None,
+    scheduler: Any = None,
+    wait: bool = True,
 ) -> list:
     """``[fn(item) for item in items]``, computed serially, over local processes or on Dask.
 
     ``fn`` must be importable by name (a module-level function or a picklable callable
-    object). Results come back in the order of ``items``.
+    object). Results come back in the order of ``items``. ``wait=False``: return as soon as the
+    results are in, without waiting for the worker processes to leave (code under test may keep
+    a worker alive, e.g. with a non-daemon thread; the supervisor kills what is left).
     """
     items = list(items)
     if workers is not None and (not isinstance(workers, int) or workers < 1):
@@ -105,8 +112,11 @@ def map_tasks(
     if k == 1:
         return _collect(items, (guarded(it) for it in items))
     _pin_blas()  # inherited by the forked workers
-    with ProcessPoolExecutor(max_workers=k) as pool:
+    pool = ProcessPoolExecutor(max_workers=k)
+    try:
         return _collect(items, pool.map(guarded, items))
+    finally:
+        pool.shutdown(wait=wait, cancel_futures=True)
 
 
 def _map_dask(guarded: _Guarded, items: list, scheduler, workers: int | None) -> list:

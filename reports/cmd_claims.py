@@ -17,6 +17,7 @@ import math
 import sys
 from pathlib import Path
 
+from ._atomic import claim_output
 from ._atomic import write_text as atomic_write_text
 
 HELP = "the paper's claims and errata (every display and mathematical sentence): run the checks, write claims.md"
@@ -199,6 +200,11 @@ def main(args) -> int:
             )
     md += "\n".join(_gnh_section()) + "\n"
     out, figures = _destinations(args)
+    if not getattr(args, "write", False) and not getattr(args, "figures", None):
+        folder = claim_output(
+            out.parent
+        )  # the lock of verify: a concurrent run gets its own folder
+        out, figures = folder / out.name, folder / "figures"
     if not args.no_quantum:
         md += "\n".join(_quantum_section(figures)) + "\n"
     out.parent.mkdir(parents=True, exist_ok=True)

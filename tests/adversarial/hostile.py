@@ -235,3 +235,31 @@ def run_case(
         bad = [c for c in cert["checks"] if not c["passed"]]
         detail = (bad[0]["detail"] if bad else "PASS")[:200]
     return Outcome(name, f"certify {kind}", outcome, code, seconds, detail)
+
+
+# ------------------------------------------------------------------ jobs for run_supervised
+def job_returns(job):
+    """Returns its job, after starting a non-daemon thread and a hostile atexit."""
+    import atexit
+    import threading
+
+    threading.Thread(target=time.sleep, args=(10**6,)).start()
+    atexit.register(os._exit, 3)
+    return {"echo": job}
+
+
+def job_hangs_with_grandchild(job):
+    """Starts a grandchild in a new process group that ignores SIGTERM, records its pid, hangs."""
+    import signal
+
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    child = subprocess.Popen(
+        [sys.executable, "-c", "import signal, time; signal.signal(15, 1); time.sleep(10**6)"],
+        process_group=0,
+    )
+    Path(job).write_text(str(child.pid))
+    time.sleep(10**6)
+
+
+def job_exits(job):
+    os._exit(0)

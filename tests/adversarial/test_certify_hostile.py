@@ -92,3 +92,22 @@ def test_certificate_is_a_dashboard_document(tmp_path, monkeypatch):
         ["bash", "-c", rep["python"]], capture_output=True, text=True, timeout=120, check=False
     )
     assert done.returncode == 0 and "[[" in done.stdout, done.stderr[-2000:]
+
+
+@pytest.mark.slow
+def test_three_concurrent_certify_runs_on_one_out_lose_nothing(tmp_path):
+    """Each run holds the output folder's lock or writes to its own run-<pid> folder inside it,
+    and says so; all three certificates survive."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "same"
+    argv = [sys.executable, "-m", "tstarg.reports.cli", "certify", "tests.meta.module_impl"]
+    argv += ["--check", "poisson_tensor.antisymmetry", "--max-examples", "2", "--profile", "dev"]
+    argv += ["--workers", "1", "--out", str(out)]
+    procs = [subprocess.Popen(argv, stdout=subprocess.PIPE, text=True) for _ in range(3)]
+    outs = [p.communicate(timeout=600)[0] for p in procs]
+    assert [p.returncode for p in procs] == [0, 0, 0], outs
+    certs = sorted(out.rglob("certificate.json"))
+    assert len(certs) == 3 and all(json.loads(c.read_text())["passed"] for c in certs)
+    assert sum("this run writes to" in o for o in outs) == 2
