@@ -18,6 +18,16 @@ from the drawn values (algebra, Theta, Upsilon, point, t, worst entry) and store
 the JSON; ``tstarg certify TARGET --replay OUT/certificate.json`` re-runs exactly those
 examples.
 
+The harness owns time, signals and exit codes: this process validates the arguments, locks
+``--out`` (a concurrent run writes to ``--out/run-<pid>`` and says so), and runs the target in a
+supervised child (:mod:`reports._supervise`) under every worker setting. ``--budget`` is a hard
+wall: past it the child's whole session (workers, programs, their children) is killed. A child
+that ends without a result (``os._exit``, ``sys.exit``, ``KeyboardInterrupt``, a signal, at import
+or in a method) yields a FAIL certificate with the reason (check ``harness.run``), never exit 0.
+The certificate (:mod:`reports._certdoc`, schema ``reports/schema/certificate.schema.json``)
+carries the environment, per check the margin and the judge's own error, and per failure
+copy-paste reproducers; it is written atomically.
+
 The check ids run in parallel over local processes by default (each worker loads the
 target itself, or starts its own copy of the ``--cmd`` program); ``--workers 1`` runs them
 in this process, ``--scheduler ADDRESS`` on a Dask cluster (where per-call time limits of

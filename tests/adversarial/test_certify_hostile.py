@@ -18,7 +18,7 @@ import pytest
 from tests.adversarial import hostile
 from tstarg.reports import cli
 
-DEFAULT = {"import_os_exit", "loose_flow_tolerance"}
+DEFAULT = {"import_os_exit"}  # the caps are tested in-process (tests/test_schema.py)
 DEFAULT_PROGRAMS = {"wrong_id"}
 
 
