@@ -162,6 +162,7 @@ def main(args) -> int:
     """The harness (this process) validates the arguments, locks the output folder, runs the
     target in a supervised child (:mod:`reports._supervise`: a hard wall at ``--budget``, every
     process it started killed at the end) and writes the certificate, whatever the child did."""
+    t_start = time.monotonic()  # the wall counts from here, the harness's own work included
     if bool(args.target) == bool(args.cmd):
         return _fail("give exactly one of TARGET (module or module:object) or --cmd")
     try:
@@ -231,6 +232,8 @@ def main(args) -> int:
     }
     if replay is not None:
         return _replay_result(run_supervised(CHILD, job, wall=run_budget), run_budget)
+    # the part of the budget left for the child (its checks stop drawing before the wall)
+    job["run_budget"] = wall = max(1.0, run_budget - (time.monotonic() - t_start))
     try:
         out = claim_output(args.out)
     except (OSError, RuntimeError) as exc:
@@ -241,7 +244,7 @@ def main(args) -> int:
         shutil.rmtree(stderr_dir, ignore_errors=True)
         stderr_dir.mkdir(parents=True, exist_ok=True)
         job["spec"] = dict(spec, stderr_dir=str(stderr_dir))
-    result = run_supervised(CHILD, job, wall=run_budget)
+    result = run_supervised(CHILD, job, wall=wall)
     if isinstance(result, dict) and result.get("kind") == "error":
         if stderr_dir is not None:
             shutil.rmtree(stderr_dir, ignore_errors=True)
