@@ -58,11 +58,14 @@ from ._errors import ChartError, DegeneratePointError
 from ._frames import frames
 from ._protocol import Implementation
 from .fast import Fast
+from .model import Model, State
 from .reference import Reference
 from .scenes import Plan, Scene, load_scene, plan, run_scene
 
 __all__ = [
     "LieAlgebra",
+    "Model",
+    "State",
     "BIANCHI_TYPES",
     "CATALOGUE_NAMES",
     "abelian",

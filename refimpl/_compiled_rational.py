@@ -56,8 +56,6 @@ Compilation: per structure, never per model
 
 from __future__ import annotations
 
-import weakref
-
 import numpy as np
 
 from . import _compiled_taylor as _ct
@@ -485,18 +483,11 @@ def kernel_source(rf: RationalField) -> str:
     return "\n".join(src) + "\n"
 
 
-_KERNELS: dict = {}
-
-
 def rational_kernel(rf: RationalField):
     """The compiled module of the structure of ``rf`` (written and imported once per structure)."""
     mod = getattr(rf, "_mod", None)
     if mod is None:
-        src = kernel_source(rf)
-        mod = _KERNELS.get(src)
-        if mod is None:
-            mod = _KERNELS[src] = _ct._import_kernel_module(src)
-        rf._mod = mod
+        mod = rf._mod = _ct._import_kernel_module(kernel_source(rf))
     return mod
 
 
@@ -543,40 +534,10 @@ def rational_taylor_adaptive(
     return out, steps, tend, conds
 
 
-_FIELDS: dict = {}
-
-
-_BY_MODEL: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # model object -> its field
-
-
 def _field(model, quat: bool = False) -> RationalField:
     """The rational field of ``model`` (the body system, or with ``quat`` the su(2) full state
-    ``(pi, [Gamma,] q)``), kept per model object and per numbers."""
-    try:
-        return _BY_MODEL[model][quat]
-    except (KeyError, TypeError):
-        pass
-    rf = _field_by_numbers(model, quat)
-    try:
-        _BY_MODEL.setdefault(model, {})[quat] = rf
-    except TypeError:  # not weak-referenceable: the numbers' key below serves
-        pass
-    return rf
-
-
-def _field_by_numbers(model, quat: bool = False) -> RationalField:
-    key = (
-        quat,
-        model.f.tobytes(),
-        model.theta.tobytes(),
-        model.upsilon.tobytes(),
-        model.Iinv.tobytes(),
-        None if not model.gravity else (model.Lvec.tobytes(), model.gamma.tobytes()),
-    )
-    rf = _FIELDS.get(key)
-    if rf is None:
-        rf = _FIELDS[key] = RationalField(model, quat)
-    return rf
+    ``(pi, [Gamma,] q)``): cached properties of the :class:`refimpl.model.Model`."""
+    return model.rational_full_field if quat else model.rational_body_field
 
 
 def rational_run(rf: RationalField, y0, t: float, tol: float, order: int | None = None):
