@@ -31,6 +31,9 @@ class LRU:
         self._data.move_to_end(key)
         return value
 
+    def __iter__(self):
+        return iter(list(self._data))
+
     def values(self) -> list:
         return list(self._data.values())
 

@@ -20,13 +20,22 @@ from __future__ import annotations
 import hashlib
 import importlib
 import os
+import re
 import sys
 from collections import OrderedDict
 from functools import lru_cache
 from pathlib import Path
 from types import ModuleType
 
-__all__ = ["BODY_MARK", "cache_dir", "define", "import_source", "loaded_modules", "template"]
+__all__ = [
+    "BODY_MARK",
+    "cache_dir",
+    "define",
+    "fill",
+    "import_source",
+    "loaded_modules",
+    "template",
+]
 
 BODY_MARK = "# ---- template body ----"
 """The line after which a template file's text is the template (above it: imports and placeholder
@@ -95,3 +104,19 @@ def import_source(src: str, prefix: str) -> ModuleType:
 def loaded_modules(prefix: str) -> list[ModuleType]:
     """The kernel modules of :func:`import_source` currently kept whose name starts with ``prefix``."""
     return [m for k, m in _LOADED.items() if k.startswith(prefix)]
+
+
+def fill(text: str, **values: str) -> str:
+    """``text`` with each placeholder ``__NAME__`` replaced by ``values[NAME]``: a placeholder alone on
+    its line (after indentation) replaces the whole line, so a generated block carries its own
+    indentation; elsewhere the token itself is replaced. Every placeholder must be given."""
+    for name, value in values.items():
+        token = f"__{name}__"
+        if token not in text:
+            raise ValueError(f"template has no placeholder {token}")
+        text = re.sub(rf"(?m)^[ \t]*{token}[ \t]*$", lambda _m, v=value: v, text)
+        text = text.replace(token, value)
+    left = re.findall(r"__[A-Z][A-Z0-9_]*__", text)
+    if left:
+        raise ValueError(f"template placeholders not filled: {sorted(set(left))}")
+    return text
