@@ -9,6 +9,7 @@ import math
 from collections import OrderedDict
 
 import numpy as np
+from hypothesis import currently_in_test_context
 from hypothesis import target as hyp_target
 
 from tstarg.oracles.float_judge import (
@@ -63,8 +64,9 @@ own time scale, bounded in cost for any implementation (raise both for a thoroug
 
 
 def _aim(ratio: float, label: str) -> None:
-    """Guide Hypothesis' search towards the largest error/tolerance ratio (targeted PBT)."""
-    if math.isfinite(ratio) and ratio > 0:
+    """Guide Hypothesis' search towards the largest error/tolerance ratio (targeted PBT). Outside a
+    Hypothesis test (``--replay``, a body called directly) there is no search to guide: nothing."""
+    if math.isfinite(ratio) and ratio > 0 and currently_in_test_context():
         hyp_target(math.log10(ratio), label=label)
 
 
