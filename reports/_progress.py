@@ -167,6 +167,7 @@ class Progress:
                 self._refresh()
             self._rich.stop()
             self._rich = None
+        self.mode = "off"  # later calls draw nothing
 
     def _open_rich(self, stream) -> None:
         from rich.console import Console
@@ -222,7 +223,7 @@ class Progress:
             self._step_t0 = time.monotonic()
             self._phase = False
             if self.mode == "plain":
-                self._line(f"{self._counter(self.done_count + 1)} {name} ...")
+                self._line(f"{self._counter(self.done_count + 1)} {name} running ...")
             self._refresh()
 
     def phase(self, name: str) -> None:
@@ -300,8 +301,9 @@ class Progress:
     def _counter(self, k: int) -> str:
         if self.total is None:
             return f"{self.title} [{k}]"
-        w = len(str(self.total))
-        return f"{self.title} [{k:{w}d}/{self.total}]"
+        total = max(self.total, k)  # more steps than announced: the count grows with them
+        w = len(str(total))
+        return f"{self.title} [{k:{w}d}/{total}]"
 
     def _step_text(self) -> str:
         if self.step is None:

@@ -36,9 +36,9 @@ def test_plain_lines_are_timestamped_and_count_done_and_left():
     body = [STAMP.sub("", line) for line in lines]
     assert body == [
         "header",
-        "demo [1/2] first ...",
+        "demo [1/2] first running ...",
         "demo [1/2] first: PASS",
-        "demo [2/2] second ...",
+        "demo [2/2] second running ...",
         "demo [2/2] second: FAIL",
         "demo: writing the report ...",
     ]
