@@ -64,7 +64,9 @@ def main(args) -> int:
     threadpool_limits(1)
     from tstarg.refimpl.flows import load_scene, plan, run_scene
 
-    with _progress.Progress("run", quiet=_progress.is_quiet(args), unit="samples") as display:
+    with _progress.Progress(
+        "run", total=1, quiet=_progress.is_quiet(args), unit="samples"
+    ) as display:
         display.phase("planning (a pilot run fixes the step count of a fixed-step method)")
         try:
             scene = load_scene(args.scene)
