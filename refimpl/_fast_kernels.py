@@ -599,6 +599,16 @@ class FastCore:
         requires numba; ``False`` forces numpy. ``path`` names what ran.
         """
         f, th, up = self._model(f, theta, upsilon)
+        return self.poisson_batch_validated(
+            f, th, up, x, pi, layout=layout, out=out, compiled=compiled
+        )
+
+    def poisson_batch_validated(
+        self, f, th, up, x, pi, *, layout: str = "points", out=None, compiled: bool | None = None
+    ) -> PoissonBatch:
+        """:meth:`poisson_batch` on a model already validated (the arrays of a
+        :class:`refimpl.model.Model`): the structure constants, Theta and Upsilon are not checked
+        again; the points are."""
         n = f.shape[0]
         if compiled is None:
             compiled = _ctens.HAVE_NUMBA
