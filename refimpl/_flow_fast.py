@@ -69,6 +69,7 @@ from ._integrators import DOP853, ExplicitRK, GaussLegendre, triple_jump_weights
 from ._representation import Representation, representation_for
 from ._taylor import numpy_taylor_integrator, quadratic_field, scalar_taylor_integrator
 from ._validate import (
+    StepBudget,
     check_flow_rates,
     check_flow_request,
     check_inertia,
@@ -77,6 +78,7 @@ from ._validate import (
     check_structure_constants,
     check_theta,
     check_upsilon,
+    within_boundary,
 )
 from .integrators import METHODS, Method
 
@@ -877,8 +879,8 @@ def _points(x0, pi0, n: int):
         and pi0.dtype == np.float64
         and x0.shape == pi0.shape
         and x0.shape[-1:] == (n,)
-        and np.isfinite(x0).all()
-        and np.isfinite(pi0).all()
+        and within_boundary(x0)  # issue 30 hook: finite and |v| <= MAX_MAGNITUDE
+        and within_boundary(pi0)
     ):
         return x0, pi0
     return check_points(x0, pi0, n, batched=True)
@@ -966,6 +968,13 @@ def fast_flow(
             g0 = _group_of(model, X)
             return xa.copy(), pa.copy(), g0.reshape(shape + g0.shape[1:])
         return xa.copy(), pa.copy()
+    budget = StepBudget("fast_flow")  # issue 30 hook: counts hold in time (refimpl._validate)
+    N0 = int(steps) if isinstance(steps, (int, np.integer)) else int(8 + 4 * np.ceil(abs(tv)))
+    if not meth.adaptive and N0 * X.shape[1] > 2**16:  # a first run that could be long: probe it
+        with np.errstate(all="ignore"):
+            budget.calibrate(
+                lambda k: integrate_fast(model, meth, X, P, tv * k / N0, k, system="full"), 16
+            )
     if meth.adaptive:
         if steps is not None:
             raise ValueError(f"method {meth.name} is adaptive: give tol, not steps")
@@ -973,6 +982,7 @@ def fast_flow(
     elif steps is not None:
         if not isinstance(steps, (int, np.integer)) or steps < 1:
             raise ValueError(f"steps must be a positive int, got {steps!r}")
+        budget.before(int(steps), f"{meth.name} on {X.shape[1]} trajectories to t = {tv:g}")
         out = integrate_fast(model, meth, X, P, tv, int(steps), system="full")
     else:
         N = int(8 + 4 * np.ceil(abs(tv)))
@@ -980,13 +990,17 @@ def fast_flow(
         def run(N):
             # too coarse a step can make an implicit stage iteration diverge, or carry a stage
             # onto a singular Phi: that run is discarded (None) and the steps doubled again
+            started = budget.before(N, f"{meth.name} on {X.shape[1]} trajectories to t = {tv:g}")
             try:
                 with np.errstate(all="ignore"):
                     res = integrate_fast(model, meth, X, P, tv, N, system="full")
             except (np.linalg.LinAlgError, FloatingPointError):
                 return None
+            finally:
+                budget.after(N, started)
             return res if np.all(np.isfinite(res["pi"])) else None
 
+        budget.before(3 * N, f"the step doubling's first two runs ({N} and {2 * N} steps)")
         prev, failed = run(N), 0
         for _ in range(14):
             N *= 2
