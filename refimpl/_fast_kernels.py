@@ -425,7 +425,9 @@ def _inv_batch(M: np.ndarray) -> np.ndarray:
 
 
 def _frob(M: np.ndarray) -> np.ndarray:
-    with np.errstate(over="ignore", invalid="ignore"):  # inf for entries near 1e300: a bound, not an error
+    with np.errstate(
+        over="ignore", invalid="ignore"
+    ):  # inf for entries near 1e300: a bound, not an error
         return np.sqrt(np.sum(M * M, axis=(-2, -1)))
 
 
