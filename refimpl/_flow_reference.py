@@ -49,7 +49,7 @@ from ._integrators import gbs_mp
 from ._reference_core import MAX_DPS, _as_float, _to_mpf
 from ._reference_core import ReferenceCore as Reference
 from ._representation import Representation, representation_for
-from ._validate import MAX_REFERENCE_FLOW_TIME, check_inertia, check_potential
+from ._validate import MAX_REFERENCE_FLOW_TIME, ProgressBudget, check_inertia, check_potential
 
 __all__ = [
     "ModelMP",
@@ -505,6 +505,9 @@ def _run(model: ModelMP, system: str, x0, pi0, times, tol, k, sign=1):
 
     t_prev = mpmath.mpf(0)
     steps = 0
+    if times:  # issue 30 hook: the time budget, extrapolated from the progress (refimpl._validate)
+        span = mpmath.nstr(sign * mpmath.mpf(times[-1]), 6)
+        after = ProgressBudget("reference flow").watch(after, times[-1], f"the flow to t = {span}")
     for tk in times:
         tk = mpmath.mpf(tk)
         if tk > t_prev:

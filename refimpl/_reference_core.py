@@ -16,6 +16,7 @@ from ._errors import ChartError, DegeneratePointError
 from ._validate import (
     MAX_DPS,
     TWO_PI,
+    BudgetError,
     ad_chart_radius,
     check_finite_result,
     check_inertia,
@@ -326,12 +327,58 @@ class ReferenceCore:
                 f"(vier12) to working precision: {what}; omega_L has no inverse there"
             )
 
+    def _phi_decided(self, F, theta, upsilon, pi) -> tuple[dict, int]:
+        """``(phi_psi_delta at d digits, d)``: the working digits ``d`` at which Delta is decided
+        nonzero *and* inverting Phi still keeps the current digits.
+
+        Whether Delta is zero is judged relative to the scale of Phi (Hadamard: ``|Delta| <=
+        ||Phi||^n``), never absolutely, and never from one precision alone: while ``|Delta| <=
+        16 n eps ||Phi||_1^n`` the digits are doubled up to the cap ``MAX_DPS + GUARD_DIGITS``
+        (Phi ~ 1e66 with Delta ~ 1e198 is far from singular). Once decided, the inverse of Phi loses
+        at most ``log10(||Phi||_1^n / |Delta|)`` digits (that ratio bounds ``cond(Phi)`` from above),
+        so ``d`` adds them. A point still undecided at the cap is degenerate to that precision
+        (:class:`DegeneratePointError`); one decided but needing more than the cap is a
+        :class:`refimpl._validate.BudgetError`. Float and integer inputs are exact at every ``d``;
+        rationals were rounded once at the instance's digits.
+        """
+        base = mpmath.mp.dps
+        cap = MAX_DPS + GUARD_DIGITS
+        d = base
+        while True:
+            with mpmath.workdps(d):
+                q = self.phi_psi_delta(F, theta, upsilon, pi)
+                n = q["Phi"].rows
+                scale = max(mpmath.mpf(1), mpmath.mnorm(q["Phi"], 1)) ** n
+                decided = abs(q["Delta"]) > 16 * n * mpmath.eps * scale
+                if decided:
+                    lost = int(mpmath.ceil(mpmath.log10(scale / abs(q["Delta"]))))
+                    need = base + max(lost, 0)
+                    if need <= d:
+                        return q, d
+                    if need > cap:
+                        raise BudgetError(
+                            f"point with pi = {[mpmath.nstr(v, 10) for v in pi]}: Phi is so ill-conditioned "
+                            f"(||Phi||_1^n / |Delta| = 10^{lost}) that inverting it needs {need} digits, "
+                            f"over the precision cap {MAX_DPS}"
+                        )
+                    d = need
+                    continue
+            if d >= cap:
+                with mpmath.workdps(d):
+                    self._check_nondegenerate(
+                        q["Phi"], q["Delta"], pi
+                    )  # raises: degenerate at the cap
+            d = min(2 * d, cap)
+
     # ------------------------------------------------------ Poisson tensor
     def body_tensor_mp(self, F, theta, upsilon, pi, route: str = "closed") -> mpmath.matrix:
         """``-W^-1``: the Poisson tensor in the body frame ``(eps_L, dpi)`` (vier9)."""
+        q, d = self._phi_decided(F, theta, upsilon, pi)
+        with mpmath.workdps(d):
+            return self._body_tensor_at(F, theta, upsilon, pi, q, route)
+
+    def _body_tensor_at(self, F, theta, upsilon, pi, q, route):
         n = len(F)
-        q = self.phi_psi_delta(F, theta, upsilon, pi)
-        self._check_nondegenerate(q["Phi"], q["Delta"], pi)
         if route == "closed":
             Phi_inv = mpmath.inverse(q["Phi"])
             Psi_inv = mpmath.inverse(q["Psi"])
@@ -397,9 +444,9 @@ class ReferenceCore:
                     T[n + i, n + i] = 1
                 return T * body * T.T
             if route == "first_principles":
-                q = self.phi_psi_delta(F, th, up, pv)
-                self._check_nondegenerate(q["Phi"], q["Delta"], pv)
-                return -mpmath.inverse(self.omega_holonomic_mp(F, th, up, xv, pv))
+                _q, d = self._phi_decided(F, th, up, pv)
+                with mpmath.workdps(d):
+                    return -mpmath.inverse(self.omega_holonomic_mp(F, th, up, xv, pv))
             raise ValueError(f"unknown route {route!r} (closed or first_principles)")
 
     # --------------------------------------------------------- the bracket
@@ -415,9 +462,9 @@ class ReferenceCore:
             n = len(F)
             xv, pv = self._vec(x, n, "x"), self._vec(pi, n, "pi")
             L = self.frames_mp(F, xv)["L"]
-            q = self.phi_psi_delta(F, th, up, pv)
-            self._check_nondegenerate(q["Phi"], q["Delta"], pv)
-            Phi_inv, Psi_inv = mpmath.inverse(q["Phi"]), mpmath.inverse(q["Psi"])
+            q, d = self._phi_decided(F, th, up, pv)
+            with mpmath.workdps(d):
+                Phi_inv, Psi_inv = mpmath.inverse(q["Phi"]), mpmath.inverse(q["Psi"])
 
             def grad(fun):
                 z0 = list(xv) + list(pv)
@@ -491,8 +538,7 @@ class ReferenceCore:
             dK = Iinv * pv
             if route == "closed":
                 fr = self.frames_mp(F, xv)
-                q = self.phi_psi_delta(F, th, up, pv)
-                self._check_nondegenerate(q["Phi"], q["Delta"], pv)
+                q, d = self._phi_decided(F, th, up, pv)
                 dV = (
                     mpmath.zeros(n, 1)
                     if grav is None
@@ -500,8 +546,9 @@ class ReferenceCore:
                 )
                 # Row-vector forms of vier10 / vier11, written as columns:
                 # Omega = Psi^-1 (dK - U dV), pidot = Phi^-1 (-dV - S dK).
-                Omega = mpmath.lu_solve(q["Psi"], dK - up * dV)
-                pidot = mpmath.lu_solve(q["Phi"], -dV - q["S"] * dK)
+                with mpmath.workdps(d):  # the digits at which Phi is decided and inverted
+                    Omega = mpmath.lu_solve(q["Psi"], dK - up * dV)
+                    pidot = mpmath.lu_solve(q["Phi"], -dV - q["S"] * dK)
                 xdot = fr["L"] * Omega
                 return xdot, pidot
             if route == "first_principles":

@@ -31,6 +31,7 @@ and cocycles are cached by value, so a batch pays for the checks once.
 from __future__ import annotations
 
 import math
+import os
 import re
 import time
 from fractions import Fraction
@@ -657,8 +658,9 @@ MAX_DPS = 5000
 """Precision cap: 5000 significant digits (``Reference(dps)``)."""
 MAX_PREC_BITS = int(MAX_DPS * 3.3219280948873626) + 1
 """The same cap in bits (``Rigorous(prec_bits)``): 16610 bits."""
-TIME_BUDGET_S = 60.0
-"""CPU seconds one flow call may spend: estimated before each run, refused with the estimate."""
+TIME_BUDGET_S = float(os.environ.get("TSTARG_TIME_BUDGET_S", "60"))
+"""CPU seconds one flow call may spend: estimated before each run, refused with the estimate
+(60 s; the environment variable ``TSTARG_TIME_BUDGET_S`` sets another value for long benchmark runs)."""
 
 
 class BudgetError(ValueError):
@@ -702,10 +704,10 @@ def check_dimension(n: int, *, exact: bool = False, what: str = "structure const
         )
 
 
-def check_batch_memory(points: int, n: int, *, what: str, per_point_matrices: float = 12.0) -> None:
+def check_batch_memory(points: int, n: int, *, what: str, per_point_matrices: float = 6.0) -> None:
     """Refuse a batch whose working set ``8 * points * per_point_matrices * n^2`` bytes exceeds
-    :data:`MAX_WORK_BYTES` (the Poisson tensor alone is ``(2n)^2`` numbers per point; temporaries
-    add as many again and more)."""
+    :data:`MAX_WORK_BYTES` (the Poisson tensor alone is ``(2n)^2 = 4 n^2`` numbers per point; inputs,
+    diagnostics and the chunked kernels' temporaries add about ``2 n^2`` more)."""
     need = 8.0 * float(points) * per_point_matrices * float(n) ** 2
     if need > MAX_WORK_BYTES:
         raise BudgetError(
@@ -863,3 +865,36 @@ class StepBudget(TimeBudget):
         took = time.process_time() - started
         if steps > 0 and took > 0:
             self.per_step = took / steps
+
+
+class ProgressBudget(TimeBudget):
+    """:class:`TimeBudget` for integrations whose step count is not known in advance (the adaptive
+    reference flow): after each step the total cost is extrapolated from the fraction of the span
+    done, and the run is refused -- with the estimate -- as soon as that extrapolation crosses the
+    budget (after :attr:`grace` seconds, so that the first steps' noise does not decide)."""
+
+    grace: float = 1.0
+
+    def progress(self, fraction: float, doing: str) -> None:
+        spent = self.spent()
+        if spent < min(self.grace, self.seconds) or not fraction > 0:
+            if spent > self.seconds:
+                self.refuse_if(0.0, doing)
+            return
+        total = spent / min(fraction, 1.0)
+        if total > self.seconds:
+            raise BudgetError(
+                f"{self.what}: {doing} would take about {total:.3g} s of CPU (extrapolated after "
+                f"{100 * fraction:.3g}% of the span in {spent:.3g} s), over the time budget of "
+                f"{self.seconds:g} s per call (refimpl._validate.TIME_BUDGET_S); shorten t or lower dps"
+            )
+
+    def watch(self, after, t_end, doing: str):
+        """``after_step(t, y)`` of an integrator, wrapped to report progress ``t / t_end`` first."""
+        end = float(abs(t_end)) or 1.0
+
+        def step(t, y):
+            self.progress(float(abs(t)) / end, doing)
+            return y if after is None else after(t, y)
+
+        return step
