@@ -13,7 +13,7 @@ memory         every batch's working set ``<= MAX_WORK_BYTES`` (2 GiB), estimate
                allocated (:func:`check_batch_memory`); input arrays ``<= MAX_ELEMENTS`` numbers
 precision      ``dps <= MAX_DPS`` (5000 digits) and ``prec_bits <= MAX_PREC_BITS`` (the same
                precision in bits) (:func:`check_precision_digits`, :func:`check_precision_bits`)
-time           ``TIME_BUDGET_S`` (60 s of CPU) per flow call: the cost is estimated before each run
+time           ``TIME_BUDGET_S`` (20 s of CPU) per flow call: the cost is estimated before each run
                and the run refused with the estimate (:class:`TimeBudget`, :class:`BudgetError`)
 counts         ``|t| <= MAX_FLOW_TIME``, ``steps <= MAX_FLOW_STEPS``, ``tol >= MIN_FLOW_TOL``
                (:func:`check_flow_request`), and the rate budget of :func:`check_flow_rates`
@@ -658,9 +658,9 @@ MAX_DPS = 5000
 """Precision cap: 5000 significant digits (``Reference(dps)``)."""
 MAX_PREC_BITS = int(MAX_DPS * 3.3219280948873626) + 1
 """The same cap in bits (``Rigorous(prec_bits)``): 16610 bits."""
-TIME_BUDGET_S = float(os.environ.get("TSTARG_TIME_BUDGET_S", "60"))
+TIME_BUDGET_S = float(os.environ.get("TSTARG_TIME_BUDGET_S", "20"))
 """CPU seconds one flow call may spend: estimated before each run, refused with the estimate
-(60 s; the environment variable ``TSTARG_TIME_BUDGET_S`` sets another value for long benchmark runs)."""
+(20 s; the environment variable ``TSTARG_TIME_BUDGET_S`` sets another value for long benchmark runs)."""
 
 
 class BudgetError(ValueError):
