@@ -414,6 +414,179 @@ for label, call, check in [
     )
 
 
+# ------------------------------------------------------------------ more inputs, each category
+for category, label, call, check in [
+    (
+        "strings",
+        "scene x0 code string",
+        "__import__('tstarg.refimpl.scenes', fromlist=['x']).parse_scene({'name': 's', 'algebra': 'su2', 'x0': [CODE, 0, 0], 'pi0': [0.1, 0.2, 0.3], 't_end': 1.0})",
+        "lambda r: False",
+    ),
+    (
+        "strings",
+        "reference theta string entry",
+        "REF.poisson_tensor(F, [[0, CODE, 0], [0, 0, 0], [0, 0, 0]], Z3, X3, P3)",
+        "lambda r: False",
+    ),
+    (
+        "strings",
+        "fast bytes pi",
+        "FAST.poisson_tensor(F, Z3, Z3, X3, [b'1', b'2', b'3'])",
+        "lambda r: False",
+    ),
+    (
+        "strings",
+        "rational string pi (reference, accepted)",
+        "REF.poisson_tensor(F, Z3, Z3, ['1/10', '1/5', '3/10'], ['3/10', '1/5', '-2/5'])",
+        "lambda P: np.max(np.abs(np.asarray(P, dtype=float) - FAST.poisson_tensor(F, Z3, Z3, X3, P3))) < 1e-13",
+    ),
+    (
+        "magnitudes",
+        "fast x = 1e300 (outside the chart)",
+        "FAST.poisson_tensor(F, Z3, Z3, np.array([1e300, 0, 0]), P3)",
+        None,
+    ),
+    (
+        "magnitudes",
+        "fast pi = -1.7e308",
+        "FAST.poisson_tensor(F, Z3, Z3, X3, np.array([-1.7e308, 0, 0]))",
+        None,
+    ),
+    (
+        "magnitudes",
+        "fast subnormal pi (exact: P_pp = [pi]_x)",
+        "FAST.poisson_tensor(F, Z3, Z3, X3, np.array([5e-324, 0, 0]))",
+        "lambda P: finite(P) and P[4, 5] in (-5e-324, 5e-324)",
+    ),
+    (
+        "magnitudes",
+        "reference x entries 1e300 (abelian: inside the chart)",
+        "REF.poisson_tensor(np.zeros((2, 2, 2)), np.zeros((2, 2)), np.zeros((2, 2)), [1e300, 1e300], [1, 2])",
+        "lambda P: np.array_equal(np.asarray(P, float), [[0, 0, 1, 0], [0, 0, 0, 1], [-1, 0, 0, 0], [0, -1, 0, 0]])",
+    ),
+    (
+        "dimension/memory",
+        "fast n = 33 (one over the budget)",
+        "FAST.poisson_tensor(np.zeros((33,) * 3), np.zeros((33, 33)), np.zeros((33, 33)), np.zeros(33), np.zeros(33))",
+        None,
+    ),
+    (
+        "dimension/memory",
+        "fast f of shape (3, 3, 2)",
+        "FAST.poisson_tensor(np.zeros((3, 3, 2)), Z3, Z3, X3, P3)",
+        None,
+    ),
+    (
+        "dimension/memory",
+        "fast f of shape (0, 0, 0)",
+        "FAST.poisson_tensor(np.zeros((0, 0, 0)), Z3, Z3, X3, P3)",
+        None,
+    ),
+    (
+        "dimension/memory",
+        "fast x with 1e9 entries (broadcast)",
+        "FAST.poisson_tensor(F, Z3, Z3, np.broadcast_to(X3, (4 * 10**8, 3)), np.broadcast_to(P3, (4 * 10**8, 3)))",
+        None,
+    ),
+    ("flows/time", "t = -1e5", "fast_flow(F, Z3, Z3, I3, None, X3, P3, -1e5)", None),
+    ("flows/time", "steps = True", "fast_flow(F, Z3, Z3, I3, None, X3, P3, 1.0, steps=True)", None),
+    (
+        "flows/time",
+        "steps = 10**8",
+        "fast_flow(F, Z3, Z3, I3, None, X3, P3, 1.0, steps=10**8)",
+        None,
+    ),
+    (
+        "flows/time",
+        "method 'nonexistent'",
+        "fast_flow(F, Z3, Z3, I3, None, X3, P3, 1.0, method_name='nonexistent')",
+        None,
+    ),
+    (
+        "flows/time",
+        "tol = nan",
+        "fast_flow(F, Z3, Z3, I3, None, X3, P3, 1.0, tol=float('nan'))",
+        None,
+    ),
+    (
+        "flows/time",
+        "t = 0 returns the start",
+        "fast_flow(F, Z3, Z3, I3, None, X3, P3, 0.0)",
+        "lambda r: np.array_equal(r[0], X3) and np.array_equal(r[1], P3)",
+    ),
+    (
+        "out=/aliasing",
+        "Fortran-ordered out",
+        "FAST.poisson_batch(F, Z3, Z3, np.zeros((4, 3)), np.ones((4, 3)), out=np.asfortranarray(np.zeros((4, 6, 6))))",
+        None,
+    ),
+    (
+        "out=/aliasing",
+        "float32 out",
+        "FAST.poisson_batch(F, Z3, Z3, np.zeros((4, 3)), np.ones((4, 3)), out=np.zeros((4, 6, 6), np.float32))",
+        None,
+    ),
+    (
+        "out=/aliasing",
+        "out a list",
+        "FAST.poisson_batch(F, Z3, Z3, np.zeros((4, 3)), np.ones((4, 3)), out=[0.0] * 144)",
+        None,
+    ),
+    (
+        "out=/aliasing",
+        "out aliases x in the components layout",
+        "FAST.poisson_batch(F, Z3, Z3, BUF[:12].reshape(3, 4), BUF[:12].reshape(3, 4) * 0 + 1, layout='components', out=BUF.reshape(6, 6, 4))",
+        None,
+    ),
+    (
+        "chart/degenerate/types",
+        "fast Fraction pi (matches float)",
+        "FAST.poisson_tensor(F, Z3, Z3, X3, [__import__('fractions').Fraction(3, 10), 0.2, -0.4])",
+        "lambda P: np.array_equal(P, FAST.poisson_tensor(F, Z3, Z3, X3, np.array([0.3, 0.2, -0.4])))",
+    ),
+    (
+        "chart/degenerate/types",
+        "fast mpmath pi",
+        "FAST.poisson_tensor(F, Z3, Z3, X3, [__import__('mpmath').mpf('0.3'), 0.2, -0.4])",
+        None,
+    ),
+    (
+        "chart/degenerate/types",
+        "fast x of the wrong length",
+        "FAST.poisson_tensor(F, Z3, Z3, [0.1, 0.2], P3)",
+        None,
+    ),
+    (
+        "chart/degenerate/types",
+        "fast non-antisymmetric upsilon",
+        "FAST.poisson_tensor(F, Z3, np.eye(3), X3, P3)",
+        None,
+    ),
+    (
+        "chart/degenerate/types",
+        "fast theta not a cocycle",
+        "FAST.poisson_tensor(heisenberg(1).f, np.array([[0, 1., 0], [-1, 0, 0], [0, 0, 0]]) @ np.diag([1, 1, 0]) + np.array([[0, 0, 1.], [0, 0, 0], [-1, 0, 0]]), np.zeros((3, 3)), X3, P3)",
+        None,
+    ),
+    (
+        "chart/degenerate/types",
+        "fast near the chart edge (inside)",
+        "FAST.poisson_tensor(F, Z3, U, [np.nextafter(2 * np.pi, 0) * 0.999, 0, 0], P3)",
+        "lambda P: np.max(np.abs(P - REF.poisson_tensor(F, Z3, U, [np.nextafter(2 * np.pi, 0) * 0.999, 0, 0], P3))) < 1e-6",
+    ),
+]:
+    case(
+        category,
+        label,
+        f"""
+        BUF = np.zeros(144)
+        def CASE():
+            return {call}
+        """
+        + (f"CHECK = {check}\n" if check else ""),
+    )
+
+
 # ------------------------------------------------------------------ the runner
 def run_case(category: str, label: str, body: str, timeout: float) -> dict:
     program = PRELUDE + body + RUNNER
