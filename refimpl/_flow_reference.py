@@ -51,7 +51,7 @@ from ._integrators import gbs_mp
 from ._reference_core import MAX_DPS, _as_float, _to_mpf
 from ._reference_core import ReferenceCore as Reference
 from ._representation import Representation, representation_for
-from ._validate import MAX_REFERENCE_FLOW_TIME, check_inertia, check_potential
+from ._validate import MAX_REFERENCE_FLOW_TIME, ProgressBudget, check_inertia, check_potential
 
 __all__ = [
     "ModelMP",
@@ -423,7 +423,7 @@ def _log_coordinates(model: ModelMP, Ad_total, g_rep):
     return model.rep.mp_log(g_rep, Ad_total, model.Fm)
 
 
-def _run(model: ModelMP, system: str, x0, pi0, times, tol, k, sign=1):
+def _run(model: ModelMP, system: str, x0, pi0, times, tol, k, sign=1, budget=False):
     """Integrate to each of ``times`` (increasing, >= 0); ``sign = -1`` runs the flow backwards
     (``y' = -F(y)`` in the time ``s = -t``: the fields are autonomous)."""
     n = model.n
@@ -496,6 +496,9 @@ def _run(model: ModelMP, system: str, x0, pi0, times, tol, k, sign=1):
 
     t_prev = mpmath.mpf(0)
     steps = 0
+    if budget and times:  # issue 30 hook: the time budget, extrapolated from the progress
+        span = mpmath.nstr(sign * mpmath.mpf(times[-1]), 6)
+        after = ProgressBudget("reference flow").watch(after, times[-1], f"the flow to t = {span}")
     for tk in times:
         tk = mpmath.mpf(tk)
         if tk > t_prev:
@@ -560,6 +563,7 @@ def reference_trajectory(
     dps: int = 50,
     system: str = "full",
     check: bool = False,
+    time_budget: bool = False,
 ) -> ReferenceTrajectory:
     """The reference trajectory sampled at ``times`` (increasing and >= 0, or decreasing and <= 0 for
     the flow backwards). ``x`` always exists (the logarithm of ``g``, :mod:`refimpl._representation`);
@@ -569,6 +573,8 @@ def reference_trajectory(
     ``system="body"``: the reduced body system (Euler or Euler-Poisson).
     ``check=True`` repeats the run at ``dps + 15`` digits with a 10^-10
     smaller tolerance and stores the digits of agreement in ``digits``.
+    ``time_budget=True`` (the protocol's :func:`reference_flow`) refuses a run whose CPU time,
+    extrapolated from its progress, would exceed :data:`refimpl._validate.TIME_BUDGET_S`.
     """
     if not isinstance(dps, int) or dps < 15:
         raise ValueError(f"dps must be an int >= 15, got {dps!r}")
@@ -599,9 +605,8 @@ def reference_trajectory(
             xv = Reference._vec(x0, n, "x0")
             pv = Reference._vec(pi0, n, "pi0")
             tms = [sign * _to_mpf(t) for t in times_exact]
-            return _run(
-                model, system, xv, pv, tms, mpmath.mpf(10) ** (-tol_digits), _order_for(d), sign
-            )
+            tol = mpmath.mpf(10) ** (-tol_digits)
+            return _run(model, system, xv, pv, tms, tol, _order_for(d), sign, time_budget)
 
     tr = once(dps, dps + 5)
     if check:
@@ -637,7 +642,17 @@ def reference_flow(
     check_time(t, allow_negative=True)
     exact = Reference._wants_exact(f, theta, upsilon, inertia, potential, x0, pi0, t)
     tr = reference_trajectory(
-        f, theta, upsilon, inertia, potential, x0, pi0, [t], dps=dps, system="full"
+        f,
+        theta,
+        upsilon,
+        inertia,
+        potential,
+        x0,
+        pi0,
+        [t],
+        dps=dps,
+        system="full",
+        time_budget=True,
     )
     x, pi = tr.x[-1], tr.pi[-1]
     if exact:

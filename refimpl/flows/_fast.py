@@ -20,7 +20,13 @@ from .._algebra import LieAlgebra
 from .._flow_checks import check_time
 from .._flow_compiled import compiled_taylor_samples, quat_to_x
 from .._lru import LRU
-from .._validate import check_flow_rates, check_flow_request, check_points
+from .._validate import (
+    StepBudget,
+    check_flow_rates,
+    check_flow_request,
+    check_points,
+    within_boundary,
+)
 from ..model import Model, State
 from ._common import quat_matrix, x_to_quat
 from .base import FlowResult, Integrator, check_tolerance
@@ -112,8 +118,8 @@ def _points(x0, pi0, n: int):
         and pi0.dtype == np.float64
         and x0.shape == pi0.shape
         and x0.shape[-1:] == (n,)
-        and np.isfinite(x0).all()
-        and np.isfinite(pi0).all()
+        and within_boundary(x0)  # issue 30: finite and |v| <= MAX_MAGNITUDE (refimpl._validate)
+        and within_boundary(pi0)
     ):
         return x0, pi0
     return check_points(x0, pi0, n, batched=True)
@@ -186,8 +192,22 @@ def fast_flow(
         raise ValueError(f"method {meth.name} is adaptive: give tol, not steps")
     if steps is not None and (not isinstance(steps, (int, np.integer)) or steps < 1):
         raise ValueError(f"steps must be a positive int, got {steps!r}")
-    if not meth.adaptive and steps is None:
-        meth = StepDoubling(meth)
+    budget = StepBudget("fast_flow")  # issue 30: a count budget holds in time (refimpl._validate)
+    doing = f"{meth.name} on {X.shape[1]} trajectories to t = {tv:g}"
+    if not meth.adaptive:
+        N0 = int(steps) if steps is not None else int(8 + 4 * np.ceil(abs(tv)))
+        if N0 * X.shape[1] > 2**16:  # a first run that could be long: time a short probe of it
+            with np.errstate(all="ignore"):
+                budget.calibrate(
+                    lambda k: meth.integrate(
+                        model, State(X, P), tv * k / N0, steps=k, system="full"
+                    ),
+                    16,
+                )
+        if steps is not None:
+            budget.before(int(steps), doing)
+        else:
+            meth = StepDoubling(meth, budget=budget)
     out = meth.integrate(model, State(X, P), tv, tol=tol, steps=steps, system="full")
     bad_pi = ~np.all(np.isfinite(out["pi"]), axis=0)
     if np.any(bad_pi):

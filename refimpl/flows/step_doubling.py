@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._validate import StepBudget
 from .base import Adaptive, FixedStep, FlowResult
 
 __all__ = ["StepDoubling"]
@@ -28,11 +29,12 @@ class StepDoubling(Adaptive):
     """``inner`` (a :class:`refimpl.flows.base.FixedStep`) run at doubling step counts until two runs
     agree to ``tol (2^order - 1)`` on every trajectory (module docstring)."""
 
-    def __init__(self, inner: FixedStep):
+    def __init__(self, inner: FixedStep, budget: StepBudget | None = None):
         if inner.adaptive:
             raise ValueError(f"StepDoubling wraps a fixed-step method, got {inner.name}")
         super().__init__(inner.name, inner.order, rank=inner.rank)
         self.inner = inner
+        self.budget = budget  # every run is estimated before it starts (refimpl._validate)
 
     def applies(self, model):
         return self.inner.applies(model)
@@ -40,17 +42,23 @@ class StepDoubling(Adaptive):
     def _run(self, model, x0, pi0, t, *, tol, system) -> FlowResult:
         inner, order = self.inner, self.inner.order
         N = int(8 + 4 * np.ceil(abs(t)))
+        budget = self.budget if self.budget is not None else StepBudget("fast_flow")
+        doing = f"{inner.name} on {x0.shape[1]} trajectories to t = {t:g}"
 
         def run(N):
             # too coarse a step can make an implicit stage iteration diverge, or carry a stage
             # onto a singular Phi: that run is discarded (None) and the steps doubled again
+            started = budget.before(N, doing)
             try:
                 with np.errstate(all="ignore"):
                     res = inner._run(model, x0, pi0, t, steps=N, system=system, observe=None)
             except (np.linalg.LinAlgError, FloatingPointError):
                 return None
+            finally:
+                budget.after(N, started)
             return res if np.all(np.isfinite(res.pi)) else None
 
+        budget.before(3 * N, f"the step doubling's first two runs ({N} and {2 * N} steps)")
         prev, failed = run(N), 0
         for _ in range(MAX_DOUBLINGS):
             N *= 2
