@@ -323,6 +323,12 @@ def _label(v: Any, path: str = "example") -> list[tuple[str, Any]]:
             ("x", x),
             ("pi", pi),
         ]
+    if isinstance(v, tuple) and hasattr(v, "_fields"):  # a namedtuple: its fields are the labels
+        return [
+            lab
+            for k, p in zip(v._fields, v)
+            for lab in (_label(p, k) if isinstance(p, tuple) else [(k, p)])
+        ]
     if isinstance(v, tuple):
         has_model = any(_is_model(p) for p in v)
         out = []

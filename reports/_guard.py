@@ -46,6 +46,7 @@ ATTRIBUTES = (
     "order",
     "poisson_integrator",
     "domain",  # the declared domain (certification.declared_domain): hidden, it was never certified
+    "group",  # the group the flows live on (certification.group): hidden, SO(3) would be judged as SU(2)
 )
 
 
@@ -385,6 +386,7 @@ def certify_target(
     (when given) get their reason without starting a unit (no program started for nothing)."""
     from ._parallel import map_tasks
     from .certification import CHECKS, Certificate
+    from .certification.registry import missing
 
     t0 = time.perf_counter()
     ids = [c for c in CHECKS if checks is None or c in checks]
@@ -393,8 +395,8 @@ def certify_target(
     for cid in ids:
         if cid in skips:
             pre[cid] = skips[cid]
-        elif provided is not None and CHECKS[cid] not in provided:
-            pre[cid] = f"the implementation has no method {CHECKS[cid]!r}"
+        elif provided is not None and missing(cid, provided) is not None:
+            pre[cid] = missing(cid, provided)
     run_ids = [c for c in ids if c not in pre] or ids[:1]
     items = [(spec, cid, kwargs, budget) for cid in run_ids]
     if (workers == 1 or len(items) == 1) and scheduler is None:
@@ -411,6 +413,7 @@ def certify_target(
         xfailed=dict(kwargs.get("xfails") or {}),
         command=first.command,
         domain=first.domain,  # what was certified, and the notes on it, survive the merge
+        group=first.group,
     )
     for part in parts:
         cert.checks.extend(part.checks)
