@@ -52,7 +52,7 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import seed as hyp_seed
 from hypothesis import strategies as st
-from hypothesis.errors import Unsatisfiable
+from hypothesis.errors import Unsatisfiable, UnsatisfiedAssumption
 from hypothesis.reporting import with_reporter
 
 __all__ = [
@@ -509,8 +509,8 @@ def run_property(
             if digits is not None:
                 res.min_digits = digits if res.min_digits is None else min(res.min_digits, digits)
             assert ratio <= 1.0, f"{name}: error/tolerance ratio {ratio:.3g} > 1"
-        except (KeyboardInterrupt, _Stop):
-            raise
+        except (KeyboardInterrupt, _Stop, UnsatisfiedAssumption):
+            raise  # a reject() in the body draws again: no failure (it must not start shrinking)
         except BaseException as exc:
             state["failure"] = _record_failure(example, notes, ratio, _strip_notes(exc))
             if state["first_failure"] is None:

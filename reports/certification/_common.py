@@ -19,6 +19,7 @@ from tstarg.oracles.float_judge import (
     conditioning,
     max_err,
     reference_work,
+    sensitivity_at,
 )
 from tstarg.properties.runner import note
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue
@@ -198,13 +199,19 @@ def _judge_group(f, theta, ups, inertia, pot, x, pi, t):
 
 def _judge_on(group, f, theta, ups, inertia, pot, x, pi, times):
     """The float64 judge carrying ``G = rho(g)`` on ``group`` (a :class:`MatrixGroup`) at every time
-    of ``times`` (one sign) from one integration: ``(states, Gs, errors)`` (see
-    :meth:`FloatJudge.judged_at`), cached by value."""
+    of ``times`` (one sign) from one integration: ``(states, Gs, errors, sensitivities)`` (see
+    :meth:`FloatJudge.judged_at` and :func:`sensitivity_at`), cached by value."""
     times = [float(t) for t in times]
+
+    def compute():
+        judge = FloatJudge(f, theta, ups, inertia, pot, rep=group)
+        states, groups, errs = judge.judged_at(x, pi, times)
+        return states, groups, errs, sensitivity_at(judge, x, pi, times, states, groups)
+
     return _FLOW_CACHE.get(
         ("judge-on", group.name, group.mats.tobytes(), tuple(times))
         + _key(f, theta, ups, inertia, pot, x, pi),
-        lambda: FloatJudge(f, theta, ups, inertia, pot, rep=group).judged_at(x, pi, times),
+        compute,
     )
 
 

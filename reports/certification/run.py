@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import time
 
+from hypothesis.errors import UnsatisfiedAssumption
+
 from tstarg.properties.runner import LIMITS, CheckResult, run_property
 
 from .._imports import resolve
@@ -125,6 +127,8 @@ def _announcing(body, name: str, t0: float, announce: bool):
     def wrapped(example):
         try:
             out = body(example)
+        except UnsatisfiedAssumption:
+            raise  # reject(): drawn again, not a failure
         except Exception:
             say()
             raise
@@ -137,7 +141,7 @@ def _announcing(body, name: str, t0: float, announce: bool):
 
 def _minimality(res, shrink: bool) -> str:
     if not shrink:
-        return "not shrunk (the first failing example found; --verdict-only)"
+        return "not shrunk (shrink=False, --verdict-only): the first failing example found"
     if "shrinking stopped" in (res.detail or ""):
         return "not minimal: shrinking stopped at its time budget (the smallest found by then)"
     if res.extra.get("replayed"):
@@ -223,7 +227,7 @@ def _materialize(spec):
     if isinstance(spec, str):
         return load_target(spec)
     if isinstance(spec, dict) and "cmd" in spec:
-        from .jsonl import CommandImplementation
+        from ..jsonl import CommandImplementation
 
         return CommandImplementation(spec["cmd"], timeout=float(spec.get("timeout", 10.0)))
     raise ValueError(
@@ -264,7 +268,7 @@ def certify_parallel(
     one except for timings (``tests/test_parallel.py``). ``workers=1`` without a scheduler
     runs in this process.
     """
-    from ._parallel import map_tasks
+    from .._parallel import map_tasks
 
     t0 = time.perf_counter()
     ids = [c for c in CHECKS if checks is None or c in checks]
@@ -368,7 +372,7 @@ def kill_rate(
     by default, ``workers=1`` in this process, or a Dask ``scheduler``).
     Returns ``{"killed": [...], "survived": [...], "rate": float, "correct_passes": bool}``.
     """
-    from ._parallel import map_tasks
+    from .._parallel import map_tasks
 
     names = list(MUTATIONS) + [None]
     passed = map_tasks(

@@ -1,7 +1,10 @@
 """``flow.long``: the state at times spread over ``[-T, T]`` (``T = min(FLOW_T_MAX, declared
 max_abs_t)``, 10 by default) vs the independent float64 judge
 (:class:`tstarg.oracles.float_judge.FloatJudge`: DOP853 at rtol 1e-13, its error estimated by a
-second run at rtol 1e-12 and stated in the certificate), on the group the flow lives on
+second run at rtol 1e-12 and stated in the certificate), with the tolerance ``flow_tolerance`` times
+the flow's condition ``||D Phi||`` (estimated by the judge from a perturbed start,
+:func:`tstarg.oracles.float_judge.sensitivity_at`: a backward-stable integrator errs by that much), on
+the group the flow lives on
 (:mod:`..group`): compared through ``rho(g)`` (chart-free, faithful: it sees the SU(2) sheet and
 the centre), ``Ad(g)``, ``pi``, and ``x`` while it stays inside ``||ad_x|| < pi``.
 
@@ -82,16 +85,20 @@ def _flow_long(impl, dom, stats):
         times = sorted({sign * max(frac * reach, 1e-3), sign * reach}, key=abs)
         group = group_for(spec, f)
         try:
-            states, Gs, errs = _judge_on(group, f, theta, ups, inertia, pot, x, pi, times)
+            states, Gs, errs, sens = _judge_on(group, f, theta, ups, inertia, pot, x, pi, times)
         except (ArithmeticError, np.linalg.LinAlgError):
             _count(stats, "redrawn: judge failed")
             reject()
         worst = 0.0
-        for t, (jx, jp, jA), G, jerr in zip(times, states, Gs, errs):
+        for t, (jx, jp, jA), G, jerr, kappa in zip(times, states, Gs, errs, sens):
             scale = max(
                 1.0, float(np.max(np.abs(jp))), float(np.max(np.abs(jx))) if jx is not None else 1.0
             )
-            tol = flow_tol(impl, n, cond, frame) * scale
+            # a backward-stable integrator errs by its tolerance times the flow's condition kappa
+            tol = flow_tol(impl, n, cond, frame) * scale * kappa
+            stats["flow condition (estimated, largest)"] = max(
+                stats.get("flow condition (estimated, largest)", 1.0), float(f"{kappa:.3g}")
+            )
             judge_err = max(e or 0.0 for e in jerr)
             if judge_err > 0.1 * tol:
                 _count(stats, "redrawn: judge not accurate enough")

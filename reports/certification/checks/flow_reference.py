@@ -25,6 +25,7 @@ from tstarg.oracles.float_judge import (
 
 from .._common import (
     FLOW_REF_T_MAX,
+    REFERENCE_DPS,
     REFERENCE_WORK_LIMIT,
     _aim,
     _count,
@@ -60,6 +61,10 @@ def _flow_reference(impl, dom, stats):
         stats["max reference work"] = max(stats.get("max reference work", 0.0), round(work, 1))
 
         refd = _reference_state(f, theta, ups, inertia, pot, x, pi, abs(t))
+        stats["judge"] = (
+            f"refimpl.reference's flow at {REFERENCE_DPS} digits (its error ~1e-{REFERENCE_DPS - 5}, "
+            "far below every float64 tolerance), cached on disk"
+        )
         if refd is None:
             stats["redrawn: reference unavailable (chart)"] = (
                 stats.get("redrawn: reference unavailable (chart)", 0) + 1
