@@ -38,6 +38,7 @@ from __future__ import annotations
 import contextlib
 import io
 import math
+import re
 import signal
 import struct
 import threading
@@ -441,6 +442,11 @@ class _Stop(BaseException):
     """The check's budget is used up: end the Hypothesis run now (not a failure by itself)."""
 
 
+def _failure_kind(exc: BaseException) -> str:
+    """A failure's kind: its type and message with the numbers taken out."""
+    return type(exc).__name__ + re.sub(r"[-+0-9.eE]+", "#", str(exc))[:120]
+
+
 def _strip_notes(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}"[:2000]
 
@@ -477,6 +483,7 @@ def run_property(
         "stopped": False,
         "example_seconds": ex_s,
         "first_failure": None,
+        "kind": None,
     }
     if REPLAY and name not in REPLAY:
         res.extra["not_replayed"] = True
@@ -512,7 +519,12 @@ def run_property(
         except (KeyboardInterrupt, _Stop, UnsatisfiedAssumption):
             raise  # a reject() in the body draws again: no failure (it must not start shrinking)
         except BaseException as exc:
-            state["failure"] = _record_failure(example, notes, ratio, _strip_notes(exc))
+            # while shrinking, only failures of the first one's kind replace it (a call that times out
+            # on a larger model the shrinker tried is another failure, not a smaller example of it)
+            kind = _failure_kind(exc)
+            if state["failure"] is None or kind == state["kind"]:
+                state["failure"] = _record_failure(example, notes, ratio, _strip_notes(exc))
+                state["kind"] = kind
             if state["first_failure"] is None:
                 state["first_failure"] = time.perf_counter()
             if isinstance(

@@ -187,7 +187,7 @@ CHECK = Check(
     needs=("flow",),
     equations="vier10, vier11, twee16",
     build=_flow_long,
-    order=80,
+    order=65,
     mutants={
         **planted("flow_fixed_steps", "centre_lost"),
         "so3_undeclared": Mutant(
