@@ -105,6 +105,10 @@ def _note_stats(cert, cid: str, stats: dict, dom) -> None:
         )
 
 
+_ANNOUNCED: list = []
+"""The checks this process announced as failing (the verdict line is printed once per process)."""
+
+
 def _announcing(body, name: str, t0: float, announce: bool):
     """``body``, printing the verdict once when it first fails (an exception or a ratio above 1)."""
     if not announce:
@@ -115,6 +119,10 @@ def _announcing(body, name: str, t0: float, announce: bool):
         if said:
             return
         said.append(True)
+        if _ANNOUNCED:
+            print(f"tstarg certify: {name} fails too (shrinking it)", flush=True)
+            return
+        _ANNOUNCED.append(name)
         shrink = LIMITS.shrink_seconds
         print(
             f"tstarg certify: verdict FAIL: {name} found a failing example after "
