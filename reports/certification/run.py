@@ -7,7 +7,13 @@ import time
 
 from hypothesis.errors import UnsatisfiedAssumption
 
-from tstarg.properties.runner import LIMITS, CheckResult, run_property
+from tstarg.properties.runner import (
+    LIMITS,
+    CheckResult,
+    announce,
+    finished,
+    run_property,
+)
 
 from .._imports import resolve
 from ._common import _has
@@ -320,6 +326,7 @@ def certificate_checks(max_examples: int, seed: int | None = 0) -> list[CheckRes
 
     k = max(4, max_examples // 3)
     t0 = time.perf_counter()
+    announce("certificate[refimpl.fast]")  # the progress display's current step
     cert = certify(fast, max_examples=k, seed=seed, target="tstarg.refimpl.fast:implementation")
     digits = [c.min_digits for c in cert.checks if c.min_digits is not None]
     res_cert = CheckResult(
@@ -333,8 +340,10 @@ def certificate_checks(max_examples: int, seed: int | None = 0) -> list[CheckRes
         seconds=time.perf_counter() - t0,
         extra={"certificate": cert.to_json()},
     )
+    finished(res_cert)
     t1 = time.perf_counter()
-    kr = kill_rate(max_examples=k, seed=seed)
+    announce("mutation_kill_rate", len(MUTATIONS) + 1)  # one step per mutant, as they arrive
+    kr = kill_rate(max_examples=k, seed=seed, on_result=_kill_progress())
     res_kill = CheckResult(
         name="mutation_kill_rate",
         equations="(meta)",
@@ -345,7 +354,20 @@ def certificate_checks(max_examples: int, seed: int | None = 0) -> list[CheckRes
         seconds=time.perf_counter() - t1,
         extra=kr,
     )
-    return [res_cert, res_kill]
+    return [res_cert, finished(res_kill)]
+
+
+def _kill_progress():
+    """The progress of :func:`kill_rate` inside ``tstarg verify``: the mutants certified so far."""
+    from tstarg.properties import runner as _checks
+
+    count = [0]
+
+    def on_result(index, value):
+        count[0] += 1
+        _checks._report("example", "mutation_kill_rate", count[0], len(MUTATIONS) + 1)
+
+    return on_result
 
 
 def _certify_mutant(item) -> bool:
@@ -371,7 +393,12 @@ def _certify_mutant(item) -> bool:
 
 
 def kill_rate(
-    *, max_examples: int = 8, seed: int | None = 0, workers: int | None = None, scheduler=None
+    *,
+    max_examples: int = 8,
+    seed: int | None = 0,
+    workers: int | None = None,
+    scheduler=None,
+    on_result=None,
 ) -> dict:
     """Certify every mutant of :mod:`reports.mutants` (stopping at its first failed check) and the
     correct ``Plain``.
@@ -388,6 +415,7 @@ def kill_rate(
         [(n, max_examples, seed) for n in names],
         workers=workers,
         scheduler=scheduler,
+        on_result=on_result,
     )
     verdict = dict(zip(names, passed))
     killed = [n for n in MUTATIONS if not verdict[n]]
