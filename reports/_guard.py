@@ -47,6 +47,7 @@ __all__ = [
 
 ATTRIBUTES = tuple(a.name for a in PROTOCOL.attributes if a.where == "attribute") + (
     "domain",  # the declared domain (certification.declared_domain): hidden, it was never certified
+    "group",  # the group the flows live on (certification.group): hidden, SO(3) would be judged as SU(2)
 )
 """The attributes the guard passes through, from the protocol spec."""
 
@@ -403,6 +404,7 @@ def certify_target(
     ``certification.certify_parallel`` promises, the serial result split over workers."""
     from ._parallel import map_tasks
     from .certification import CHECKS, Certificate
+    from .certification.registry import missing
 
     t0 = time.perf_counter()
     ids = [c for c in CHECKS if checks is None or c in checks]
@@ -411,8 +413,8 @@ def certify_target(
     for cid in ids:
         if cid in skips:
             pre[cid] = skips[cid]
-        elif provided is not None and CHECKS[cid] not in provided:
-            pre[cid] = f"the implementation has no method {CHECKS[cid]!r}"
+        elif provided is not None and missing(cid, provided) is not None:
+            pre[cid] = missing(cid, provided)
     run_ids = [c for c in ids if c not in pre] or ids[:1]
     items = [(spec, cid, kwargs, budget, guard) for cid in run_ids]
     if (workers == 1 or len(items) == 1) and scheduler is None:
@@ -429,6 +431,7 @@ def certify_target(
         xfailed=dict(kwargs.get("xfails") or {}),
         command=first.command,
         domain=first.domain,  # what was certified, and the notes on it, survive the merge
+        group=first.group,
     )
     for part in parts:
         cert.checks.extend(part.checks)
