@@ -101,6 +101,7 @@ __all__ = [
     "run_scene",
 ]
 
+from ._version import __version__  # pyproject.toml's version, through importlib.metadata
 from .rigorous import (
     Balls,
     Rigorous,
@@ -113,6 +114,7 @@ from .rigorous import (
 )
 
 __all__ += [
+    "__version__",
     "Balls",
     "Rigorous",
     "UndecidedError",

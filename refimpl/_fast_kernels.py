@@ -20,6 +20,7 @@ from ._validate import (
     check_upsilon,
     outside_chart,
 )
+from ._version import __version__
 
 __all__ = ["FastCore", "PoissonBatch", "FieldBatch", "DegeneratePointError", "C_P"]
 
@@ -558,7 +559,7 @@ class FastCore:
     """
 
     name = "tstarg-fast"
-    version = "0.1.0"
+    version = __version__  # the package's (pyproject.toml)
     batched = True
     precision_digits = 15.9  # float64
 

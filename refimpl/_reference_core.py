@@ -22,6 +22,7 @@ from ._validate import (
     check_theta,
     check_upsilon,
 )
+from ._version import __version__
 
 __all__ = [
     "ReferenceCore",
@@ -115,7 +116,7 @@ class ReferenceCore:
     """
 
     name = "tstarg-reference"
-    version = "0.1.0"
+    version = __version__  # the package's (pyproject.toml)
     batched = False
 
     def __init__(self, dps: int = 50):

@@ -86,6 +86,7 @@ from ._validate import (
     check_theta,
     check_upsilon,
 )
+from ._version import __version__
 
 __all__ = [
     "Balls",
@@ -229,7 +230,7 @@ class Rigorous:
     """
 
     name = "tstarg-rigorous"
-    version = "0.1.0"
+    version = __version__  # the package's (pyproject.toml)
     batched = False
 
     def __init__(self, prec_bits: int = 200, max_prec_bits: int | None = None):
