@@ -551,7 +551,7 @@ def _ct_bernoulli() -> np.ndarray:
 class FastCore:
     """The fast float64 implementation (protocol methods ``poisson_tensor``, ``hamiltonian_vector_field``).
 
-    Protocol contract (DESIGN.md): ``batched = True``; outputs carry the
+    Protocol contract (docs/design.md): ``batched = True``; outputs carry the
     leading axes of ``x`` and ``pi``; a degenerate point raises
     :class:`DegeneratePointError` naming the points. The richer batch API,
     :meth:`poisson_batch` and :meth:`vector_field_batch`, never raises for

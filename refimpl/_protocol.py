@@ -1,7 +1,7 @@
-"""The implementation protocol (DESIGN.md), as an abstract class.
+"""The implementation protocol (docs/design.md), as an abstract class.
 
 An implementation is any object providing a subset of the methods below.
-Conventions are those of CONVENTIONS.md. The obligations:
+Conventions are those of docs/conventions.md. The obligations:
 
 1. ``poisson_tensor(f, theta, upsilon, x, pi) -> P``: ``f`` of shape
    ``(n, n, n)`` with ``f[m, a, b] = f^m_ab``; ``theta``, ``upsilon``

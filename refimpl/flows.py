@@ -6,7 +6,7 @@ Public face of :mod:`refimpl._flow_reference` (mpmath, any precision),
 implementations (:mod:`refimpl.fast`, :mod:`refimpl.reference`) import the integrator modules
 below them, never this one.
 
-Protocol method 3 (DESIGN.md), with the signature
+Protocol method 3 (docs/design.md), with the signature
 ``flow(f, theta, upsilon, inertia, potential, x0, pi0, t) -> (x, pi)``:
 
 * :func:`reference_flow` (``dps=50``): the full state of vier10/vier11 by

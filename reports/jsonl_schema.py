@@ -9,7 +9,7 @@ Rules the schemas encode:
 
 1. a request is ``{"id", "method", "args"}`` (optionally ``"protocol_version": "1.x"``), with
    ``method`` one of ``capabilities``, ``poisson_tensor``, ``hamiltonian_vector_field``, ``flow``
-   and ``args`` holding exactly that method's protocol parameters by name (DESIGN.md); arrays
+   and ``args`` holding exactly that method's protocol parameters by name (docs/design.md); arrays
    are nested lists of numbers;
 2. a reply is ``{"id", "result"}`` or ``{"id", "error"}`` (never both, nothing else), ``error`` a
    non-empty string; ``"unknown method ..."`` means not provided, ``"ValueError: ..."`` is a

@@ -5,7 +5,7 @@ Used by the meta-tests (tests/meta/) and by :func:`reports.certification.kill_ra
 imports nothing of the certification (the kill rate sits above both).
 
 :class:`Plain` is a straightforward per-point numpy implementation of the protocol,
-written from CONVENTIONS.md independently of refimpl.fast; with ``mutation=None`` it is
+written from docs/conventions.md independently of refimpl.fast; with ``mutation=None`` it is
 correct, and each name in :data:`MUTATIONS` switches on exactly one mistake.
 """
 

@@ -23,9 +23,7 @@ from tstarg.oracles.claims_unlabelled import (
 from tstarg.oracles.paper_index import index_paper, shipped_index
 
 PAPER = pc.paper_path()
-needs_paper = pytest.mark.skipif(
-    PAPER is None, reason="paper.tex not found (../shared/paper.tex or $TSTARG_PAPER)"
-)
+needs_paper = pytest.mark.skipif(PAPER is None, reason="paper.tex not found (set TSTARG_PAPER)")
 
 
 @pytest.fixture(scope="module")
