@@ -316,9 +316,21 @@ def _plot(cmp: dict, path) -> Path:
     def cap(v):  # exact (inf) digits drawn at 70, missing as nan
         return float("nan") if v is None else (70.0 if math.isinf(v) else v)
 
+    # constrained layout keeps the legends (right of each panel, off the bars) and every label
+    # inside the canvas; tests/test_figures.py checks both
     fig, axes = plt.subplots(
-        1, 2, figsize=(13, max(3.0, 0.28 * len(rows) + 1.5)), gridspec_kw={"width_ratios": [3, 2]}
+        1,
+        2,
+        figsize=(13, max(3.5, 0.28 * len(rows) + 2.2)),
+        gridspec_kw={"width_ratios": [3, 2]},
+        layout="constrained",
     )
+    beside = {
+        "loc": "upper left",
+        "bbox_to_anchor": (1.01, 1.0),
+        "borderaxespad": 0.0,
+        "fontsize": 8,
+    }
     ax = axes[0]
     y = list(range(len(rows)))
     ax.barh(
@@ -338,7 +350,7 @@ def _plot(cmp: dict, path) -> Path:
     ax.set_yticks(y, [r["name"][:42] for r in rows], fontsize=7)
     ax.invert_yaxis()
     ax.set_xlabel("minimum correct digits (exact drawn at 70)")
-    ax.legend(loc="lower right", fontsize=8)
+    ax.legend(**beside)
     ax = axes[1]
     y = list(range(len(spd)))
     ax.barh(
@@ -375,9 +387,8 @@ def _plot(cmp: dict, path) -> Path:
             transform=ax.transAxes,
         )
     ax.set_xlabel("speed-up vs baseline computation (same run)")
-    ax.legend(loc="lower right", fontsize=8)
+    ax.legend(**beside)
     fig.suptitle("base (grey) vs new; red = regression", fontsize=10)
-    fig.tight_layout()
     path = Path(path)
     try:
         save_figure(fig, path, dpi=110)
