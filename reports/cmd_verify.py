@@ -306,6 +306,7 @@ def render_markdown(report: dict) -> str:
             + ("" if cmp["same_sampling"] else "; different samples, digits not enforced")
             + "). "
             "Full table: [compare.md](compare.md).",
+            *(["", f"**{cmp['stale_note']}**"] if cmp.get("stale") else []),
             "",
             "![base vs this run](figures/compare.png)",
             "",
@@ -528,3 +529,5 @@ def _compare_with_baseline(args, report: dict, results: list, out: Path) -> None
             else ""
         )
     )
+    if cmp.get("stale"):
+        print(cmp["stale_note"])
