@@ -339,7 +339,7 @@ def _plot(cmp: dict, path) -> Path:
     def cap(v):  # exact (inf) digits drawn at 70, missing as nan
         return float("nan") if v is None else (70.0 if math.isinf(v) else v)
 
-    # constrained layout keeps the legends (right of each panel, off the bars) and every label
+    # constrained layout keeps the one legend (below both panels, off the bars) and every label
     # inside the canvas; tests/test_figures.py checks both
     fig, axes = plt.subplots(
         1,
@@ -348,12 +348,6 @@ def _plot(cmp: dict, path) -> Path:
         gridspec_kw={"width_ratios": [3, 2]},
         layout="constrained",
     )
-    beside = {
-        "loc": "upper left",
-        "bbox_to_anchor": (1.01, 1.0),
-        "borderaxespad": 0.0,
-        "fontsize": 8,
-    }
     ax = axes[0]
     y = list(range(len(rows)))
     ax.barh(
@@ -373,7 +367,6 @@ def _plot(cmp: dict, path) -> Path:
     ax.set_yticks(y, [r["name"][:42] for r in rows], fontsize=7)
     ax.invert_yaxis()
     ax.set_xlabel("minimum correct digits (exact drawn at 70)")
-    ax.legend(**beside)
     ax = axes[1]
     y = list(range(len(spd)))
     ax.barh(
@@ -410,7 +403,19 @@ def _plot(cmp: dict, path) -> Path:
             transform=ax.transAxes,
         )
     ax.set_xlabel("speed-up vs baseline computation (same run)")
-    ax.legend(**beside)
+    from matplotlib.patches import Patch
+
+    fig.legend(
+        handles=[
+            Patch(color="0.7", label="base"),
+            Patch(color="tab:blue", label="new: digits"),
+            Patch(color="tab:green", label="new: speed-up"),
+            Patch(color="tab:red", label="new: regression"),
+        ],
+        loc="outside lower center",  # matplotlib >= 3.7 with constrained layout
+        ncol=4,
+        fontsize=8,
+    )
     fig.suptitle("base (grey) vs new; red = regression", fontsize=10)
     path = Path(path)
     try:
