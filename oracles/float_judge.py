@@ -1,4 +1,4 @@
-"""The float64 judges of the certification and their error models (CONVENTIONS.md, "Errors and
+"""The float64 judges of the certification and their error models (docs/conventions.md, "Errors and
 tolerances").
 
 * :func:`conditioning`, :func:`cond_omega`, :func:`tolerance`, :func:`flow_tol`: the error model of

@@ -24,6 +24,7 @@ from ._validate import (
     refuse_overflow,
     within_boundary,
 )
+from ._version import __version__
 
 __all__ = ["FastCore", "PoissonBatch", "FieldBatch", "DegeneratePointError", "C_P"]
 
@@ -556,7 +557,7 @@ def _ct_bernoulli() -> np.ndarray:
 class FastCore:
     """The fast float64 implementation (protocol methods ``poisson_tensor``, ``hamiltonian_vector_field``).
 
-    Protocol contract (DESIGN.md): ``batched = True``; outputs carry the
+    Protocol contract (docs/design.md): ``batched = True``; outputs carry the
     leading axes of ``x`` and ``pi``; a degenerate point raises
     :class:`DegeneratePointError` naming the points. The richer batch API,
     :meth:`poisson_batch` and :meth:`vector_field_batch`, never raises for
@@ -564,7 +565,7 @@ class FastCore:
     """
 
     name = "tstarg-fast"
-    version = "0.1.0"
+    version = __version__  # the package's (pyproject.toml)
     batched = True
     precision_digits = 15.9  # float64
 

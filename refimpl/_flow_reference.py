@@ -1,6 +1,6 @@
 """Reference flows (mpmath, any precision): the full state (x, pi) and the reduced body systems.
 
-Systems (CONVENTIONS.md; the paper's labels)
+Systems (docs/conventions.md; the paper's labels)
 
 * Full state, vier10/vier11: ``Omega = Psi^-1 (dK - U dV)``,
   ``pidot = Phi^-1 (-dV - S dK)``, ``xdot = L(g, e) Omega`` with
@@ -9,7 +9,7 @@ Systems (CONVENTIONS.md; the paper's labels)
   is twee13/twee14; with ``Theta`` it is drie4/drie6.
 * Reduced body system: ``dV`` depends on ``g`` only through ``Gamma``, which
   obeys ``dGamma_mu/dt = Omega^b f^a_{b mu} Gamma_a`` (twee17 with the sign
-  corrected, CONVENTIONS.md / tests/test_vector_field.py); so ``(pi, Gamma)``
+  corrected, docs/conventions.md / tests/test_vector_field.py); so ``(pi, Gamma)``
   is closed (Euler-Poisson, twee17/twee18), and ``pi`` alone is closed when
   ``V = 0`` (Euler, twee14, drie6).
 
@@ -628,7 +628,7 @@ def reference_trajectory(
 def reference_flow(
     f, theta, upsilon, inertia, potential, x0, pi0, t, dps: int = 50, *, return_group: bool = False
 ):
-    """Protocol method 3 (DESIGN.md): the state ``(x, pi)`` at time ``t`` from ``(x0, pi0)`` at 0.
+    """Protocol method 3 (docs/design.md): the state ``(x, pi)`` at time ``t`` from ``(x0, pi0)`` at 0.
 
     Full state of vier10/vier11, integrated at ``dps`` digits (see the module
     docstring), re-based through the algebra's faithful representation; ``x`` is the logarithm of

@@ -1,6 +1,6 @@
 """The fast implementation: numpy float64, batched over any leading axes, with error bounds.
 
-Same mathematics as :mod:`refimpl.reference` (CONVENTIONS.md), computed
+Same mathematics as :mod:`refimpl.reference` (docs/conventions.md), computed
 independently:
 
 * **su(2) closed forms** (``f = eps`` exactly): ``L(g,e) = 1 + K/2 + c K^2``
@@ -71,7 +71,7 @@ __all__ = ["Fast", "implementation", "PoissonBatch", "FieldBatch", "DegeneratePo
 
 
 class Fast(FastCore, Implementation):
-    """The fast float64 implementation of the whole protocol (DESIGN.md).
+    """The fast float64 implementation of the whole protocol (docs/design.md).
 
     The batched kernels (:meth:`poisson_batch`, :meth:`vector_field_batch`, and the protocol's
     ``poisson_tensor`` and ``hamiltonian_vector_field``) come from

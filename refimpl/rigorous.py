@@ -7,7 +7,7 @@ numbers; the catalogue's algebraic structure constants (``sqrt(3)/2`` in su(3),
 ``sqrt(|h|)`` in Bianchi VII_h) enter as balls around the irrational numbers, from the
 algebra's exact constants (``LieAlgebra.f_exact``).
 
-Mathematics (CONVENTIONS.md; the paper's labels):
+Mathematics (docs/conventions.md; the paper's labels):
 
 * ``ad_x[m, b] = x^a f^m_ab``; ``A = L(g^-1, g) = phi1(-ad_x)`` with
   ``phi1(M) = sum_k M^k/(k+1)!`` (twee1): the series is summed in ball arithmetic to
@@ -34,7 +34,7 @@ Mathematics (CONVENTIONS.md; the paper's labels):
   ``xdot = L Omega``; gravity (twee15, twee16): ``Gamma = Ad(g)^T gamma``,
   ``dV_b = -Gamma_m f^m_bc L^c``.
 
-Protocol (DESIGN.md): ``poisson_tensor`` and ``hamiltonian_vector_field`` return float64
+Protocol (docs/design.md): ``poisson_tensor`` and ``hamiltonian_vector_field`` return float64
 midpoints (the evaluation is repeated at higher precision until every radius is below
 ``2^-60`` of the array's scale, so the midpoints are the correctly rounded doubles up to
 an ulp). The ``*_balls`` methods return :class:`Balls`. There is no ``flow`` method (the
@@ -86,6 +86,7 @@ from ._validate import (
     check_theta,
     check_upsilon,
 )
+from ._version import __version__
 
 __all__ = [
     "Balls",
@@ -229,7 +230,7 @@ class Rigorous:
     """
 
     name = "tstarg-rigorous"
-    version = "0.1.0"
+    version = __version__  # the package's (pyproject.toml)
     batched = False
 
     def __init__(self, prec_bits: int = 200, max_prec_bits: int | None = None):

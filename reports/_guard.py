@@ -1,7 +1,7 @@
 """What ``tstarg certify`` puts between the battery and the implementation under test.
 
 * :func:`materialize` turns a target description into an implementation: ``"module:object"``,
-  a bare ``"module"`` (DESIGN.md: an implementation may be a module), or
+  a bare ``"module"`` (docs/design.md: an implementation may be a module), or
   ``{"cmd": "PROGRAM ARGS", "timeout": s, "stderr_log": path}`` for a JSON-lines program
   (:mod:`reports.jsonl`). A target that provides none of the protocol's methods is refused
   (:class:`NotAnImplementation`) before anything runs.
@@ -86,7 +86,7 @@ class Guarded:
         if not provided:
             raise NotAnImplementation(
                 f"target {self._label} ({type(target).__name__}) provides none of the protocol's methods "
-                f"({', '.join(METHODS)}): not an implementation (DESIGN.md, the implementation protocol)"
+                f"({', '.join(METHODS)}): not an implementation (docs/design.md, the implementation protocol)"
             )
         _validate_attributes(target, self._label)
         self.provided = provided

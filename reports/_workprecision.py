@@ -1014,12 +1014,12 @@ def fmt_time(t) -> str:
 
 # ------------------------------------------------------------------ a third-party implementation
 # ``tstarg bench --impl module:object`` / ``--cmd "PROGRAM ARGS"``: an implementation of the
-# protocol (DESIGN.md; the object ``tstarg certify`` takes) on the same diagrams as ours.
+# protocol (docs/design.md; the object ``tstarg certify`` takes) on the same diagrams as ours.
 
 
 def impl_flow_setting(impl) -> str:
     """How the implementation's ``flow`` can be driven over a work-precision ladder: ``"steps"``
-    when it takes the protocol's optional ``steps=`` keyword (DESIGN.md: a fixed step count; a
+    when it takes the protocol's optional ``steps=`` keyword (docs/design.md: a fixed step count; a
     JSON-lines program is asked for ``steps`` only when its ``capabilities`` declare an ``order``),
     ``"tol"`` when it takes a ``tol=`` keyword, else ``"default"``: one point at its own accuracy."""
     import inspect

@@ -299,6 +299,7 @@ def render_markdown(report: dict) -> str:
             + ("" if cmp["same_sampling"] else "; different samples, digits not enforced")
             + "). "
             "Full table: [compare.md](compare.md).",
+            *(["", f"**{cmp['stale_note']}**"] if cmp.get("stale") else []),
             "",
             "![base vs this run](figures/compare.png)",
             "",
@@ -538,3 +539,5 @@ def _compare_with_baseline(args, report: dict, results: list, out: Path, base=No
             else ""
         )
     )
+    if cmp.get("stale"):
+        print(cmp["stale_note"])

@@ -30,7 +30,7 @@ FAST_TOL = 1e-10  # fast_flow's default tolerance (refimpl.fast.Fast.flow_tolera
 
 
 def _digits(a, b) -> float:
-    """Correct significant digits of a against b: -log10(max |a - b| / max(|b|, 1)) (CONVENTIONS.md)."""
+    """Correct significant digits of a against b: -log10(max |a - b| / max(|b|, 1)) (docs/conventions.md)."""
     a = np.asarray(a, dtype=object).ravel()
     b = np.asarray(b, dtype=object).ravel()
     with mpmath.workdps(80):

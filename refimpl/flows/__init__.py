@@ -17,7 +17,7 @@ The flows wing. This package's face re-exports; the pieces:
 Adding an integrator: one module in ``refimpl/flows/integrators/`` (see :mod:`refimpl.flows.base`
 for the contract) and its order test.
 
-Protocol method 3 (DESIGN.md), with the signature
+Protocol method 3 (docs/design.md), with the signature
 ``flow(f, theta, upsilon, inertia, potential, x0, pi0, t) -> (x, pi)``:
 
 * :func:`reference_flow` (``dps=50``): the full state of vier10/vier11 by
