@@ -80,6 +80,7 @@ from ._arb import (
 from ._errors import ChartError, DegeneratePointError
 from ._reference_core import MAX_AD_NORM, MAX_DPS, MAX_MAGNITUDE
 from ._rigorous_flow import body_flow_enclosure
+from ._rigorous_state import full_state_enclosure, judge_flow
 from ._validate import (
     check_chart,
     check_inertia,
@@ -100,6 +101,8 @@ __all__ = [
     "distance_to_ball",
     "error_bounds",
     "implementation",
+    "full_state_enclosure",
+    "judge_flow",
     "judge_poisson",
     "judge_vector_field",
 ]
