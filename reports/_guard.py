@@ -45,9 +45,12 @@ __all__ = [
     "materialize",
 ]
 
-ATTRIBUTES = tuple(a.name for a in PROTOCOL.attributes if a.where == "attribute") + (
-    "domain",  # the declared domain (certification.declared_domain): hidden, it was never certified
-    "group",  # the group the flows live on (certification.group): hidden, SO(3) would be judged as SU(2)
+ATTRIBUTES = (
+    tuple(a.name for a in PROTOCOL.attributes if a.where == "attribute")
+    + (
+        "domain",  # the declared domain (certification.declared_domain): hidden, it was never certified
+        "group",  # the group the flows live on (certification.group): hidden, SO(3) would be judged as SU(2)
+    )
 )
 """The attributes the guard passes through, from the protocol spec."""
 
