@@ -1,7 +1,7 @@
 """What ``tstarg certify`` puts between the battery and the implementation under test.
 
 * :func:`materialize` turns a target description into an implementation: ``"module:object"``,
-  a bare ``"module"`` (DESIGN.md: an implementation may be a module), or
+  a bare ``"module"`` (docs/design.md: an implementation may be a module), or
   ``{"cmd": "PROGRAM ARGS", "timeout": s, "stderr_log": path}`` for a JSON-lines program
   (:mod:`reports.jsonl`). A target that provides none of the protocol's methods is refused
   (:class:`NotAnImplementation`) before anything runs.
@@ -45,8 +45,12 @@ __all__ = [
     "materialize",
 ]
 
-ATTRIBUTES = tuple(a.name for a in PROTOCOL.attributes if a.where == "attribute") + (
-    "domain",  # the declared domain (certification.declared_domain): hidden, it was never certified
+ATTRIBUTES = (
+    tuple(a.name for a in PROTOCOL.attributes if a.where == "attribute")
+    + (
+        "domain",  # the declared domain (certification.declared_domain): hidden, it was never certified
+        "group",  # the group the flows live on (certification.group): hidden, SO(3) would be judged as SU(2)
+    )
 )
 """The attributes the guard passes through, from the protocol spec."""
 
@@ -85,7 +89,7 @@ class Guarded:
         if not provided:
             raise NotAnImplementation(
                 f"target {self._label} ({type(target).__name__}) provides none of the protocol's methods "
-                f"({', '.join(METHODS)}): not an implementation (DESIGN.md, the implementation protocol)"
+                f"({', '.join(METHODS)}): not an implementation (docs/design.md, the implementation protocol)"
             )
         _validate_attributes(target, self._label)
         self.provided = provided
@@ -403,6 +407,7 @@ def certify_target(
     ``certification.certify_parallel`` promises, the serial result split over workers."""
     from ._parallel import map_tasks
     from .certification import CHECKS, Certificate
+    from .certification.registry import missing
 
     t0 = time.perf_counter()
     ids = [c for c in CHECKS if checks is None or c in checks]
@@ -411,8 +416,8 @@ def certify_target(
     for cid in ids:
         if cid in skips:
             pre[cid] = skips[cid]
-        elif provided is not None and CHECKS[cid] not in provided:
-            pre[cid] = f"the implementation has no method {CHECKS[cid]!r}"
+        elif provided is not None and missing(cid, provided) is not None:
+            pre[cid] = missing(cid, provided)
     run_ids = [c for c in ids if c not in pre] or ids[:1]
     items = [(spec, cid, kwargs, budget, guard) for cid in run_ids]
     if (workers == 1 or len(items) == 1) and scheduler is None:
@@ -429,6 +434,7 @@ def certify_target(
         xfailed=dict(kwargs.get("xfails") or {}),
         command=first.command,
         domain=first.domain,  # what was certified, and the notes on it, survive the merge
+        group=first.group,
     )
     for part in parts:
         cert.checks.extend(part.checks)

@@ -80,7 +80,7 @@ BUDGETS = {
 
 def add_arguments(p) -> None:
     p.add_argument(
-        "target", nargs="?", help="module or module:object implementing the protocol (DESIGN.md)"
+        "target", nargs="?", help="module[:object] implementing the protocol (docs/design.md)"
     )
     p.add_argument(
         "--cmd", help='an external program speaking JSON lines, e.g. --cmd "julia impl.jl"'

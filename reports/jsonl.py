@@ -1,4 +1,4 @@
-"""Implementations in any language, spoken to over JSON lines (DESIGN.md, certification).
+"""Implementations in any language, spoken to over JSON lines (docs/design.md, certification).
 
 The program reads one request per line on stdin and writes one reply per line on stdout:
 

@@ -304,7 +304,7 @@ def test_every_consumer_reads_the_spec():
 
 
 def test_implementation_base_class_provides_any_subset():
-    """DESIGN.md: an implementation provides any subset. A subclass overriding only flow provides
+    """docs/design.md: an implementation provides any subset. A subclass overriding only flow provides
     only flow (the base's methods are placeholders), and the guard exposes only that."""
     from tstarg.refimpl import Implementation, provided_methods, provides
     from tstarg.reports._guard import Guarded
