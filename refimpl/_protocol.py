@@ -33,8 +33,9 @@ The obligations, in words (conventions of docs/conventions.md):
    ``t`` starting from ``(x0, pi0)`` at time 0 (optional keyword ``steps``).
 4. Arrays are numpy float64. With ``batched = True`` the methods accept leading batch axes on
    the point arguments and return the same leading axes.
-5. At a degenerate point (``Delta = det Phi = 0``, vier7) an implementation either returns a
-   flagged result or raises ``ValueError`` (or a subclass).
+5. At a degenerate point (``Delta = det Phi = 0``, vier7) an implementation raises
+   ``ValueError`` (or a subclass, e.g. ``DegeneratePointError``) naming the point; it never
+   returns finite numbers there (only the fast batch API flags and returns NaN).
 6. An implementation provides **any subset** of the methods; the optional attributes are
    listed in :data:`SPEC` (``ATTRIBUTES``).
 """

@@ -370,7 +370,7 @@ def _broken_certificate(target: str, seed, n: int, reason: str):
 
 def _run(spec, par, budget, kw):
     """The battery (in the supervised child); a broken run returns its reason as a string."""
-    from ._guard import certify_target
+    from .certification import certify_target
 
     try:
         if par["workers"] == 1 and par["scheduler"] is None:
@@ -491,7 +491,7 @@ def _replay_result(result, wall: float) -> int:
 def _replay(examples: dict, spec, target, budget, seed) -> int:
     from tstarg.properties import runner
 
-    from ._guard import certify_target
+    from .certification import certify_target
 
     ids = sorted({name.split("[", 1)[0] for name in examples})
     runner.REPLAY.update(examples)

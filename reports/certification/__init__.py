@@ -106,7 +106,14 @@ from .certificate import Certificate, _read_ids, reproduce_command, write_certif
 from .check import Check, Mutant, Variant
 from .domain import Domain, declared_domain
 from .registry import CHECKS, MUTANT_CHECKS, MUTATIONS, REGISTRY
-from .run import certificate_checks, certify, certify_parallel, kill_rate, load_target
+from .run import (
+    certificate_checks,
+    certify,
+    certify_parallel,
+    certify_target,
+    kill_rate,
+    load_target,
+)
 
 __all__ = [
     "ALLOW_CHART_REFUSAL",
@@ -137,6 +144,7 @@ __all__ = [
     "certificate_checks",
     "certify",
     "certify_parallel",
+    "certify_target",
     "declared_domain",
     "kill_rate",
     "load_target",

@@ -22,7 +22,7 @@ from tstarg.oracles.float_judge import (
     sensitivity_at,
 )
 from tstarg.properties.runner import note
-from tstarg.refimpl import CATALOGUE_NAMES, catalogue
+from tstarg.refimpl import CATALOGUE_NAMES, catalogue, provides
 from tstarg.refimpl.reference import Reference
 from tstarg.refimpl.rigorous import Rigorous
 
@@ -353,4 +353,4 @@ def _flow_call(impl, dom, stats, args, t):
 
 
 def _has(impl, method) -> bool:
-    return callable(getattr(impl, method, None))
+    return provides(impl, method)  # the protocol spec: a placeholder is not provided
