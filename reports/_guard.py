@@ -40,7 +40,7 @@ __all__ = ["Guarded", "NotAnImplementation", "certify_target", "explain", "mater
 
 ATTRIBUTES = tuple(a.name for a in PROTOCOL.attributes if a.where == "attribute") + (
     "domain",  # the declared domain (certification.declared_domain): hidden, it was never certified
-    "group",  # the group the flows live on (certification.group): hidden, SO(3) would be judged as SU(2)
+    "group",  # the flows' group (certification.group)
 )
 """The attributes the guard passes through, from the protocol spec."""
 
