@@ -15,17 +15,19 @@ from tstarg.properties.runner import (
     run_property,
 )
 
-from .._imports import resolve
 from ._common import _has
 from .certificate import Certificate, reproduce_command
 from .domain import Domain, declared_domain
 from .group import declared_group, describe_group
-from .registry import CHECKS, MUTANT_CHECKS, MUTATIONS, REGISTRY, mutant
+from .registry import MUTANT_CHECKS, MUTATIONS, REGISTRY, mutant
 
 
 def load_target(spec: str):
-    """``"package.module:object"`` (object may be dotted) to the object."""
-    return resolve(spec)
+    """``"package.module:object"`` (object may be dotted) or ``"module"`` to the object (the one
+    loader, :func:`reports._guard.load`, unguarded)."""
+    from .._guard import load
+
+    return load(spec, guard=False)
 
 
 def certify(
@@ -229,31 +231,6 @@ def _certify(
     return cert
 
 
-def _materialize(spec):
-    """A certification target from its picklable description: ``"module:object"`` or
-    ``{"cmd": "PROGRAM ARGS", "timeout": seconds}`` (a fresh program per worker)."""
-    if isinstance(spec, str):
-        return load_target(spec)
-    if isinstance(spec, dict) and "cmd" in spec:
-        from ..jsonl import CommandImplementation
-
-        return CommandImplementation(spec["cmd"], timeout=float(spec.get("timeout", 10.0)))
-    raise ValueError(
-        f"certification target must be 'module:object' or {{'cmd': ...}}, got {spec!r}"
-    )
-
-
-def _certify_unit(item) -> Certificate:
-    """Worker of :func:`certify_parallel`: one check id (all its regimes) on a freshly loaded target."""
-    spec, cid, kwargs = item
-    impl = _materialize(spec)
-    try:
-        return certify(impl, checks=[cid], **kwargs)
-    finally:
-        if hasattr(impl, "close"):
-            impl.close()
-
-
 def certify_parallel(
     spec,
     *,
@@ -267,49 +244,31 @@ def certify_parallel(
     shrink: bool = True,
     checks: list[str] | None = None,
 ) -> Certificate:
-    """:func:`certify` with the check ids spread over worker processes or a Dask cluster.
+    """:func:`certify` with the check ids spread over worker processes or a Dask cluster: the one
+    run-and-merge, :func:`reports._guard.certify_target`, on the bare target (``guard=False``).
 
     ``spec`` names the target so that each worker can load it (``"module:object"``, or
     ``{"cmd": ..., "timeout": ...}`` for a JSON-lines program: one program per worker).
     Each check id runs exactly as it would serially (same seed, same examples); the
-    partial certificates are merged in :data:`CHECKS` order, so the result equals the serial
+    partial certificates are merged in registry order, so the result equals the serial
     one except for timings (``tests/test_parallel.py``). ``workers=1`` without a scheduler
     runs in this process.
     """
-    from .._parallel import map_tasks
+    from .._guard import certify_target
 
-    t0 = time.perf_counter()
-    ids = [c for c in CHECKS if checks is None or c in checks]
-    kwargs = {
-        "max_examples": max_examples,
-        "seed": seed,
-        "skips": skips,
-        "xfails": xfails,
-        "target": target,
-        "shrink": shrink,
-    }
-    parts = map_tasks(
-        _certify_unit, [(spec, cid, kwargs) for cid in ids], workers=workers, scheduler=scheduler
-    )
-    first = parts[0] if parts else _certify_unit((spec, None, kwargs))
-    cert = Certificate(
-        implementation=first.implementation,
-        version=first.version,
-        target=first.target,
-        seed=seed,
+    return certify_target(
+        spec,
+        workers=workers,
+        scheduler=scheduler,
+        guard=False,
+        checks=checks,
         max_examples=max_examples,
-        xfailed=dict(xfails or {}),
-        command=first.command,
-        domain=first.domain,
-        group=first.group,
+        seed=seed,
+        skips=skips,
+        xfails=xfails,
+        target=target,
+        shrink=shrink,
     )
-    for part in parts:
-        cert.checks.extend(part.checks)
-        cert.skipped.update(part.skipped)
-        cert.incidents.extend(part.incidents)
-        cert.notes.extend(n for n in part.notes if n not in cert.notes)
-    cert.seconds = time.perf_counter() - t0
-    return cert
 
 
 def certificate_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
