@@ -335,7 +335,7 @@ def explain(check, *, seconds: float = 60.0) -> None:
 def _unit(item):
     """Worker: one check id on a freshly loaded target (guarded unless ``guard`` is False), within
     the run's budgets (none when ``budget`` is None)."""
-    from .certification import certify
+    from .certification.run import certify
 
     spec, cid, kwargs, budget, guard = item
     if isinstance(spec, dict) and spec.get("stderr_dir"):
@@ -406,8 +406,8 @@ def certify_target(
     battery on the bare target (no per-call limits, no input/output guard): what
     ``certification.certify_parallel`` promises, the serial result split over workers."""
     from ._parallel import map_tasks
-    from .certification import CHECKS, Certificate
-    from .certification.registry import missing
+    from .certification.certificate import Certificate
+    from .certification.registry import CHECKS, missing
 
     t0 = time.perf_counter()
     ids = [c for c in CHECKS if checks is None or c in checks]

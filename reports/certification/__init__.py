@@ -107,8 +107,9 @@ from ._common import (
 from .certificate import Certificate, _read_ids, reproduce_command, write_certificate
 from .check import Check, Mutant, Variant
 from .domain import Domain, declared_domain
+from .parallel import certify_parallel, load_target
 from .registry import CHECKS, MUTANT_CHECKS, MUTATIONS, REGISTRY
-from .run import certificate_checks, certify, certify_parallel, kill_rate, load_target
+from .run import certificate_checks, certify, kill_rate
 
 __all__ = [
     "ALLOW_CHART_REFUSAL",
