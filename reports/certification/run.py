@@ -1,5 +1,5 @@
 """Running the battery: :func:`certify` over the registry's checks, in this process or spread over
-workers (:func:`certify_parallel`), and the mutation kill rate."""
+workers (:mod:`.parallel`), and the mutation kill rate."""
 
 from __future__ import annotations
 
@@ -105,7 +105,8 @@ def _note_stats(cert, cid: str, stats: dict, dom) -> None:
         cert.notes.append(f"{cid}: {k}: {v}")
     if stats.get("negative t judged"):
         cert.notes.append(
-            f"{cid}: flow at negative times judged on {stats['negative t judged']} examples"
+            f"{cid}: flow at negative times judged on {stats['negative t judged']} example"
+            + ("s" if stats["negative t judged"] != 1 else "")
             + (" (negative_t declared: a refusal fails)" if dom.negative_t else "")
         )
     if "negative t refused (ValueError)" in stats and not any("t < 0" in n for n in cert.notes):
@@ -115,12 +116,9 @@ def _note_stats(cert, cid: str, stats: dict, dom) -> None:
         )
 
 
-_ANNOUNCED: list = []
-"""The checks this process announced as failing (the verdict line is printed once per process)."""
-
-
 def _announcing(body, name: str, t0: float, announce: bool):
-    """``body``, printing the verdict once when it first fails (an exception or a ratio above 1)."""
+    """``body``, printing the verdict when it first fails (an exception or a ratio above 1): one
+    line per failing check, the first of them is the verdict."""
     if not announce:
         return body
     said = []
@@ -129,10 +127,6 @@ def _announcing(body, name: str, t0: float, announce: bool):
         if said:
             return
         said.append(True)
-        if _ANNOUNCED:
-            print(f"tstarg certify: {name} fails too (shrinking it)", flush=True)
-            return
-        _ANNOUNCED.append(name)
         shrink = LIMITS.shrink_seconds
         print(
             f"tstarg certify: verdict FAIL: {name} found a failing example after "
