@@ -796,10 +796,12 @@ class TimeBudget:
             )
 
 
-def degenerate_relative(delta_abs: float, phi_norm: float, n: int, eps: float) -> bool:
+def degenerate_relative(delta_abs, phi_norm, n: int, eps) -> bool:
     """Delta = det Phi is zero to working precision when ``|Delta| <= 16 n eps ||Phi||^n`` --
     relative to the scale of Phi (Hadamard: ``|det Phi| <= ||Phi||^n``), never absolute:
-    ``Phi = 1 + S Upsilon`` of size 1e66 has a determinant of size 1e198 that is far from 0."""
+    ``Phi = 1 + S Upsilon`` of size 1e66 has a determinant of size 1e198 that is far from 0.
+    Works on floats and on mpmath numbers (the reference passes ``max(1, ||Phi||_1)`` and its eps,
+    and escalates the digits while this holds before calling a point degenerate)."""
     return bool(delta_abs <= 16 * n * eps * phi_norm**n)
 
 
