@@ -1,4 +1,4 @@
-"""Closed-form solutions and first integrals, stated in our conventions (CONVENTIONS.md).
+"""Closed-form solutions and first integrals, stated in our conventions (docs/conventions.md).
 
 Free rigid body (twee13, twee14, twee18 with L = 0; so(3) = su(2), f^m_ab = eps_mab)
 ----------------------------------------------------------------------------------

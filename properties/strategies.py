@@ -749,7 +749,7 @@ def _dyadic(k: int = 16, denominator: int = 8):
 
 def scenes(*, names=None, potential: bool | None = None, batch: bool | None = None):
     """A scene as a plain dict in the TOML format of :func:`refimpl.flows.parse_scene`
-    (DESIGN.md "Scenes"); every number is a float with an exact dyadic value, so a TOML
+    (docs/design.md "Scenes"); every number is a float with an exact dyadic value, so a TOML
     round trip is lossless. Keys:
 
     ``name``; ``algebra`` (catalogue name) or ``f`` (``(n, n, n)`` nested lists);

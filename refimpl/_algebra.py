@@ -1,6 +1,6 @@
 """Validated real Lie algebras given by structure constants.
 
-Conventions (CONVENTIONS.md): basis ``e_a`` with indices ``0..n-1``;
+Conventions (docs/conventions.md): basis ``e_a`` with indices ``0..n-1``;
 ``f[m, a, b] = f^m_ab`` with ``[e_a, e_b] = f^m_ab e_m``;
 ``ad_x[m, b] = x^a f[m, a, b]``; Killing form ``K_ab = f^m_an f^n_bm``.
 

@@ -24,6 +24,7 @@ from ._validate import (
     refuse_overflow,
     within_boundary,
 )
+from ._version import __version__
 
 __all__ = ["FastCore", "PoissonBatch", "FieldBatch", "DegeneratePointError", "C_P"]
 
@@ -556,7 +557,7 @@ def _ct_bernoulli() -> np.ndarray:
 class FastCore:
     """The fast float64 implementation (protocol methods ``poisson_tensor``, ``hamiltonian_vector_field``).
 
-    Protocol contract (DESIGN.md): ``batched = True``; outputs carry the
+    Protocol contract (docs/design.md): ``batched = True``; outputs carry the
     leading axes of ``x`` and ``pi``; a degenerate point raises
     :class:`DegeneratePointError` naming the points. The richer batch API,
     :meth:`poisson_batch` and :meth:`vector_field_batch`, never raises for
@@ -564,7 +565,7 @@ class FastCore:
     """
 
     name = "tstarg-fast"
-    version = "0.1.0"
+    version = __version__  # the package's (pyproject.toml)
     batched = True
     precision_digits = 15.9  # float64
 
@@ -606,6 +607,16 @@ class FastCore:
         """
         check_out_buffer(out, ("x", x), ("pi", pi))  # issue 30 hook: read-only or aliasing out=
         f, th, up = self._model(f, theta, upsilon)
+        return self.poisson_batch_validated(
+            f, th, up, x, pi, layout=layout, out=out, compiled=compiled
+        )
+
+    def poisson_batch_validated(
+        self, f, th, up, x, pi, *, layout: str = "points", out=None, compiled: bool | None = None
+    ) -> PoissonBatch:
+        """:meth:`poisson_batch` on a model already validated (the arrays of a
+        :class:`refimpl.model.Model`): the structure constants, Theta and Upsilon are not checked
+        again; the points are."""
         n = f.shape[0]
         check_batch_memory(np.size(x) // n, n, what="poisson_batch")  # issue 30 hook
         if compiled is None:

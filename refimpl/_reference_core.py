@@ -29,6 +29,7 @@ from ._validate import (
     parse_number,
 )
 from ._validate import MAX_MAGNITUDE as _MAX_MAGNITUDE_FLOAT
+from ._version import __version__
 
 __all__ = [
     "ReferenceCore",
@@ -113,7 +114,7 @@ class ReferenceCore:
     """
 
     name = "tstarg-reference"
-    version = "0.1.0"
+    version = __version__  # the package's (pyproject.toml)
     batched = False
 
     def __init__(self, dps: int = 50):

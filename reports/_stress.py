@@ -36,7 +36,7 @@ Every point is judged against the mpmath reference (the judge) at
 as exact binary numbers; the two rungs must agree to ``JUDGE_MIN_DIGITS``.
 Per point: ``digits lost = D64 - digits obtained`` with
 ``D64 = -log10(eps/2) = 15.95`` and ``digits obtained = -log10(err / max(1,
-max|ref|))`` (CONVENTIONS.md), the error model's prediction (the same with the
+max|ref|))`` (docs/conventions.md), the error model's prediction (the same with the
 fast ``error_bound``), and the outcome of :mod:`refimpl.escalate` at the
 requested tolerance:
 
@@ -86,7 +86,7 @@ def _antisym(A: np.ndarray) -> np.ndarray:
 
 
 def _tau_matrix(tau) -> np.ndarray:
-    """``Upsilon^mn = tau_l eps_lmn`` (CONVENTIONS.md, section cinq)."""
+    """``Upsilon^mn = tau_l eps_lmn`` (docs/conventions.md, section cinq)."""
     t0, t1, t2 = (float(v) for v in tau)
     return np.array([[0.0, t2, -t1], [-t2, 0.0, t0], [t1, -t0, 0.0]])
 
