@@ -40,7 +40,6 @@ from typing import Any
 
 import numpy as np
 
-from ._algebra import EPS, LieAlgebra
 from ._errors import ChartError
 
 __all__ = [
@@ -94,6 +93,9 @@ MIN_FLOW_TOL = 1e-14
 count can meet it (the step doubling would only run to its limit)."""
 
 _REAL_KINDS = "fiu"
+EPS = np.finfo(float).eps
+"""float64 unit roundoff (refimpl._algebra takes it from here: this module imports no other module of
+refimpl but the error classes, so every module can import it)."""
 
 
 # ------------------------------------------------------------------ numbers given as strings
@@ -220,6 +222,16 @@ def _element_kind_error(value: Any, name: str) -> str | None:
     return None
 
 
+def _is_lie_algebra(value: Any) -> bool:
+    """A :class:`refimpl.LieAlgebra` (recognised by its validated float constants ``f`` and its
+    exact ones ``f_exact``; this module cannot import refimpl._algebra, which imports it)."""
+    return (
+        type(value).__name__ == "LieAlgebra"
+        and isinstance(getattr(value, "f", None), np.ndarray)
+        and hasattr(value, "f_exact")
+    )
+
+
 def as_float_array(value: Any, name: str) -> np.ndarray:
     """``value`` as float64; a clear error for input that is not an array of real numbers.
 
@@ -228,7 +240,7 @@ def as_float_array(value: Any, name: str) -> np.ndarray:
     numbers (never silently truncated to their real part), booleans, strings, arrays of more than
     :data:`MAX_ELEMENTS` numbers, and values that overflow float64.
     """
-    if isinstance(value, LieAlgebra):
+    if _is_lie_algebra(value):
         return value.f
     try:
         raw = np.asarray(value)

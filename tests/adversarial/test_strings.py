@@ -63,6 +63,10 @@ ALLOWED = {
         "the gradient of an integral, a sympy expression built from HEAVY_TOPS' numbers"
     ),
     ("reports/cmd_bench.py", "_main", "__import__"): "the literal module name 'heyoka'",
+    ("refimpl/_rigorous_state.py", "_rep_balls", "sympify"): (
+        "entries of rep.exact, the faithful representation's exact matrices built by "
+        "refimpl._representation (never a caller's string)"
+    ),
     # generated kernel source: text assembled from numbers formatted by the code (helper ``wing``
     # moves these into refimpl/codegen/, allowed wholesale below; the entries here then go stale,
     # which is not an error)
