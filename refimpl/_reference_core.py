@@ -18,6 +18,7 @@ from ._validate import (
     TWO_PI,
     BudgetError,
     ad_chart_radius,
+    check_dimension,
     check_finite_result,
     check_inertia,
     check_potential,
@@ -165,6 +166,9 @@ class ReferenceCore:
 
     def _model(self, f, theta, upsilon):
         """Validate (in float64, with error models) and convert to mpmath."""
+        shape = np.shape(f.f if isinstance(f, LieAlgebra) else f)
+        if len(shape) == 3 and shape[0] == shape[1] == shape[2]:
+            check_dimension(shape[0])  # the budget before n^3 conversions to mpf
         ff = f.f if isinstance(f, LieAlgebra) else _as_float(f, "structure constants f")
         ff = check_structure_constants(ff)
         n = ff.shape[0]
