@@ -309,3 +309,47 @@ def test_random_flows_are_contained_60_digits():
             print(f"[{k + 1}/60] {counts}", flush=True)
     print("flow containment run:", counts)
     assert counts.get("contained", 0) >= 30
+
+
+def test_the_flow_is_a_poisson_map_on_the_c1_enclosure():
+    """C^1: a Hamiltonian flow is a Poisson map, J P(pi0) J^T = P(pi(T)) with the Lie-Poisson tensor
+    P(pi) = -S(pi) = -(pi.f - Theta) of the body momenta (vier9, Upsilon = 0) and J = d pi(T)/d pi0;
+    the ball of the left side must contain the right side's ball, and miss it once moved by 2 radii."""
+    xi = np.array([0.25, -0.5, 0.125])
+    theta = -np.einsum("k,kab->ab", xi, su2().f)
+    inertia = np.diag([1.0, 1.3, 0.5])
+    with workprec(128):
+        e = full_state_enclosure(
+            su2(),
+            theta,
+            Z3,
+            inertia,
+            None,
+            X0,
+            PI0,
+            0.6,
+            prec_bits=128,
+            want_x=False,
+            jacobian=True,
+        )
+        J = arb_mat([[e.jacobian.balls[i, j] for j in range(3)] for i in range(3)])
+
+        def P(p):
+            f = su2().f
+            return arb_mat(
+                [
+                    [
+                        -(sum((p[m] * f[m, a, b] for m in range(3)), arb(0)) - theta[a, b])
+                        for b in range(3)
+                    ]
+                    for a in range(3)
+                ]
+            )
+
+        lhs = J * P([arb(v) for v in PI0]) * J.transpose()
+        rhs = P(list(e.pi.balls))
+        assert _overlap(lhs, rhs), "the flow map is not Poisson on the enclosure"
+        assert max(float(v.rad()) for v in lhs.entries()) < 1e-20  # ~5e-25 at 128 bits
+        k = (0, 1)
+        moved = rhs[k] + 2 * (float(rhs[k].rad()) + float(lhs[k].rad())) + 1e-40
+        assert not moved.overlaps(lhs[k])
