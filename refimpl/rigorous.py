@@ -34,12 +34,27 @@ Mathematics (CONVENTIONS.md; the paper's labels):
   ``xdot = L Omega``; gravity (twee15, twee16): ``Gamma = Ad(g)^T gamma``,
   ``dV_b = -Gamma_m f^m_bc L^c``.
 
+Boundary (issue 30; the reference's limits, imported from where the reference states them): inputs are
+finite with magnitude <= ``MAX_MAGNITUDE`` = 1e300 (:func:`check_magnitudes`), and so are the results (a
+vector field beyond 1e300, e.g. ``pidot ~ |pi|^2`` at ``|pi| ~ 1e200``, is refused by name rather than
+returned as infinities); ``x`` at or beyond the chart edge to float64 accuracy is refused with
+:class:`ChartError` (the fast path's rule, a superset of the reference's determinant test), and
+``||ad_x||_1 > MAX_AD_NORM`` = 400 as over the work budget (:func:`check_frames_budget`); ``prec_bits``
+and ``max_prec_bits`` are capped at :data:`MAX_PREC_BITS` = 16610 (the reference's 5000 digits). Where
+the reference's degeneracy test refuses a point of huge ``||Phi||`` whose ``Delta`` ball provably
+excludes 0, the balls are answered (tests/test_rigorous_boundary.py checks them against an independent
+120+-digit route).
+
+Flows: :func:`body_flow_enclosure` (pi, Gamma) and :func:`full_state_enclosure` (pi, Gamma, rho(g),
+Ad(g), x, and the C^1 enclosure), both ``Upsilon = 0``; :func:`judge_flow` is the flow judge
+(refimpl/_rigorous_state.py).
+
 Protocol (DESIGN.md): ``poisson_tensor`` and ``hamiltonian_vector_field`` return float64
 midpoints (the evaluation is repeated at higher precision until every radius is below
 ``2^-60`` of the array's scale, so the midpoints are the correctly rounded doubles up to
 an ulp). The ``*_balls`` methods return :class:`Balls`. There is no ``flow`` method (the
-certification reports it as skipped); rigorous flows of the polynomial body systems are
-in :mod:`refimpl._rigorous_flow` (:func:`body_flow_enclosure`).
+certification reports it as skipped); rigorous flows are in :mod:`refimpl._rigorous_flow` and
+:mod:`refimpl._rigorous_state`.
 
 Judge API (for ``verify``/``certify``): :func:`judge_poisson`,
 :func:`judge_vector_field` return ``(midpoints, radii)``; :func:`distance_to_ball` and
