@@ -353,3 +353,21 @@ def test_the_flow_is_a_poisson_map_on_the_c1_enclosure():
         k = (0, 1)
         moved = rhs[k] + 2 * (float(rhs[k].rad()) + float(lhs[k].rad())) + 1e-40
         assert not moved.overlaps(lhs[k])
+
+
+def test_judge_flow_judges_the_fast_flow():
+    """The judge on a real float64 answer: the fast path's flow (its own error model: an adaptive method at
+    the protocol's default tolerance, errors far below 1e-8 at t = 0.5) gets a proven error bound hi below
+    1e-8 on x and pi; the same answer moved by 1e-9 gets a proven error lo >= 1e-9 - radius > 0."""
+    from tstarg.refimpl.fast import implementation as fast
+
+    x, p = fast.flow(su2().f, Z3, Z3, TOP, GRAV, X0, PI0, 0.5)
+    e = judge_flow(su2(), Z3, Z3, TOP, GRAV, X0, PI0, 0.5, prec_bits=80)["enclosure"]
+    for part, val in (("x", x), ("pi", p)):
+        B = getattr(e, part)
+        lo, hi = B.error_bounds(np.asarray(val).reshape(3))
+        assert np.all(hi < 1e-8), f"{part}: proven error bound {hi.max():.3g}"
+        lo2, _ = B.error_bounds(np.asarray(val).reshape(3) + 1e-9)
+        assert np.all(lo2 > 0.5e-9), (
+            f"{part}: a wrong answer was not proven wrong ({lo2.min():.3g})"
+        )
