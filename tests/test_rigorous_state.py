@@ -302,13 +302,12 @@ def test_random_flow_is_contained(seed):
 @pytest.mark.slow
 def test_random_flows_are_contained_60_digits():
     counts: dict = {}
-    for k, seed in enumerate(range(100, 160)):
+    for k, seed in enumerate(range(100, 124)):
         out = _flow_check(seed, 60)
         counts[out] = counts.get(out, 0) + 1
-        if k % 10 == 9:
-            print(f"[{k + 1}/60] {counts}", flush=True)
+        print(f"[{k + 1}/24] seed {seed}: {out}", flush=True)
     print("flow containment run:", counts)
-    assert counts.get("contained", 0) >= 30
+    assert counts.get("contained", 0) >= 12
 
 
 def test_the_flow_is_a_poisson_map_on_the_c1_enclosure():
