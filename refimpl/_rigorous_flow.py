@@ -403,8 +403,10 @@ def body_flow_enclosure(
     ``max_seconds`` bounds the CPU time, estimated from the first steps and refused with the estimate.
     Returns a :class:`FlowEnclosure` whose balls provably contain the exact state at ``t``.
     """
+    from ._rigorous_core import MAX_PREC_BITS, check_magnitudes
+    from ._rigorous_core import fview as _fview
+    from ._rigorous_core import point_view as _point_view
     from ._validate import MAX_FLOW_TIME
-    from .rigorous import MAX_PREC_BITS, _fview, _point_view, check_magnitudes
 
     def view(v, name):
         return check_magnitudes(_fview(v, name), name)

@@ -250,7 +250,7 @@ class _Log:
         return arb_mat(self.n, 1, self._vec(Dr, Di))
 
     def jacobian(self, X: arb_mat, prec: int) -> arb_mat:
-        from .rigorous import phi1_ball
+        from ._rigorous_core import phi1_ball
 
         n = self.n
         ad = arb_mat(n, n, (self.Fad * X).entries())
@@ -552,6 +552,9 @@ def full_state_enclosure(
     (the Taylor order of the variational equation) to 8, or ``3/4 order`` with ``jacobian=True`` (the
     Jacobian's radius then matches the state's; at 8 it is ~1e-12).
     """
+    from ._rigorous_core import MAX_PREC_BITS, check_frames_budget, check_magnitudes
+    from ._rigorous_core import fview as _fview
+    from ._rigorous_core import point_view as _point_view
     from ._validate import (
         MAX_FLOW_TIME,
         check_inertia,
@@ -559,13 +562,6 @@ def full_state_enclosure(
         check_structure_constants,
         check_theta,
         check_upsilon,
-    )
-    from .rigorous import (
-        MAX_PREC_BITS,
-        _fview,
-        _point_view,
-        check_frames_budget,
-        check_magnitudes,
     )
 
     t_start = time.process_time()
