@@ -13,7 +13,7 @@ Cohomology (zeven1, zeven3)
     :func:`cohomology`, :func:`h2_dim`, :func:`check_cocycle`, :func:`solve_coboundary`.
 Frames (twee1, twee3)
     :func:`frames` (float64 or mpmath at any precision).
-Implementations (DESIGN.md protocol)
+Implementations (docs/design.md protocol)
     :mod:`refimpl.reference` (``Reference(dps)``, ``implementation`` at 50 digits)
     and :mod:`refimpl.fast` (``Fast``, ``implementation``); :class:`Implementation`
     states the protocol.
@@ -56,13 +56,17 @@ from ._cohomology import (
 )
 from ._errors import ChartError, DegeneratePointError
 from ._frames import frames
-from ._protocol import Implementation
+from ._protocol import SPEC as PROTOCOL
+from ._protocol import Implementation, check_attributes, provided_methods, provides
 from .fast import Fast
+from .model import Model, State
 from .reference import Reference
 from .scenes import Plan, Scene, load_scene, plan, run_scene
 
 __all__ = [
     "LieAlgebra",
+    "Model",
+    "State",
     "BIANCHI_TYPES",
     "CATALOGUE_NAMES",
     "abelian",
@@ -90,6 +94,10 @@ __all__ = [
     "solve_coboundary",
     "frames",
     "Implementation",
+    "PROTOCOL",
+    "provided_methods",
+    "check_attributes",
+    "provides",
     "Fast",
     "Reference",
     "DegeneratePointError",
@@ -101,6 +109,7 @@ __all__ = [
     "run_scene",
 ]
 
+from ._version import __version__  # pyproject.toml's version, through importlib.metadata
 from .rigorous import (
     Balls,
     Rigorous,
@@ -113,6 +122,7 @@ from .rigorous import (
 )
 
 __all__ += [
+    "__version__",
     "Balls",
     "Rigorous",
     "UndecidedError",

@@ -1,6 +1,6 @@
 """Rigorous flows of the polynomial body systems: an interval Taylor method with Lohner's QR wrapping control.
 
-Systems (CONVENTIONS.md; ``Upsilon = 0``, so ``Phi = 1`` and ``Omega = dK = I^-1 pi``):
+Systems (docs/conventions.md; ``Upsilon = 0``, so ``Phi = 1`` and ``Omega = dK = I^-1 pi``):
 
 * Euler with a cocycle (twee14, drie6): ``pidot = -dV - S dK`` with ``S = pi.f - Theta``,
   i.e. ``pidot_a = -f^m_ab pi_m Omega^b + Theta_ab Omega^b``;

@@ -7,7 +7,7 @@ numbers; the catalogue's algebraic structure constants (``sqrt(3)/2`` in su(3),
 ``sqrt(|h|)`` in Bianchi VII_h) enter as balls around the irrational numbers, from the
 algebra's exact constants (``LieAlgebra.f_exact``).
 
-Mathematics (CONVENTIONS.md; the paper's labels):
+Mathematics (docs/conventions.md; the paper's labels):
 
 * ``ad_x[m, b] = x^a f^m_ab``; ``A = L(g^-1, g) = phi1(-ad_x)`` with
   ``phi1(M) = sum_k M^k/(k+1)!`` (twee1): the series is summed in ball arithmetic to
@@ -49,7 +49,7 @@ Flows: :func:`body_flow_enclosure` (pi, Gamma) and :func:`full_state_enclosure` 
 Ad(g), x, and the C^1 enclosure), both ``Upsilon = 0``; :func:`judge_flow` is the flow judge
 (refimpl/_rigorous_state.py).
 
-Protocol (DESIGN.md): ``poisson_tensor`` and ``hamiltonian_vector_field`` return float64
+Protocol (docs/design.md): ``poisson_tensor`` and ``hamiltonian_vector_field`` return float64
 midpoints (the evaluation is repeated at higher precision until every radius is below
 ``2^-60`` of the array's scale, so the midpoints are the correctly rounded doubles up to
 an ulp). The ``*_balls`` methods return :class:`Balls`. There is no ``flow`` method (the
@@ -111,6 +111,7 @@ from ._validate import (
     check_theta,
     check_upsilon,
 )
+from ._version import __version__
 
 __all__ = [
     "Balls",
@@ -219,7 +220,7 @@ class Rigorous:
     """
 
     name = "tstarg-rigorous"
-    version = "0.1.0"
+    version = __version__  # the package's (pyproject.toml)
     batched = False
 
     def __init__(self, prec_bits: int = 200, max_prec_bits: int | None = None):

@@ -1,7 +1,7 @@
 """What ``tstarg certify`` puts between the battery and the implementation under test.
 
 * :func:`materialize` turns a target description into an implementation: ``"module:object"``,
-  a bare ``"module"`` (DESIGN.md: an implementation may be a module), or
+  a bare ``"module"`` (docs/design.md: an implementation may be a module), or
   ``{"cmd": "PROGRAM ARGS", "timeout": s, "stderr_log": path}`` for a JSON-lines program
   (:mod:`reports.jsonl`). A target that provides none of the protocol's methods is refused
   (:class:`NotAnImplementation`) before anything runs.
@@ -31,22 +31,28 @@ import numpy as np
 
 from tstarg.properties import runner
 from tstarg.properties.runner import CheckAborted, TimeLimitExceeded, note, time_limit
+from tstarg.refimpl import PROTOCOL, check_attributes, provided_methods, provides
 
 from ._imports import import_module, resolve
 from .jsonl import METHODS, CommandImplementation, check_timeout
 
-__all__ = ["Guarded", "NotAnImplementation", "certify_target", "explain", "materialize"]
+__all__ = [
+    "Guarded",
+    "NotAnImplementation",
+    "certify_target",
+    "explain",
+    "load",
+    "materialize",
+]
 
 ATTRIBUTES = (
-    "name",
-    "version",
-    "batched",
-    "precision_digits",
-    "flow_tolerance",
-    "order",
-    "poisson_integrator",
-    "domain",  # the declared domain (certification.declared_domain): hidden, it was never certified
+    tuple(a.name for a in PROTOCOL.attributes if a.where == "attribute")
+    + (
+        "domain",  # the declared domain (certification.declared_domain): hidden, it was never certified
+        "group",  # the group the flows live on (certification.group): hidden, SO(3) would be judged as SU(2)
+    )
 )
+"""The attributes the guard passes through, from the protocol spec."""
 
 
 class NotAnImplementation(ValueError):
@@ -54,22 +60,13 @@ class NotAnImplementation(ValueError):
 
 
 def _validate_attributes(target, label: str) -> None:
-    for attr, lo, hi in (("precision_digits", 1.0, 10000.0), ("flow_tolerance", 0.0, 1.0)):
-        v = getattr(target, attr, None)
-        if v is None:
-            continue
-        ok = (
-            isinstance(v, (int, float, np.floating, np.integer))
-            and not isinstance(v, bool)
-            and math.isfinite(float(v))
-        )
-        if not ok or not (
-            lo < float(v) <= hi if attr == "flow_tolerance" else lo <= float(v) <= hi
-        ):
-            raise NotAnImplementation(
-                f"target {label}: attribute {attr} = {v!r} is not a number in "
-                f"{'(' if attr == 'flow_tolerance' else '['}{lo:g}, {hi:g}]"
-            )
+    """The spec's types and caps (a declared tolerance past its cap is refused, never trusted)."""
+    problems = check_attributes(target, f"target {label}")
+    caps_error = getattr(target, "capabilities_error", None)
+    if caps_error:
+        problems.append(f"target {label}: its capabilities reply is refused: {caps_error}")
+    if problems:
+        raise NotAnImplementation("; ".join(problems))
 
 
 class Guarded:
@@ -88,11 +85,11 @@ class Guarded:
         self.max_timeouts = int(max_timeouts)
         self._timeouts = 0
         self._own_incidents: list[dict] = []
-        provided = [m for m in METHODS if callable(getattr(target, m, None))]
+        provided = provided_methods(target)
         if not provided:
             raise NotAnImplementation(
                 f"target {self._label} ({type(target).__name__}) provides none of the protocol's methods "
-                f"({', '.join(METHODS)}): not an implementation (DESIGN.md, the implementation protocol)"
+                f"({', '.join(METHODS)}): not an implementation (docs/design.md, the implementation protocol)"
             )
         _validate_attributes(target, self._label)
         self.provided = provided
@@ -110,9 +107,9 @@ class Guarded:
         if attr.startswith("_"):
             raise AttributeError(attr)
         if attr in METHODS:
-            fn = getattr(self._target, attr, None)
-            if not callable(fn):
+            if not provides(self._target, attr):  # the spec's test: a placeholder is not provided
                 raise AttributeError(attr)
+            fn = getattr(self._target, attr)
             return lambda *args, **kw: self._call(attr, fn, args, kw)
         if attr == "name":  # the certificate names the target, never this wrapper
             return getattr(self._target, "name", None) or self._label
@@ -229,27 +226,30 @@ def _real(value: Any, what: str) -> np.ndarray:
 
 
 def _validate_result(method: str, out: Any, args: tuple) -> Any:
-    """The protocol's output shapes of real numbers; anything else is a failure (never a ValueError)."""
+    """The protocol's output shapes of real numbers (from the spec); anything else is a failure
+    (never a ValueError)."""
+    spec = PROTOCOL.by_name[method]
     f = np.asarray(args[0])
     n = f.shape[0] if f.ndim == 3 else 0
-    lead = np.shape(args[3] if method == "poisson_tensor" else args[5])[:-1]
-    if method == "poisson_tensor":
-        P = _real(out, "poisson_tensor result")
-        if P.shape != (*lead, 2 * n, 2 * n):
-            raise AssertionError(
-                f"poisson_tensor returned shape {P.shape}, expected {(*lead, 2 * n, 2 * n)}"
-            )
+    lead = np.shape(args[spec.lead_index])[:-1]
+    shapes = spec.result_shapes(n, lead)
+    if spec.result == "tensor":
+        P = _real(out, f"{method} result")
+        if P.shape != shapes[0]:
+            raise AssertionError(f"{method} returned shape {P.shape}, expected {shapes[0]}")
         return P
-    if not isinstance(out, (tuple, list)) or len(out) != 2:
+    if not isinstance(out, (tuple, list)) or len(out) != len(shapes):
         raise AssertionError(
-            f"{method} must return a pair (a, b) of arrays, got {type(out).__name__}: {str(out)[:120]}"
+            f"{method} must return a tuple ({', '.join(spec.parts)}) of {len(shapes)} arrays, "
+            f"got {type(out).__name__}: {str(out)[:120]}"
         )
-    a, b = (_real(v, f"{method} result[{k}]") for k, v in enumerate(out))
-    if a.shape != (*lead, n) or b.shape != (*lead, n):
+    parts = tuple(_real(v, f"{method} result[{k}]") for k, v in enumerate(out))
+    if tuple(p.shape for p in parts) != shapes:
         raise AssertionError(
-            f"{method} returned shapes {a.shape}, {b.shape}, expected two of {(*lead, n)}"
+            f"{method} returned shapes {', '.join(str(p.shape) for p in parts)}, "
+            f"expected {', '.join(map(str, shapes))}"
         )
-    return a, b
+    return parts
 
 
 # ------------------------------------------------------------------ targets
@@ -293,35 +293,16 @@ def explain(check, *, seconds: float = 60.0) -> None:
     from tstarg.refimpl.reference import Reference
 
     a, method = call["args"], call["method"]
+    spec = PROTOCOL.by_name.get(method)
+    if spec is None:
+        return
     try:
         with time_limit(seconds, "explain"):
-            if method == "poisson_tensor":
-                exp = Reference(30).poisson_tensor(
-                    a["f"], a["theta"], a["upsilon"], a["x"], a["pi"]
-                )
-                got = call["result"]
-            elif method == "hamiltonian_vector_field":
-                xd, pd = Reference(30).hamiltonian_vector_field(
-                    a["f"], a["theta"], a["upsilon"], a["inertia"], a["potential"], a["x"], a["pi"]
-                )
-                exp, got = np.concatenate([xd, pd]), np.concatenate(call["result"])
-            elif method == "flow":
-                from tstarg.refimpl.flows import reference_flow
-
-                xr, pr = reference_flow(
-                    a["f"],
-                    a["theta"],
-                    a["upsilon"],
-                    a["inertia"],
-                    a["potential"],
-                    a["x0"],
-                    a["pi0"],
-                    a["t"],
-                    dps=25,
-                )
-                exp, got = np.concatenate([xr, pr]), np.concatenate(call["result"])
-            else:
-                return
+            ref = getattr(Reference(spec.reference_digits), method)
+            exp = ref(*(a[k] for k in spec.arg_names))
+            got = call["result"]
+            if spec.result == "pair":
+                exp, got = np.concatenate(exp), np.concatenate(got)
     except TimeLimitExceeded:
         ex["worst_entry_note"] = (
             f"the reference at the example took over {seconds:g} s: not recomputed"
@@ -337,11 +318,7 @@ def explain(check, *, seconds: float = 60.0) -> None:
         return
     ex["worst_entry"] = worst
     idx = ",".join(map(str, worst["index"]))
-    name = {
-        "poisson_tensor": "P",
-        "hamiltonian_vector_field": "(xdot, pidot)",
-        "flow": "(x(t), pi(t))",
-    }[method]
+    name = spec.symbol
     line = (
         f"  worst entry {name}[{idx}] (reference recomputed at the recorded call): expected "
         f"{worst['expected']!r}, got {worst['got']!r}, error {worst['error']:.3e}"
@@ -356,13 +333,20 @@ def explain(check, *, seconds: float = 60.0) -> None:
 
 # ------------------------------------------------------------------ the run
 def _unit(item):
-    """Worker: one check id on a freshly materialized, guarded target, within the run's budgets."""
+    """Worker: one check id on a freshly loaded target (guarded unless ``guard`` is False), within
+    the run's budgets (none when ``budget`` is None)."""
     from .certification import certify
 
-    spec, cid, kwargs, budget = item
+    spec, cid, kwargs, budget, guard = item
     if isinstance(spec, dict) and spec.get("stderr_dir"):
         spec = dict(spec, stderr_log=str(Path(spec["stderr_dir"]) / f"{cid}.log"))
-    impl = materialize(spec, call_timeout=budget["call_timeout"])
+    if budget is None:
+        impl = load(spec, guard=guard, call_timeout=None)
+        try:
+            return certify(impl, checks=[cid], **kwargs)
+        finally:
+            _close(impl)
+    impl = load(spec, guard=guard, call_timeout=budget["call_timeout"])
     left = budget["deadline"] - time.time()
     check_s = max(1e-3, min(budget["check_seconds"], left))
     try:
@@ -373,18 +357,57 @@ def _unit(item):
         ):
             return certify(impl, checks=[cid], **kwargs)
     finally:
-        impl.close()
+        _close(impl)
+
+
+def _close(impl) -> None:
+    close = getattr(impl, "close", None)
+    if callable(close) and isinstance(impl, (Guarded, CommandImplementation)):
+        close()
+
+
+def load(spec, *, guard: bool = True, call_timeout: float | None = 10.0):
+    """The one target loader: ``"module"``, ``"module:object"``, ``{"cmd": ...}`` or an object
+    (in-process runs); guarded (:func:`materialize`) unless ``guard`` is False."""
+    if guard:
+        if not isinstance(spec, (str, dict)):
+            return Guarded(spec, call_timeout=call_timeout or 3600.0)
+        return materialize(spec, call_timeout=call_timeout or 3600.0)
+    if isinstance(spec, dict) and "cmd" in spec:
+        return CommandImplementation(
+            spec["cmd"],
+            timeout=check_timeout(spec.get("timeout", call_timeout or 10.0), "--timeout"),
+            stderr_log=spec.get("stderr_log"),
+        )
+    if isinstance(spec, str):
+        if not spec:
+            raise ValueError("certification target must not be empty")
+        return resolve(spec) if ":" in spec else import_module(spec)
+    return spec
 
 
 def certify_target(
-    spec, *, workers=None, scheduler=None, budget: dict, checks=None, provided=None, **kwargs
+    spec,
+    *,
+    workers=None,
+    scheduler=None,
+    budget: dict | None = None,
+    checks=None,
+    provided=None,
+    guard: bool = True,
+    **kwargs,
 ):
-    """Run the battery on ``spec`` with the budgets ``{"call_timeout", "example_seconds",
-    "check_seconds", "shrink_seconds", "deadline" (time.time())}``; one unit per check id,
-    merged in order. Check ids listed in ``skips`` or needing a method outside ``provided``
-    (when given) get their reason without starting a unit (no program started for nothing)."""
+    """The one run-and-merge, for in-process (``workers=1``; ``spec`` may then be an object),
+    guarded and parallel runs: the battery on ``spec`` with the budgets ``{"call_timeout",
+    "example_seconds", "check_seconds", "shrink_seconds", "deadline" (time.time())}`` (None: no
+    limits); one unit per check id (:func:`reports._parallel.map_tasks`), merged in check order.
+    Check ids listed in ``skips`` or needing a method outside ``provided`` (when given) get their
+    reason without starting a unit (no program started for nothing). ``guard=False`` runs the
+    battery on the bare target (no per-call limits, no input/output guard): what
+    ``certification.certify_parallel`` promises, the serial result split over workers."""
     from ._parallel import map_tasks
     from .certification import CHECKS, Certificate
+    from .certification.registry import missing
 
     t0 = time.perf_counter()
     ids = [c for c in CHECKS if checks is None or c in checks]
@@ -393,14 +416,14 @@ def certify_target(
     for cid in ids:
         if cid in skips:
             pre[cid] = skips[cid]
-        elif provided is not None and CHECKS[cid] not in provided:
-            pre[cid] = f"the implementation has no method {CHECKS[cid]!r}"
+        elif provided is not None and missing(cid, provided) is not None:
+            pre[cid] = missing(cid, provided)
     run_ids = [c for c in ids if c not in pre] or ids[:1]
-    items = [(spec, cid, kwargs, budget) for cid in run_ids]
+    items = [(spec, cid, kwargs, budget, guard) for cid in run_ids]
     if (workers == 1 or len(items) == 1) and scheduler is None:
         parts = [_unit(it) for it in items]
     else:
-        parts = map_tasks(_unit, items, workers=workers, scheduler=scheduler)
+        parts = map_tasks(_unit, items, workers=workers, scheduler=scheduler, wait=False)
     first = parts[0]
     cert = Certificate(
         implementation=first.implementation,
@@ -411,6 +434,7 @@ def certify_target(
         xfailed=dict(kwargs.get("xfails") or {}),
         command=first.command,
         domain=first.domain,  # what was certified, and the notes on it, survive the merge
+        group=first.group,
     )
     for part in parts:
         cert.checks.extend(part.checks)
@@ -419,7 +443,8 @@ def certify_target(
         cert.notes.extend(n for n in part.notes if n not in cert.notes)
     cert.skipped.update({k: v for k, v in pre.items() if k not in cert.skipped})
     cert.skipped = {k: cert.skipped[k] for k in CHECKS if k in cert.skipped}
-    for c in cert.checks:
-        explain(c)
+    if guard:
+        for c in cert.checks:
+            explain(c)
     cert.seconds = time.perf_counter() - t0
     return cert

@@ -435,7 +435,7 @@ def _hy_det(M):
 
 def heyoka_rational_rhs(model):
     """The body field with ``Upsilon != 0`` in heyoka expressions (vier10/vier11, as
-    :meth:`refimpl._flow_fast.NumpyModel.omega_pidot`): ``Psi = 1 + Upsilon S(pi)``, ``Omega = adj(Psi) (dK -
+    :meth:`refimpl.model.Model.omega_pidot`): ``Psi = 1 + Upsilon S(pi)``, ``Omega = adj(Psi) (dK -
     Upsilon dV) / det Psi``, ``pidot = adj(Psi)^T (-dV - S dK) / det Psi`` (``Phi = Psi^T``), ``Gammadot_mu =
     Omega^b f^a_{b mu} Gamma_a``. Written for ``n <= 4`` (cofactor expansion); returns ``(vars, rhs)``."""
     import heyoka as hy  # optional contender
@@ -612,11 +612,9 @@ def scipy_rhs(model):
     """The right-hand side handed to scipy: the generated scalar body field (``Upsilon = 0``), else the
     numpy body field."""
     if model.upsilon_zero:
-        from tstarg.refimpl._flow_fast import scalar_rhs
+        from tstarg.refimpl.flows import scalar_rhs
 
-        return scalar_rhs(
-            model
-        ), "generated scalar Python body field (refimpl._flow_fast.scalar_rhs)"
+        return scalar_rhs(model), "generated scalar Python body field (refimpl.flows.scalar_rhs)"
     F = model.body_rhs()
     return (lambda t, y: F(y[:, None])[:, 0]), "numpy body field (NumpyModel.body_rhs)"
 
@@ -1016,12 +1014,12 @@ def fmt_time(t) -> str:
 
 # ------------------------------------------------------------------ a third-party implementation
 # ``tstarg bench --impl module:object`` / ``--cmd "PROGRAM ARGS"``: an implementation of the
-# protocol (DESIGN.md; the object ``tstarg certify`` takes) on the same diagrams as ours.
+# protocol (docs/design.md; the object ``tstarg certify`` takes) on the same diagrams as ours.
 
 
 def impl_flow_setting(impl) -> str:
     """How the implementation's ``flow`` can be driven over a work-precision ladder: ``"steps"``
-    when it takes the protocol's optional ``steps=`` keyword (DESIGN.md: a fixed step count; a
+    when it takes the protocol's optional ``steps=`` keyword (docs/design.md: a fixed step count; a
     JSON-lines program is asked for ``steps`` only when its ``capabilities`` declare an ``order``),
     ``"tol"`` when it takes a ``tol=`` keyword, else ``"default"``: one point at its own accuracy."""
     import inspect

@@ -7,7 +7,7 @@ What a ball must satisfy (refimpl/rigorous.py):
   so the reference's own error is far below the radii and containment is a real test, not a tolerance;
 * the reference at dps 50 agrees with the ball to its promise: the distance from the 50-digit value
   to the ball is at most ``10^-50 * cond * scale`` (``cond`` the sensitivity of the point,
-  ``||Phi^-1|| (1 + ||S|| ||Upsilon||)``, CONVENTIONS.md; ``scale = max(1, max|P|)``);
+  ``||Phi^-1|| (1 + ||S|| ||Upsilon||)``, docs/conventions.md; ``scale = max(1, max|P|)``);
 * it is tight: radius <= ``1e-45 * scale`` at 200 bits, and a value moved by twice the radius
   (plus ``1e-62 scale``) lies outside (negative control).
 """
