@@ -24,9 +24,12 @@ every Hamiltonian ``H = K(pi) + V(g)``.
 
 from __future__ import annotations
 
+import operator
 from functools import cache
 
 import sympy as sp
+
+from tstarg.refimpl._validate import exact_sympy
 
 __all__ = [
     "eps",
@@ -46,7 +49,11 @@ __all__ = [
 
 def eps(a: int, b: int, c: int) -> int:
     """Levi-Civita symbol on indices 0..2: the structure constants ``f^a_bc`` of su(2)."""
-    return int(sp.LeviCivita(a, b, c))
+    try:  # integers only: sp.LeviCivita would sympify (evaluate) strings
+        idx = [operator.index(i) for i in (a, b, c)]
+    except TypeError:
+        raise ValueError(f"eps takes three integer indices, got {(a, b, c)!r:.80}") from None
+    return int(sp.LeviCivita(*idx))
 
 
 @cache
@@ -92,11 +99,13 @@ def paper_phi_psi(pi: sp.Matrix, xi: sp.Matrix, tau: sp.Matrix) -> dict:
 
 
 def _zero(expr) -> bool:
-    return sp.simplify(sp.expand(expr)) == 0
+    return sp.simplify(sp.expand(exact_sympy(expr, "expr"))) == 0  # strings parsed, never evaluated
 
 
 def _mat_zero(M) -> bool:
-    return all(_zero(v) for v in sp.Matrix(M))
+    if not isinstance(M, sp.MatrixBase):
+        raise TypeError(f"_mat_zero takes a sympy matrix, got {type(M).__name__}")
+    return all(_zero(v) for v in M)
 
 
 def residuals_nondegenerate() -> dict[str, bool]:

@@ -64,8 +64,8 @@ from __future__ import annotations
 
 from ._errors import DegeneratePointError
 from ._fast_kernels import C_P, FastCore, FieldBatch, PoissonBatch
-from ._flow_fast import fast_flow
 from ._protocol import Implementation
+from .flows import fast_flow
 
 __all__ = ["Fast", "implementation", "PoissonBatch", "FieldBatch", "DegeneratePointError", "C_P"]
 

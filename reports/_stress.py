@@ -354,8 +354,8 @@ def _chart_points(name: str, quick: bool) -> list[dict]:
     for c in cs:
         with np.errstate(over="ignore"):
             x = (2 * np.pi * c) * u
-        if not np.all(np.isfinite(x)):
-            x = np.sign(u) * 1e300
+        if not np.all(np.isfinite(x)) or np.max(np.abs(x)) > 1e300:  # the magnitude boundary
+            x = np.clip(np.where(np.isfinite(x), x, np.sign(u) * 1e300), -1e300, 1e300)
         # the 1e300 point is drawn at the plot's edge (a log axis overflows there): param inf
         out.append(
             {

@@ -435,7 +435,7 @@ def _hy_det(M):
 
 def heyoka_rational_rhs(model):
     """The body field with ``Upsilon != 0`` in heyoka expressions (vier10/vier11, as
-    :meth:`refimpl._flow_fast.NumpyModel.omega_pidot`): ``Psi = 1 + Upsilon S(pi)``, ``Omega = adj(Psi) (dK -
+    :meth:`refimpl.model.Model.omega_pidot`): ``Psi = 1 + Upsilon S(pi)``, ``Omega = adj(Psi) (dK -
     Upsilon dV) / det Psi``, ``pidot = adj(Psi)^T (-dV - S dK) / det Psi`` (``Phi = Psi^T``), ``Gammadot_mu =
     Omega^b f^a_{b mu} Gamma_a``. Written for ``n <= 4`` (cofactor expansion); returns ``(vars, rhs)``."""
     import heyoka as hy  # optional contender
@@ -612,11 +612,9 @@ def scipy_rhs(model):
     """The right-hand side handed to scipy: the generated scalar body field (``Upsilon = 0``), else the
     numpy body field."""
     if model.upsilon_zero:
-        from tstarg.refimpl._flow_fast import scalar_rhs
+        from tstarg.refimpl.flows import scalar_rhs
 
-        return scalar_rhs(
-            model
-        ), "generated scalar Python body field (refimpl._flow_fast.scalar_rhs)"
+        return scalar_rhs(model), "generated scalar Python body field (refimpl.flows.scalar_rhs)"
     F = model.body_rhs()
     return (lambda t, y: F(y[:, None])[:, 0]), "numpy body field (NumpyModel.body_rhs)"
 

@@ -18,6 +18,7 @@ import sys
 from pathlib import Path
 
 from . import _progress
+from ._atomic import claim_output
 from ._atomic import write_text as atomic_write_text
 
 HELP = "the paper's claims and errata (every display and mathematical sentence): run the checks, write claims.md"
@@ -218,6 +219,11 @@ def _run(args, display, claims, evaluate, render_markdown):
         )
     md += "\n".join(_gnh_section(display)) + "\n"
     out, figures = _destinations(args)
+    if not getattr(args, "write", False) and not getattr(args, "figures", None):
+        folder = claim_output(
+            out.parent
+        )  # the lock of verify: a concurrent run gets its own folder
+        out, figures = folder / out.name, folder / "figures"
     if not args.no_quantum:
         md += "\n".join(_quantum_section(figures, display)) + "\n"
     display.phase(f"writing {out}")

@@ -37,6 +37,8 @@ import math
 import sys
 from pathlib import Path
 
+from tstarg.refimpl.scenes import MAX_NESTING, nesting_depth, read_regular_file
+
 from ._atomic import save_figure
 
 __all__ = [
@@ -45,6 +47,7 @@ __all__ = [
     "SPEED_FACTOR",
     "RENEW",
     "load_report",
+    "read_json_file",
     "compare",
     "render_markdown",
     "plot",
@@ -60,19 +63,39 @@ RENEW = "tstarg verify --profile ci --seed 0 --write-baseline"
 ``reports/baseline/report.json``)."""
 
 
+MAX_REPORT_BYTES = 64 * 2**20
+"""Reader budget: a report, baseline or certificate is at most 64 MiB."""
+
+
+def read_json_file(path, *, what: str = "file", max_bytes: int = MAX_REPORT_BYTES):
+    """A JSON document read only from a regular file within ``max_bytes`` (FIFOs, devices,
+    folders, empty, binary, malformed or too deeply nested files: one ``ValueError`` each)."""
+    data = read_regular_file(path, what=what, max_bytes=max_bytes, empty_ok=True)
+    if not data.strip():
+        raise ValueError(f"{what} {path}: not valid JSON (the file is empty)")
+    try:
+        obj = json.loads(data.decode("utf-8"))
+    except UnicodeDecodeError:
+        raise ValueError(f"{what} {path}: not UTF-8 text (a binary file?)") from None
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{what} {path}: not valid JSON ({exc})") from None
+    except RecursionError:
+        raise ValueError(f"{what} {path}: nested too deeply") from None
+    if nesting_depth(obj) > MAX_NESTING:
+        raise ValueError(f"{what} {path}: nested too deeply (at most {MAX_NESTING} levels)")
+    return obj
+
+
 def load_report(path) -> dict:
     """A ``report.json`` (or a run folder holding one) as a dict; clear errors for anything else."""
     p = Path(path)
     if p.is_dir():
         p = p / "report.json"
-    if not p.is_file():
-        raise FileNotFoundError(
-            f"no report at {path} (expected a report.json or a folder holding one)"
-        )
-    try:
-        rep = json.loads(p.read_text())
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{p}: not valid JSON ({exc})") from None
+        if not p.exists():
+            raise FileNotFoundError(
+                f"no report at {path} (expected a report.json or a folder holding one)"
+            )
+    rep = read_json_file(p, what="report")
     if not isinstance(rep, dict) or not isinstance(rep.get("checks"), list):
         raise ValueError(f"{p}: not a tstarg verify report (no 'checks' list)")
     for i, c in enumerate(rep["checks"]):

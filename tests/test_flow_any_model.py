@@ -21,9 +21,9 @@ from tstarg.properties.strategies import cocycles, lie_algebras, points, upsilon
 from tstarg.refimpl import LieAlgebra, _flow_reference
 from tstarg.refimpl._catalogue import bianchi, su2, su3
 from tstarg.refimpl._cohomology import cocycle_basis
-from tstarg.refimpl._flow_fast import fast_flow, fast_trajectory
 from tstarg.refimpl._flow_reference import reference_flow, reference_trajectory
 from tstarg.refimpl._representation import representation_for
+from tstarg.refimpl.flows import fast_flow, fast_trajectory
 
 EPS = np.finfo(float).eps
 FAST_TOL = 1e-10  # fast_flow's default tolerance (refimpl.fast.Fast.flow_tolerance)

@@ -3,7 +3,7 @@
 A package: each check is one object in one file of ``checks/`` (:class:`check.Check`: its id, the
 methods it needs, its budget, its builder and the planted mutants that prove it), found through one
 registry (:mod:`.registry`); the float64 judge and the error models sit with the oracles
-(:mod:`tstarg.oracles.float_judge`). Adding a check: ``docs/tutorials/maintainer.md``.
+(:mod:`tstarg.oracles.float_judge`). Adding a check: one file in ``checks/`` (:mod:`.registry`).
 
 Public API:
 
