@@ -233,7 +233,7 @@ def _judged_state_ratio(impl, f, t, got, want, tol, judge_err, G, group) -> floa
                 f"the adjoint group agree) but not on the group it is judged on, {group.name}: "
                 f"rho(exp(x)) is off by {err:.3g} (ratio {ratio:.3g}). A flow on another group "
                 "with this algebra (e.g. SO(3) for su(2), x = log_SO(3)(R) with |x| <= pi) must "
-                "declare it: group = 'SO(3)' (CONVENTIONS.md, 'Which group')"
+                "declare it: group = 'SO(3)' (docs/conventions.md, 'Which group')"
             )
     raise AssertionError(
         f"flow at t = {t:g}: (x(t), pi(t)) off the judge by error/tolerance ratio {ratio:.3g}"
