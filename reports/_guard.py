@@ -69,8 +69,36 @@ def _validate_attributes(target, label: str) -> None:
         raise NotAnImplementation("; ".join(problems))
 
 
+WARMUP_FACTOR = 6.0
+"""The first call of a method on a new model structure may take ``WARMUP_FACTOR`` times the per-call
+timeout: implementations that compile on first use (numba, JAX, heyoka, ...) pay it there, once
+per structure, and a hang is still bounded."""
+
+
+def structure_key(method: str, args: tuple) -> tuple:
+    """What a compiling implementation specialises on: the method, the dimension, which of Theta,
+    Upsilon and the potential are present, and the batch rank of the point."""
+    try:
+        f, theta, upsilon = (np.asarray(a, dtype=float) for a in args[:3])
+        point = args[3] if method == "poisson_tensor" else args[5]
+        potential = None if method == "poisson_tensor" else args[4]
+        return (
+            method,
+            f.shape,
+            bool(np.any(theta)),
+            bool(np.any(upsilon)),
+            potential is None,
+            np.ndim(point),
+        )
+    except Exception:  # noqa: BLE001 - a malformed call is judged elsewhere; key it by method
+        return (method,)
+
+
 class Guarded:
-    """An implementation under test, with a time limit per call and checked inputs and outputs."""
+    """An implementation under test, with a time limit per call and checked inputs and outputs.
+
+    The first call per :func:`structure_key` gets :data:`WARMUP_FACTOR` times the per-call timeout
+    (compilation on first use); every later call gets the per-call timeout itself."""
 
     def __init__(
         self, target, *, call_timeout: float = 10.0, label: str = "", max_timeouts: int = 3
@@ -84,6 +112,7 @@ class Guarded:
             )
         self.max_timeouts = int(max_timeouts)
         self._timeouts = 0
+        self._warm: set = set()  # structure keys already called once (compiled, if it compiles)
         self._own_incidents: list[dict] = []
         provided = provided_methods(target)
         if not provided:
@@ -127,7 +156,10 @@ class Guarded:
         saved = [copy.deepcopy(a) for a in args]
         t0 = time.perf_counter()
         try:
-            with time_limit(self.call_timeout, "call"):
+            key = structure_key(method, args)
+            limit = self.call_timeout * (1.0 if key in self._warm else WARMUP_FACTOR)
+            self._warm.add(key)
+            with time_limit(limit, "call"):
                 out = fn(*args, **kw)
         except TimeLimitExceeded as exc:
             if exc.what == "example":  # the implementation itself used the example's whole budget
@@ -142,11 +174,16 @@ class Guarded:
                     "id": len(self._own_incidents) + 1,
                     "method": method,
                     "kind": "hang",
-                    "detail": f"no return within the per-call timeout of {self.call_timeout:g} s",
+                    "detail": f"no return within the per-call timeout of {limit:g} s",
                 }
             )
             raise AssertionError(
-                f"{method} did not return within the per-call timeout of {self.call_timeout:g} s"
+                f"{method} did not return within the per-call timeout of {limit:g} s"
+                + (
+                    ""
+                    if limit == self.call_timeout
+                    else " (its first call on this model structure)"
+                )
             ) from None
         except SystemExit as exc:
             self._own_incidents.append(
