@@ -218,6 +218,7 @@ def _certify(
                 strat,
                 max_examples=variant.factor * check.budget(max_examples),
                 seed=seed,
+                explicit=() if check.sentinels is None else tuple(check.sentinels(impl, dom)),
             )
             res.extra.update(stats)
             if not res.passed and res.falsifying_example:
