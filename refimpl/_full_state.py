@@ -1,0 +1,630 @@
+"""The full state of every model through the faithful representation: a compiled adaptive Taylor flow.
+
+The state (``Upsilon = 0``)
+    ``y = (pi, [Gamma,] G, [s])`` with ``G = rho(g)`` the group element in the algebra's faithful
+    matrix representation (:func:`refimpl._representation.representation_for`, ``rho(e_a) = E_a``),
+    complex entries split into real and imaginary parts. The left-trivialised kinematics
+    ``g^-1 dg/dt = Omega`` (vier10) read ``dG/dt = G rho(Omega)``, ``Omega = I^-1 pi``: bilinear in
+    ``(G, pi)``, so the whole state is a quadratic polynomial field and the Taylor recurrences of
+    Jorba and Zou integrate it exactly as they do the body system -- no chart, no re-basing, no
+    ``exp``/``log`` along the way. The body block is :func:`refimpl._taylor.quadratic_field`'s
+    (Euler twee14/drie6, Euler-Poisson twee17 sign-corrected/twee18 with ``dV`` of twee16, Theta terms):
+
+        pidot_a     = -f^m_ab pi_m Omega_b + Theta_ab Omega_b + (G_L)_am Gamma_m,
+        Gammadot_mu = f^a_{b mu} Omega_b Gamma_a,
+        dG_ij/dt    = sum_k G_ik M_kj,     M = rho(Omega) = Omega_b E_b.
+
+    ``s = p(x)``, the abelian part of ``x`` on exponential algebras (:class:`refimpl._flow_fast.
+    _AbelianPart`: ``p`` is a homomorphism onto an abelian algebra, so ``ds/dt = P Omega``), rides along
+    as a linear integral (used by the logarithm, never by the step control).
+
+The recurrence
+    ``Omega_k = I^-1 pi_k`` and ``M_k = rho(Omega_k)`` are linear in the coefficients (computed once per
+    order, through the nonzero patterns of ``I^-1`` and of the ``E_b``), and every bilinear term is a
+    Cauchy product ``sum_{a<=k} u_a v_{k-a}`` of two such series; a factor whose field vanishes
+    identically (a constant entry of ``G``, e.g. the last row of an affine matrix) keeps its ``a = 0``
+    term only. So a step costs ``(#products) P^2 / 2`` multiply-adds with ``#products`` counted on the
+    sparsity of ``f`` and of ``rho`` (``r nnz(M)`` for ``G``, not ``r^2 n``).
+
+What is compiled
+    One module per *structure*: the source is generated from the dimension, the nonzero patterns of
+    ``f``, ``I^-1``, ``Theta``, ``G_L``, ``E_b`` and which entries of ``G`` vary; the numbers are one
+    array argument ``c`` (read once per call into locals), the order ``P`` an argument. Files live under
+    :func:`refimpl._compiled_taylor.cache_dir`, named by the hash of the source, compiled with
+    ``cache=True``.
+
+The output
+    ``Ad(g)`` from ``G``: ``G E_b G^-1 = Ad(g)_ab E_a`` (projected on the ``E_a``); ``x`` by the
+    project's logarithm :meth:`refimpl._representation.Representation.log` of ``G`` (principal in
+    ``rho``, else through ``Ad(g)`` and the centre; the choice the mpmath reference makes whenever its
+    chart was re-based, and equal to the chart coordinate where it never was), on exponential algebras
+    with its abelian part replaced by the integrated ``s`` (:class:`refimpl._flow_fast._AbelianPart`).
+
+Error control
+    The two runs of :mod:`refimpl._flow_compiled` (a checking run ``A`` and the answer ``B``, local
+    tolerances from :func:`refimpl._flow_compiled.local_tolerances`), the estimate measured where the
+    user reads the result: ``max(|pi_A - pi_B|, |Ad_A - Ad_B|)`` per trajectory.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import _compiled_taylor as _ct
+from . import _full_state_kernel as _fk
+
+__all__ = ["FullState", "applies", "full_state", "full_state_flow"]
+
+EPS = np.finfo(float).eps
+GENERATED = False  # the per-structure generated kernel (else the one compiled for every structure)
+
+
+def applies(model) -> bool:
+    """The compiled full state covers ``Upsilon = 0`` on every algebra whose representation exists."""
+    return bool(_ct.HAVE_NUMBA and model.upsilon_zero and not model.su2)
+
+
+class FullState:
+    """One model's full-state field: variables, the generated kernel source and its numbers."""
+
+    def __init__(self, model, rep, abelian_P=None):
+        n = model.n
+        self.n = n
+        self.rep = rep
+        mats = np.asarray(rep.mats)
+        cplx = np.iscomplexobj(mats)
+        self.cplx = cplx
+        r = mats.shape[-1]
+        self.r = r
+        parts = [mats.real] + ([mats.imag] if cplx else [])
+        Mpat = [np.any(p != 0, axis=0) for p in parts]  # (r, r) per part
+        # reachable pattern of G = rho(g): closure of the identity under right multiplication by M
+        Gp = [np.eye(r, dtype=bool)] + ([np.zeros((r, r), bool)] if cplx else [])
+        while True:
+            new = [g.copy() for g in Gp]
+            for pa, g in enumerate(Gp):
+                for pb, m in enumerate(Mpat):
+                    prod = (g.astype(int) @ m.astype(int)) > 0
+                    new[(pa + pb) % 2 if cplx else 0] |= prod
+            if all(np.array_equal(a, b) for a, b in zip(new, Gp)):
+                break
+            Gp = new
+        self.Gpat = Gp
+        grav = bool(model.gravity)
+        self.gravity = grav
+        coef: list[float] = []
+
+        def cidx(v) -> int:
+            coef.append(float(v))
+            return len(coef) - 1
+
+        names: list[str] = []  # variable names, state first
+        # state layout
+        pi = [f"pi{a}" for a in range(n)]
+        ga = [f"ga{a}" for a in range(n)] if grav else []
+        gvars = []  # (part, i, j)
+        for pa in range(len(Gp)):
+            for i in range(r):
+                for j in range(r):
+                    if Gp[pa][i, j]:
+                        gvars.append((pa, i, j))
+        gname = {gv: f"g{gv[0]}_{gv[1]}_{gv[2]}" for gv in gvars}
+        self.gvars = gvars
+        ab = [] if abelian_P is None else [f"s{ell}" for ell in range(abelian_P.shape[0])]
+        names = pi + ga + [gname[g] for g in gvars] + ab
+        self.d = len(names)
+        self.n_ab = len(ab)
+        # derived (linear) variables: Omega, M entries
+        Ii = model.Iinv
+        om = {}  # b -> list of (coef index, pi name)
+        for b in range(n):
+            om[b] = [(cidx(Ii[b, c]), pi[c]) for c in range(n) if Ii[b, c] != 0]
+        mv = {}  # (part, k, j) -> list of (coef index, b)
+        for pa, part in enumerate(parts):
+            for k in range(r):
+                for j in range(r):
+                    terms = [(cidx(part[b, k, j]), b) for b in range(n) if part[b, k, j] != 0]
+                    if terms:
+                        mv[(pa, k, j)] = terms
+        # field: per state variable, linear terms (coef, var) and product terms (coef or sign, u, v)
+        lin: dict[str, list] = {v: [] for v in names}
+        quad: dict[str, list] = {v: [] for v in names}
+        f = model.f
+        for m, a, b in np.argwhere(f != 0):
+            quad[pi[a]].append((cidx(-f[m, a, b]), pi[m], f"om{b}"))
+        if not model.theta_zero:
+            for a in range(n):
+                for b in range(n):
+                    if model.theta[a, b] != 0:
+                        lin[pi[a]].append((cidx(model.theta[a, b]), f"om{b}"))
+        if grav:
+            GL = model.G_L
+            for a in range(n):
+                for m in range(n):
+                    if GL[a, m] != 0:
+                        lin[pi[a]].append((cidx(GL[a, m]), ga[m]))
+            for a, b, mu in np.argwhere(f != 0):  # f^a_{b mu} Omega_b Gamma_a
+                quad[ga[mu]].append((cidx(f[a, b, mu]), f"om{b}", ga[a]))
+        # dG_ij = sum_k G_ik M_kj (complex: re = Gr Mr - Gi Mi, im = Gr Mi + Gi Mr)
+        for pa, i, k in gvars:
+            for (pb, kk, j), _ in mv.items():
+                if kk != k:
+                    continue
+                tgt_part = (pa + pb) % 2 if cplx else 0
+                sign = -1.0 if (pa == 1 and pb == 1) else 1.0
+                tgt = (tgt_part, i, j)
+                if tgt not in gname:  # cannot happen: the pattern is closed
+                    raise AssertionError("full state: G pattern not closed")
+                quad[gname[tgt]].append((sign, gname[(pa, i, k)], f"m{pb}_{kk}_{j}"))
+        if abelian_P is not None:
+            for ell in range(abelian_P.shape[0]):
+                for b in range(n):
+                    if abelian_P[ell, b] != 0:
+                        lin[ab[ell]].append((cidx(abelian_P[ell, b]), f"om{b}"))
+        # constant variables: state variables whose field vanishes identically (a state variable whose
+        # field has terms is never constant, even when all their factors are)
+        const = {v for v in names if not lin[v] and not quad[v]}
+        self.names, self.const = names, const
+        self.om, self.mv, self.lin, self.quad = om, mv, lin, quad
+        self.coef = np.array(coef, dtype=float)
+        self.step_vars = [v for v in pi + ga + [gname[g] for g in gvars] if v not in const]
+        self.var = [v for v in names if v not in const]
+        self.source = _source(self)
+        self._mod = None
+
+    # ------------------------------------------------------------------ kernel
+    def module(self):
+        if self._mod is None:
+            self._mod = _ct._import_kernel_module(self.source)
+        return self._mod
+
+    def tables(self):
+        """The sparse tables of :mod:`refimpl._full_state_kernel` (built once)."""
+        tb = getattr(self, "_tables", None)
+        if tb is not None:
+            return tb
+        n, names, const, coef = self.n, self.names, self.const, self.coef
+        idx = {v: i for i, v in enumerate(names)}
+        dnames = [f"om{b}" for b in range(n)] + [f"m{pa}_{k}_{j}" for (pa, k, j) in self.mv]
+        for v in dnames:
+            idx[v] = len(idx)
+        dconst = {f"om{b}" for b in range(n) if all(p in const for _, p in self.om[b])}
+        dconst |= {
+            f"m{pa}_{k}_{j}"
+            for (pa, k, j), t in self.mv.items()
+            if all(f"om{b}" in dconst for _, b in t)
+        }
+        allc = const | dconst
+        drow, dptr, didx, dcoef = [], [0], [], []
+        for b in range(n):
+            drow.append(idx[f"om{b}"])
+            for ci, p in self.om[b]:
+                didx.append(idx[p])
+                dcoef.append(coef[ci])
+            dptr.append(len(didx))
+        for (pa, k, j), t in self.mv.items():
+            drow.append(idx[f"m{pa}_{k}_{j}"])
+            for ci, b in t:
+                didx.append(idx[f"om{b}"])
+                dcoef.append(coef[ci])
+            dptr.append(len(didx))
+        prods: dict = {}
+        pu, pw, pcls = [], [], []
+        for v in names:
+            for _, u, w in self.quad[v]:
+                if (u, w) in prods:
+                    continue
+                prods[(u, w)] = len(pu)
+                pu.append(idx[u])
+                pw.append(idx[w])
+                cu, cw = u in allc, w in allc
+                pcls.append(3 if cu and cw else 1 if cu else 2 if cw else 0)
+        order = sorted(range(len(pu)), key=lambda p: pcls[p] != 0)  # general products first
+        rank = {p: i for i, p in enumerate(order)}
+        prods = {key: rank[p] for key, p in prods.items()}
+        pu, pw, pcls = [pu[p] for p in order], [pw[p] for p in order], [pcls[p] for p in order]
+        ng = sum(1 for c in pcls if c == 0)
+        pad = (-ng) % 4  # groups of four general products; the padding multiplies the zero row
+        zero = len(idx)
+        pu[ng:ng] = [zero] * pad
+        pw[ng:ng] = [zero] * pad
+        pcls[ng:ng] = [5] * pad  # class 5: the zero product (never read by the state rows)
+        prods = {key: (p + pad if p >= ng else p) for key, p in prods.items()}
+        vrow, qptr, qprod, qcoef, lptr, lvar, lcoef, lcon = [], [0], [], [], [0], [], [], []
+        for v in self.var:
+            vrow.append(idx[v])
+            for c, u, w in self.quad[v]:
+                qprod.append(prods[(u, w)])
+                qcoef.append(c if isinstance(c, float) else coef[c])
+            qptr.append(len(qprod))
+            for ci, u in self.lin[v]:
+                lvar.append(idx[u])
+                lcoef.append(coef[ci])
+                lcon.append(u in allc)
+            lptr.append(len(lvar))
+        i64 = lambda a: np.array(a, dtype=np.int64)  # noqa: E731
+        f64 = lambda a: np.array(a, dtype=float)  # noqa: E731
+        srow = i64([idx[v] for v in self.step_vars])
+        self._tables = tb = (
+            len(idx),
+            i64(drow),
+            i64(dptr),
+            i64(didx),
+            f64(dcoef),
+            i64(pu),
+            i64(pw),
+            i64(pcls),
+            i64(vrow),
+            i64(qptr),
+            i64(qprod),
+            f64(qcoef),
+            i64(lptr),
+            i64(lvar),
+            f64(lcoef),
+            np.array(lcon, dtype=np.bool_),
+            srow,
+        )
+        return tb
+
+    def run(
+        self,
+        y0,
+        T: float,
+        tol: float,
+        order: int | None = None,
+        max_steps: int = 10_000_000,
+        generated: bool = GENERATED,
+    ):
+        """``(y(T), steps)`` for the rows of ``y0`` (N, d) at the local tolerance ``tol``."""
+        P = default_order(tol) if order is None else int(order)
+        y = np.ascontiguousarray(y0, dtype=float)
+        out = np.empty_like(y)
+        steps = np.zeros(y.shape[0], dtype=np.int64)
+        if generated:
+            self.module().adaptive(
+                y, float(T), float(tol), P, int(max_steps), self.coef, out, steps
+            )
+        else:
+            _fk.adaptive(y, float(T), float(tol), P, int(max_steps), *self.tables(), out, steps)
+        return out, steps
+
+
+ORDER_BIAS = 2
+
+
+def default_order(tol: float) -> int:
+    return _ct.adaptive_order(tol) + ORDER_BIAS
+
+
+def _sum(terms: list[str]) -> str:
+    return _ct.tree_sum(terms) if terms else "0.0"
+
+
+def _source(fs: FullState) -> str:
+    """The kernel module of the structure of ``fs`` (see the module docstring)."""
+    names, const = fs.names, fs.const
+    idx = {v: i for i, v in enumerate(names)}
+    dnames = [f"om{b}" for b in range(fs.n)] + [f"m{pa}_{k}_{j}" for (pa, k, j) in fs.mv]
+    for v in dnames:
+        idx[v] = len(idx)
+    nv = len(idx)
+    dconst = set()
+    for b in range(fs.n):
+        if all(p in const for _, p in fs.om[b]):
+            dconst.add(f"om{b}")
+    for (pa, k, j), t in fs.mv.items():
+        if all(f"om{b}" in dconst for _, b in t):
+            dconst.add(f"m{pa}_{k}_{j}")
+    allconst = const | dconst
+
+    def V(v, k):
+        return f"V[{idx[v]}, {k}]"
+
+    I1, I2, I3, I4, I5 = ("    " * i for i in range(1, 6))
+    kb = []
+    # derived at order k
+    for b in range(fs.n):
+        v = f"om{b}"
+        kb.append(f"{V(v, 'k')} = " + _sum([f"c{ci} * {V(p, 'k')}" for ci, p in fs.om[b]]))
+    for (pa, k, j), t in fs.mv.items():
+        v = f"m{pa}_{k}_{j}"
+        kb.append(f"{V(v, 'k')} = " + _sum([f"c{ci} * {V(f'om{b}', 'k')}" for ci, b in t]))
+    # products: distinct pairs
+    prods: dict[tuple[str, str], str] = {}
+    for v in names:
+        for _, u, w in fs.quad[v]:
+            key = (u, w)
+            if key not in prods:
+                prods[key] = f"p{len(prods)}"
+    full = [
+        (key, p) for key, p in prods.items() if key[0] not in allconst and key[1] not in allconst
+    ]
+    kb += [f"{p} = 0.0" for _, p in full]
+    if full:
+        kb.append("for a in range(k + 1):")
+        kb += [I1 + f"{p} += {V(u, 'a')} * {V(w, 'k - a')}" for (u, w), p in full]
+    for (u, w), p in prods.items():
+        if u in allconst and w in allconst:
+            kb.append(f"{p} = {V(u, 0)} * {V(w, 0)} if k == 0 else 0.0")
+        elif u in allconst:
+            kb.append(f"{p} = {V(u, 0)} * {V(w, 'k')}")
+        elif w in allconst:
+            kb.append(f"{p} = {V(u, 'k')} * {V(w, 0)}")
+    kb.append("ik = 1.0 / (k + 1)")
+    for v in fs.var:
+        terms = []
+        for c, u, w in fs.quad[v]:
+            p = prods[(u, w)]
+            if isinstance(c, float):
+                terms.append(p if c > 0 else f"-{p}")
+            else:
+                terms.append(f"c{c} * {p}")
+        for ci, u in fs.lin[v]:
+            if u in allconst:
+                terms.append(f"(c{ci} * {V(u, 0)} if k == 0 else 0.0)")
+            else:
+                terms.append(f"c{ci} * {V(u, 'k')}")
+        kb.append(f"{V(v, 'k + 1')} = ({_sum(terms)}) * ik")
+
+    rows = fs.step_vars
+
+    def amax(k):
+        if not rows:
+            return "0.0"
+        e = f"abs({V(rows[0], k)})"
+        for v in rows[1:]:
+            e = f"max({e}, abs({V(v, k)}))"
+        return e
+
+    step = [
+        f"s = tol * max(1.0, {amax(0)})",
+        f"a1 = {amax('P - 1')}",
+        f"a2 = {amax('P')}",
+        "h = np.inf",
+        "if a1 > 0.0:",
+        I1 + "h = (s / a1) ** e1",
+        "if a2 > 0.0:",
+        I1 + "h = min(h, (s / a2) ** e2)",
+        "h *= damp",
+        "if not (h > 0.0):",
+        I1 + "status = -4",
+        I1 + "break",
+        "if t + h >= Tabs:",
+        I1 + "h = Tabs - t",
+        I1 + "t = Tabs",
+        "else:",
+        I1 + "t += h",
+        "hs = sgn * h",
+    ]
+    for ci, v in enumerate(fs.var):
+        i = idx[v]
+        step += [
+            f"z = V[{i}, P]",
+            "for kk in range(P - 1, 0, -1):",
+            I1 + f"z = z * hs + V[{i}, kk]",
+            f"z = z * hs - comp[{ci}]",
+            f"w = V[{i}, 0] + z",
+            f"comp[{ci}] = (w - V[{i}, 0]) - z",
+            f"V[{i}, 0] = w",
+        ]
+    fin = " and ".join(f"math.isfinite(V[{idx[v]}, 0])" for v in fs.var) or "True"
+    step += [
+        "nst += 1",
+        f"if not ({fin}):",
+        I1 + "status = -1",
+        I1 + "break",
+        "if nst > max_steps:",
+        I1 + "status = -3",
+        I1 + "break",
+    ]
+    ncoef = len(fs.coef)
+    src = [
+        '"""Generated by tstarg.refimpl._full_state (one structure; numbers are arguments)."""',
+        "import math",
+        "import numpy as np",
+        "from numba import njit",
+        "",
+        "",
+        _ct._JIT,
+        "def adaptive(y0, T, tol, P, max_steps, c, out, nsteps):",
+    ]
+    src += [I1 + f"c{i} = c[{i}]" for i in range(ncoef)]
+    src += [
+        I1 + "N = y0.shape[0]",
+        I1 + f"V = np.zeros(({nv}, P + 1))",
+        I1 + f"comp = np.zeros({max(len(fs.var), 1)})",
+        I1 + "sgn = 1.0 if T >= 0 else -1.0",
+        I1 + "Tabs = abs(T)",
+        I1 + "damp = math.exp(-0.7 / (P - 1))",
+        I1 + "e1 = 1.0 / (P - 1)",
+        I1 + "e2 = 1.0 / P",
+        I1 + "for it in range(N):",
+        I2 + f"for q in range({fs.d}):",
+        I3 + "V[q, 0] = y0[it, q]",
+        I2 + f"for q in range({max(len(fs.var), 1)}):",
+        I3 + "comp[q] = 0.0",
+        I2 + "t = 0.0",
+        I2 + "nst = 0",
+        I2 + "status = 0",
+        I2 + "while t < Tabs:",
+        I3 + "for k in range(P):",
+    ]
+    src += [I4 + x for x in kb]
+    src += [I3 + x for x in step]
+    src += [
+        I2 + f"for q in range({fs.d}):",
+        I3 + "out[it, q] = V[q, 0] if status == 0 else np.nan",
+        I2 + "nsteps[it] = nst if status == 0 else status",
+    ]
+    del I5
+    # constants (derived) of order 0 are computed in the k = 0 pass; those are all we read of them
+    return "\n".join(src) + "\n"
+
+
+# ---------------------------------------------------------------------- the flow
+def full_state(model) -> FullState:
+    """The full-state field of ``model``, kept on the (cached, immutable) model."""
+    fs = model.__dict__.get("_full_state")
+    if fs is None:
+        from ._flow_fast import _AbelianPart, _rep_of
+
+        rep = _rep_of(model)
+        ab = _AbelianPart.of(model.f, 1) if rep.exponential else None
+        fs = FullState(model, rep, None if ab is None else ab.P)
+        fs.abelian = ab
+        fs.proj = _projector(rep.mats)
+        model.__dict__["_full_state"] = fs
+    return fs
+
+
+def _projector(mats) -> np.ndarray:
+    """``Pinv`` (n, r^2 or 2 r^2) with ``x = Pinv vec(rho(x))`` (real and imaginary parts stacked)."""
+    mats = np.asarray(mats)
+    B = mats.real.reshape(mats.shape[0], -1)
+    if np.iscomplexobj(mats):
+        B = np.concatenate([B, mats.imag.reshape(mats.shape[0], -1)], axis=1)
+    return np.linalg.pinv(B.T)
+
+
+def _pack(fs: FullState, pi, Gamma, G, s) -> np.ndarray:
+    """Rows ``(pi, [Gamma,] G entries, [s])`` (N, d) from pi (n, N), Gamma (n, N), G (N, r, r), s (k, N)."""
+    N = pi.shape[1]
+    y = np.empty((N, fs.d))
+    n = fs.n
+    y[:, :n] = pi.T
+    o = n
+    if fs.gravity:
+        y[:, o : o + n] = Gamma.T
+        o += n
+    for pa, i, j in fs.gvars:
+        y[:, o] = G[:, i, j].real if pa == 0 else G[:, i, j].imag
+        o += 1
+    if fs.n_ab:
+        y[:, o:] = s.T
+    return y
+
+
+def _unpack_G(fs: FullState, y) -> np.ndarray:
+    N = y.shape[0]
+    G = np.zeros((N, fs.r, fs.r), dtype=complex if fs.cplx else float)
+    o = fs.n * (2 if fs.gravity else 1)
+    for pa, i, j in fs.gvars:
+        if pa == 0:
+            G[:, i, j] += y[:, o]
+        else:
+            G[:, i, j] += 1j * y[:, o]
+        o += 1
+    return G
+
+
+def _ad_of(fs: FullState, G) -> np.ndarray:
+    """``Ad(g)`` (N, n, n) from ``G = rho(g)``: ``G E_b G^-1 = Ad_ab E_a`` projected on the ``E_a``."""
+    Gi = np.linalg.inv(G)
+    X = np.einsum("Nij,bjk,Nkl->Nbil", G, fs.rep.mats, Gi)
+    N = G.shape[0]
+    flat = X.real.reshape(N, fs.n, -1)
+    if fs.cplx:
+        flat = np.concatenate([flat, X.imag.reshape(N, fs.n, -1)], axis=2)
+    return np.einsum("ap,Nbp->Nab", fs.proj, flat)
+
+
+def _x_of(fs: FullState, G, Ad, s) -> np.ndarray:
+    """``x`` (n, N) with ``exp(x) = g``: :meth:`Representation.log`, abelian part from ``s``."""
+    N = G.shape[0]
+    x = np.empty((fs.n, N))
+    for j in range(N):
+        xj = fs.rep.log(G[j], Ad[j])
+        if fs.abelian is not None:
+            xj = fs.abelian.refine(fs.rep, G[j], xj, s[:, j])
+        x[:, j] = xj
+    return x
+
+
+def _run(fs: FullState, y0, t, eps):
+    y, steps = fs.run(y0, t, eps)
+    if np.any(steps < 0):
+        raise ValueError(
+            f"compiled Taylor flow: trajectories {np.flatnonzero(steps < 0)[:10].tolist()} became "
+            f"non-finite before t = {t} (diverged); no point is dropped"
+        )
+    return y, steps
+
+
+def _estimate(fs: FullState, A, B) -> tuple[np.ndarray, np.ndarray]:
+    """``(max(|pi_A - pi_B|, |Ad_A - Ad_B|), Ad_B)`` per trajectory."""
+    n = fs.n
+    AdA = _ad_of(fs, _unpack_G(fs, A))
+    AdB = _ad_of(fs, _unpack_G(fs, B))
+    d = np.maximum(
+        np.max(np.abs(A[:, :n] - B[:, :n]), axis=1),
+        np.max(np.abs(AdA - AdB).reshape(len(A), -1), axis=1),
+    )
+    return np.where(np.isfinite(d), d, np.inf), AdB
+
+
+def full_state_flow(model, x0, pi0, t: float, tol: float) -> dict:
+    """Full state ``(x, pi)`` of ``N`` trajectories (``x0``, ``pi0`` of shape (n, N)) at time ``t`` with
+    the global tolerance ``tol`` (max-norm over ``pi`` and ``Ad(g)`` per trajectory, two runs).
+
+    Returns ``pi``, ``Gamma``, ``x``, ``g`` (``rho(g)``, (N, r, r)), ``Ad``, ``rebases`` (zeros: no
+    chart), ``steps``, ``error_estimate`` and ``path``."""
+    from ._flow_compiled import (
+        EPS_FLOOR,
+        PROP,
+        PROP_MIN_A,
+        PROP_MIN_B,
+        _eps_b,
+        local_tolerances,
+    )
+
+    fs = full_state(model)
+    n, N = pi0.shape
+    G0 = np.asarray(fs.rep.exp(x0.T))
+    Gamma0 = None
+    if fs.gravity:
+        Ad0 = _ad_of(fs, G0)
+        Gamma0 = np.einsum("Nmb,m->bN", Ad0, model.gamma)
+    s0 = None if fs.abelian is None else fs.abelian.P @ x0
+    y0 = _pack(fs, pi0, Gamma0, G0, s0)
+    eps_a, eps_b = local_tolerances(tol)
+    res = np.empty_like(y0)
+    Adres = np.empty((N, n, n))
+    est = np.full(N, np.inf)
+    steps = np.zeros(N, dtype=np.int64)
+    todo = np.arange(N)
+    for _ in range(6):
+        yt = y0[todo]
+        A, _s = _run(fs, yt, t, eps_a)
+        B, sB = _run(fs, yt, t, eps_b)
+        d, AdB = _estimate(fs, A, B)
+        prop = eps_a >= PROP_MIN_A and eps_b >= PROP_MIN_B
+        e = np.minimum(d, PROP * (eps_b / eps_a) * d) if prop else d
+        res[todo], Adres[todo], est[todo], steps[todo] = B, AdB, e, sB
+        over = todo[e > tol]
+        if over.size == 0:
+            break
+        new = max(eps_a * min(tol / float(np.max(est[over])) / 10, 0.1), EPS_FLOOR)
+        if new >= eps_a:
+            break
+        eps_a, eps_b, todo = new, _eps_b(new), over
+    over = np.flatnonzero(est > tol)
+    if over.size:
+        raise ValueError(
+            f"compiled Taylor flow: tolerance {tol} not reached on trajectories {over[:10].tolist()} "
+            f"(estimated errors {est[over][:3].tolist()}) at the float64 floor of the local tolerance"
+        )
+    G = _unpack_G(fs, res)
+    s = None if fs.abelian is None else res[:, fs.d - fs.n_ab :].T
+    x = _x_of(fs, G, Adres, s)
+    return {
+        "pi": res[:, :n].T.copy(),
+        "Gamma": res[:, n : 2 * n].T.copy() if fs.gravity else None,
+        "x": x,
+        "g": G,
+        "Ad": Adres,
+        "quat": None,
+        "rebases": np.zeros(N, dtype=int),
+        "steps": steps,
+        "error_estimate": est,
+        "path": _ct.PATH,
+    }
