@@ -54,6 +54,7 @@ import scipy.linalg
 
 from . import _compiled_taylor as _ct
 from . import _fast_kernels as _fast
+from . import _full_state
 from ._algebra import LieAlgebra
 from ._compiled_rational import rational_taylor_body
 from ._flow_compiled import (
@@ -354,6 +355,8 @@ def integrate_fast(
             return compiled_taylor_flow(model, x0, pi0, t, tol)
         if system == "body":
             return compiled_taylor_body(model, x0, pi0, t, tol=tol)
+        if _full_state.applies(model):  # any algebra: G = rho(g) in the state (refimpl._full_state)
+            return _full_state.full_state_flow(model, x0, pi0, t, tol)
         if not supports_full(model):
             raise ValueError(
                 f"method {meth.name} integrates the full state on su(2)/so(3) only; "
@@ -904,6 +907,8 @@ def _default_method(model: NumpyModel, *, full: bool = False) -> Method:
     else DOP853 (``Upsilon = 0``) or Gauss6 (``Upsilon != 0``)."""
     if full and _ct.HAVE_NUMBA and supports_full(model):
         return METHODS["taylor"] if model.upsilon_zero else METHODS["taylor-rational"]
+    if full and _full_state.applies(model):  # every other algebra with Upsilon = 0
+        return METHODS["taylor"]
     return METHODS["dop853"] if model.upsilon_zero else METHODS["gauss6"]
 
 
