@@ -56,7 +56,13 @@ from . import _full_state_kernel as _fk
 __all__ = ["FullState", "applies", "full_state", "full_state_flow"]
 
 EPS = np.finfo(float).eps
-GENERATED = False  # the per-structure generated kernel (else the one compiled for every structure)
+GENERATED_MIN_WORK = 8.0
+"""``N |t|`` (trajectories times the time span) from which a flow runs the kernel generated for its
+structure (:func:`_source`, about 2.2x faster per step: every product unrolled in one loop over the
+terms) instead of the one compiled for every structure (:mod:`refimpl._full_state_kernel`); the
+generated one costs 4-9 s of compilation per structure before the disk cache has it, repaid only by
+long or batched flows (the rule of ``BATCH_MIN`` in :mod:`refimpl._compiled_taylor`). A function of
+the call's inputs, so a call's result never depends on what ran before it."""
 
 
 def applies(model) -> bool:
@@ -273,7 +279,7 @@ class FullState:
         tol: float,
         order: int | None = None,
         max_steps: int = 10_000_000,
-        generated: bool = GENERATED,
+        generated: bool = False,
     ):
         """``(y(T), steps)`` for the rows of ``y0`` (N, d) at the local tolerance ``tol``."""
         P = default_order(tol) if order is None else int(order)
@@ -289,7 +295,9 @@ class FullState:
         return out, steps
 
 
-ORDER_BIAS = 2
+ORDER_BIAS = (
+    4  # above Jorba-Zou's order: measured cheaper (se(3), T = 10: 0.95x at 1e-8, 0.94x at 1e-13)
+)
 
 
 def default_order(tol: float) -> int:
@@ -472,7 +480,16 @@ def full_state(model) -> FullState:
         ab = _AbelianPart.of(model.f, 1) if rep.exponential else None
         fs = FullState(model, rep, None if ab is None else ab.P)
         fs.abelian = ab
-        fs.proj = _projector(rep.mats)
+        fs.mats = np.ascontiguousarray(rep.mats, dtype=complex if fs.cplx else float)
+        fs.proj = np.ascontiguousarray(_projector(rep.mats))
+        gv = np.array(fs.gvars, dtype=np.int64).reshape(-1, 3)
+        fs.unit = 1j if fs.cplx else 0.0
+        fs.gidx = (
+            np.ascontiguousarray(gv[:, 0]),
+            np.ascontiguousarray(gv[:, 1]),
+            np.ascontiguousarray(gv[:, 2]),
+            fs.n * (2 if fs.gravity else 1),
+        )
         model.__dict__["_full_state"] = fs
     return fs
 
@@ -492,57 +509,56 @@ def _pack(fs: FullState, pi, Gamma, G, s) -> np.ndarray:
     y = np.empty((N, fs.d))
     n = fs.n
     y[:, :n] = pi.T
-    o = n
     if fs.gravity:
-        y[:, o : o + n] = Gamma.T
-        o += n
-    for pa, i, j in fs.gvars:
-        y[:, o] = G[:, i, j].real if pa == 0 else G[:, i, j].imag
-        o += 1
+        y[:, n : 2 * n] = Gamma.T
+    _fk.pack_G(G, *fs.gidx, y)
     if fs.n_ab:
-        y[:, o:] = s.T
+        y[:, fs.d - fs.n_ab :] = s.T
     return y
 
 
 def _unpack_G(fs: FullState, y) -> np.ndarray:
-    N = y.shape[0]
-    G = np.zeros((N, fs.r, fs.r), dtype=complex if fs.cplx else float)
-    o = fs.n * (2 if fs.gravity else 1)
-    for pa, i, j in fs.gvars:
-        if pa == 0:
-            G[:, i, j] += y[:, o]
-        else:
-            G[:, i, j] += 1j * y[:, o]
-        o += 1
+    G = np.empty((y.shape[0], fs.r, fs.r), dtype=fs.mats.dtype)
+    _fk.unpack_G(y, *fs.gidx, G, fs.unit)
     return G
 
 
 def _ad_of(fs: FullState, G) -> np.ndarray:
     """``Ad(g)`` (N, n, n) from ``G = rho(g)``: ``G E_b G^-1 = Ad_ab E_a`` projected on the ``E_a``."""
-    Gi = np.linalg.inv(G)
-    X = np.einsum("Nij,bjk,Nkl->Nbil", G, fs.rep.mats, Gi)
-    N = G.shape[0]
-    flat = X.real.reshape(N, fs.n, -1)
-    if fs.cplx:
-        flat = np.concatenate([flat, X.imag.reshape(N, fs.n, -1)], axis=2)
-    return np.einsum("ap,Nbp->Nab", fs.proj, flat)
+    out = np.empty((G.shape[0], fs.n, fs.n))
+    _fk.ad_batch(np.ascontiguousarray(G, dtype=fs.mats.dtype), fs.mats, fs.proj, fs.cplx, out)
+    return out
+
+
+ABELIAN_RTOL = (
+    1e-13  # the log's abelian part is kept when it matches the integrated one this closely
+)
 
 
 def _x_of(fs: FullState, G, Ad, s) -> np.ndarray:
-    """``x`` (n, N) with ``exp(x) = g``: :meth:`Representation.log`, abelian part from ``s``."""
+    """``x`` (n, N) with ``exp(x) = g``: the principal logarithm of ``G`` when it lies in the algebra
+    (compiled, :func:`refimpl._full_state_kernel.log_batch`), else :meth:`Representation.log`; on
+    exponential algebras the abelian part from ``s`` when the log's differs from it
+    (:class:`refimpl._flow_fast._AbelianPart`)."""
     N = G.shape[0]
-    x = np.empty((fs.n, N))
-    for j in range(N):
-        xj = fs.rep.log(G[j], Ad[j])
-        if fs.abelian is not None:
-            xj = fs.abelian.refine(fs.rep, G[j], xj, s[:, j])
-        x[:, j] = xj
-    return x
+    xs = np.empty((N, fs.n))
+    ok = np.zeros(N, dtype=np.bool_)
+    G = np.ascontiguousarray(G, dtype=fs.mats.dtype)
+    _fk.log_batch(G, fs.mats, fs.proj, fs.cplx, xs, ok)
+    for j in np.flatnonzero(~ok):
+        xs[j] = fs.rep.log(G[j], Ad[j])
+    if fs.abelian is not None:
+        P = fs.abelian.P
+        for j in range(N):
+            sj = s[:, j]
+            if np.max(np.abs(P @ xs[j] - sj)) > ABELIAN_RTOL * max(1.0, float(np.max(np.abs(sj)))):
+                xs[j] = fs.abelian.refine(fs.rep, G[j], xs[j], sj)
+    return xs.T.copy()
 
 
-def _run(fs: FullState, y0, t, eps):
-    y, steps = fs.run(y0, t, eps)
-    if np.any(steps < 0):
+def _run(fs: FullState, y0, t, eps, generated=False):
+    y, steps = fs.run(y0, t, eps, generated=generated)
+    if steps.min() < 0:
         raise ValueError(
             f"compiled Taylor flow: trajectories {np.flatnonzero(steps < 0)[:10].tolist()} became "
             f"non-finite before t = {t} (diverged); no point is dropped"
@@ -550,16 +566,14 @@ def _run(fs: FullState, y0, t, eps):
     return y, steps
 
 
-def _estimate(fs: FullState, A, B) -> tuple[np.ndarray, np.ndarray]:
-    """``(max(|pi_A - pi_B|, |Ad_A - Ad_B|), Ad_B)`` per trajectory."""
-    n = fs.n
-    AdA = _ad_of(fs, _unpack_G(fs, A))
-    AdB = _ad_of(fs, _unpack_G(fs, B))
-    d = np.maximum(
-        np.max(np.abs(A[:, :n] - B[:, :n]), axis=1),
-        np.max(np.abs(AdA - AdB).reshape(len(A), -1), axis=1),
-    )
-    return np.where(np.isfinite(d), d, np.inf), AdB
+def _estimate(fs: FullState, A, B):
+    """``(max(|pi_A - pi_B|, |Ad_A - Ad_B|), G_B, Ad_B)`` per trajectory (compiled)."""
+    N = A.shape[0]
+    GB = np.empty((N, fs.r, fs.r), dtype=fs.mats.dtype)
+    AdB = np.empty((N, fs.n, fs.n))
+    est = np.empty(N)
+    _fk.estimate(A, B, fs.n, *fs.gidx, fs.unit, fs.mats, fs.proj, fs.cplx, GB, AdB, est)
+    return est, GB, AdB
 
 
 def full_state_flow(model, x0, pi0, t: float, tol: float) -> dict:
@@ -579,7 +593,8 @@ def full_state_flow(model, x0, pi0, t: float, tol: float) -> dict:
 
     fs = full_state(model)
     n, N = pi0.shape
-    G0 = np.asarray(fs.rep.exp(x0.T))
+    G0 = np.empty((N, fs.r, fs.r), dtype=fs.mats.dtype)
+    _fk.exp_batch(np.ascontiguousarray(x0.T), fs.mats, G0)
     Gamma0 = None
     if fs.gravity:
         Ad0 = _ad_of(fs, G0)
@@ -587,19 +602,21 @@ def full_state_flow(model, x0, pi0, t: float, tol: float) -> dict:
     s0 = None if fs.abelian is None else fs.abelian.P @ x0
     y0 = _pack(fs, pi0, Gamma0, G0, s0)
     eps_a, eps_b = local_tolerances(tol)
+    gen = N * abs(t) >= GENERATED_MIN_WORK
     res = np.empty_like(y0)
     Adres = np.empty((N, n, n))
+    G = np.empty((N, fs.r, fs.r), dtype=fs.mats.dtype)
     est = np.full(N, np.inf)
     steps = np.zeros(N, dtype=np.int64)
     todo = np.arange(N)
     for _ in range(6):
         yt = y0[todo]
-        A, _s = _run(fs, yt, t, eps_a)
-        B, sB = _run(fs, yt, t, eps_b)
-        d, AdB = _estimate(fs, A, B)
+        A, _s = _run(fs, yt, t, eps_a, gen)
+        B, sB = _run(fs, yt, t, eps_b, gen)
+        d, GB, AdB = _estimate(fs, A, B)
         prop = eps_a >= PROP_MIN_A and eps_b >= PROP_MIN_B
         e = np.minimum(d, PROP * (eps_b / eps_a) * d) if prop else d
-        res[todo], Adres[todo], est[todo], steps[todo] = B, AdB, e, sB
+        res[todo], Adres[todo], G[todo], est[todo], steps[todo] = B, AdB, GB, e, sB
         over = todo[e > tol]
         if over.size == 0:
             break
@@ -613,7 +630,6 @@ def full_state_flow(model, x0, pi0, t: float, tol: float) -> dict:
             f"compiled Taylor flow: tolerance {tol} not reached on trajectories {over[:10].tolist()} "
             f"(estimated errors {est[over][:3].tolist()}) at the float64 floor of the local tolerance"
         )
-    G = _unpack_G(fs, res)
     s = None if fs.abelian is None else res[:, fs.d - fs.n_ab :].T
     x = _x_of(fs, G, Adres, s)
     return {
