@@ -52,6 +52,7 @@ import numpy as np
 
 from . import _compiled_taylor as _ct
 from . import _full_state_kernel as _fk
+from ._flow_compiled import EPS_FLOOR, PROP, PROP_MIN_A, PROP_MIN_B, _eps_b, local_tolerances
 
 __all__ = ["FullState", "applies", "full_state", "full_state_flow"]
 
@@ -582,15 +583,6 @@ def full_state_flow(model, x0, pi0, t: float, tol: float) -> dict:
 
     Returns ``pi``, ``Gamma``, ``x``, ``g`` (``rho(g)``, (N, r, r)), ``Ad``, ``rebases`` (zeros: no
     chart), ``steps``, ``error_estimate`` and ``path``."""
-    from ._flow_compiled import (
-        EPS_FLOOR,
-        PROP,
-        PROP_MIN_A,
-        PROP_MIN_B,
-        _eps_b,
-        local_tolerances,
-    )
-
     fs = full_state(model)
     n, N = pi0.shape
     G0 = np.empty((N, fs.r, fs.r), dtype=fs.mats.dtype)
@@ -603,20 +595,19 @@ def full_state_flow(model, x0, pi0, t: float, tol: float) -> dict:
     y0 = _pack(fs, pi0, Gamma0, G0, s0)
     eps_a, eps_b = local_tolerances(tol)
     gen = N * abs(t) >= GENERATED_MIN_WORK
-    res = np.empty_like(y0)
-    Adres = np.empty((N, n, n))
-    G = np.empty((N, fs.r, fs.r), dtype=fs.mats.dtype)
-    est = np.full(N, np.inf)
-    steps = np.zeros(N, dtype=np.int64)
-    todo = np.arange(N)
+    todo = None  # every trajectory (the first pair of runs), then those over the tolerance
     for _ in range(6):
-        yt = y0[todo]
+        yt = y0 if todo is None else y0[todo]
         A, _s = _run(fs, yt, t, eps_a, gen)
         B, sB = _run(fs, yt, t, eps_b, gen)
         d, GB, AdB = _estimate(fs, A, B)
         prop = eps_a >= PROP_MIN_A and eps_b >= PROP_MIN_B
         e = np.minimum(d, PROP * (eps_b / eps_a) * d) if prop else d
-        res[todo], Adres[todo], G[todo], est[todo], steps[todo] = B, AdB, GB, e, sB
+        if todo is None:
+            res, Adres, G, est, steps = B, AdB, GB, e, sB
+            todo = np.arange(N)
+        else:
+            res[todo], Adres[todo], G[todo], est[todo], steps[todo] = B, AdB, GB, e, sB
         over = todo[e > tol]
         if over.size == 0:
             break
