@@ -168,7 +168,16 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--problems", default=",".join(problems()))
     ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument(
+        "--generated",
+        action="store_true",
+        help="run the kernel generated per structure on every call (GENERATED_MIN_WORK = 0)",
+    )
     args = ap.parse_args(argv)
+    if args.generated:
+        from tstarg.refimpl import _full_state
+
+        _full_state.GENERATED_MIN_WORK = 0.0
     probs = problems()
     rows = []
     for name in args.problems.split(","):
