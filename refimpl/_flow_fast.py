@@ -245,7 +245,7 @@ def integrate_fast(
         if system == "body":
             return compiled_taylor_body(model, x0, pi0, t, tol=tol)
         if _full_state.applies(model):  # any algebra: G = rho(g) in the state (refimpl._full_state)
-            return _full_state.full_state_flow(model, x0, pi0, t, tol)
+            return _full_state.full_state_flow(model, x0, pi0, t, tol, abelian=_AbelianPart)
         if not supports_full(model):
             raise ValueError(
                 f"method {meth.name} integrates the full state on su(2)/so(3) only; "

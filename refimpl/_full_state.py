@@ -309,14 +309,14 @@ def default_order(tol: float) -> int:
 
 
 # ---------------------------------------------------------------------- the flow
-def full_state(model) -> FullState:
-    """The full-state field of ``model``, kept on the (cached, immutable) model."""
+def full_state(model, abelian=None) -> FullState:
+    """The full-state field of ``model``, kept on the (cached, immutable) model. ``abelian``: the class
+    :class:`refimpl._flow_fast._AbelianPart` (passed in by the flows, which own it), used on
+    exponential algebras."""
     fs = model.__dict__.get("_full_state")
-    if fs is None:
-        from ._flow_fast import _AbelianPart, _rep_of
-
-        rep = _rep_of(model)
-        ab = _AbelianPart.of(model.f, 1) if rep.exponential else None
+    if fs is None or (fs.abelian is None and abelian is not None and fs.rep.exponential):
+        rep = model.representation
+        ab = abelian.of(model.f, 1) if (rep.exponential and abelian is not None) else None
         fs = FullState(model, rep, None if ab is None else ab.P)
         fs.abelian = ab
         fs.mats = np.ascontiguousarray(rep.mats, dtype=complex if fs.cplx else float)
@@ -415,13 +415,13 @@ def _estimate(fs: FullState, A, B):
     return est, GB, AdB
 
 
-def full_state_flow(model, x0, pi0, t: float, tol: float) -> dict:
+def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None) -> dict:
     """Full state ``(x, pi)`` of ``N`` trajectories (``x0``, ``pi0`` of shape (n, N)) at time ``t`` with
     the global tolerance ``tol`` (max-norm over ``pi`` and ``Ad(g)`` per trajectory, two runs).
 
     Returns ``pi``, ``Gamma``, ``x``, ``g`` (``rho(g)``, (N, r, r)), ``Ad``, ``rebases`` (zeros: no
     chart), ``steps``, ``error_estimate`` and ``path``."""
-    fs = full_state(model)
+    fs = full_state(model, abelian)
     n, N = pi0.shape
     G0 = np.empty((N, fs.r, fs.r), dtype=fs.mats.dtype)
     _fk.exp_batch(np.ascontiguousarray(x0.T), fs.mats, G0)
