@@ -9,7 +9,7 @@ Reference (mpmath)
     local error; steps are accepted when it is below ``tol`` and resized by
     ``h <- 0.9 h (tol/err)^(1/(2k))``. Explicit, so it runs at any precision
     with no implicit solve. The caller confirms the result by a precision and
-    tolerance ladder (see :mod:`refimpl._flow_reference`).
+    tolerance ladder (see :mod:`refimpl.flows.reference`).
 
 Fast (numpy float64, the state is an array whose leading axis is the component
 and whose trailing axes are the batch)

@@ -35,9 +35,9 @@ instance's ``dps`` plus guard digits and never changes global precision.
 from __future__ import annotations
 
 from ._errors import DegeneratePointError
-from ._flow_reference import reference_flow
 from ._protocol import Implementation
 from ._reference_core import GUARD_DIGITS, ReferenceCore
+from .flows.reference import reference_flow
 
 __all__ = ["Reference", "implementation", "DegeneratePointError", "GUARD_DIGITS"]
 

@@ -41,10 +41,10 @@ import numpy as np
 from ._catalogue import catalogue
 from ._fast_kernels import FastCore
 from ._flow_checks import check_time
-from ._invariants import casimirs, energy, momentum_map
 from ._validate import MAX_FLOW_TIME, MIN_FLOW_TOL, as_float_array, check_flow_rates, check_inertia
 from .flows._fast import NumpyModel, fast_trajectory, integrate_fast
 from .flows.base import check_tolerance
+from .flows.invariants import casimirs, energy, momentum_map
 from .flows.registry import METHODS
 
 MAX_SAMPLES = 10**6

@@ -18,12 +18,13 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from tstarg.properties.strategies import cocycles, lie_algebras, points, upsilons
-from tstarg.refimpl import LieAlgebra, _flow_reference
+from tstarg.refimpl import LieAlgebra
 from tstarg.refimpl._catalogue import bianchi, su2, su3
 from tstarg.refimpl._cohomology import cocycle_basis
-from tstarg.refimpl._flow_reference import reference_flow, reference_trajectory
 from tstarg.refimpl._representation import representation_for
 from tstarg.refimpl.flows import fast_flow, fast_trajectory
+from tstarg.refimpl.flows import reference as _flow_reference
+from tstarg.refimpl.flows.reference import reference_flow, reference_trajectory
 
 EPS = np.finfo(float).eps
 FAST_TOL = 1e-10  # fast_flow's default tolerance (refimpl.fast.Fast.flow_tolerance)

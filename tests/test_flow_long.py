@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from tstarg.refimpl._catalogue import su2
-from tstarg.refimpl._flow_reference import reference_trajectory
-from tstarg.refimpl._invariants import momentum_map
 from tstarg.refimpl.flows import fast_trajectory
+from tstarg.refimpl.flows.invariants import momentum_map
+from tstarg.refimpl.flows.reference import reference_trajectory
 
 pytestmark = pytest.mark.slow
 EPS = np.finfo(float).eps
@@ -123,7 +123,7 @@ def test_reference_cost_per_unit_time_stays_flat(name, monkeypatch):
     at most 1.5 times that on (1, 10], with the flow re-based along the way."""
     import time
 
-    from tstarg.refimpl import _flow_reference
+    from tstarg.refimpl.flows import reference as _flow_reference
 
     orig = _flow_reference.gbs_mp
     log = []

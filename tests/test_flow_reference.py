@@ -166,7 +166,7 @@ def test_reference_flow_protocol_shape_and_zero_time():
 # Root cause of issue 13's 20.6 digits: structure constants given in float64 (a change of basis by a
 # float matrix) break the Jacobi identity by ~1e-17; the chart equations and the re-based equations
 # then describe different flows and the result depends on where the flow re-bases. The reference
-# integrates the Lie algebra the numbers stand for (refimpl._flow_reference.lie_constants_mp).
+# integrates the Lie algebra the numbers stand for (refimpl.flows.reference.lie_constants_mp).
 def _float_basis_changed_so3():
     from tstarg.refimpl._catalogue import su2 as su2_cat
 
@@ -175,13 +175,13 @@ def _float_basis_changed_so3():
 
 
 def _jacobi_max(F):
-    from tstarg.refimpl._flow_reference import _jacobi_mp
+    from tstarg.refimpl.flows.reference import _jacobi_mp
 
     return max(abs(v) for v in _jacobi_mp(F, len(F)))
 
 
 def _mp_constants(f, dps):
-    from tstarg.refimpl._flow_reference import lie_constants_mp
+    from tstarg.refimpl.flows.reference import lie_constants_mp
 
     with mpmath.workdps(dps):
         fa = np.asarray(f.f if hasattr(f, "f") else f, dtype=float)
@@ -254,7 +254,7 @@ def test_reference_heavy_top_in_float_basis_does_not_depend_on_the_rebasing_sche
     re-based against re-based at ||ad_x||_1 > 0.05 (every step): >= 22 digits apart at dps 20 (the
     reference's own accuracy is ~25 digits; without the projection the two differ from the 17th
     digit on, the Jacobi defect of the float constants)."""
-    from tstarg.refimpl import _flow_reference
+    from tstarg.refimpl.flows import reference as _flow_reference
 
     alg = _float_basis_changed_so3()
     I = np.array([[2.0, 0.3, 0.0], [0.3, 1.5, 0.1], [0.0, 0.1, 1.0]])

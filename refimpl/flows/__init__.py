@@ -11,8 +11,9 @@ The flows wing. This package's face re-exports; the pieces:
   the two-run control of the compiled Taylor flows is :mod:`refimpl._flow_compiled`;
 * :mod:`refimpl.flows._fast` -- the protocol flow :func:`fast_flow` (validate, choose, integrate) and
   :func:`fast_trajectory`;
-* beside them: the reference flow :mod:`refimpl._flow_reference` (mpmath, any precision), the
-  invariants :mod:`refimpl._invariants`, the scenes :mod:`refimpl.scenes`.
+* beside them: the reference flow :mod:`refimpl.flows.reference` (mpmath, any precision, written
+  independently of the fast side), the invariants :mod:`refimpl.flows.invariants`; the scenes
+  :mod:`refimpl.scenes`.
 
 Adding an integrator: one module in ``refimpl/flows/integrators/`` (see :mod:`refimpl.flows.base`
 for the contract) and its order test.
@@ -64,21 +65,21 @@ from __future__ import annotations
 
 from .._flow_checks import check_time
 from .._flow_compiled import quat_to_x, x_to_quat
-from .._flow_reference import (
-    ModelMP,
-    ReferenceTrajectory,
-    euler_top_closed_form,
-    reference_flow,
-    reference_trajectory,
-)
 from .._integrators import DOP853, RK4, ExplicitRK, GaussLegendre, gbs_mp, triple_jump_weights
-from .._invariants import casimirs, energy, momentum_map
 
 # the scenes last: refimpl.scenes imports the flows above
 from ..scenes import OUTPUTS, Plan, Scene, load_scene, parse_scene, plan, run_scene  # noqa: E402, I001
 from ._common import numpy_rhs, qmul, scalar_rhs
 from ._fast import NumpyModel, cached_model, fast_flow, fast_trajectory, integrate_fast
 from .base import Adaptive, FixedStep, FlowResult, Integrator, check_tolerance
+from .invariants import casimirs, energy, momentum_map
+from .reference import (
+    ModelMP,
+    ReferenceTrajectory,
+    euler_top_closed_form,
+    reference_flow,
+    reference_trajectory,
+)
 from .registry import METHODS, choose, method
 from .step_doubling import StepDoubling
 

@@ -50,7 +50,7 @@ class FlowResult:
     ``Ad_ref``, ``x_local`` (the re-based chart: ``g = g_ref exp(x_local)``); ``rebases`` per trajectory;
     ``steps`` per trajectory; ``error_estimate`` (the two-run control's, per trajectory);
     ``cond_phi`` (largest ``cond(Psi_0)`` seen, rational Taylor); ``path`` (``numba``/``python``
-    for the compiled methods). Item access ``result["pi"]`` reads the same fields.
+    for the compiled methods). Item access ``result["pi"]`` and ``"x" in result`` (set, not None) read the same fields.
     """
 
     pi: np.ndarray
@@ -71,6 +71,9 @@ class FlowResult:
         if key not in _FIELDS:
             raise KeyError(key)
         return getattr(self, key)
+
+    def __contains__(self, key: str) -> bool:
+        return key in _FIELDS and getattr(self, key) is not None
 
     def get(self, key: str, default=None):
         value = getattr(self, key, None) if key in _FIELDS else None

@@ -261,7 +261,7 @@ def _reference_source() -> str:
     import hashlib
     from pathlib import Path
 
-    from tstarg.refimpl import _flow_reference
+    from tstarg.refimpl.flows import reference as _flow_reference
 
     return hashlib.sha256(Path(_flow_reference.__file__).read_bytes()).hexdigest()[:16]
 

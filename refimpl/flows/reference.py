@@ -44,14 +44,14 @@ from itertools import combinations
 import mpmath
 import numpy as np
 
-from ._algebra import LieAlgebra
-from ._errors import DegeneratePointError
-from ._flow_checks import check_time
-from ._integrators import gbs_mp
-from ._reference_core import MAX_DPS, _as_float, _to_mpf
-from ._reference_core import ReferenceCore as Reference
-from ._representation import Representation, representation_for
-from ._validate import MAX_REFERENCE_FLOW_TIME, ProgressBudget, check_inertia, check_potential
+from .._algebra import LieAlgebra
+from .._errors import DegeneratePointError
+from .._flow_checks import check_time
+from .._integrators import gbs_mp
+from .._reference_core import MAX_DPS, _as_float, _to_mpf
+from .._reference_core import ReferenceCore as Reference
+from .._representation import Representation, representation_for
+from .._validate import MAX_REFERENCE_FLOW_TIME, ProgressBudget, check_inertia, check_potential
 
 __all__ = [
     "ModelMP",

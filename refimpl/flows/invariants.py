@@ -6,9 +6,9 @@ from __future__ import annotations
 import mpmath
 import numpy as np
 
-from . import _fast_kernels as _fast
-from ._flow_reference import ModelMP
-from ._frames import frames
+from .. import _fast_kernels as _fast
+from .._frames import frames
+from .reference import ModelMP
 
 __all__ = ["energy", "casimirs", "momentum_map"]
 
