@@ -131,17 +131,17 @@ class Model:
             return f"<{k} entr{'y' if k == 1 else 'ies'} above the diagonal>"
 
         if self.su2:  # the paper's names: Theta = -xi.f, Upsilon^mn = tau_l eps_lmn
+            assert self.xi is not None  # su(2): Theta = -xi.f always has its xi
             th = "0" if self.theta_zero else f"-xi.f with xi=({_numbers(self.xi)})"
             tau = np.array([self.upsilon[1, 2], self.upsilon[2, 0], self.upsilon[0, 1]])
             up = "0" if self.upsilon_zero else f"tau.eps with tau=({_numbers(tau)})"
         else:
             th = "0" if self.theta_zero else pairs(self.theta)
             up = "0" if self.upsilon_zero else pairs(self.upsilon)
-        pot = (
-            "None"
-            if self.potential is None
-            else f"gravity(L=({_numbers(self.Lvec)}), gamma=({_numbers(self.gamma)}))"
-        )
+        pot = "None"
+        if self.potential is not None:
+            assert self.Lvec is not None and self.gamma is not None  # gravity's vectors
+            pot = f"gravity(L=({_numbers(self.Lvec)}), gamma=({_numbers(self.gamma)}))"
         return f"Model({alg}, n={self.n}, inertia={inertia}, Theta={th}, Upsilon={up}, potential={pot})"
 
     # ------------------------------------------------------------------ derived, cached
@@ -363,10 +363,10 @@ class Model:
 
             return F
 
-        def F(y):
+        def F_body(y):
             return self.omega_pidot(y, None)[1]
 
-        return F
+        return F_body
 
 
 @dataclass(frozen=True)

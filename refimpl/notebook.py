@@ -35,12 +35,15 @@ from .scenes import Plan, parse_scene, plan, plot_trajectory, run_scene
 __all__ = ["Trajectory", "bracket", "protocol_args", "trajectory", "vector_field"]
 
 
-def protocol_args(model: Model) -> tuple:
+def protocol_args(
+    model: Model,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict | None]:
     """``(f, theta, upsilon, inertia, potential)``: the model as the protocol's methods take it."""
     if not isinstance(model, Model):
         raise TypeError(f"model must be a tstarg.refimpl.Model, got {type(model).__name__}")
     pot = None
     if model.potential is not None:
+        assert model.Lvec is not None and model.gamma is not None  # gravity's vectors
         pot = {"kind": "gravity", "L": model.Lvec.copy(), "gamma": model.gamma.copy()}
     return model.f.copy(), model.theta.copy(), model.upsilon.copy(), model.inertia.copy(), pot
 
@@ -133,6 +136,7 @@ def trajectory(
         outputs=list(outputs),
     )
     if model.potential is not None:
+        assert model.Lvec is not None and model.gamma is not None  # gravity's vectors
         spec["potential"] = {"L": model.Lvec.tolist(), "gamma": model.gamma.tolist()}
     if method is not None:
         spec["method"] = method

@@ -106,7 +106,7 @@ class Progress:
         self.total = total
         self.unit = unit
         self.quiet = quiet
-        self._stream = stream
+        self._stream: Any = stream  # TextIO; sys.stdout once open() ran
         self._mode = mode
         self.heartbeat = _heartbeat_default() if heartbeat is None else float(heartbeat)
         if not self.heartbeat > 0:
@@ -121,8 +121,8 @@ class Progress:
         self._lock = threading.RLock()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
-        self._rich = None
-        self._task = None
+        self._rich: Any = None  # rich.progress.Progress while the display runs on a terminal
+        self._task: Any = None
         self._phase = False
         self.mode = "off"
 
@@ -191,7 +191,7 @@ class Progress:
                 now = time.monotonic()
                 s = int(now - t0)
                 clock = Text(f" {s // 3600:d}:{s // 60 % 60:02d}:{s % 60:02d}", style="cyan")
-                return Text.assemble(self.spinner.render(now), clock)
+                return Text.assemble(self.spinner.render(now), clock)  # type: ignore[arg-type]
 
         console = Console(file=stream, force_terminal=True, highlight=False, soft_wrap=True)
         self._rich = _RichProgress(

@@ -287,15 +287,21 @@ def test_read_only_and_broadcast_inputs(name, layout):
 
 
 @pytest.mark.parametrize("name", ["su(2)", "sl(3,R)"])
-def test_finite_input_whose_sum_overflows_is_accepted(name):
-    """The compiled path's quick finiteness test (one sum per array) falls back to the full check
-    when a sum overflows: finite momenta near the float64 limit are accepted, as by numpy."""
+def test_input_past_the_magnitude_boundary_is_refused_by_both_paths(name):
+    """Finite momenta near the float64 limit (1e308: their sum overflows, so a quick one-sum
+    finiteness test cannot see them) lie past the boundary |v| <= 1e300 that every implementation
+    states (refimpl._validate.MAX_MAGNITUDE): the compiled and the numpy path refuse them alike, by
+    name, and a point just inside the boundary is answered by both with the same flags."""
     alg = catalogue(name)
     n = alg.dim
+    z = np.zeros((n, n))
     x, pi = np.full((3, n), 0.1), np.full((3, n), 1e308)
     with np.errstate(over="ignore"):
         assert not np.isfinite(np.sum(pi))
-    c, p = _both(alg, np.zeros((n, n)), np.zeros((n, n)), x, pi)
+    for compiled in (True, False):
+        with pytest.raises(ValueError, match=r"pi .*1e\+308.*boundary"):
+            fast.poisson_batch(alg.f, z, z, x, pi, compiled=compiled)
+    c, p = _both(alg, z, z, x, np.full((3, n), 1e300))
     assert np.array_equal(c.degenerate, p.degenerate)
     assert np.array_equal(c.outside_chart, p.outside_chart)
     assert np.array_equal(np.isfinite(c.P), np.isfinite(p.P))

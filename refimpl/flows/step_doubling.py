@@ -22,6 +22,7 @@ MAX_DOUBLINGS = 14
 def _xdiff(a: FlowResult, b: FlowResult):
     if a.Ad is not None:
         return (a.Ad - b.Ad).reshape(a.Ad.shape[0], -1).T
+    assert a.x is not None and b.x is not None  # a full-state run carries x where it forms no Ad
     return a.x - b.x
 
 
