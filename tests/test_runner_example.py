@@ -223,8 +223,9 @@ def test_time_limit_nests_and_names_the_expired_block():
 
 
 # ------------------------------------------------------------------ through tstarg certify
-def test_planted_certificate_names_algebra_point_and_worst_entry(tmp_path, capsys):
-    """tests/meta/targets.py:planted multiplies P[0, n] and P[n, 0] by 1 + 1e-6."""
+def test_planted_certificate_names_algebra_point_and_worst_entry(tmp_path, capfd):
+    """tests/meta/targets.py:planted multiplies P[0, n] and P[n, 0] by 1 + 1e-6. (capfd: certify
+    runs the target in a supervised child process, which writes to the inherited file descriptors.)"""
     rc = cli.main(
         [
             "certify",
@@ -265,7 +266,7 @@ def test_planted_certificate_names_algebra_point_and_worst_entry(tmp_path, capsy
         assert ex["replay"].endswith(f"--replay {tmp_path / 'certificate.json'}")
     md = (tmp_path / "certificate.md").read_text()
     assert "algebra = " in md and "worst entry P[" in md
-    capsys.readouterr()
+    capfd.readouterr()
     assert (
         cli.main(
             [
@@ -277,7 +278,7 @@ def test_planted_certificate_names_algebra_point_and_worst_entry(tmp_path, capsy
         )
         == 1
     )
-    out = capsys.readouterr().out
+    out = capfd.readouterr().out
     assert out.count("FAIL on the stored example") == len(failed)
 
 

@@ -210,6 +210,17 @@ def fast_flow(
             budget.before(int(steps), doing)
         else:
             meth = StepDoubling(meth, budget=budget)
+    elif X.shape[1] * abs(tv) >= 256:
+        # an adaptive run costs about linearly in |t|: time it over 1/64 of the span (twice: the
+        # first may compile on first use) and refuse, with the estimate, a run that would cross
+        # the budget before it starts
+        def probe(k):
+            return meth.integrate(model, State(X, P), tv * k / 64, tol=tol, system="full")
+
+        with np.errstate(all="ignore"):
+            StepBudget("fast_flow").calibrate(probe, 1)
+            budget.calibrate(probe, 1)
+        budget.before(64, doing)
     out = meth.integrate(model, State(X, P), tv, tol=tol, steps=steps, system="full")
     bad_pi = ~np.all(np.isfinite(out["pi"]), axis=0)
     if np.any(bad_pi):
