@@ -158,7 +158,13 @@ def main(args) -> int:
     t_start = time.perf_counter()
     try:
         parallel_options(args)  # a bad --workers/--scheduler is refused here, by name
-        problems = args.problems.split(",") if args.problems else list(wp.FLOW_PROBLEMS)
+        problems = (
+            []
+            if args.problems == "none"
+            else args.problems.split(",")
+            if args.problems
+            else list(wp.FLOW_PROBLEMS)
+        )
         for name in problems:
             wp.flow_problem(name)
         method(args.batch_method)
@@ -1136,6 +1142,7 @@ def _protocol_markdown(pr: dict) -> list[str]:
         L.append(
             f"- ours: {r['ours']['label']}; first call (compilation or cache load, and one run) "
             f"{r['ours']['first_call']:.2f} s wall; batch first call {r['batch']['ours']['first_call']:.2f} s"
+            + (f" ({r['batch']['ours']['note']})" if r["batch"]["ours"].get("note") else "")
         )
         L.append(
             "- heyoka's grid (compact mode, error per tolerance): "

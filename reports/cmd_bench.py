@@ -30,7 +30,8 @@ def add_arguments(p) -> None:
         "--problems",
         default=None,
         help="comma-separated flow problems (default: heavy_top,free_top; also: modified_top, "
-        "Theta and Upsilon != 0; asym_heavy_top, the heavy top without a constant component)",
+        "Theta and Upsilon != 0; asym_heavy_top, the heavy top without a constant component; none: "
+        "no su(2) flow section)",
     )
     p.add_argument(
         "--protocol-problems",
