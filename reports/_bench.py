@@ -169,6 +169,8 @@ def main(args) -> int:
             wp.flow_problem(name)
         method(args.batch_method)
         protocol = _protocol_names(args)
+        if getattr(args, "reuse", None) and not Path(args.reuse).is_file():
+            raise ValueError(f"--reuse {args.reuse!r}: no such report.json")
         contender = _load_contender(args)
     except ValueError as exc:
         print(f"tstarg bench: {exc}", file=sys.stderr)
@@ -377,6 +379,8 @@ def _main(args, problems, protocol, contender, t_start) -> int:
                         f"{wp.fmt_time(r['per_traj'])}/traj, ratio to heyoka {r['ratio']:.3g}"
                     )
 
+    if getattr(args, "reuse", None):
+        _reuse(report, Path(args.reuse), out)
     report["loadavg_end"] = list(os.getloadavg())
     report["seconds"] = time.perf_counter() - t_start
     write_text(
@@ -388,6 +392,43 @@ def _main(args, problems, protocol, contender, t_start) -> int:
         f"wrote {out / 'report.json'}, {out / 'report.md'} and figures ({report['seconds']:.0f} s)"
     )
     return 0
+
+
+REUSABLE = ("flows", "protocol", "brackets", "batch", "batch_heyoka")
+
+
+def _reuse(report: dict, path: Path, out: Path) -> None:
+    """Fill the sections this run did not measure from an earlier ``report.json`` (``--reuse``), copy
+    their figures into ``out``, and record in ``report["reused"]`` which sections came from which run
+    (its command, commit, start time load); ratios are only ever formed within one run."""
+    try:
+        old = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise ValueError(
+            f"--reuse {str(path)!r}: cannot read an earlier report.json: {exc}"
+        ) from None
+    reused = {}
+    for key in REUSABLE:
+        if report.get(key) or not old.get(key):
+            continue
+        report[key] = old[key]
+        reused[key] = {
+            "command": old.get("command"),
+            "git_commit": old.get("environment", {}).get("git_commit"),
+            "loadavg_start": old.get("loadavg_start"),
+        }
+        figs = {
+            "flows": [f.get("figure") for f in old[key].values()] if key == "flows" else [],
+            "brackets": old[key].get("figures", []) if key == "brackets" else [],
+            "batch": [old[key].get("figure")] if key == "batch" else [],
+        }.get(key, [])
+        for fig in filter(None, figs):
+            src, dst = path.parent / fig, out / fig
+            if src.resolve() != dst.resolve() and src.exists():
+                dst.write_bytes(src.read_bytes())
+    if "flows" in reused and "compile" in old:
+        report["compile"] = old["compile"]
+    report["reused"] = reused
 
 
 def _argv(args) -> list[str]:
@@ -404,6 +445,7 @@ def _argv(args) -> list[str]:
         "cmd",
         "protocol_problems",
         "protocol_batch",
+        "reuse",
     ):
         v = getattr(args, k, None)
         if v is not None and not (k == "batch_method" and v == "taylor20"):
@@ -958,6 +1000,12 @@ def render_markdown(rep: dict) -> str:
         ),
         "",
     ]
+    for key, r in rep.get("reused", {}).items():
+        L.insert(
+            -1,
+            f"- section `{key}` reused from an earlier run (`--reuse`): command `{r['command']}`, commit "
+            f"{r['git_commit']}, load average {((r.get('loadavg_start') or [math.nan])[0]):.2f} at its start",
+        )
     if "protocol" in rep:
         L += _protocol_markdown(rep["protocol"])
     for name, f in rep["flows"].items():

@@ -47,6 +47,13 @@ def add_arguments(p) -> None:
         help="trajectories in the protocol-flow batch (default 10000; --quick 40)",
     )
     p.add_argument(
+        "--reuse",
+        default=None,
+        metavar="REPORT.json",
+        help="take the sections this run leaves out (e.g. --problems none --no-brackets --no-batch) "
+        "from an earlier report.json, figures copied; the report names the run each came from",
+    )
+    p.add_argument(
         "--methods",
         default=None,
         help="comma-separated tstarg flow methods (default: every method of METHODS that applies)",
