@@ -538,3 +538,29 @@ def test_bench_figures_keep_titles_and_legends_inside_and_off_the_data():
     fig = wp.batch_figure(rows, title)
     _inside(fig)
     plt.close(fig)
+
+
+def test_reuse_takes_left_out_sections_from_an_earlier_run(quick_run, tmp_path):
+    """``--reuse``: a run measuring nothing takes every section from the earlier report, copies its
+    figures, and names the run each section came from; a missing file is refused with exit 2."""
+    _, out, rep = quick_run
+    argv = [
+        "bench",
+        "--quick",
+        "--problems",
+        "none",
+        "--protocol-problems",
+        "none",
+        "--no-brackets",
+    ]
+    argv += ["--no-batch", "--out", str(tmp_path / "r"), "--workers", "1"]
+    assert cli.main([*argv, "--reuse", str(out / "report.json")]) == 0
+    new = json.loads((tmp_path / "r" / "report.json").read_text())
+    assert new["flows"] == rep["flows"] and new["brackets"] == rep["brackets"]
+    assert set(new["reused"]) >= {"flows", "brackets", "batch"}
+    assert new["reused"]["flows"]["command"] == rep["command"]
+    for f in rep["flows"].values():
+        assert (tmp_path / "r" / f["figure"]).read_bytes()[:8] == PNG
+    md = (tmp_path / "r" / "report.md").read_text()
+    assert "section `flows` reused from an earlier run" in md
+    assert cli.main([*argv, "--reuse", str(tmp_path / "nope.json")]) == 2
