@@ -620,6 +620,13 @@ def _protocol(quick: bool, S: dict, opts: dict, names: list[str], M: int) -> dic
     """The protocol flow against heyoka on each problem (:mod:`reports._bench_protocol`): the judges
     (real128 end states, long-double batch samples) in parallel, then every timing serially."""
     K = min(S["protocol_sample"], M)
+    root = Path(
+        os.environ.get("TSTARG_CACHE_DIR") or Path("~/.cache/tstarg").expanduser()
+    )  # where refimpl keeps its compiled kernels ($TSTARG_CACHE_DIR)
+    cache = {
+        "dir": str(root),
+        "files_at_start": sum(1 for q in root.rglob("*") if q.is_file()) if root.is_dir() else 0,
+    }
     print(
         f"  protocol flow: references for {', '.join(names)} (heyoka real128; batch samples of {K} "
         "in long double)...",
@@ -666,6 +673,7 @@ def _protocol(quick: bool, S: dict, opts: dict, names: list[str], M: int) -> dic
         "problems": out,
         "M": M,
         "sample": K,
+        "kernel_cache": cache,
         "compile_heyoka": {
             f"{k[0]} {k[2]} tol={k[3]} {'compact' if k[4] else 'full'}"
             + (f" batch width {k[5]}" if k[5] else ""): v
@@ -1150,6 +1158,17 @@ def _protocol_markdown(pr: dict) -> list[str]:
         "",
         f"- {pr['note']}",
         "- ratio = our CPU time / heyoka's at equal error: < 1 means the protocol flow is faster",
+        (
+            f"- kernel cache at the start of the section: {pr['kernel_cache']['files_at_start']} files in "
+            f"{pr['kernel_cache']['dir']}"
+            + (
+                " (cold: each problem's first call below includes compiling its kernels)"
+                if pr["kernel_cache"]["files_at_start"] == 0
+                else " (first calls may load kernels from it instead of compiling)"
+            )
+            if "kernel_cache" in pr
+            else "- kernel cache: not recorded"
+        ),
         "",
         "| problem | algebra (n) | T | ours: time, error | heyoka at equal error: time, tol, mode, error "
         f"| ratio | batch of {pr['M']}: ours per trajectory, worst sampled error | heyoka batch per "
