@@ -32,7 +32,7 @@ import mpmath
 import numpy as np
 from hypothesis import strategies as st
 
-from tstarg.properties.runner import CheckResult, run_property
+from tstarg.properties.runner import CheckResult, announce, finished, run_property
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue, su2
 from tstarg.refimpl.reference import Reference
 
@@ -57,6 +57,7 @@ EPS = float(np.finfo(float).eps)
 
 def _single(name, equations, fn, extra=None) -> CheckResult:
     res = CheckResult(name=name, equations=equations, extra=dict(extra or {}))
+    announce(name)  # the progress display's current step
     t0 = time.perf_counter()
     try:
         ratio, digits, detail = fn()
@@ -69,7 +70,7 @@ def _single(name, equations, fn, extra=None) -> CheckResult:
         res.passed = False
         res.detail = f"{type(exc).__name__}: {exc}"[:2000]
     res.seconds = time.perf_counter() - t0
-    return res
+    return finished(res)
 
 
 # ------------------------------------------------------------------ claims

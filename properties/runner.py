@@ -63,8 +63,10 @@ __all__ = [
     "CheckResult",
     "Limits",
     "TimeLimitExceeded",
+    "announce",
     "decode",
     "encode",
+    "finished",
     "limits",
     "note",
     "render_example",
@@ -629,3 +631,18 @@ PROGRESS: list = []
 def _report(event, name, done, total, result=None) -> None:
     for listener in list(PROGRESS):  # noqa: PERF101 - a listener may remove itself
         listener(event, name, done, total, result)
+
+
+def announce(name: str, total: int = 1) -> None:
+    """A check that does not go through :func:`run_property` (a single computation, a speed
+    row, a certificate) starts: the progress listeners show it as the current step."""
+    _report("start", name, 0, total)
+
+
+def finished(result: CheckResult, total: int | None = None) -> CheckResult:
+    """The check announced by :func:`announce` is done: the listeners print its line.
+    Returns ``result`` (so a provider can ``return finished(CheckResult(...))``)."""
+    _report(
+        "done", result.name, result.examples, result.examples if total is None else total, result
+    )
+    return result

@@ -56,13 +56,17 @@ from ._cohomology import (
 )
 from ._errors import ChartError, DegeneratePointError
 from ._frames import frames
-from ._protocol import Implementation
+from ._protocol import SPEC as PROTOCOL
+from ._protocol import Implementation, check_attributes, provided_methods, provides
 from .fast import Fast
+from .model import Model, State
 from .reference import Reference
 from .scenes import Plan, Scene, load_scene, plan, run_scene
 
 __all__ = [
     "LieAlgebra",
+    "Model",
+    "State",
     "BIANCHI_TYPES",
     "CATALOGUE_NAMES",
     "abelian",
@@ -90,6 +94,10 @@ __all__ = [
     "solve_coboundary",
     "frames",
     "Implementation",
+    "PROTOCOL",
+    "provided_methods",
+    "check_attributes",
+    "provides",
     "Fast",
     "Reference",
     "DegeneratePointError",

@@ -40,7 +40,6 @@ import numpy as np
 from . import _compiled_rational as _cr
 from . import _compiled_taylor as _ct
 from . import _fast_kernels as _fast
-from ._taylor import quadratic_field, quadratic_field_su2_full
 
 __all__ = [
     "PATH",
@@ -55,7 +54,6 @@ __all__ = [
 
 EPS = np.finfo(float).eps
 PATH = _ct.PATH
-_FIELDS: dict = {}
 SAFETY = (
     0.3  # B's local tolerance relative to A's, at most (B_MAX caps it further); any r <= 1/2 makes
 )
@@ -83,20 +81,6 @@ FAST_UNROLL_TERMS = (
 )
 # the heavy top's full state, 20 monomials: order 16 (2720 terms) runs 0.71 us/step, order 17-18 1.0-1.1
 # us/step -- 40 % more per step for 12 % more arithmetic; the shorter kernel wins even with more steps)
-
-
-def _field(model, full: bool) -> _ct.CompiledField:
-    key = (
-        full,
-        model.f.tobytes(),
-        model.theta.tobytes(),
-        model.Iinv.tobytes(),
-        None if not model.gravity else model.Lvec.tobytes(),
-    )
-    if key not in _FIELDS:
-        F = quadratic_field_su2_full(model) if full else quadratic_field(model)
-        _FIELDS[key] = _ct.compiled_field(F)
-    return _FIELDS[key]
 
 
 def supports_full(model) -> bool:
@@ -290,11 +274,8 @@ else:  # pragma: no cover - exercised only where numba is missing
 
 
 def _full_field(model) -> _ct.CompiledField:
-    """The compiled full-state field, kept on the (cached, immutable) model: no key hashing per call."""
-    cf = model.__dict__.get("_taylor_full_field")
-    if cf is None:
-        cf = model.__dict__["_taylor_full_field"] = _field(model, True)
-    return cf
+    """The compiled full-state field (a cached property of the model)."""
+    return model.compiled_full_field
 
 
 def local_tolerances(tol: float) -> tuple[float, float]:
@@ -329,10 +310,7 @@ _NO_GAMMA = np.zeros(3)
 
 
 def _body_field(model) -> _ct.CompiledField:
-    cf = model.__dict__.get("_taylor_body_field")
-    if cf is None:
-        cf = model.__dict__["_taylor_body_field"] = _field(model, False)
-    return cf
+    return model.compiled_body_field
 
 
 def _run_cf(cf, y0, t, eps, order=None):

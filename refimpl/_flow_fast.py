@@ -54,6 +54,7 @@ import scipy.linalg
 
 from . import _compiled_taylor as _ct
 from . import _fast_kernels as _fast
+from . import codegen
 from ._algebra import LieAlgebra
 from ._compiled_rational import rational_taylor_body
 from ._flow_compiled import (
@@ -66,19 +67,16 @@ from ._flow_compiled import (
 )
 from ._flow_reference import check_time
 from ._integrators import DOP853, ExplicitRK, GaussLegendre, triple_jump_weights
+from ._lru import LRU
 from ._representation import Representation, representation_for
-from ._taylor import numpy_taylor_integrator, quadratic_field, scalar_taylor_integrator
+from ._taylor import numpy_taylor_integrator, scalar_taylor_integrator
 from ._validate import (
     check_flow_rates,
     check_flow_request,
-    check_inertia,
     check_points,
-    check_potential,
-    check_structure_constants,
-    check_theta,
-    check_upsilon,
 )
 from .integrators import METHODS, Method
+from .model import Model
 
 __all__ = ["METHODS", "TAYLOR_SCALAR_MAX", "Method", "NumpyModel", "integrate_fast", "method"]
 
@@ -89,135 +87,27 @@ TAYLOR_SCALAR_MAX = (
 # kernel's fixed cost per step (~20 calls per order) matched the scalar code's between 16 and 32 heavy tops
 
 
-class NumpyModel:
-    """A validated model in float64 with batched body-system formulas."""
+NumpyModel = Model
+"""The validated float64 model (:class:`refimpl.model.Model`; the old name, kept)."""
 
-    def __init__(self, f, theta, upsilon, inertia, potential):
-        self.algebra = f if isinstance(f, LieAlgebra) else None
-        f = check_structure_constants(f)
-        n = f.shape[0]
-        self.n = n
-        self.f = f
-        self.theta = check_theta(theta, f)
-        self.upsilon = check_upsilon(upsilon, n)
-        self.theta_zero = not self.theta.any()
-        self.upsilon_zero = not self.upsilon.any()
-        self.inertia = check_inertia(inertia, n)
-        Iinv = np.linalg.inv(self.inertia)
-        self.Iinv = 0.5 * (Iinv + Iinv.T)
-        self.I_diagonal = not np.any(self.inertia - np.diag(np.diag(self.inertia)))
-        pot = check_potential(potential, n)
-        self.gravity = pot is not None
-        self.Lvec = None if pot is None else pot["L"]
-        self.gamma = None if pot is None else pot["gamma"]
-        self.su2 = _fast._is_su2(f)
-        self.f_flat = f.reshape(n, n * n)  # S_flat = f_flat^T pi
-        self.G_L = (
-            None if pot is None else np.einsum("mbc,c->bm", f, self.Lvec)
-        )  # (L x .) : dV = -G_L Gamma
 
-    # -------------------------------------------------------------- pieces
-    def S(self, pi):
-        """``S_ab = pi_m f^m_ab - Theta_ab`` for pi of shape (n, N): result (n, n, N)."""
-        n = self.n
-        S = (self.f_flat.T @ pi).reshape(n, n, -1)
-        if not self.theta_zero:
-            S = S - self.theta[:, :, None]
-        return S
+def full_rhs(model: Model, Ad_ref):
+    """``(x, pi)`` field; ``Ad_ref`` (N, n, n) is read at call time (re-basing updates it in place)."""
+    n = model.n
 
-    def omega_pidot(self, pi, Gamma):
-        n = self.n
-        dK = self.Iinv @ pi
-        S = self.S(pi)
-        SdK = np.einsum("abN,bN->aN", S, dK)
-        dV = None if Gamma is None else -(self.G_L @ Gamma)
-        if self.upsilon_zero:
-            return dK, (-SdK if dV is None else -dV - SdK)
-        U = self.upsilon
-        Psi = np.eye(n)[None] + np.einsum("ab,bcN->Nac", U, S)
-        rhs_o = dK if dV is None else dK - U @ dV
-        rhs_p = -SdK if dV is None else -dV - SdK
-        Omega = np.linalg.solve(Psi, rhs_o.T[:, :, None])[:, :, 0].T
-        pidot = np.linalg.solve(Psi.transpose(0, 2, 1), rhs_p.T[:, :, None])[:, :, 0].T
-        return Omega, pidot
+    def F(y):
+        x, pi = y[:n], y[n:]
+        adx = np.einsum("aN,mab->Nmb", x, model.f)
+        Gamma = None
+        if model.gravity:
+            Ad = Ad_ref @ _fast._expm_batch(adx, su2=model.su2)
+            Gamma = np.einsum("Nmb,m->bN", Ad, model.gamma)
+        Omega, pidot = model.omega_pidot(pi, Gamma)
+        L = _frame_L(adx, model.su2)
+        xdot = np.einsum("Nab,bN->aN", L, Omega)
+        return np.concatenate([xdot, pidot])
 
-    def gamma_dot(self, Omega, Gamma):
-        """``dGamma_mu/dt = Omega^b f^a_{b mu} Gamma_a`` (twee17, sign corrected)."""
-        return np.einsum("bN,abm,aN->mN", Omega, self.f, Gamma)
-
-    def delta(self, pi):
-        """``Delta = det(1 + S Upsilon)`` per point (vier7)."""
-        if self.upsilon_zero:
-            return np.ones(pi.shape[1])
-        S = self.S(pi)
-        return np.linalg.det(np.eye(self.n)[None] + np.einsum("abN,bc->Nac", S, self.upsilon))
-
-    # ---------------------------------------------------------- systems
-    def body_rhs(self):
-        n = self.n
-        if self.upsilon_zero:
-            return numpy_rhs(
-                self
-            )  # straight-line polynomial (twee14/drie6, twee17-18), zero terms dropped
-        if self.gravity:
-
-            def F(y):
-                Omega, pidot = self.omega_pidot(y[:n], y[n:])
-                return np.concatenate([pidot, self.gamma_dot(Omega, y[n:])])
-
-            return F
-
-        def F(y):
-            return self.omega_pidot(y, None)[1]
-
-        return F
-
-    def _su2_heavy_rhs(self):
-        """su(2) Euler-Poisson with Theta: ``pidot = pi x W + xi x W + L x G``, ``Gdot = G x W`` (components)."""
-        Ii = self.Iinv
-        L0, L1, L2 = self.Lvec
-        xi = _fast._su2_theta_to_xi(None if self.theta_zero else self.theta)
-        diag = self.I_diagonal
-        d0, d1, d2 = np.diag(Ii)
-
-        def F(y):
-            p0, p1, p2, g0, g1, g2 = y
-            if diag:
-                w0, w1, w2 = d0 * p0, d1 * p1, d2 * p2
-            else:
-                w0, w1, w2 = Ii @ y[:3]
-            if xi is not None:
-                q0, q1, q2 = p0 + xi[0], p1 + xi[1], p2 + xi[2]
-            else:
-                q0, q1, q2 = p0, p1, p2
-            out = np.empty_like(y)
-            out[0] = q1 * w2 - q2 * w1 + L1 * g2 - L2 * g1
-            out[1] = q2 * w0 - q0 * w2 + L2 * g0 - L0 * g2
-            out[2] = q0 * w1 - q1 * w0 + L0 * g1 - L1 * g0
-            out[3] = g1 * w2 - g2 * w1
-            out[4] = g2 * w0 - g0 * w2
-            out[5] = g0 * w1 - g1 * w0
-            return out
-
-        return F
-
-    def full_rhs(self, Ad_ref):
-        """``(x, pi)`` field; ``Ad_ref`` (N, n, n) is read at call time (re-basing updates it in place)."""
-        n = self.n
-
-        def F(y):
-            x, pi = y[:n], y[n:]
-            adx = np.einsum("aN,mab->Nmb", x, self.f)
-            Gamma = None
-            if self.gravity:
-                Ad = Ad_ref @ _fast._expm_batch(adx, su2=self.su2)
-                Gamma = np.einsum("Nmb,m->bN", Ad, self.gamma)
-            Omega, pidot = self.omega_pidot(pi, Gamma)
-            L = _frame_L(adx, self.su2)
-            xdot = np.einsum("Nab,bN->aN", L, Omega)
-            return np.concatenate([xdot, pidot])
-
-        return F
+    return F
 
 
 def _frame_L(adx, su2):
@@ -453,7 +343,7 @@ def integrate_fast(
     )
     # exponential algebras: the abelian part of x is accumulated across re-basings (see _AbelianPart)
     ab = _AbelianPart.of(model.f, N) if (rep is not None and rep.exponential) else None
-    F = model.full_rhs(Ad_ref)
+    F = full_rhs(model, Ad_ref)
     # nilpotent algebras: exp is a global diffeomorphism and phi1(-ad_x) never degenerates -> no re-basing
     threshold = np.inf if (rep is not None and rep.nilpotent) else (0.0 if meth.rkmk else 1.0)
 
@@ -608,55 +498,10 @@ class _AbelianPart:
         return best if ok else x0
 
 
-# ------------------------------------------------------ code generation
-# Scalar code generation for single trajectories: a polynomial body system and an unrolled RK loop.
-#
-# For one trajectory numpy's per-call overhead dominates (arrays of 6 numbers),
-# so the reduced body system with ``Upsilon = 0`` -- a quadratic polynomial
-# (twee14/drie6, Euler-Poisson twee17 corrected/twee18) -- is written out as
-# straight-line Python over floats: the polynomial of
-# :func:`refimpl._taylor.quadratic_field` (``w = I^-1 pi`` eliminated, equal
-# monomials merged, zero terms dropped) with its coefficients as literals, and
-# the explicit RK tableau is unrolled around it inside a single loop. Same
-# method as :class:`refimpl._integrators.ExplicitRK`; rounding differs only in
-# order. The numpy versions (:func:`numpy_rhs`, :func:`numpy_rhs_inplace`) and
-# the scipy baseline's :func:`scalar_rhs` are generated from the same polynomial.
-def _lit(v: float) -> str:
-    return repr(float(v))
-
-
-def _term(sign_coef: float, *names: str) -> str:
-    """``+ c*a*b`` with the factor dropped when ``c = +-1``."""
-    prod = "*".join(names)
-    if sign_coef == 1:
-        return f"+ {prod}"
-    if sign_coef == -1:
-        return f"- {prod}"
-    return f"+ {_lit(sign_coef)}*{prod}" if sign_coef > 0 else f"- {_lit(-sign_coef)}*{prod}"
-
-
-def _sum_expr(terms) -> str:
-    if not terms:
-        return "0.0"
-    parts = [_term(c, *fac) for c, fac in terms]
-    return " ".join(parts).removeprefix("+ ")
-
-
-def _field_lines(model, pfx: str, ys: list[str]) -> list[str]:
-    """Statements ``{pfx}c = ...`` for the body field as a quadratic polynomial in the names ``ys``
-    (:func:`refimpl._taylor.quadratic_field`: ``w = I^-1 pi`` eliminated, equal monomials merged --
-    e.g. ``2 p1 p2 - p2 p1 = p1 p2`` for a symmetric top -- zero coefficients dropped)."""
-    F = quadratic_field(model)
-    lines = []
-    for c in range(F.d):
-        terms = [(q, (ys[i], ys[j])) for (i, j), q in F.quad[c].items()]
-        terms += [(q, (ys[i],)) for i, q in F.lin[c].items()]
-        lines.append(f"{pfx}{c} = " + _sum_expr(terms))
-    return lines
-
-
+# ------------------------------------------------------ generated code (refimpl.codegen)
 def scalar_rk_integrator(model, tableau):
-    """A function ``run(y0: list, h, nsteps, observe=None) -> list`` for one trajectory (cached by model)."""
+    """A function ``run(y0: list, h, nsteps, observe=None) -> list`` for one trajectory: the explicit RK
+    ``tableau`` unrolled around the generated body field (:func:`refimpl.codegen.scalar_rk`)."""
     key = (
         model.f.tobytes(),
         model.theta.tobytes(),
@@ -664,142 +509,26 @@ def scalar_rk_integrator(model, tableau):
         None if not model.gravity else model.Lvec.tobytes(),
         np.asarray(tableau[0]).tobytes(),
     )
-    return _build(key, model, tableau)
+    return _SCALAR_RK.get(key, lambda: codegen.scalar_rk(model.quadratic_field, tableau))
 
 
-_CACHE: dict = {}
-
-
-def _build(key, model, tableau):
-    if key in _CACHE:
-        return _CACHE[key]
-    A, b, c = tableau
-    s = len(b)
-    d = 2 * model.n if model.gravity else model.n
-    y = [f"y{i}" for i in range(d)]
-    src = ["def run(yinit, h, nsteps, observe=None):", "    " + ", ".join(y) + ", = yinit"]
-    for i in range(s):
-        for j in range(i):
-            if A[i, j] != 0:
-                src.append(f"    a{i}_{j} = h*{_lit(A[i, j])}")
-    for j in range(s):
-        if b[j] != 0:
-            src.append(f"    b{j} = h*{_lit(b[j])}")
-    src.append("    for step in range(nsteps):")
-    ind = "        "
-    for i in range(s):
-        if i == 0:
-            args = y
-        else:
-            args = []
-            for comp in range(d):
-                terms = [f"a{i}_{j}*k{j}_{comp}" for j in range(i) if A[i, j] != 0]
-                src.append(f"{ind}z{comp} = y{comp} + " + (" + ".join(terms) if terms else "0.0"))
-                args.append(f"z{comp}")
-        src += [ind + line for line in _field_lines(model, f"k{i}_", args)]
-    for comp in range(d):
-        terms = [f"b{j}*k{j}_{comp}" for j in range(s) if b[j] != 0]
-        src.append(f"{ind}y{comp} = y{comp} + " + " + ".join(terms))
-    src.append(f"{ind}if observe is not None: observe(step + 1, [" + ", ".join(y) + "])")
-    src.append("    return [" + ", ".join(y) + "]")
-    ns: dict = {}
-    exec(compile("\n".join(src), "<tstarg scalar rk>", "exec"), ns)  # noqa: S102 - generated from numbers only
-    _CACHE[key] = ns["run"]
-    return ns["run"]
+_SCALAR_RK = LRU(64)  # generated scalar RK functions, keyed on the numbers
 
 
 def scalar_rhs(model):
-    """The generated body right-hand side alone, ``rhs(t, y) -> list`` (for baselines such as solve_ivp).
-
-    An ndarray ``y`` is converted to Python floats first (``tolist``): arithmetic on numpy scalars
-    costs several times that on floats."""
-    d = 2 * model.n if model.gravity else model.n
-    y = [f"y{i}" for i in range(d)]
-    src = [
-        "def rhs(t, y):",
-        "    if type(y) is not list: y = y.tolist()",
-        "    " + ", ".join(y) + ", = y",
-    ]
-    src += ["    " + line for line in _field_lines(model, "k", y)]
-    src.append("    return [" + ", ".join(f"k{i}" for i in range(d)) + "]")
-    ns: dict = {}
-    exec(compile("\n".join(src), "<tstarg scalar rhs>", "exec"), ns)  # noqa: S102 - generated from numbers only
-    return ns["rhs"]
+    """The generated body right-hand side alone, ``rhs(t, y) -> list`` (for baselines such as
+    solve_ivp; :func:`refimpl.codegen.scalar_rhs`)."""
+    return codegen.scalar_rhs(model.quadratic_field)
 
 
 def numpy_rhs(model):
-    """The same straight-line body right-hand side over numpy rows: ``rhs(y) -> array`` of y's shape.
-
-    Used by the batched integrators when ``Upsilon = 0``: zero structure constants, inertia and
-    ``L`` entries cost nothing, and no (n, n, N) intermediate is formed.
-    """
-    import numpy as _np
-
-    d = 2 * model.n if model.gravity else model.n
-    y = [f"y{i}" for i in range(d)]
-    src = ["def rhs(y):", "    " + ", ".join(y) + ", = y", "    out = _np.empty_like(y)"]
-    for line in _field_lines(model, "k", y):
-        name, expr = line.split(" = ", 1)
-        src.append(f"    out[{name[1:]}] = {expr}")
-    src.append("    return out")
-    ns: dict = {"_np": _np}
-    exec(compile("\n".join(src), "<tstarg numpy rhs>", "exec"), ns)  # noqa: S102 - generated from numbers only
-    return ns["rhs"]
+    """The straight-line body right-hand side over numpy rows (:attr:`refimpl.model.Model.numpy_rhs`)."""
+    return model.numpy_rhs
 
 
 def numpy_rhs_inplace(model):
-    """``rhs(y, out)`` writing the body field into ``out`` with ufunc ``out=`` calls only (no temporaries
-    beyond two preallocated rows): the batched integrators' hot path when ``Upsilon = 0``."""
-    import numpy as _np
-
-    d = 2 * model.n if model.gravity else model.n
-    y = [f"y[{i}]" for i in range(d)]
-    F = quadratic_field(model)  # w = I^-1 pi eliminated, equal monomials merged
-    outs = {
-        c: [(q, (y[i], y[j])) for (i, j), q in F.quad[c].items()]
-        + [(q, (y[i],)) for i, q in F.lin[c].items()]
-        for c in range(d)
-    }
-    src = ["def rhs(y, out):", "    t = _buf(y.shape[1:])"]
-    for k, terms in outs.items():
-        o = f"out[{k}]"
-        if not terms:
-            src.append(f"    {o}[...] = 0.0")
-            continue
-        # a positive product first (written straight into out), then one pass per further term:
-        # +-1 coefficients fold into += / -=, linear +-1 terms add the row itself
-        terms = sorted(terms, key=lambda cf: (len(cf[1]) < 2, cf[0] < 0))
-        c0, f0 = terms[0]
-        if len(f0) == 1:
-            src.append(f"    _np.multiply({f0[0]}, {_lit(c0)}, out={o})")
-        else:
-            src.append(f"    _np.multiply({f0[0]}, {f0[1]}, out={o})")
-            if c0 != 1.0:
-                src.append(f"    {o} *= {_lit(c0)}")
-        for c, fac in terms[1:]:
-            op = "+=" if c > 0 else "-="
-            if len(fac) == 1 and abs(c) == 1.0:
-                src.append(f"    {o} {op} {fac[0]}")
-                continue
-            if len(fac) == 1:
-                src.append(f"    _np.multiply({fac[0]}, {_lit(abs(c))}, out=t)")
-            else:
-                src.append(f"    _np.multiply({fac[0]}, {fac[1]}, out=t)")
-                if abs(c) != 1.0:
-                    src.append(f"    t *= {_lit(abs(c))}")
-            src.append(f"    {o} {op} t")
-    src.append("    return out")
-    cache: dict = {}
-
-    def _buf(shape):
-        key = ("t", shape)
-        if key not in cache:
-            cache[key] = _np.empty(shape)
-        return cache[key]
-
-    ns: dict = {"_np": _np, "_buf": _buf}
-    exec(compile("\n".join(src), "<tstarg numpy rhs in place>", "exec"), ns)  # noqa: S102 - numbers only
-    return ns["rhs"]
+    """``rhs(y, out)``: the body field written into ``out`` (:attr:`refimpl.model.Model.numpy_rhs_inplace`)."""
+    return model.numpy_rhs_inplace
 
 
 # ------------------------------------------------------------ protocol flow and trajectories
@@ -813,8 +542,9 @@ def check_tolerance(tol) -> float:
     return v
 
 
-_MODELS: dict = {}
-_MODELS_MAX = 64  # validated models kept (keyed on the bytes of the inputs), oldest dropped first
+_MODELS = LRU(
+    64
+)  # validated models kept (keyed on the bytes of the inputs), least recently used dropped
 
 
 def _numeric_key(a):
@@ -856,14 +586,7 @@ def cached_model(f, theta, upsilon, inertia, potential) -> NumpyModel:
     keys = [_numeric_key(a) for a in (f, theta, upsilon, inertia)] + [_potential_key(potential)]
     if any(k is None for k in keys):
         return NumpyModel(f, theta, upsilon, inertia, potential)
-    key = tuple(keys)
-    model = _MODELS.get(key)
-    if model is None:
-        model = NumpyModel(f, theta, upsilon, inertia, potential)
-        if len(_MODELS) >= _MODELS_MAX:
-            _MODELS.pop(next(iter(_MODELS)))
-        _MODELS[key] = model
-    return model
+    return _MODELS.get(tuple(keys), lambda: Model(f, theta, upsilon, inertia, potential))
 
 
 def _points(x0, pi0, n: int):
@@ -888,11 +611,7 @@ def _check_rates(model: NumpyModel, pa, tv: float) -> None:
     """:func:`check_flow_rates` on the cached model: its inputs ``||I^-1||_2`` and ``max|f|`` are
     computed once per model; the check itself runs (and raises, naming the point) only when the same
     bound, evaluated here on ``max |pi|`` over the batch, could exceed the budget."""
-    c = model.__dict__.get("_rate_const")
-    if c is None:
-        inv_norm = 1.0 / float(np.linalg.eigvalsh(0.5 * (model.inertia + model.inertia.T))[0])
-        fmax = max(1.0, float(np.max(np.abs(model.f)))) if model.f.size else 1.0
-        c = model.__dict__["_rate_const"] = inv_norm * fmax
+    c = model.rate_const
     size = float(np.max(np.abs(pa))) * math.sqrt(model.n) if pa.size else 0.0
     if not abs(tv) * c * max(1.0, size) <= 0.5 * 2.0**14 * (2 + abs(tv)):  # half the budget: margin
         check_flow_rates(model.f, model.inertia, pa, tv)

@@ -57,6 +57,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import codegen
+from ._lru import LRU
+
 __all__ = [
     "CHUNK",
     "QuadraticField",
@@ -190,25 +193,6 @@ def quadratic_field_su2_full(model) -> QuadraticField:
     return QuadraticField(d, lin, quad)
 
 
-def _lit(v: float) -> str:
-    return repr(float(v))
-
-
-def _linear(terms) -> str:
-    """``c1*a1 + c2*a2 ...`` with unit coefficients written as signs."""
-    out = []
-    for c, name in terms:
-        if c == 1.0:
-            out.append(f"+ {name}")
-        elif c == -1.0:
-            out.append(f"- {name}")
-        elif c > 0:
-            out.append(f"+ {_lit(c)}*{name}")
-        else:
-            out.append(f"- {_lit(-c)}*{name}")
-    return " ".join(out).removeprefix("+ ")
-
-
 def _key(model, order, kind):
     return (
         kind,
@@ -220,7 +204,7 @@ def _key(model, order, kind):
     )
 
 
-_CACHE: dict = {}
+_CACHE = LRU(64)  # generated Taylor kernels, keyed on the numbers and the order
 
 
 def scalar_taylor_integrator(model, order: int):
@@ -230,63 +214,8 @@ def scalar_taylor_integrator(model, order: int):
     Works for float and for ``mpmath.mpf`` inputs (``h`` and ``y0`` of the same type).
     """
     order = _check_order(order)
-    key = _key(model, order, "scalar")
-    if key in _CACHE:
-        return _CACHE[key]
-    F = quadratic_field(model)
-    d, P = F.d, order
-    const = F.constant_components()
-    mons = F.monomials()
-
-    def zero(c, k):
-        return k >= 1 and c in const
-
-    src = [
-        "def run(yinit, h, nsteps, observe=None):",
-        "    " + "".join(f"y{c}_0, " for c in range(d)) + "= yinit",
-    ]
-    for k in range(P):
-        src.append(f"    r{k} = h / {float(k + 1)!r}")
-    src.append("    for step in range(nsteps):")
-    ind = "        "
-    for k in range(P):
-        # Cauchy products (coefficient k of y_i y_j); squares summed over half the terms
-        for i, j in mons:
-            if i == j:
-                terms = [
-                    f"y{i}_{a}*y{i}_{k - a}"
-                    for a in range((k + 1) // 2)
-                    if not zero(i, a) and not zero(i, k - a)
-                ]
-                expr = f"2.0*({' + '.join(terms)})" if terms else ""
-                if k % 2 == 0 and not zero(i, k // 2):
-                    expr = (expr + " + " if expr else "") + f"y{i}_{k // 2}*y{i}_{k // 2}"
-            else:
-                terms = [
-                    f"y{i}_{a}*y{j}_{k - a}"
-                    for a in range(k + 1)
-                    if not zero(i, a) and not zero(j, k - a)
-                ]
-                expr = " + ".join(terms)
-            src.append(f"{ind}m{i}_{j} = {expr or '0.0'}")
-        for c in range(d):
-            if c in const:
-                continue
-            terms = [(q, f"m{i}_{j}") for (i, j), q in F.quad[c].items()]
-            terms += [(q, f"y{i}_{k}") for i, q in F.lin[c].items() if not zero(i, k)]
-            src.append(f"{ind}y{c}_{k + 1} = r{k}*({_linear(terms) if terms else '0.0'})")
-    for c in range(d):
-        if c in const:
-            continue
-        # sum from the smallest terms up: Y_P + Y_{P-1} + ... + Y_0 (left to right)
-        src.append(f"{ind}y{c}_0 = " + " + ".join(f"y{c}_{k}" for k in range(P, -1, -1)))
-    state = "[" + ", ".join(f"y{c}_0" for c in range(d)) + "]"
-    src.append(f"{ind}if observe is not None: observe(step + 1, {state})")
-    src.append(f"    return {state}")
-    ns: dict = {}
-    exec(compile("\n".join(src), f"<tstarg taylor{P} scalar>", "exec"), ns)  # noqa: S102 - numbers only
-    _CACHE[key] = ns["run"]
-    return ns["run"]
+    F = model.quadratic_field
+    return _CACHE.get(_key(model, order, "scalar"), lambda: codegen.scalar_taylor(F, order))
 
 
 def _check_order(order) -> int:
@@ -306,56 +235,14 @@ def numpy_taylor_integrator(model, order: int):
     step ``k``; trajectories are processed in chunks of ``chunk``.
     """
     order = _check_order(order)
-    key = _key(model, order, "numpy")
-    if key in _CACHE:
-        return _CACHE[key]
-    F = quadratic_field(model)
-    d, P = F.d, order
-    const = F.constant_components()
-    # one product row per monomial: sum_a Y_{a,i} Y_{k-a,j} by a two-operand einsum over strided views of
-    # the coefficient array (no gathers); a constant factor keeps its a = 0 term only (a plain product)
-    mons = F.monomials()
-    slot = {ij: r for r, ij in enumerate(mons)}
-    rows = len(mons)
-    src = ["def step(Y, pr, tmp, ones, flat, h):"]
-    ind = "    "
-    for k in range(P):
-        src.append(f"{ind}r = h / {float(k + 1)!r}")
-        for (i, j), s in slot.items():
-            if i in const and j in const:
-                src.append(f"{ind}pr[{s}] = " + (f"Y[0, {i}] * Y[0, {j}]" if k == 0 else "0.0"))
-            elif i in const or j in const:
-                u, v = (i, j) if i in const else (j, i)  # u constant: only Y_{0,u} Y_{k,v}
-                src.append(f"{ind}_np.multiply(Y[0, {u}], Y[{k}, {v}], out=pr[{s}])")
-            elif k == 0:
-                src.append(f"{ind}_np.multiply(Y[0, {i}], Y[0, {j}], out=pr[{s}])")
-            else:
-                src.append(
-                    f"{ind}_np.einsum('an,an->n', Y[:{k + 1}, {i}], Y[{k}::-1, {j}], out=pr[{s}])"
-                )
-        for c in range(d):
-            if c in const:
-                continue
-            terms = [(q, f"pr[{slot[ij]}]") for ij, q in F.quad[c].items()]
-            terms += [
-                (q, f"Y[{k}, {i}]") for i, q in F.lin[c].items() if not (k >= 1 and i in const)
-            ]
-            o = f"Y[{k + 1}, {c}]"
-            if not terms:
-                src.append(f"{ind}{o} = 0.0")
-                continue
-            q0, a0 = terms[0]
-            src.append(f"{ind}_np.multiply({a0}, {_lit(q0)} * r, out={o})")
-            for q, a in terms[1:]:
-                src.append(f"{ind}_np.multiply({a}, {_lit(q)} * r, out=tmp)")
-                src.append(f"{ind}{o} += tmp")
-    # y(t + h) = sum_k Y_k: one matrix-vector product over the coefficient rows (constant components have
-    # Y_{k>=1} = 0 and come out unchanged)
-    src.append(f"{ind}_np.dot(ones, Y.reshape({P + 1}, -1), out=flat)")
-    src.append(f"{ind}Y[0] = flat.reshape(Y.shape[1:])")
-    ns: dict = {"_np": np}
-    exec(compile("\n".join(src), f"<tstarg taylor{P} numpy>", "exec"), ns)  # noqa: S102 - numbers only
-    kernel = ns["step"]
+    F = model.quadratic_field
+    return _CACHE.get(_key(model, order, "numpy"), lambda: _numpy_run(F, order))
+
+
+def _numpy_run(F, P: int):
+    d = F.d
+    rows = len(F.monomials())
+    kernel = codegen.numpy_taylor_step(F, P)
 
     def run(y0, h, nsteps: int, observe=None, chunk: int = CHUNK):
         y = np.array(y0, dtype=float)
@@ -377,6 +264,5 @@ def numpy_taylor_integrator(model, order: int):
                 observe(step + 1, np.concatenate([w[0][0] for w in work], axis=1))
         return np.concatenate([w[0][0] for w in work], axis=1) if work else y
 
-    run.source = "\n".join(src)
-    _CACHE[key] = run
+    run.source = codegen.scalar.numpy_taylor_step_source(F, P)
     return run

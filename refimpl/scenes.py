@@ -109,7 +109,7 @@ class Plan:
             f"system: {self.system}",
             f"method: {self.method} "
             + (
-                f"({self.steps_per_sample} steps per sample)"
+                f"({self.steps_per_sample} step{'s' if self.steps_per_sample != 1 else ''} per sample)"
                 if self.steps_per_sample
                 else "(adaptive: steps from the tolerance, per trajectory)"
             ),
@@ -440,8 +440,21 @@ def _pilot_steps(model, meth, scene, system) -> int:
     return max(1, int(np.ceil(dt_sample / h)))
 
 
+def describe_path(method: str, path: str) -> str:
+    """What ran, for the ``path:`` line of ``tstarg run``: the ``path`` reported by the
+    integrator (``"numba"``, ``"python"``, ``"numpy"``) and the method it ran."""
+    if path == "numba":
+        return "numba (compiled Taylor kernels)"
+    if path == "python":
+        return "python (the Taylor kernels as plain Python: numba is not importable)"
+    if method in ("taylor20", "dop853-scalar"):
+        return "numpy (generated scalar Python for single-trajectory body systems)"
+    return f"numpy (batched over the trajectories, {method})"
+
+
 def run_scene(scene: Scene, the_plan: Plan | None = None, progress=None) -> dict:
-    """Execute the plan; returns times and the requested outputs (arrays over (T, N, ...))."""
+    """Execute the plan; returns times and the requested outputs (arrays over (T, N, ...)), and
+    ``"path"``: the line :func:`describe_path` writes for what ran (a string, not an array)."""
 
     p = the_plan or plan(scene)
     f_in = scene.algebra if scene.algebra is not None else scene.f
@@ -462,6 +475,7 @@ def run_scene(scene: Scene, the_plan: Plan | None = None, progress=None) -> dict
         tol=scene.tol,
     )
     out = {"times": tr["times"], "pi": tr["pi"]}
+    out["path"] = describe_path(p.method, tr.get("path", "numpy"))
     if tr["Gamma"] is not None:
         out["Gamma"] = tr["Gamma"]
     if tr["x"] is not None:

@@ -31,22 +31,17 @@ import numpy as np
 
 from tstarg.properties import runner
 from tstarg.properties.runner import CheckAborted, TimeLimitExceeded, note, time_limit
+from tstarg.refimpl import PROTOCOL, check_attributes, provided_methods, provides
 
 from ._imports import import_module, resolve
 from .jsonl import METHODS, CommandImplementation, check_timeout
 
 __all__ = ["Guarded", "NotAnImplementation", "certify_target", "explain", "materialize"]
 
-ATTRIBUTES = (
-    "name",
-    "version",
-    "batched",
-    "precision_digits",
-    "flow_tolerance",
-    "order",
-    "poisson_integrator",
+ATTRIBUTES = tuple(a.name for a in PROTOCOL.attributes if a.where == "attribute") + (
     "domain",  # the declared domain (certification.declared_domain): hidden, it was never certified
 )
+"""The attributes the guard passes through, from the protocol spec."""
 
 
 class NotAnImplementation(ValueError):
@@ -54,22 +49,13 @@ class NotAnImplementation(ValueError):
 
 
 def _validate_attributes(target, label: str) -> None:
-    for attr, lo, hi in (("precision_digits", 1.0, 10000.0), ("flow_tolerance", 0.0, 1.0)):
-        v = getattr(target, attr, None)
-        if v is None:
-            continue
-        ok = (
-            isinstance(v, (int, float, np.floating, np.integer))
-            and not isinstance(v, bool)
-            and math.isfinite(float(v))
-        )
-        if not ok or not (
-            lo < float(v) <= hi if attr == "flow_tolerance" else lo <= float(v) <= hi
-        ):
-            raise NotAnImplementation(
-                f"target {label}: attribute {attr} = {v!r} is not a number in "
-                f"{'(' if attr == 'flow_tolerance' else '['}{lo:g}, {hi:g}]"
-            )
+    """The spec's types and caps (a declared tolerance past its cap is refused, never trusted)."""
+    problems = check_attributes(target, f"target {label}")
+    caps_error = getattr(target, "capabilities_error", None)
+    if caps_error:
+        problems.append(f"target {label}: its capabilities reply is refused: {caps_error}")
+    if problems:
+        raise NotAnImplementation("; ".join(problems))
 
 
 class Guarded:
@@ -88,7 +74,7 @@ class Guarded:
         self.max_timeouts = int(max_timeouts)
         self._timeouts = 0
         self._own_incidents: list[dict] = []
-        provided = [m for m in METHODS if callable(getattr(target, m, None))]
+        provided = provided_methods(target)
         if not provided:
             raise NotAnImplementation(
                 f"target {self._label} ({type(target).__name__}) provides none of the protocol's methods "
@@ -110,9 +96,9 @@ class Guarded:
         if attr.startswith("_"):
             raise AttributeError(attr)
         if attr in METHODS:
-            fn = getattr(self._target, attr, None)
-            if not callable(fn):
+            if not provides(self._target, attr):  # the spec's test: a placeholder is not provided
                 raise AttributeError(attr)
+            fn = getattr(self._target, attr)
             return lambda *args, **kw: self._call(attr, fn, args, kw)
         if attr == "name":  # the certificate names the target, never this wrapper
             return getattr(self._target, "name", None) or self._label
@@ -229,27 +215,30 @@ def _real(value: Any, what: str) -> np.ndarray:
 
 
 def _validate_result(method: str, out: Any, args: tuple) -> Any:
-    """The protocol's output shapes of real numbers; anything else is a failure (never a ValueError)."""
+    """The protocol's output shapes of real numbers (from the spec); anything else is a failure
+    (never a ValueError)."""
+    spec = PROTOCOL.by_name[method]
     f = np.asarray(args[0])
     n = f.shape[0] if f.ndim == 3 else 0
-    lead = np.shape(args[3] if method == "poisson_tensor" else args[5])[:-1]
-    if method == "poisson_tensor":
-        P = _real(out, "poisson_tensor result")
-        if P.shape != (*lead, 2 * n, 2 * n):
-            raise AssertionError(
-                f"poisson_tensor returned shape {P.shape}, expected {(*lead, 2 * n, 2 * n)}"
-            )
+    lead = np.shape(args[spec.lead_index])[:-1]
+    shapes = spec.result_shapes(n, lead)
+    if spec.result == "tensor":
+        P = _real(out, f"{method} result")
+        if P.shape != shapes[0]:
+            raise AssertionError(f"{method} returned shape {P.shape}, expected {shapes[0]}")
         return P
-    if not isinstance(out, (tuple, list)) or len(out) != 2:
+    if not isinstance(out, (tuple, list)) or len(out) != len(shapes):
         raise AssertionError(
-            f"{method} must return a pair (a, b) of arrays, got {type(out).__name__}: {str(out)[:120]}"
+            f"{method} must return a tuple ({', '.join(spec.parts)}) of {len(shapes)} arrays, "
+            f"got {type(out).__name__}: {str(out)[:120]}"
         )
-    a, b = (_real(v, f"{method} result[{k}]") for k, v in enumerate(out))
-    if a.shape != (*lead, n) or b.shape != (*lead, n):
+    parts = tuple(_real(v, f"{method} result[{k}]") for k, v in enumerate(out))
+    if tuple(p.shape for p in parts) != shapes:
         raise AssertionError(
-            f"{method} returned shapes {a.shape}, {b.shape}, expected two of {(*lead, n)}"
+            f"{method} returned shapes {', '.join(str(p.shape) for p in parts)}, "
+            f"expected {', '.join(map(str, shapes))}"
         )
-    return a, b
+    return parts
 
 
 # ------------------------------------------------------------------ targets
@@ -293,35 +282,16 @@ def explain(check, *, seconds: float = 60.0) -> None:
     from tstarg.refimpl.reference import Reference
 
     a, method = call["args"], call["method"]
+    spec = PROTOCOL.by_name.get(method)
+    if spec is None:
+        return
     try:
         with time_limit(seconds, "explain"):
-            if method == "poisson_tensor":
-                exp = Reference(30).poisson_tensor(
-                    a["f"], a["theta"], a["upsilon"], a["x"], a["pi"]
-                )
-                got = call["result"]
-            elif method == "hamiltonian_vector_field":
-                xd, pd = Reference(30).hamiltonian_vector_field(
-                    a["f"], a["theta"], a["upsilon"], a["inertia"], a["potential"], a["x"], a["pi"]
-                )
-                exp, got = np.concatenate([xd, pd]), np.concatenate(call["result"])
-            elif method == "flow":
-                from tstarg.refimpl.flows import reference_flow
-
-                xr, pr = reference_flow(
-                    a["f"],
-                    a["theta"],
-                    a["upsilon"],
-                    a["inertia"],
-                    a["potential"],
-                    a["x0"],
-                    a["pi0"],
-                    a["t"],
-                    dps=25,
-                )
-                exp, got = np.concatenate([xr, pr]), np.concatenate(call["result"])
-            else:
-                return
+            ref = getattr(Reference(spec.reference_digits), method)
+            exp = ref(*(a[k] for k in spec.arg_names))
+            got = call["result"]
+            if spec.result == "pair":
+                exp, got = np.concatenate(exp), np.concatenate(got)
     except TimeLimitExceeded:
         ex["worst_entry_note"] = (
             f"the reference at the example took over {seconds:g} s: not recomputed"
@@ -337,11 +307,7 @@ def explain(check, *, seconds: float = 60.0) -> None:
         return
     ex["worst_entry"] = worst
     idx = ",".join(map(str, worst["index"]))
-    name = {
-        "poisson_tensor": "P",
-        "hamiltonian_vector_field": "(xdot, pidot)",
-        "flow": "(x(t), pi(t))",
-    }[method]
+    name = spec.symbol
     line = (
         f"  worst entry {name}[{idx}] (reference recomputed at the recorded call): expected "
         f"{worst['expected']!r}, got {worst['got']!r}, error {worst['error']:.3e}"

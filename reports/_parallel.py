@@ -78,38 +78,67 @@ class _Guarded:
             return False, traceback.format_exc()
 
 
-def _collect(items: Sequence, outcomes: Iterable) -> list:
+def _collect(items: Sequence, outcomes: Iterable, on_result=None) -> list:
     results = []
     for i, (ok, value) in enumerate(outcomes):
         if not ok:
             raise TaskError(i, items[i], value)
+        if on_result is not None:
+            on_result(i, value)
         results.append(value)
     return results
 
 
+def _as_they_arrive(pool, guarded, items, on_result) -> list:
+    """Submit every item; call ``on_result(index, value)`` in the order results arrive (the
+    parent's progress display); return the results in the order of ``items``."""
+    from concurrent.futures import as_completed
+
+    futures = {pool.submit(guarded, it): i for i, it in enumerate(items)}
+    out: list = [None] * len(items)
+    for fut in as_completed(futures):
+        i = futures[fut]
+        ok, value = fut.result()
+        if not ok:
+            raise TaskError(i, items[i], value)
+        on_result(i, value)
+        out[i] = value
+    return out
+
+
 def map_tasks(
-    fn: Callable, items: Iterable, *, workers: int | None = None, scheduler: Any = None
+    fn: Callable,
+    items: Iterable,
+    *,
+    workers: int | None = None,
+    scheduler: Any = None,
+    on_result: Callable[[int, Any], None] | None = None,
 ) -> list:
     """``[fn(item) for item in items]``, computed serially, over local processes or on Dask.
 
     ``fn`` must be importable by name (a module-level function or a picklable callable
-    object). Results come back in the order of ``items``.
+    object). Results come back in the order of ``items``. ``on_result(index, value)``, if
+    given, is called in this process as each result arrives (a process pool calls it in
+    completion order): the hook of a progress display (:meth:`reports._progress.Progress.callback`).
     """
     items = list(items)
     if workers is not None and (not isinstance(workers, int) or workers < 1):
         raise ValueError(f"workers must be a positive integer or None, got {workers!r}")
     guarded = _Guarded(fn)
     if scheduler is not None:
-        return _map_dask(guarded, items, scheduler, workers)
+        return _collect(items, _map_dask(guarded, items, scheduler, workers), on_result)
     k = min(workers or usable_cores(), max(1, len(items)))
     if k == 1:
-        return _collect(items, (guarded(it) for it in items))
+        return _collect(items, (guarded(it) for it in items), on_result)
     _pin_blas()  # inherited by the forked workers
     with ProcessPoolExecutor(max_workers=k) as pool:
+        if on_result is not None:
+            return _as_they_arrive(pool, guarded, items, on_result)
         return _collect(items, pool.map(guarded, items))
 
 
 def _map_dask(guarded: _Guarded, items: list, scheduler, workers: int | None) -> list:
+    """The guarded outcomes ``(ok, value)`` of every item, gathered from Dask."""
     try:
         from distributed import Client, LocalCluster
     except ImportError as exc:  # pragma: no cover - dask is a dependency
@@ -117,7 +146,7 @@ def _map_dask(guarded: _Guarded, items: list, scheduler, workers: int | None) ->
             "a Dask scheduler was given but dask.distributed is not installed"
         ) from exc
     if isinstance(scheduler, Client):
-        return _collect(items, scheduler.gather(scheduler.map(guarded, items, pure=False)))
+        return scheduler.gather(scheduler.map(guarded, items, pure=False))
     if not isinstance(scheduler, str) or not scheduler:
         raise ValueError(
             f"scheduler must be an address like 'tcp://host:8786', 'local' or a Client, got {scheduler!r}"
@@ -130,9 +159,9 @@ def _map_dask(guarded: _Guarded, items: list, scheduler, workers: int | None) ->
             ) as cluster,
             Client(cluster) as client,
         ):
-            return _collect(items, client.gather(client.map(guarded, items, pure=False)))
+            return client.gather(client.map(guarded, items, pure=False))
     with Client(scheduler) as client:
-        return _collect(items, client.gather(client.map(guarded, items, pure=False)))
+        return client.gather(client.map(guarded, items, pure=False))
 
 
 def add_parallel_arguments(parser) -> None:

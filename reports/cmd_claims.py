@@ -17,6 +17,7 @@ import math
 import sys
 from pathlib import Path
 
+from . import _progress
 from ._atomic import write_text as atomic_write_text
 
 HELP = "the paper's claims and errata (every display and mathematical sentence): run the checks, write claims.md"
@@ -60,6 +61,7 @@ def add_arguments(p) -> None:
     p.add_argument(
         "--no-quantum", action="store_true", help="skip the qutip comparisons and figures"
     )
+    _progress.add_quiet_argument(p)
 
 
 def _order(x: float) -> str:
@@ -70,7 +72,7 @@ def _order(x: float) -> str:
     return f"<= 1e{math.ceil(math.log10(x))}"
 
 
-def _quantum_section(fig_dir: Path) -> list[str]:
+def _quantum_section(fig_dir: Path, display=None) -> list[str]:
     import numpy as np
 
     from tstarg.oracles.qutip_spin import (
@@ -104,6 +106,8 @@ def _quantum_section(fig_dir: Path) -> list[str]:
     errs = []
     fig_dir.mkdir(parents=True, exist_ok=True)
     for j in js:
+        if display is not None:
+            display.phase(f"qutip: rigid body coherent state, j={j}")
         q, c = rigid_body_expectation(j, (1.0, 2.0, 3.0), ts)
         errs.append(float(np.max(np.abs(q[-1] - c[-1]))))
         if j in (4, 32):
@@ -136,13 +140,15 @@ def _quantum_section(fig_dir: Path) -> list[str]:
     return lines
 
 
-def _gnh_section() -> list[str]:
+def _gnh_section(display=None) -> list[str]:
     from tstarg.oracles.gnh_examples import EXAMPLES, check_example
 
     lines = ["", "## Gotay-Nester-Hinds worked examples (refimpl.gnh, SU(2), tau = (0, 0, t))", ""]
     for k, ex in EXAMPLES.items():
         if ex.get("slow"):
             continue
+        if display is not None:
+            display.phase(f"Gotay-Nester-Hinds example {k}")
         ok, results, detail = check_example(k)
         lines.append(
             f"### {k}: expected {ex['outcome']} -- {'reproduced' if ok else 'NOT reproduced: ' + detail}"
@@ -158,12 +164,30 @@ def main(args) -> int:
     from threadpoolctl import threadpool_limits
 
     threadpool_limits(1)
+    from tstarg.oracles.claims import CLAIMS, evaluate, render_markdown
+
+    with _progress.Progress("claims", total=len(CLAIMS), quiet=_progress.is_quiet(args)) as display:
+        display.phase("importing the checks")
+        md, bad, missing = _run(args, display, CLAIMS, evaluate, render_markdown)
+    out, _ = _destinations(args)
+    print(f"wrote {out}")
+    return 1 if bad or missing else 0
+
+
+def _run(args, display, claims, evaluate, render_markdown):
+    """Every check of the registries, one progress step per labelled claim; returns the
+    Markdown, the contradicted labels and the items without an entry."""
     from tstarg.oracles.claim_checks import paper_path
-    from tstarg.oracles.claims import evaluate, render_markdown
     from tstarg.oracles.claims_unlabelled import coverage, evaluate_entries, render_entries_markdown
     from tstarg.oracles.paper_index import index_paper
 
-    obs = evaluate()
+    cache: dict = {}  # each named check runs once across the claims
+    obs = []
+    for c in claims:
+        display.start(c.label)
+        (o,) = evaluate([c], cache=cache)
+        obs.append(o)
+        display.done(c.label, o.verdict)
     width = max(len(o.claim.label) for o in obs)
     print(f"{'label':{width}s}  {'status':14s} {'observed':18s} checks")
     for o in obs:
@@ -183,12 +207,14 @@ def main(args) -> int:
         md += "\n## Coverage\n\npaper.tex not found (set TSTARG_PAPER): displays and sentences not indexed.\n"
         print("paper.tex not found: displays and sentences not indexed")
     else:
+        display.phase("indexing the paper's displays and sentences")
         index = index_paper(p.read_text())
         cov = coverage(index)
         missing = cov["missing"] + cov["misanchored"]
         if missing:
             print(f"items of the paper without a (well-anchored) entry: {missing}")
         else:
+            display.phase(f"checking {cov['entries']} entries of the displays and sentences")
             eobs = evaluate_entries(index)
             md += "\n" + render_entries_markdown(index, eobs)
             ebad = [o.item.id for o in eobs if o.verdict == "CONTRADICTED"]
@@ -197,14 +223,14 @@ def main(args) -> int:
                 f"coverage: {cov['displays']} displayed formulas + {cov['sentences']} mathematical "
                 f"sentences = {cov['items']} items; {cov['entries']} entries; contradicted {ebad}"
             )
-    md += "\n".join(_gnh_section()) + "\n"
+    md += "\n".join(_gnh_section(display)) + "\n"
     out, figures = _destinations(args)
     if not args.no_quantum:
-        md += "\n".join(_quantum_section(figures)) + "\n"
+        md += "\n".join(_quantum_section(figures, display)) + "\n"
+    display.phase(f"writing {out}")
     out.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out, md)
-    print(f"wrote {out}")
-    return 1 if bad or missing else 0
+    return md, bad, missing
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -7,6 +7,7 @@ import io
 import sys
 from pathlib import Path
 
+from . import _progress
 from ._atomic import claim_output, safe_name, save_figure, write_bytes, write_text
 
 HELP = "integrate a scene (TOML): prints the plan and what it skipped, writes npz, CSV and a plot"
@@ -18,24 +19,7 @@ def add_arguments(parser) -> None:
         "--out", default=None, help="output folder (default: reports/runs/<scene stem>)"
     )
     parser.add_argument("--no-plot", action="store_true", help="skip the PNG")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
-
-
-class _Progress:
-    """A one-line progress bar on stderr, shown for runs with many samples."""
-
-    def __init__(self, enabled: bool):
-        self.enabled = enabled
-
-    def __call__(self, k: int, total: int) -> None:
-        if not self.enabled or total <= 0:
-            return
-        width = 40
-        done = int(width * k / total)
-        sys.stderr.write(f"\r[{'#' * done}{'.' * (width - done)}] {k}/{total}")
-        if k == total:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
+    _progress.add_quiet_argument(parser)
 
 
 def _plot(out: dict, path: Path, title: str) -> None:
@@ -78,30 +62,34 @@ def main(args) -> int:
     from threadpoolctl import threadpool_limits
 
     threadpool_limits(1)
-    import numpy as np
-
     from tstarg.refimpl.flows import load_scene, plan, run_scene
 
-    try:
-        scene = load_scene(args.scene)
-        the_plan = plan(scene)
-    except (ValueError, OSError) as exc:
-        print(f"tstarg run: {exc}", file=sys.stderr)
-        return 2
-    from tstarg.refimpl import _compiled_taylor
+    with _progress.Progress(
+        "run", total=1, quiet=_progress.is_quiet(args), unit="samples"
+    ) as display:
+        display.phase("planning (a pilot run fixes the step count of a fixed-step method)")
+        try:
+            scene = load_scene(args.scene)
+            the_plan = plan(scene)
+        except (ValueError, OSError) as exc:
+            display.close()
+            print(f"tstarg run: {exc}", file=sys.stderr)
+            return 2
+        print(f"scene: {scene.name}")
+        print(the_plan.describe())
+        step = f"integrating {Path(args.scene).stem}"
+        display.start(step, total=scene.samples)
+        # run_scene reports sample k of 0..total (the first is the initial state)
+        out = run_scene(scene, the_plan, progress=lambda k, total: display.update(k + 1, total + 1))
+        display.done(step, f"{scene.samples} samples")
+        print(f"path: {out.pop('path')}")  # what ran, as the integrator reports it
+        return _write(args, scene, out, display)
 
-    print(f"scene: {scene.name}")
-    print(the_plan.describe())
-    print(
-        "path: "
-        + (
-            f"{_compiled_taylor.PATH} (compiled Taylor kernels)"
-            if the_plan.method == "taylor"
-            else "numpy (generated scalar Python for single-trajectory body systems)"
-        )
-    )
-    long_run = scene.samples * max(the_plan.steps_per_sample, 1) * scene.x0.shape[0] > 20000
-    out = run_scene(scene, the_plan, progress=_Progress(long_run and not args.quiet))
+
+def _write(args, scene, out, display) -> int:
+    """The npz, CSV and PNG of a run, the drift lines; ``display`` shows the file being written."""
+    import numpy as np
+
     # the default folder is named from the scene file, sanitised: a file named "...toml" must not
     # resolve to reports/ itself (issue 15); a concurrent run on the same folder gets its own
     folder = (
@@ -110,6 +98,7 @@ def main(args) -> int:
         else Path("reports") / "runs" / safe_name(Path(args.scene).stem, default="scene")
     )
     folder = claim_output(folder)
+    display.phase(f"writing {folder}")
     arrays = {k: np.asarray(v) for k, v in out.items() if not k.startswith("note")}
     buf = io.BytesIO()
     np.savez(buf, **{safe_name(k.replace(" ", "_")): v for k, v in arrays.items()})
@@ -140,6 +129,7 @@ def main(args) -> int:
             d = np.abs(arrays[k] - arrays[k][0])
             print(f"drift of {k} (worst trajectory): {np.nanmax(d):.3g}")
     if not args.no_plot:
+        display.phase("drawing trajectory.png")
         _plot(out, folder / "trajectory.png", scene.name)
     print(
         f"wrote {folder}/trajectory.npz, trajectory.csv"

@@ -19,6 +19,7 @@ import sys
 import time
 from pathlib import Path
 
+from . import _progress
 from ._atomic import claim_output, save_figure, write_text
 
 HELP = "numerical stability sweeps: digits lost vs the error model, flagged/escalated points, Brouwer's law"
@@ -83,6 +84,14 @@ def add_arguments(parser) -> None:
         help="ensemble size of the long integration (default 128; 16 with --quick)",
     )
     add_parallel_arguments(parser)
+    _progress.add_quiet_argument(parser)
+
+
+def _task_name(item: dict) -> str:
+    """A stress task as the progress display names it."""
+    if item.get("task") == "brouwer":
+        return f"brouwer {item['tag']} chunk {item['chunk']} ({item['trajectories']} trajectories)"
+    return f"{item['sweep']} point {item['index']}"
 
 
 # ----------------------------------------------------------------- running
@@ -98,8 +107,10 @@ def run(
     brouwer_trajectories: int | None,
     workers=None,
     scheduler=None,
+    display=None,
 ) -> dict:
-    """The whole stress run as a report dict (no files written)."""
+    """The whole stress run as a report dict (no files written). ``display``: an open
+    :class:`reports._progress.Progress`, told of each task as its result arrives."""
     from ._parallel import map_tasks
     from ._stress import (
         brouwer_items,
@@ -123,7 +134,15 @@ def run(
         items += brouwer_items(quick, brouwer_time, brouwer_trajectories)  # longest tasks first
     items += point_items(sw, tol, escalate, judge_dps, implementation)
     t0 = time.perf_counter()
-    results = map_tasks(task, items, workers=workers, scheduler=scheduler)
+    on_result = None
+    if display is not None:
+        display.add_total(len(items))
+        display.phase(f"running {len(items)} tasks")
+        on_result = display.callback(
+            lambda i, r: _task_name(items[i]),
+            lambda i, r: r.get("outcome", "done") if isinstance(r, dict) else "done",
+        )
+    results = map_tasks(task, items, workers=workers, scheduler=scheduler, on_result=on_result)
     wall = time.perf_counter() - t0
     rows = [r for it, r in zip(items, results) if it["task"] == "point"]
     brouwer = (
@@ -342,16 +361,23 @@ def _plot_brouwer(b: dict, path: Path) -> None:
     plt.close(fig)
 
 
-def write(report: dict, out: Path) -> None:
-    """``report.json``, ``report.md`` and one PNG per sweep (+ ``brouwer.png``) under ``out``."""
+def write(report: dict, out: Path, display=None) -> None:
+    """``report.json``, ``report.md`` and one PNG per sweep (+ ``brouwer.png``) under ``out``
+    (``display``: a :class:`reports._progress.Progress` shown the figure being drawn)."""
     out.mkdir(parents=True, exist_ok=True)
     st = report["settings"]
     d64, tol = st["float64_digits"], st["tol"]
-    for sw in report["sweeps"]:
-        if sw["rows"]:
-            _plot_sweep(sw, out / f"{sw['name']}.png", tol, d64)
+    figures = [sw for sw in report["sweeps"] if sw["rows"]]
+    for k, sw in enumerate(figures):
+        if display is not None:
+            display.phase(f"drawing {sw['name']}.png ({k + 1}/{len(figures)})")
+        _plot_sweep(sw, out / f"{sw['name']}.png", tol, d64)
     if report["brouwer"]:
+        if display is not None:
+            display.phase("drawing brouwer.png")
         _plot_brouwer(report["brouwer"], out / "brouwer.png")
+    if display is not None:
+        display.phase("writing report.json and report.md")
     write_text(out / "report.json", json.dumps(_clean(report), indent=1))
     write_text(out / "report.md", render_markdown(report))
 
@@ -514,28 +540,36 @@ def main(args) -> int:
     try:
         par = parallel_options(args)
         sweeps = [s.strip() for s in args.sweeps.split(",") if s.strip()] if args.sweeps else None
-        print(
-            f"tstarg stress{' --quick' if args.quick else ''}: tol {args.tol:g} (relative), "
-            f"{'escalate' if not args.no_escalate else 'flag only'}, implementation {args.implementation}; "
-            f"{describe(**par)}; BLAS pinned to 1 thread",
-            flush=True,
-        )
-        report = run(
-            quick=args.quick,
-            tol=float(args.tol),
-            escalate=not args.no_escalate,
-            judge_dps=args.judge_dps,
-            implementation=args.implementation,
-            sweeps=sweeps,
-            brouwer_time=args.brouwer_time,
-            brouwer_trajectories=args.brouwer_trajectories,
-            **par,
-        )
-    except (ValueError, ImportError, AttributeError) as exc:
+    except ValueError as exc:
         print(f"tstarg stress: {exc}", file=sys.stderr)
         return 2
-    out = claim_output(Path(args.out))  # a concurrent run gets its own folder and says so
-    write(report, out)
+    print(
+        f"tstarg stress{' --quick' if args.quick else ''}: tol {args.tol:g} (relative), "
+        f"{'escalate' if not args.no_escalate else 'flag only'}, implementation {args.implementation}; "
+        f"{describe(**par)}; BLAS pinned to 1 thread",
+        flush=True,
+    )
+    with _progress.Progress("stress", quiet=_progress.is_quiet(args)) as display:
+        display.phase("building the sweeps")
+        try:
+            report = run(
+                quick=args.quick,
+                tol=float(args.tol),
+                escalate=not args.no_escalate,
+                judge_dps=args.judge_dps,
+                implementation=args.implementation,
+                sweeps=sweeps,
+                brouwer_time=args.brouwer_time,
+                brouwer_trajectories=args.brouwer_trajectories,
+                display=display,
+                **par,
+            )
+        except (ValueError, ImportError, AttributeError) as exc:
+            display.close()
+            print(f"tstarg stress: {exc}", file=sys.stderr)
+            return 2
+        out = claim_output(Path(args.out))  # a concurrent run gets its own folder and says so
+        write(report, out, display)
     sm = report["summary"]
     for sw in report["sweeps"]:
         counts = {}

@@ -34,6 +34,7 @@ from pathlib import Path
 
 from tstarg.properties.profiles import PROFILES as _PROFILES
 
+from . import _progress
 from ._atomic import claim_output, write_text
 from ._imports import import_module
 from .junit import write_junit
@@ -154,40 +155,66 @@ def _load_provider(spec: str):
 
 
 class Progress:
-    """A print-based progress display: a bar redrawn in place on a terminal, one line per check otherwise."""
+    """The listener of :data:`properties.runner.PROGRESS` that drives a display of
+    :mod:`reports._progress`: a check that starts is the current step (its examples counted),
+    a check that is done prints one kept line ``N ex  T s  PASS``.
 
-    def __init__(self, stream=None, width: int = 24):
-        self.stream = stream or sys.stdout
-        self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
-        self.width = width
-        self.count = 0
+    ``display``: an open :class:`reports._progress.Progress`; without one, a plain display on
+    stdout is opened (timestamped lines, no heartbeat -- for callers that do not manage one)."""
+
+    def __init__(self, display=None):
+        if display is None:
+            display = _progress.Progress("verify", mode="plain", heartbeat=1e9).open()
+        self.display = display
+        self._stack: list[str] = []
+
+    def phase(self, text: str) -> None:
+        """A stage between checks (importing a provider): shown, not counted."""
+        self.display.phase(text)
 
     def __call__(self, event, name, done, total, result=None):
         if event == "start":
-            self.count += 1
-            if self.tty:
-                self._bar(name, 0, total)
-            else:  # which check is running, before it finishes (a slow one is visible as such)
-                self.stream.write(f"[{self.count:3d}] {name[:52]:52s} running ...\n")
-                self.stream.flush()
-        elif event == "example" and self.tty:
-            self._bar(name, done, total)
+            self._stack.append(name)
+            if len(self._stack) == 1:
+                self.display.start(name, total)
+            else:  # a check inside a check (the certificate's own checks): shown, not counted
+                self.display.start(f"{self._stack[0]}: {name}", total)
+        elif event == "example":
+            self.display.update(done, total)
         elif event == "done":
+            if self._stack and self._stack[-1] == name:
+                self._stack.pop()
+            if self._stack:
+                return
             verdict = "PASS" if result is None or result.passed else "FAIL"
             over = (result.extra.get("over_budget", 0) if result else 0) or 0
-            line = (
-                f"[{self.count:3d}] {name[:52]:52s} {done:4d} ex {result.seconds if result else 0:6.1f}s {verdict}"
-                + (f" ({over} examples over the per-example budget, drawn again)" if over else "")
+            secs = result.seconds if result else 0.0
+            self.display.done(
+                name,
+                f"{done:d} ex, {secs:.1f} s, {verdict}"
+                + (f" ({over} examples over the per-example budget, drawn again)" if over else ""),
             )
-            self.stream.write(("\r\033[K" if self.tty else "") + line + "\n")
-            self.stream.flush()
 
-    def _bar(self, name, done, total):
-        k = min(self.width, int(self.width * done / max(total, 1)))
-        self.stream.write(
-            f"\r\033[K[{self.count:3d}] {name[:40]:40s} [{'#' * k}{'.' * (self.width - k)}] {done}/{total}"
-        )
-        self.stream.flush()
+
+def expected_checks(specs, baseline=None) -> tuple[int | None, float | None]:
+    """How many checks the providers ``specs`` ran in the baseline report, and its wall time
+    (``(None, None)`` without a readable baseline): the progress display's total, and the
+    expected duration printed in the header."""
+    from .regression import BASELINE
+
+    path = Path(baseline) if baseline else BASELINE
+    if path.is_dir():
+        path = path / "report.json"
+    try:
+        base = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None, None
+    n = sum(
+        1
+        for c in base.get("checks", [])
+        if c.get("extra", {}).get("provider") in specs and not c["name"].startswith("regression.")
+    )
+    return (n or None), base.get("seconds")
 
 
 def _env() -> dict:
@@ -310,6 +337,8 @@ def run_providers(specs, max_examples: int, seed, progress=None, optional=PROVID
         _checks.PROGRESS.append(progress)
     try:
         for spec in specs:
+            if hasattr(progress, "phase"):
+                progress.phase(f"loading {spec}")
             fn = _load_provider(spec)
             if fn is None and spec in optional:
                 status[spec] = "skipped: module not found"
@@ -377,23 +406,38 @@ def main(args) -> int:
         if spec.count(":") != 1:
             raise ValueError(f"--provider must be 'module:function', got {spec!r}")
     budget = _budget(args)
+    n_expected, base_seconds = expected_checks(specs, getattr(args, "baseline", None))
     print(
         f"tstarg verify: profile {args.profile}, {max_examples} examples per check, seed {args.seed}; "
         f"budgets: example {budget['example_seconds']:g} s, check {budget['check_seconds']:g} s, "
-        f"shrinking {budget['shrink_seconds']:g} s, run {budget['run_seconds']:g} s; BLAS pinned to 1 thread",
+        f"shrinking {budget['shrink_seconds']:g} s, run {budget['run_seconds']:g} s; BLAS pinned to 1 thread"
+        + (
+            f"\nthe baseline ran {n_expected} of these checks in {base_seconds:.0f} s (profile ci)"
+            if n_expected and base_seconds
+            else ""
+        ),
         flush=True,
     )
     t0 = time.perf_counter()
-    progress = None if getattr(args, "quiet", False) else Progress()
     from tstarg.properties import runner
 
-    with runner.limits(**budget):
-        results, status = run_providers(specs, max_examples, args.seed, progress)
-    total = time.perf_counter() - t0
+    with _progress.Progress("verify", total=n_expected, quiet=_progress.is_quiet(args)) as display:
+        with runner.limits(**budget):
+            results, status = run_providers(specs, max_examples, args.seed, Progress(display))
+        display.phase("comparing with the baseline and writing the report")
+        total = time.perf_counter() - t0
+        out, failed, slowest, over = _write_report(
+            args, results, status, total, max_examples, budget
+        )
+    print(render_table(results))
+    return _finish(results, status, out, failed, slowest, over, total)
+
+
+def _write_report(args, results, status, total, max_examples, budget):
+    """Compare with the baseline and write report.json, report.md, the junit file (and the
+    baseline with ``--write-baseline``); returns ``(out, failed, slowest, over)``."""
     slowest = max(results, key=lambda r: r.seconds, default=None)
     over = sum(int(r.extra.get("over_budget", 0) or 0) for r in results)
-    for spec, st in status.items():
-        print(f"provider {spec}: {st}")
     report = {
         "tool": "tstarg verify",
         "profile": args.profile,
@@ -414,7 +458,6 @@ def main(args) -> int:
     _compare_with_baseline(args, report, results, out)
     failed = [r for r in results if not r.passed]
     report.update(passed=not failed, n_failed=len(failed))
-    print(render_table(results))
     write_text(out / "report.json", json.dumps(report, indent=2))
     write_text(out / "report.md", render_markdown(report))
     write_junit(report, out / "report.junit.xml")
@@ -431,6 +474,12 @@ def main(args) -> int:
             BASELINE, json.dumps(kept, indent=2)
         )  # atomic: the old baseline stays until this is whole
         print(f"baseline written: {BASELINE}")
+    return out, failed, slowest, over
+
+
+def _finish(results, status, out, failed, slowest, over, total) -> int:
+    for spec, st in status.items():
+        print(f"provider {spec}: {st}")
     print(
         f"\n{len(results) - len(failed)} passed, {len(failed)} failed in {total:.1f} s; report: {out / 'report.md'}"
     )

@@ -52,16 +52,14 @@ from typing import Any
 import numpy as np
 
 from tstarg.properties.runner import CheckAborted
+from tstarg.refimpl import PROTOCOL as SPEC
 
-from .jsonl_schema import ProtocolError, validate_reply, validate_request
+from .jsonl_schema import ProtocolError, sample_args, validate_reply, validate_request
 
 __all__ = ["METHODS", "CommandImplementation", "ProgramBroken", "ProgramFailure"]
 
-METHODS = {
-    "poisson_tensor": ("f", "theta", "upsilon", "x", "pi"),
-    "hamiltonian_vector_field": ("f", "theta", "upsilon", "inertia", "potential", "x", "pi"),
-    "flow": ("f", "theta", "upsilon", "inertia", "potential", "x0", "pi0", "t"),
-}
+METHODS = {m.name: m.arg_names for m in SPEC.methods}
+"""Method -> its argument names, from the protocol spec (refimpl/_protocol.py)."""
 MAX_TIMEOUT = 3600.0
 STDERR_TAIL = 15  # lines of the program's stderr quoted per incident
 
@@ -121,25 +119,27 @@ def parse_result(method: str, result: Any, args: dict) -> Any:
                 f"capabilities result must be an object, got {json.dumps(result)[:200]}"
             )
         return result
+    spec = SPEC.by_name[method]
     n = len(args["f"])
-    lead = np.shape(args.get("x", args.get("x0")))[:-1]
-    if method == "poisson_tensor":
-        P = _real_array(result, "poisson_tensor result")
-        if P.shape != (*lead, 2 * n, 2 * n):
-            raise ProgramFailure(
-                f"poisson_tensor result has shape {P.shape}, expected {(*lead, 2 * n, 2 * n)}"
-            )
+    lead = np.shape(args[spec.arg_names[spec.lead_index]])[:-1]
+    shapes = spec.result_shapes(n, lead)
+    if spec.result == "tensor":
+        P = _real_array(result, f"{method} result")
+        if P.shape != shapes[0]:
+            raise ProgramFailure(f"{method} result has shape {P.shape}, expected {shapes[0]}")
         return P
-    if not isinstance(result, list) or len(result) != 2:
+    if not isinstance(result, list) or len(result) != len(shapes):
         raise ProgramFailure(
-            f"{method} result must be a list [a, b] of two vectors, got {json.dumps(result)[:200]}"
+            f"{method} result must be a list [{', '.join(spec.parts)}] of {len(shapes)} vectors, "
+            f"got {json.dumps(result)[:200]}"
         )
-    a, b = (_real_array(r, f"{method} result[{k}]") for k, r in enumerate(result))
-    if a.shape != (*lead, n) or b.shape != (*lead, n):
+    parts = tuple(_real_array(r, f"{method} result[{k}]") for k, r in enumerate(result))
+    if tuple(p.shape for p in parts) != shapes:
         raise ProgramFailure(
-            f"{method} result has shapes {a.shape}, {b.shape}, expected two of {(*lead, n)}"
+            f"{method} result has shapes {', '.join(str(p.shape) for p in parts)}, "
+            f"expected {', '.join(map(str, shapes))}"
         )
-    return a, b
+    return parts
 
 
 class CommandImplementation:
@@ -327,6 +327,7 @@ class CommandImplementation:
                 )
             if msg.get("id") != rid:
                 continue  # a late reply to an earlier, timed-out request (the deadline still runs)
+            self._last_reply = msg
             try:
                 try:
                     validate_reply(msg, method)
@@ -355,37 +356,23 @@ class CommandImplementation:
 
     def _probe(self) -> None:
         """Find which methods the program provides, with a small su(2) request each."""
-        eps = [
-            [[0, 0, 0], [0, 0, 1], [0, -1, 0]],
-            [[0, 0, -1], [0, 0, 0], [1, 0, 0]],
-            [[0, 1, 0], [-1, 0, 0], [0, 0, 0]],
-        ]
-        z = [[0.0] * 3 for _ in range(3)]
-        base = {
-            "f": eps,
-            "theta": z,
-            "upsilon": z,
-            "inertia": np.eye(3).tolist(),
-            "potential": None,
-            "x": [0.1, 0.2, 0.3],
-            "pi": [1.0, 0.5, -0.2],
-            "x0": [0.1, 0.2, 0.3],
-            "pi0": [1.0, 0.5, -0.2],
-            "t": 0.1,
-        }
         try:
             caps = self.request("capabilities", {})
-        except (NotImplementedError, ValueError, ProgramFailure):
+        except (NotImplementedError, ValueError):
             caps = None
+        except ProgramFailure as exc:
+            caps = None
+            if isinstance(getattr(self, "_last_reply", {}).get("result"), dict):
+                self.capabilities_error = str(exc)  # a malformed declaration: refused, not ignored
         except ProgramBroken:
             return
         if isinstance(caps, dict):
             self._declare(caps)
-        for method, names in METHODS.items():
+        for method in METHODS:
             if method in self._missing:
                 continue
             try:
-                self.request(method, {k: base[k] for k in names})
+                self.request(method, sample_args(method))
             except NotImplementedError:
                 self._missing.add(method)
             except (ValueError, ProgramFailure):
@@ -402,16 +389,17 @@ class CommandImplementation:
         if "methods" in caps:
             self._missing |= set(METHODS) - set(caps["methods"])
         domain = {
-            k: caps[k]
-            for k in ("algebras", "theta", "upsilon", "gravity", "max_abs_t", "negative_t")
-            if caps.get(k) is not None and caps.get(k) != "all"
+            a.name: caps[a.name]
+            for a in SPEC.attributes
+            if a.where == "domain" and caps.get(a.name) is not None and caps[a.name] != "all"
         }
         if domain:
             self.domain = domain
         self.batched = bool(caps.get("batched", False))
-        for k in ("precision_digits", "flow_tolerance", "order", "poisson_integrator"):
-            if k in caps:
-                setattr(self, k, caps[k])
+        for a in SPEC.attributes:
+            if a.where == "attribute" and a.name not in ("name", "version", "batched"):
+                if a.name in caps:
+                    setattr(self, a.name, caps[a.name])
 
     def __getattr__(self, method: str):
         if method in METHODS and method not in self.__dict__.get("_missing", set()):
@@ -422,12 +410,14 @@ class CommandImplementation:
                     raise TypeError(
                         f"{method} takes {len(names)} arguments ({', '.join(names)}), got {len(args)}"
                     )
-                extra = {}
-                if kw:  # the protocol's one optional argument: flow's steps (docs/protocol.md)
-                    if method != "flow" or set(kw) != {"steps"}:
-                        raise TypeError(f"{method} got unexpected keyword arguments {sorted(kw)}")
-                    if kw["steps"] is not None:
-                        extra["steps"] = int(kw["steps"])
+                optional = {a.name: a.kind for a in SPEC.by_name[method].optional}
+                if set(kw) - set(optional):  # the spec's optional arguments (flow's steps)
+                    raise TypeError(f"{method} got unexpected keyword arguments {sorted(kw)}")
+                extra = {
+                    k: int(v) if optional[k] == "integer" else v
+                    for k, v in kw.items()
+                    if v is not None
+                }
                 return self.request(method, {**dict(zip(names, args)), **extra})
 
             return call

@@ -2,7 +2,9 @@
 
 Used by the meta-tests (tests/meta/) and by :func:`reports.certification.kill_rate`, which
 ``tstarg verify`` reports: the fraction of mutants the certification battery rejects. This module
-imports nothing of the certification (the kill rate sits above both).
+imports nothing of the certification (the kill rate sits above both). Each check names the mutants
+planted against it (``Check.mutants``, :data:`reports.certification.MUTANT_CHECKS`); mutants that
+need more than a switch of this shared implementation are defined beside their check.
 
 :class:`Plain` is a straightforward per-point numpy implementation of the protocol,
 written from CONVENTIONS.md independently of refimpl.fast; with ``mutation=None`` it is
@@ -54,29 +56,6 @@ MUTATIONS = {
     "small_dims_only": "past dimension 6 the frame L(g,e) is truncated to 1 + ad_x/2 (a fixed-size series buffer)",
     "layout_assumed": "f read from its memory buffer as if C-ordered (a Fortran-ordered f is scrambled)",
 }
-
-
-MUTANT_CHECKS = {
-    "flow_wrong_stage": ["flow.reference"],
-    "pp_block_psi_left": ["poisson_tensor.antisymmetry"],
-    "mutates_input": ["protocol.inputs"],
-    "stale_cache": ["protocol.inputs"],
-    "lists_rejected": ["protocol.inputs"],
-    "float32_output": ["protocol.inputs"],
-    "batch_flattened": ["poisson_tensor.batch"],
-    "flow_abs_time": ["flow.reference"],
-    "flow_fixed_steps": ["flow.long"],
-    "order_overclaimed": ["flow.order"],
-    "energy_dissipation": ["flow.drift"],
-    "not_a_poisson_map": ["flow.poisson_map"],
-    "domain_ignored": ["domain.refusal"],
-    "centre_lost": ["flow.long"],
-    "batch_tail_stale": ["poisson_tensor.batch"],
-    "layout_assumed": ["protocol.inputs"],
-    "small_dims_only": ["poisson_tensor.reference"],
-}
-"""The clause each mutant is planted against: certified on that check only, it must fail (the
-clause has teeth by itself); the others run the whole battery."""
 
 
 def _phi1(M):

@@ -34,7 +34,7 @@ import time
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from tstarg.properties.runner import CheckResult
+from tstarg.properties.runner import CheckResult, announce, finished
 from tstarg.refimpl import su2, su3
 from tstarg.refimpl._flow_fast import scalar_rhs
 from tstarg.refimpl.fast import implementation as fast
@@ -182,8 +182,13 @@ def speed_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
     """``tstarg verify`` provider: the speed rows (fixed workloads; ``max_examples`` is not used)."""
 
     s = 0 if seed is None else int(seed)
-    return [
-        _poisson_row("speed.poisson[su2]", su2(), 10_000, 200, s),
-        _poisson_row("speed.poisson[su3]", su3(), 2_000, 100, s),
-        _flow_row(s),
-    ]
+    rows = (
+        ("speed.poisson[su2]", lambda: _poisson_row("speed.poisson[su2]", su2(), 10_000, 200, s)),
+        ("speed.poisson[su3]", lambda: _poisson_row("speed.poisson[su3]", su3(), 2_000, 100, s)),
+        ("speed.flow[heavy_top]", lambda: _flow_row(s)),
+    )
+    out = []
+    for name, row in rows:
+        announce(name)  # the progress display's current step
+        out.append(finished(row()))
+    return out

@@ -252,3 +252,98 @@ def test_check_program_finds_violations(tmp_path):
     )
     problems = check_program(f"{sys.executable} {bad}")
     assert len(problems) == 4 and all("violates" in p for p in problems)
+
+
+# ------------------------------------------------------------------ one spec (issue 29)
+def test_shipped_schemas_are_the_ones_generated_from_the_protocol_spec():
+    """reports/schema/*.json are written from tstarg.refimpl.PROTOCOL; a hand edit (or a spec
+    change without `python -m tstarg.reports.jsonl_schema --write-schemas`) fails here."""
+    from tstarg.reports.jsonl_schema import build_schema
+
+    for kind in ("request", "reply"):
+        assert load_schema(kind) == build_schema(kind), f"{kind}.schema.json differs from the spec"
+
+
+def test_docs_protocol_table_is_the_spec():
+    from tstarg.refimpl._protocol import markdown_table
+
+    text = (Path(__file__).parents[1] / "docs" / "protocol.md").read_text()
+    a = text.index("-->\n", text.index("<!-- protocol-table")) + 4
+    b = text.index("\n<!-- /protocol-table -->")
+    assert text[a:b] == markdown_table()
+
+
+def test_every_consumer_reads_the_spec():
+    """The JSON-lines client, the guard, the request enum and the certification's checks all name
+    exactly the spec's methods; every spec argument has a sample value."""
+    from tstarg.refimpl import PROTOCOL
+    from tstarg.reports import _guard, jsonl
+    from tstarg.reports.certification import CHECKS
+    from tstarg.reports.jsonl_schema import SAMPLE_VALUES
+
+    names = PROTOCOL.method_names
+    assert tuple(jsonl.METHODS) == names and METHODS == ("capabilities", *names)
+    assert {m: PROTOCOL.by_name[m].arg_names for m in names} == jsonl.METHODS
+    assert load_schema("request")["properties"]["method"]["enum"] == list(METHODS)
+    assert set(CHECKS.values()) <= set(names)
+    assert set(names) <= set(CHECKS.values()), "a spec method with no certification check"
+    assert all(a.name in SAMPLE_VALUES for m in PROTOCOL.methods for a in m.args)
+    attrs = {a.name for a in PROTOCOL.attributes if a.where == "attribute"}
+    assert attrs <= set(_guard.ATTRIBUTES)
+    caps = load_schema("reply")["$defs"]["result_capabilities"]["properties"]
+    assert set(caps) == {"protocol_version", "methods"} | {a.name for a in PROTOCOL.attributes}
+
+
+def test_implementation_base_class_provides_any_subset():
+    """DESIGN.md: an implementation provides any subset. A subclass overriding only flow provides
+    only flow (the base's methods are placeholders), and the guard exposes only that."""
+    from tstarg.refimpl import Implementation, provided_methods, provides
+    from tstarg.reports._guard import Guarded
+
+    class FlowOnly(Implementation):
+        def flow(self, f, theta, upsilon, inertia, potential, x0, pi0, t):
+            return x0, pi0
+
+    impl = FlowOnly()
+    assert provided_methods(impl) == ["flow"] and not provides(impl, "poisson_tensor")
+    with pytest.raises(NotImplementedError, match="poisson_tensor"):
+        impl.poisson_tensor(None, None, None, None, None)
+    g = Guarded(impl)
+    assert g.provided == ["flow"] and not hasattr(g, "poisson_tensor")
+
+
+@pytest.mark.parametrize(
+    "attr, value, ok",
+    [
+        ("flow_tolerance", 1.0, False),  # a flow that never moves would pass
+        ("flow_tolerance", 1e-4, True),
+        ("flow_tolerance", 0.0, False),
+        ("precision_digits", 3, False),
+        ("precision_digits", 15.9, True),
+        ("precision_digits", float("nan"), False),
+        ("order", 2.5, False),
+        ("order", True, False),
+        ("poisson_integrator", "yes", False),
+    ],
+)
+def test_declared_attributes_are_capped(attr, value, ok):
+    """Declared tolerances past the spec's caps are refused by name, before anything runs; the
+    JSON-lines capabilities schema carries the same caps."""
+    from tstarg.reports._guard import Guarded, NotAnImplementation
+
+    class Impl:
+        def poisson_tensor(self, f, theta, upsilon, x, pi):  # pragma: no cover - never called
+            raise AssertionError
+
+    impl = Impl()
+    setattr(impl, attr, value)
+    reply = {"id": 1, "result": {**CAPS, attr: value}}
+    if ok:
+        Guarded(impl)
+        validate_reply(reply, "capabilities")
+    else:
+        with pytest.raises(NotAnImplementation, match=attr):
+            Guarded(impl)
+        if not (isinstance(value, float) and math.isnan(value)):
+            with pytest.raises(ProtocolError):
+                validate_reply(reply, "capabilities")

@@ -10,8 +10,9 @@ from typing import ClassVar
 
 import pytest
 
-from tstarg.reports.certification import certify
-from tstarg.reports.mutants import MUTANT_CHECKS, MUTATIONS, Plain
+from tstarg.reports.certification import MUTANT_CHECKS, MUTATIONS, certify
+from tstarg.reports.certification.registry import mutant
+from tstarg.reports.mutants import Plain
 
 SEED = 0
 EXAMPLES = 10
@@ -32,7 +33,7 @@ def _params(names):
 
 @pytest.mark.parametrize("mutation", _params(sorted(MUTATIONS)))
 def test_certify_rejects_mutant(mutation):
-    impl = Plain(mutation)
+    impl = mutant(mutation)
     cert = certify(
         impl,
         max_examples=EXAMPLES,

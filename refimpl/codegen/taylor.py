@@ -1,0 +1,411 @@
+"""Generated compiled Taylor kernels for the quadratic fields (:mod:`refimpl._compiled_taylor`).
+
+Emitters take a :class:`refimpl._compiled_taylor.CompiledField` ``cf`` (its *structure*: monomials,
+their classes, the term pattern per component, the constant components -- never its numbers, which
+are kernel arguments) and return module text, which :func:`refimpl.codegen._loader.import_source`
+writes under the hash of the text and imports:
+
+* :func:`loop_source` -- the template ``templates/taylor_loop.py`` (order an argument) with the
+  structure's ``coefficients`` body (:func:`coefficient_source`);
+* :func:`unrolled_source` -- ``adaptive``/``fixed`` unrolled at one order;
+* :func:`batch_source` -- ``adaptive_batch``: the unrolled kernel on ``W`` lanes.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._loader import fill, template
+
+__all__ = [
+    "BATCH_WIDTH",
+    "batch_source",
+    "coefficient_source",
+    "loop_source",
+    "tree_sum",
+    "unrolled_source",
+]
+
+
+def loop_source(cf) -> str:
+    """The loop kernels (order an argument; template ``taylor_loop``) for the structure of ``cf``."""
+    return fill(template("taylor_loop"), COEFF=coefficient_source(cf))
+
+
+# ---------------------------------------------------------------- per-structure kernels
+# The generic kernels below interpret the sparse arrays (one loop per term, branches per monomial). The
+# fast path writes, once per *structure*, a small module whose loops are unrolled over the monomials and
+# components (loops over the order stay loops: the order is an argument), with the coefficients read
+# from the arrays ``q`` (quadratic terms) and ``l`` (linear terms). The module is a file in the cache
+# directory named by the structure's hash, imported and compiled with ``cache=True``: the next process
+# (or the next model with the same structure) loads machine code instead of compiling.
+
+
+def coefficient_source(cf) -> str:
+    """The unrolled body of ``coefficients(Y, P, q, l)`` for the structure of ``cf``."""
+    d = cf.d
+    ind = "    "
+    src = [ind + f"y{c} = Y[{c}]" for c in range(d)]
+    src.append(ind + "for k in range(P):")
+    i2 = ind * 2
+    i3 = ind * 3
+    for m, ((i, j), c) in enumerate(zip(cf.mons.tolist(), cf.mcls.tolist())):
+        if c == 0:
+            src += [
+                i2 + f"m{m} = 0.0",
+                i2 + "for a in range(k + 1):",
+                i3 + f"m{m} += y{i}[a] * y{j}[k - a]",
+            ]
+        elif c == 1:
+            src += [
+                i2 + f"m{m} = 0.0",
+                i2 + "for a in range((k + 1) // 2):",
+                i3 + f"m{m} += y{i}[a] * y{i}[k - a]",
+                i2 + f"m{m} *= 2.0",
+                i2 + "if k % 2 == 0:",
+                i3 + f"m{m} += y{i}[k // 2] * y{i}[k // 2]",
+            ]
+        elif c == 2:
+            src.append(i2 + f"m{m} = y{i}[0] * y{j}[k]")
+        elif c == 3:
+            src.append(i2 + f"m{m} = y{i}[k] * y{j}[0]")
+        else:
+            src.append(i2 + f"m{m} = y{i}[0] * y{j}[0] if k == 0 else 0.0")
+    src.append(i2 + "inv = 1.0 / (k + 1)")
+    for c in range(d):
+        if cf.const[c]:
+            src.append(i2 + f"y{c}[k + 1] = 0.0")
+            continue
+        terms = [f"q[{t}] * m{cf.qmon[t]}" for t in range(cf.qptr[c], cf.qptr[c + 1])]
+        terms += [f"l[{t}] * y{cf.lidx[t]}[k]" for t in range(cf.lptr[c], cf.lptr[c + 1])]
+        src.append(i2 + f"y{c}[k + 1] = ({' + '.join(terms) if terms else '0.0'}) * inv")
+    return "\n".join(src)
+
+
+def tree_sum(terms: list[str]) -> str:
+    """``terms`` summed as a balanced binary tree, parenthesised: ``((a + b) + (c + d))``.
+
+    A left-to-right chain ``a + b + c + ...`` is one dependency chain (each add waits for the one
+    before, ~4 cycles each); the tree exposes independent adds to the CPU's parallel units
+    without reassociation flags (``fastmath`` would also remove Kahan's compensation in
+    :func:`unrolled_source`). Same rounding model: a sum of ``m`` terms, ``(log2 m) eps`` relative
+    to the sum of magnitudes, no worse than the chain's ``(m - 1) eps``."""
+    if len(terms) == 1:
+        return terms[0]
+    half = (len(terms) + 1) // 2
+    return f"({tree_sum(terms[:half])} + {tree_sum(terms[half:])})"
+
+
+# Unrolled kernels let LLVM fuse a multiply and an add into one FMA (``contract``: one rounding instead
+# of two, never less accurate); no reassociation, so the compensated sums and the summation trees stay
+# as written.
+_JIT = "@njit(cache=True, nogil=True, fastmath={'contract'})"
+
+
+def _coefficient_lines(cf, P: int) -> tuple[list[str], list[int]]:
+    """Straight-line statements computing the Taylor coefficients ``y{c}_{k}``, ``k = 1..P``, from the
+    locals ``y{c}_0`` (the recurrence of the module docstring, unrolled; sums as balanced trees), and the
+    non-constant components."""
+    d = cf.d
+    const = set(np.flatnonzero(cf.const).tolist())
+    mons = [tuple(m) for m in cf.mons.tolist()]
+
+    def z(c, k):
+        return k >= 1 and c in const
+
+    body = []
+    for k in range(P):
+        for m, (i, j) in enumerate(mons):
+            if i == j:
+                terms = [
+                    f"y{i}_{a}*y{i}_{k - a}"
+                    for a in range((k + 1) // 2)
+                    if not z(i, a) and not z(i, k - a)
+                ]
+                expr = f"2.0*{tree_sum(terms)}" if terms else ""
+                if k % 2 == 0 and not z(i, k // 2):
+                    expr = (expr + " + " if expr else "") + f"y{i}_{k // 2}*y{i}_{k // 2}"
+            else:
+                terms = [
+                    f"y{i}_{a}*y{j}_{k - a}"
+                    for a in range(k + 1)
+                    if not z(i, a) and not z(j, k - a)
+                ]
+                expr = tree_sum(terms) if terms else ""
+            body.append(f"m{m} = {expr or '0.0'}")
+        for c in range(d):
+            if c in const:
+                continue
+            terms = [f"q{t}*m{cf.qmon[t]}" for t in range(cf.qptr[c], cf.qptr[c + 1])]
+            terms += [
+                f"l{t}*y{cf.lidx[t]}_{k}"
+                for t in range(cf.lptr[c], cf.lptr[c + 1])
+                if not z(int(cf.lidx[t]), k)
+            ]
+            body.append(f"y{c}_{k + 1} = {tree_sum(terms) if terms else '0.0'}*{1.0 / (k + 1)!r}")
+    return body, [c for c in range(d) if c not in const]
+
+
+def _kernel_prologue(cf, P: int) -> list[str]:
+    """The first statements of an adaptive kernel: the field's numbers read once into locals, the
+    batch size, the direction and length of the time span, the step's safety factor."""
+    return _loads(cf) + [
+        "N = y0.shape[0]",
+        "sgn = 1.0 if T >= 0 else -1.0",
+        "Tabs = abs(T)",
+        f"damp = {math.exp(-0.7 / (P - 1))!r}",
+    ]
+
+
+def _loads(cf) -> list[str]:
+    """The field's numbers read once per call into locals ``q{t}``, ``l{t}``."""
+    return [f"q{t} = q[{t}]" for t in range(len(cf.qcoef))] + [
+        f"l{t} = l[{t}]" for t in range(len(cf.lcoef))
+    ]
+
+
+def _step_size_lines(P: int, xn: str, a1: str, a2: str, fail: list[str]) -> list[str]:
+    """The Jorba-Zou step of the module docstring from the expressions of ``max|y_0|`` and of the last
+    two coefficients' norms; ``fail`` runs when no positive step results (overflowed coefficients)."""
+    return [
+        f"s = tol * max(1.0, {xn})",
+        f"a1 = {a1}",
+        f"a2 = {a2}",
+        "h = np.inf",
+        "if a1 > 0.0:",
+        f"    h = (s / a1) ** {1.0 / (P - 1)!r}",
+        "if a2 > 0.0:",
+        f"    h = min(h, (s / a2) ** {1.0 / P!r})",
+        "h *= damp",
+        "if not (h > 0.0):",
+    ] + ["    " + x for x in fail]
+
+
+def unrolled_source(cf, P: int) -> str:
+    """A module with ``adaptive`` and ``fixed`` for the structure of ``cf`` at order ``P``, unrolled.
+
+    Every coefficient is a local scalar ``y{c}_{k}``; the Cauchy products are written out (a square
+    sums half its terms twice, a constant factor keeps its ``k = 0`` term) and the field's numbers
+    are read once per call from ``q`` and ``l`` into locals. Same recurrence and control as the loop
+    loop kernels of :func:`loop_source` (template ``taylor_loop``); only the summation order of a product may differ, and the update
+    ``y <- y + sum_{k>=1} Y_k h^k`` is a compensated (Kahan) sum, which keeps the rounding of ``10^3``
+    steps near one ulp instead of growing with the step count.
+    """
+    d = cf.d
+    body, var = _coefficient_lines(cf, P)
+
+    def horner(hname):
+        # increment sum_{k>=1} Y_k h^k by Horner, added to y with Kahan's compensated summation (the
+        # carry e{c} keeps the low-order bits lost in y + increment: no drift of rounding over many steps)
+        out = []
+        for c in var:
+            e = f"y{c}_{P}"
+            for k in range(P - 1, 0, -1):
+                e = f"({e})*{hname} + y{c}_{k}"
+            out += [
+                f"z = ({e})*{hname} - e{c}",
+                f"w = y{c}_0 + z",
+                f"e{c} = (w - y{c}_0) - z",
+                f"y{c}_0 = w",
+            ]
+        return out
+
+    def amax(k):
+        terms = [f"abs(y{c}_{k})" for c in (range(d) if k == 0 else var)]
+        if not terms:
+            return "0.0"
+        e = terms[0]
+        for t in terms[1:]:  # pairwise max: numba's variadic max builds a tuple per call
+            e = f"max({e}, {t})"
+        return e
+
+    load = _kernel_prologue(cf, P)
+    unpack = [f"y{c}_0 = y0[n, {c}]" for c in range(d)] + [f"e{c} = 0.0" for c in var]
+    store_ok = [f"out[n, {c}] = y{c}_0" for c in range(d)]
+    fin = " and ".join(f"math.isfinite(y{c}_0)" for c in var) or "True"
+    I1, I2, I3, I4 = "    ", "        ", "            ", "                "
+    src = [
+        "import math",
+        "import numpy as np",
+        "from numba import njit",
+        "",
+        "",
+        _JIT,
+        "def adaptive(y0, T, tol, max_steps, q, l, out, nsteps):",
+    ]
+    src += [I1 + x for x in load]
+    src += [I1 + "for n in range(N):"]
+    src += [I2 + x for x in unpack]
+    src += [I2 + "t = 0.0", I2 + "k = 0", I2 + "ok = True", I2 + "while t < Tabs:"]
+    src += [I3 + x for x in body] + [I3 + "pass"]
+    src += [
+        I3 + x for x in _step_size_lines(P, amax(0), amax(P - 1), amax(P), ["ok = False", "break"])
+    ]
+    src += [
+        I3 + "if t + h >= Tabs:",
+        I4 + "h = Tabs - t",
+        I4 + "t = Tabs",
+        I3 + "else:",
+        I4 + "t += h",
+        I3 + "hs = sgn * h",
+    ]
+    src += [I3 + x for x in horner("hs")]
+    src += [
+        I3 + "k += 1",
+        I3 + f"if not ({fin}) or k > max_steps:",
+        I4 + "ok = False",
+        I4 + "break",
+    ]
+    src += [I2 + "if ok:"] + [I3 + x for x in store_ok]
+    src += [I2 + "else:", I3 + "for c in range(y0.shape[1]):", I4 + "out[n, c] = np.nan"]
+    src += [
+        I2 + "nsteps[n] = k if ok else -1",
+        "",
+        "",
+        _JIT,
+        "def fixed(y0, h, nsteps, q, l, out):",
+    ]
+    src += [I1 + x for x in _loads(cf)]
+    src += [I1 + "for n in range(y0.shape[0]):"] + [I2 + x for x in unpack]
+    src += (
+        [I2 + "for _ in range(nsteps):"]
+        + [I3 + x for x in body]
+        + [I3 + x for x in horner("h")]
+        + [I3 + "pass"]
+    )
+    src += [I2 + x for x in store_ok]
+    return "\n".join(src) + "\n"
+
+
+BATCH_WIDTH = 8  # lanes of the batch kernel: two AVX2 vectors of float64 (measured: 4, 8 and 16 within noise of each other)
+
+
+def batch_source(cf, P: int, W: int = BATCH_WIDTH) -> str:
+    """A module with ``adaptive_batch(y0, T, tol, max_steps, q, l, out, nsteps)``: the adaptive kernel
+    of :func:`unrolled_source` run on ``W`` trajectories side by side, one per *lane*.
+
+    Every lane keeps its own time, step size (its own Jorba-Zou control from its own coefficients),
+    step count and compensation carries, exactly as the single-trajectory kernel does; a lane whose
+    trajectory reaches ``T`` (or fails) is refilled with the next trajectory, so no trajectory's
+    steps are set by another's and no lane waits for the slowest. The per-lane work is written as
+    loops ``for w in range(W)`` over a flat scratch array ``B[row * W + w]`` (rows: state, carries,
+    coefficients, norms, step), which LLVM turns into SIMD instructions across the lanes (the single
+    kernel's arithmetic, statement for statement, on W trajectories at once); the step-size
+    control and the bookkeeping stay scalar.
+    """
+    d = cf.d
+    body, var = _coefficient_lines(cf, P)
+    nv = len(var)
+    # rows of B
+    RY = 0  # state, d rows
+    RE = d  # Kahan carries, d rows (non-constant components only used)
+    RC = 2 * d  # coefficients k = 1..P of the non-constant components: RC + vi * P + (k - 1)
+    RX = RC + nv * P  # max |y_0|
+    RA1, RA2, RH = RX + 1, RX + 2, RX + 3
+    R = RX + 4
+
+    def at(row):
+        return f"B[{row * W} + w]"
+
+    def amax(names):
+        if not names:
+            return "0.0"
+        e = f"abs({names[0]})"
+        for t in names[1:]:
+            e = f"max({e}, abs({t}))"
+        return e
+
+    I1, I2, I3, I4, I5 = ("    " * i for i in range(1, 6))
+    load = _kernel_prologue(cf, P)
+    src = ["import math", "import numpy as np", "from numba import njit", "", "", _JIT]
+    src.append("def adaptive_batch(y0, T, tol, max_steps, q, l, out, nsteps):")
+    src += [I1 + x for x in load]
+    src += [
+        I1 + f"B = np.zeros({R * W})",
+        I1 + f"lane = np.full({W}, -1, dtype=np.int64)",
+        I1 + f"tl = np.zeros({W})",
+        I1 + f"kst = np.zeros({W}, dtype=np.int64)",
+        I1 + f"bad = np.zeros({W}, dtype=np.bool_)",
+        I1 + "nxt = 0",
+        I1 + "active = 0",
+        I1 + f"for w in range({W}):",
+        I2 + "if nxt < N:",
+        I3 + "lane[w] = nxt",
+    ]
+    src += [I3 + f"{at(RY + c)} = y0[nxt, {c}]" for c in range(d)]
+    src += [I3 + "nxt += 1", I3 + "active += 1", I1 + "while active > 0:"]
+    # 1. coefficients and norms, all lanes (SIMD)
+    src.append(I2 + f"for w in range({W}):")
+    src += [I3 + f"y{c}_0 = {at(RY + c)}" for c in range(d)]
+    src += [I3 + x for x in body]
+    for vi, c in enumerate(var):
+        src += [I3 + f"{at(RC + vi * P + k - 1)} = y{c}_{k}" for k in range(1, P + 1)]
+    src += [
+        I3 + f"{at(RX)} = {amax([f'y{c}_0' for c in range(d)])}",
+        I3 + f"{at(RA1)} = {amax([f'y{c}_{P - 1}' for c in var])}",
+        I3 + f"{at(RA2)} = {amax([f'y{c}_{P}' for c in var])}",
+    ]
+    # 2. step sizes, per lane (scalar: powers and branches)
+    src += [
+        I2 + f"for w in range({W}):",
+        I3 + f"{at(RH)} = 0.0",
+        I3 + "if lane[w] < 0:",
+        I4 + "continue",
+    ]
+    src += [
+        I3 + x for x in _step_size_lines(P, at(RX), at(RA1), at(RA2), ["bad[w] = True", "continue"])
+    ]
+    src += [
+        I3 + "if tl[w] + h >= Tabs:",
+        I4 + "h = Tabs - tl[w]",
+        I4 + "tl[w] = Tabs",
+        I3 + "else:",
+        I4 + "tl[w] += h",
+        I3 + f"{at(RH)} = sgn * h",
+    ]
+    # 3. Horner and the compensated update, all lanes (SIMD)
+    src += [I2 + f"for w in range({W}):", I3 + f"hs = {at(RH)}"]
+    for vi, c in enumerate(var):
+        e = at(RC + vi * P + P - 1)
+        for k in range(P - 1, 0, -1):
+            e = f"({e})*hs + {at(RC + vi * P + k - 1)}"
+        src += [
+            I3 + f"z = ({e})*hs - {at(RE + c)}",
+            I3 + f"y = {at(RY + c)}",
+            I3 + "v = y + z",
+            I3 + f"{at(RE + c)} = (v - y) - z",
+            I3 + f"{at(RY + c)} = v",
+        ]
+    # 4. bookkeeping, per lane: a finished or failed trajectory is written out and its lane refilled
+    fin = " and ".join(f"math.isfinite({at(RY + c)})" for c in var) or "True"
+    src += [
+        I2 + f"for w in range({W}):",
+        I3 + "n = lane[w]",
+        I3 + "if n < 0:",
+        I4 + "continue",
+        I3 + "if not bad[w]:",
+        I4 + "kst[w] += 1",
+        I3 + f"failed = bad[w] or not ({fin}) or kst[w] > max_steps",
+        I3 + "if not failed and tl[w] < Tabs:",
+        I4 + "continue",
+        I3 + "if failed:",
+        I4 + f"for c in range({d}):",
+        I5 + "out[n, c] = np.nan",
+        I4 + "nsteps[n] = -1",
+        I3 + "else:",
+    ]
+    src += [I4 + f"out[n, {c}] = {at(RY + c)}" for c in range(d)]
+    src += [
+        I4 + "nsteps[n] = kst[w]",
+        I3 + "tl[w] = 0.0",
+        I3 + "kst[w] = 0",
+        I3 + "bad[w] = False",
+    ]
+    src += [I3 + f"{at(RE + c)} = 0.0" for c in range(d)]
+    src += [I3 + "if nxt < N:", I4 + "lane[w] = nxt"]
+    src += [I4 + f"{at(RY + c)} = y0[nxt, {c}]" for c in range(d)]
+    src += [I4 + "nxt += 1", I3 + "else:", I4 + "lane[w] = -1", I4 + "active -= 1"]
+    src += [I4 + f"{at(RY + c)} = 0.0" for c in range(d)]
+    return "\n".join(src) + "\n"

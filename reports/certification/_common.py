@@ -1,0 +1,237 @@
+"""What the checks share: constants, calls into the implementation, the judges' caches.
+
+The float64 judge and the error models live in :mod:`tstarg.oracles.float_judge`."""
+
+from __future__ import annotations
+
+import inspect
+import math
+from collections import OrderedDict
+
+import numpy as np
+from hypothesis import currently_in_test_context
+from hypothesis import target as hyp_target
+
+from tstarg.oracles.float_judge import (
+    FloatJudge,
+    conditioning,
+    reference_work,
+)
+from tstarg.refimpl import CATALOGUE_NAMES, catalogue
+from tstarg.refimpl.reference import Reference
+from tstarg.refimpl.rigorous import Rigorous
+
+_REF = Reference(30)
+
+_JUDGE = Rigorous(200)
+
+JUDGE = (
+    "brackets: refimpl.rigorous (Arb balls, 200 bits; errors are proven upper bounds, digits proven "
+    "digits); vector fields and flows: refimpl.reference (mpmath, 30 digits and above)"
+)
+
+FLOW_T_MAX = 10.0
+"""Largest ``|t|`` drawn by ``flow.long`` (a declared ``max_abs_t`` lowers it). Widen it once every
+algebra can be flowed past the chart edge by the judges (issue 13)."""
+
+FLOW_REF_T_MAX = 1.0
+"""Largest ``|t|`` compared against the mpmath reference flow (``flow.reference``)."""
+
+REFERENCE_WORK_LIMIT = 60.0
+"""Per-example work limit of the mpmath reference flow, in the units of :func:`reference_work`
+(about 2 s of reference time on this machine; su(2) with gravity at t = 1 costs ~25)."""
+
+LONG_WORK_LIMIT = 30.0
+"""``flow.long``: largest ``|t| (1 + rho)`` (time in units of the fastest rate at the start), so that
+exponential growth on non-compact algebras stays within float64's reach."""
+
+FLOW_COND_LIMIT = 1e3
+"""Flows in the batch and input checks start where ``cond(Phi) <= 1e3`` and ``|t| (1 + rho) <= 3``:
+those checks are about the protocol, not accuracy, and must stay cheap for any implementation."""
+
+ALLOW_CHART_REFUSAL = False
+"""Accept (count, and state in the certificate) a ``ValueError`` from ``flow`` when the trajectory
+leaves the chart of exponential coordinates (the judge's ``x`` reaches ``||ad_x||_2 = 0.9 * 2 pi``)
+or the algebra is not a catalogue algebra with a known matrix representation: refimpl's flows
+cannot yet re-base ``g(t)`` there (issue 13). Set False once they can."""
+
+DRIFT_T = 25.0
+"""Longest time of ``flow.drift`` (a declared ``max_abs_t`` lowers it)."""
+
+DRIFT_WORK_LIMIT = 12.0
+"""``flow.drift`` runs to ``T = min(DRIFT_T, DRIFT_WORK_LIMIT / (1 + rho))``: long in the motion's
+own time scale, bounded in cost for any implementation (raise both for a thorough run)."""
+
+
+def _aim(ratio: float, label: str) -> None:
+    """Guide Hypothesis' search towards the largest error/tolerance ratio (targeted PBT). Outside a
+    Hypothesis test (``--replay``, a body called directly) there is no search to guide: nothing."""
+    if math.isfinite(ratio) and ratio > 0 and currently_in_test_context():
+        hyp_target(math.log10(ratio), label=label)
+
+
+def _call(impl, method, *args, **kw):
+    return getattr(impl, method)(*args, **kw)
+
+
+def _finite_array(value, shape, what) -> np.ndarray:
+    arr = np.asarray(value, dtype=float)
+    if arr.shape != shape:
+        raise AssertionError(f"{what}: result has shape {arr.shape}, expected {shape}")
+    return arr
+
+
+def _digits(err, scale):
+    return math.inf if err == 0 else -math.log10(err / scale)
+
+
+class _RefCache:
+    """Reference flows cached by value (shrinking replays the same inputs many times)."""
+
+    def __init__(self, size: int = 256):
+        self.data: OrderedDict = OrderedDict()
+        self.size = size
+
+    def get(self, key, compute):
+        if key in self.data:
+            self.data.move_to_end(key)
+            return self.data[key]
+        val = compute()
+        self.data[key] = val
+        if len(self.data) > self.size:
+            self.data.popitem(last=False)
+        return val
+
+
+_FLOW_CACHE = _RefCache()
+
+
+def _key(*arrays) -> tuple:
+    out = []
+    for a in arrays:
+        if isinstance(a, dict):
+            out.append(tuple((k, _key(v)) for k, v in sorted(a.items())))
+        elif a is None or isinstance(a, (str, float, int)):
+            out.append(a)
+        else:
+            arr = np.ascontiguousarray(np.asarray(a, dtype=float))
+            out.append((arr.shape, arr.tobytes()))
+    return tuple(out)
+
+
+def _accepts_steps(impl) -> bool:
+    try:
+        sig = inspect.signature(impl.flow)
+    except (TypeError, ValueError):
+        return False
+    return "steps" in sig.parameters or any(
+        p.kind is p.VAR_KEYWORD for p in sig.parameters.values()
+    )
+
+
+def _as_lists(a):
+    return (
+        None
+        if a is None
+        else (
+            np.asarray(a).tolist()
+            if not isinstance(a, dict)
+            else {k: (v if k == "kind" else np.asarray(v).tolist()) for k, v in a.items()}
+        )
+    )
+
+
+def _odd_layout(a):
+    """``a`` with the same values in an unusual, read-only memory layout: a vector as a strided view
+    (every other element of a larger buffer), a matrix or ``f`` in Fortran order."""
+    if a is None:
+        return None
+    if isinstance(a, dict):
+        return {k: (v if k == "kind" else _odd_layout(v)) for k, v in a.items()}
+    a = np.asarray(a, dtype=float)
+    if a.ndim == 1:
+        buf = np.zeros(2 * a.size)
+        buf[::2] = a
+        v = buf[::2]
+    else:
+        v = np.asfortranarray(a)
+    v.flags.writeable = False
+    return v
+
+
+def _cheap_flow(model, inertia, pot, pts, t) -> bool:
+    f, theta, ups = model
+    for x, p in pts:
+        c, _ = conditioning(f, theta, ups, x, p)
+        if not c <= FLOW_COND_LIMIT:
+            return False
+        if reference_work(f, theta, ups, inertia, pot, x, p, t) / f.shape[0] ** 3 > 3.0:
+            return False
+    return True
+
+
+def _judge_state(f, theta, ups, inertia, pot, x, pi, t):
+    """``((x, pi, Ad), errors)`` of the float64 judge, cached by value."""
+    return _FLOW_CACHE.get(
+        ("judge",) + _key(f, theta, ups, inertia, pot, x, pi, float(t)),
+        lambda: FloatJudge(f, theta, ups, inertia, pot).judged(x, pi, t),
+    )
+
+
+def _judge_group(f, theta, ups, inertia, pot, x, pi, t):
+    """``((x, pi, Ad), errors, G)`` of the float64 judge carrying ``G = rho(g)`` as well where the
+    centre is non-trivial (``G`` None and three errors otherwise; four with ``G``), cached by value."""
+    out = _FLOW_CACHE.get(
+        ("judge-group",) + _key(f, theta, ups, inertia, pot, x, pi, float(t)),
+        lambda: FloatJudge(f, theta, ups, inertia, pot, group=True).judged(x, pi, t),
+    )
+    return out if len(out) == 3 else (*out, None)
+
+
+def _catalogue_rep(f) -> bool:
+    f = np.asarray(f, dtype=float)
+    return any(
+        catalogue(nm).rep is not None
+        and catalogue(nm).f.shape == f.shape
+        and np.array_equal(catalogue(nm).f, f)
+        for nm in CATALOGUE_NAMES
+    )
+
+
+def _count(stats, key, message=None):
+    stats[key] = stats.get(key, 0) + 1
+    if message is not None:
+        stats.setdefault("refusal message", message[:200])
+
+
+def _time_ok(dom, t) -> bool:
+    return (dom.max_abs_t is None or abs(t) <= dom.max_abs_t) and (
+        t >= 0 or dom.negative_t is not False
+    )
+
+
+def _flow_call(impl, dom, stats, args, t):
+    """``impl.flow(*args, t)``. A ValueError is accepted (``None``, counted) for ``t < 0`` from an
+    implementation that does not declare negative times, and for a trajectory that leaves the chart
+    (:data:`ALLOW_CHART_REFUSAL`); anything else that raises inside the domain fails."""
+    try:
+        return _call(impl, "flow", *args, t)
+    except ValueError as exc:
+        if t < 0 and dom.negative_t is None:
+            _count(stats, "negative t refused (ValueError)", str(exc))
+            return None
+        if ALLOW_CHART_REFUSAL:
+            try:
+                (jx, _, _), _ = _judge_state(*args, t)
+            except (ArithmeticError, np.linalg.LinAlgError):
+                jx = None
+            if jx is None or not _catalogue_rep(args[0]):
+                _count(stats, "refused past the chart edge (ValueError)")
+                return None
+        raise AssertionError(
+            f"flow raised ValueError at t = {t:g} inside the declared domain: {exc}"
+        ) from None
+
+
+def _has(impl, method) -> bool:
+    return callable(getattr(impl, method, None))

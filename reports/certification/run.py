@@ -1,0 +1,345 @@
+"""Running the battery: :func:`certify` over the registry's checks, in this process or spread over
+workers (:func:`certify_parallel`), and the mutation kill rate."""
+
+from __future__ import annotations
+
+import time
+
+from tstarg.properties.runner import CheckResult, announce, finished, run_property
+
+from .._imports import resolve
+from ._common import _has
+from .certificate import Certificate, reproduce_command
+from .domain import Domain, declared_domain
+from .registry import CHECKS, MUTANT_CHECKS, MUTATIONS, REGISTRY, mutant
+
+
+def load_target(spec: str):
+    """``"package.module:object"`` (object may be dotted) to the object."""
+    return resolve(spec)
+
+
+def certify(
+    impl,
+    *,
+    max_examples: int = 20,
+    seed: int | None = 0,
+    skips: dict | None = None,
+    xfails: dict | None = None,
+    target: str = "",
+    checks: list[str] | None = None,
+    shrink: bool = True,
+    stop_on_failure: bool = False,
+) -> Certificate:
+    """Run every check ``impl``'s methods allow; missing methods are skipped with the reason.
+
+    ``stop_on_failure=True`` skips the remaining checks after the first failure (enough
+    for a verdict); with ``shrink=False`` too, a failing check also stops at its first failing
+    example.
+
+    ``shrink=False`` reports the first failing example as found (no shrinking, no
+    explanation phase): much faster when only the verdict matters (mutation tests).
+    """
+    from hypothesis import Phase, settings
+
+    previous = settings.default
+    if not shrink:
+        settings.register_profile(
+            "_tstarg_certify_noshrink",
+            parent=previous,
+            phases=[Phase.explicit, Phase.reuse, Phase.generate, Phase.target],
+        )
+        settings.load_profile("_tstarg_certify_noshrink")
+    try:
+        return _certify(
+            impl,
+            max_examples=max_examples,
+            seed=seed,
+            skips=skips,
+            xfails=xfails,
+            target=target,
+            checks=checks,
+            stop_on_failure=stop_on_failure,
+        )
+    finally:
+        if not shrink:
+            settings.register_profile("_tstarg_certify_restore", parent=previous)
+            settings.load_profile("_tstarg_certify_restore")
+
+
+def _applicable(impl, cid: str, dom: Domain) -> str | None:
+    """Why check ``cid`` does not apply to ``impl`` (None: it applies): a method it needs is
+    missing, or the check's own condition (:attr:`Check.applies`)."""
+    check = REGISTRY[cid]
+    why = check.missing([m for m in check.needs if _has(impl, m)])
+    if why is None and check.applies is not None:
+        why = check.applies(impl, dom)
+    return why
+
+
+def _note_stats(cert, cid: str, stats: dict, dom) -> None:
+    for k, v in stats.items():
+        if k.startswith(("redrawn", "negative t refused")) or "refused past" in k:
+            cert.notes.append(f"{cid}: {k}: {v}")
+    if stats.get("negative t judged"):
+        cert.notes.append(
+            f"{cid}: flow at negative times judged on {stats['negative t judged']} examples"
+            + (" (negative_t declared: a refusal fails)" if dom.negative_t else "")
+        )
+    if "negative t refused (ValueError)" in stats and not any("t < 0" in n for n in cert.notes):
+        cert.notes.append(
+            f"flow at t < 0 refused by the implementation (ValueError: "
+            f"{stats.get('refusal message', '')}): negative times are not certified"
+        )
+
+
+def _certify(
+    impl, *, max_examples, seed, skips, xfails, target, checks, stop_on_failure=False
+) -> Certificate:
+    t0 = time.perf_counter()
+    dom = declared_domain(impl)
+    cert = Certificate(
+        implementation=str(getattr(impl, "name", type(impl).__name__)),
+        version=str(getattr(impl, "version", "unknown")),
+        target=target or repr(impl),
+        seed=seed,
+        max_examples=max_examples,
+        xfailed=dict(xfails or {}),
+        command=reproduce_command(target, seed, max_examples),
+        domain=dom.describe(),
+    )
+    skips = dict(skips or {})
+    for cid, check in REGISTRY.items():
+        if checks is not None and cid not in checks:
+            continue
+        if stop_on_failure and cert.failed:
+            cert.skipped[cid] = "not run: an earlier check already failed (stop_on_failure)"
+            continue
+        if cid in skips:
+            cert.skipped[cid] = skips[cid]
+            continue
+        why = _applicable(impl, cid, dom)
+        if why is not None:
+            cert.skipped[cid] = why
+            continue
+        for variant in check.plan(impl, dom):
+            name = cid if variant.suffix is None else f"{cid}[{variant.suffix}]"
+            if variant.skip is not None:
+                cert.skipped[name] = variant.skip
+                continue
+            stats: dict = {}
+            body, strat = check.build(impl, dom, stats, **variant.kwargs)
+            if body is None:
+                cert.skipped[name] = strat
+                continue
+            res = run_property(
+                name,
+                variant.equations or check.equations,
+                body,
+                strat,
+                max_examples=variant.factor * check.budget(max_examples),
+                seed=seed,
+            )
+            res.extra.update(stats)
+            if check.extra is not None:
+                res.extra.update(check.extra(impl))
+            cert.checks.append(res)
+            _note_stats(cert, cid, stats, dom)
+            if stop_on_failure and cert.failed:
+                break
+    cert.incidents = list(getattr(impl, "incidents", []) or [])
+    cert.seconds = time.perf_counter() - t0
+    return cert
+
+
+def _materialize(spec):
+    """A certification target from its picklable description: ``"module:object"`` or
+    ``{"cmd": "PROGRAM ARGS", "timeout": seconds}`` (a fresh program per worker)."""
+    if isinstance(spec, str):
+        return load_target(spec)
+    if isinstance(spec, dict) and "cmd" in spec:
+        from .jsonl import CommandImplementation
+
+        return CommandImplementation(spec["cmd"], timeout=float(spec.get("timeout", 10.0)))
+    raise ValueError(
+        f"certification target must be 'module:object' or {{'cmd': ...}}, got {spec!r}"
+    )
+
+
+def _certify_unit(item) -> Certificate:
+    """Worker of :func:`certify_parallel`: one check id (all its regimes) on a freshly loaded target."""
+    spec, cid, kwargs = item
+    impl = _materialize(spec)
+    try:
+        return certify(impl, checks=[cid], **kwargs)
+    finally:
+        if hasattr(impl, "close"):
+            impl.close()
+
+
+def certify_parallel(
+    spec,
+    *,
+    workers: int | None = None,
+    scheduler=None,
+    max_examples: int = 20,
+    seed: int | None = 0,
+    skips: dict | None = None,
+    xfails: dict | None = None,
+    target: str = "",
+    shrink: bool = True,
+    checks: list[str] | None = None,
+) -> Certificate:
+    """:func:`certify` with the check ids spread over worker processes or a Dask cluster.
+
+    ``spec`` names the target so that each worker can load it (``"module:object"``, or
+    ``{"cmd": ..., "timeout": ...}`` for a JSON-lines program: one program per worker).
+    Each check id runs exactly as it would serially (same seed, same examples); the
+    partial certificates are merged in :data:`CHECKS` order, so the result equals the serial
+    one except for timings (``tests/test_parallel.py``). ``workers=1`` without a scheduler
+    runs in this process.
+    """
+    from ._parallel import map_tasks
+
+    t0 = time.perf_counter()
+    ids = [c for c in CHECKS if checks is None or c in checks]
+    kwargs = {
+        "max_examples": max_examples,
+        "seed": seed,
+        "skips": skips,
+        "xfails": xfails,
+        "target": target,
+        "shrink": shrink,
+    }
+    parts = map_tasks(
+        _certify_unit, [(spec, cid, kwargs) for cid in ids], workers=workers, scheduler=scheduler
+    )
+    first = parts[0] if parts else _certify_unit((spec, None, kwargs))
+    cert = Certificate(
+        implementation=first.implementation,
+        version=first.version,
+        target=first.target,
+        seed=seed,
+        max_examples=max_examples,
+        xfailed=dict(xfails or {}),
+        command=first.command,
+        domain=first.domain,
+    )
+    for part in parts:
+        cert.checks.extend(part.checks)
+        cert.skipped.update(part.skipped)
+        cert.incidents.extend(part.incidents)
+        cert.notes.extend(n for n in part.notes if n not in cert.notes)
+    cert.seconds = time.perf_counter() - t0
+    return cert
+
+
+def certificate_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
+    """``tstarg verify`` provider: the certificate of the fast implementation (dogfood) and the
+    mutation kill rate (every mutant of :mod:`reports.mutants` must be rejected, the correct
+    ``Plain`` accepted). Both at a budget of ``max(4, max_examples // 3)`` examples per check."""
+    from tstarg.refimpl.fast import implementation as fast
+
+    k = max(4, max_examples // 3)
+    t0 = time.perf_counter()
+    announce("certificate[refimpl.fast]")  # the progress display's current step
+    cert = certify(fast, max_examples=k, seed=seed, target="tstarg.refimpl.fast:implementation")
+    digits = [c.min_digits for c in cert.checks if c.min_digits is not None]
+    res_cert = CheckResult(
+        name="certificate[refimpl.fast]",
+        equations="vier9, vier10, vier11",
+        examples=sum(c.examples for c in cert.checks),
+        worst_ratio=max((c.worst_ratio for c in cert.checks), default=0.0),
+        min_digits=min(digits) if digits else None,
+        passed=cert.passed,
+        detail="" if cert.passed else cert.summary(),
+        seconds=time.perf_counter() - t0,
+        extra={"certificate": cert.to_json()},
+    )
+    finished(res_cert)
+    t1 = time.perf_counter()
+    announce("mutation_kill_rate", len(MUTATIONS) + 1)  # one step per mutant, as they arrive
+    kr = kill_rate(max_examples=k, seed=seed, on_result=_kill_progress())
+    res_kill = CheckResult(
+        name="mutation_kill_rate",
+        equations="(meta)",
+        examples=len(kr["killed"]) + len(kr["survived"]),
+        worst_ratio=0.0 if kr["rate"] == 1.0 and kr["correct_passes"] else float("inf"),
+        passed=kr["rate"] == 1.0 and kr["correct_passes"],
+        detail=f"kill rate {kr['rate']:.0%}; survivors: {kr['survived']}; correct implementation passes: {kr['correct_passes']}",
+        seconds=time.perf_counter() - t1,
+        extra=kr,
+    )
+    return [res_cert, finished(res_kill)]
+
+
+def _kill_progress():
+    """The progress of :func:`kill_rate` inside ``tstarg verify``: the mutants certified so far."""
+    from tstarg.properties import runner as _checks
+
+    count = [0]
+
+    def on_result(index, value):
+        count[0] += 1
+        _checks._report("example", "mutation_kill_rate", count[0], len(MUTATIONS) + 1)
+
+    return on_result
+
+
+def _certify_mutant(item) -> bool:
+    """Worker of :func:`kill_rate`: does the mutant ``name`` (``None``: the correct ``Plain``) pass?"""
+    from tstarg.properties import runner as _checks
+
+    name, max_examples, seed = item
+    # The mutants' own checks fail by design: keep them out of any progress display.
+    listeners = list(_checks.PROGRESS)
+    _checks.PROGRESS.clear()
+    try:
+        cert = certify(
+            mutant(name),
+            max_examples=max_examples,
+            seed=seed,
+            checks=MUTANT_CHECKS.get(name),
+            shrink=False,
+            stop_on_failure=name is not None,
+        )
+        return cert.passed
+    finally:
+        _checks.PROGRESS[:] = listeners
+
+
+def kill_rate(
+    *,
+    max_examples: int = 8,
+    seed: int | None = 0,
+    workers: int | None = None,
+    scheduler=None,
+    on_result=None,
+) -> dict:
+    """Certify every mutant of :mod:`reports.mutants` (stopping at its first failed check) and the
+    correct ``Plain``.
+
+    The mutants are independent tasks of :func:`reports._parallel.map_tasks` (local processes
+    by default, ``workers=1`` in this process, or a Dask ``scheduler``).
+    Returns ``{"killed": [...], "survived": [...], "rate": float, "correct_passes": bool}``.
+    """
+    from ._parallel import map_tasks
+
+    names = list(MUTATIONS) + [None]
+    passed = map_tasks(
+        _certify_mutant,
+        [(n, max_examples, seed) for n in names],
+        workers=workers,
+        scheduler=scheduler,
+        on_result=on_result,
+    )
+    verdict = dict(zip(names, passed))
+    killed = [n for n in MUTATIONS if not verdict[n]]
+    survived = [n for n in MUTATIONS if verdict[n]]
+    return {
+        "killed": killed,
+        "survived": survived,
+        "rate": len(killed) / len(MUTATIONS),
+        "correct_passes": verdict[None],
+        "mutants": dict(MUTATIONS),
+    }
