@@ -36,7 +36,7 @@ import scipy
 from threadpoolctl import threadpool_info, threadpool_limits
 
 from tstarg.refimpl import _compiled_taylor as _ct
-from tstarg.refimpl import catalogue
+from tstarg.refimpl import catalogue, provides
 from tstarg.refimpl.fast import Fast
 from tstarg.refimpl.flows import METHODS, method
 
@@ -45,6 +45,7 @@ from . import _workprecision as wp
 from ._atomic import claim_output, write_text
 from ._imports import import_module, resolve
 from ._parallel import describe, map_tasks, parallel_options
+from ._progress import Progress, is_quiet
 from ._workprecision import fmt_err, fmt_time
 from .jsonl import CommandImplementation, ProgramFailure, check_timeout
 
@@ -176,7 +177,8 @@ def main(args) -> int:
         print(f"tstarg bench: {exc}", file=sys.stderr)
         return 2
     try:
-        return _main(args, problems, protocol, contender, t_start)
+        with Progress("bench", quiet=is_quiet(args)) as display:
+            return _main(args, problems, protocol, contender, t_start, display)
     finally:
         if contender is not None:
             contender.close()
@@ -195,7 +197,8 @@ def _protocol_names(args) -> list[str]:
     return names
 
 
-def _main(args, problems, protocol, contender, t_start) -> int:
+def _main(args, problems, protocol, contender, t_start, display: Progress) -> int:
+    """The run; ``display`` shows each step (every step over ~2 s has a line or a heartbeat)."""
     opts = parallel_options(args)
     S = _settings(args.quick)
     if args.ref_dps is not None:
@@ -205,10 +208,9 @@ def _main(args, problems, protocol, contender, t_start) -> int:
         S["ref_dps"] = args.ref_dps
     out = claim_output(Path(args.out))  # a concurrent run gets its own folder and says so
     out.mkdir(parents=True, exist_ok=True)
-    print(
-        f"tstarg bench{' --quick' if args.quick else ''}: references and error ladders on {describe(**opts)}; "
-        f"{TIMING_NOTE}",
-        flush=True,
+    display.note(
+        f"tstarg bench{' --quick' if args.quick else ''}: references and error ladders on "
+        f"{describe(**opts)}; {TIMING_NOTE}"
     )
     report = {
         "command": "tstarg " + " ".join(sys.argv[1:])
@@ -224,8 +226,15 @@ def _main(args, problems, protocol, contender, t_start) -> int:
     }
 
     # ---- 1. flows: references, error ladders (parallel), timings (serial)
+    if problems:
+        display.phase(f"references of {', '.join(problems)} (mpmath, in parallel)")
     refs = map_tasks(
-        wp.reference_task, [(n, args.quick, S["ref_dps"], S["ref_check"]) for n in problems], **opts
+        wp.reference_task,
+        [(n, args.quick, S["ref_dps"], S["ref_check"]) for n in problems],
+        **opts,
+        on_result=display.callback(
+            lambda i, v: f"reference {v['problem']}", lambda i, v: f"{v['seconds']:.1f} s"
+        ),
     )
     heyoka = wp.have_heyoka() and not args.no_heyoka
     report["compiled_path"] = _ct.PATH
@@ -289,15 +298,22 @@ def _main(args, problems, protocol, contender, t_start) -> int:
                     S["target_cap"],
                 )
             )
-        print(f"  {name}: reference {ref['how']} ({ref['seconds']:.1f} s)", flush=True)
-    ladders = map_tasks(wp.ladder_task, items, **opts)
-    print(
-        f"  error ladders done ({sum(len(l['points']) for l in ladders)} runs); timing serially...",
-        flush=True,
+        display.note(f"  {name}: reference {ref['how']} ({ref['seconds']:.1f} s)")
+    if items:
+        display.phase(f"error ladders of {len(items)} methods (in parallel)")
+    ladders = map_tasks(
+        wp.ladder_task,
+        items,
+        **opts,
+        on_result=display.callback(
+            lambda i, v: f"error ladder {v['kind']} {v['method']} on {v['problem']}",
+            lambda i, v: f"{len(v['points'])} points; {v['stop']}",
+        ),
     )
     if contender is not None:
         report["impl"] = contender.describe()
     for name, ref in zip(problems, refs):
+        display.start(f"timing {name} (every point, serially, interleaved)")
         extra = () if contender is None else contender.flow_rows(name, args.quick, ref, S)
         report["flows"][name] = _time_flow(
             name,
@@ -311,7 +327,8 @@ def _main(args, problems, protocol, contender, t_start) -> int:
         )
         if contender is not None:
             contender.flow_ratios(name, report["flows"][name])
-        _print_flow(report["flows"][name])
+        display.done(None, f"{len(report['flows'][name]['points'])} points")
+        _print_flow(report["flows"][name], display)
     report["compile"] = {
         "tstarg": {
             **_ct.compile_count(),
@@ -324,15 +341,16 @@ def _main(args, problems, protocol, contender, t_start) -> int:
 
     # ---- 2. the protocol flow on every algebra against heyoka
     if protocol and not heyoka:
-        print(
+        display.note(
             "  protocol-flow section skipped: heyoka is not included (the peer it measures against)"
         )
     elif protocol:
         M = args.protocol_batch if args.protocol_batch is not None else S["protocol_batch"]
-        report["protocol"] = _protocol(args.quick, S, opts, protocol, M)
+        report["protocol"] = _protocol(args.quick, S, opts, protocol, M, display)
 
     # ---- 3. brackets
     if not args.no_brackets:
+        display.phase("brackets: errors (in parallel) and times (serially)")
         report["brackets"] = _brackets(
             args.quick,
             S,
@@ -343,7 +361,7 @@ def _main(args, problems, protocol, contender, t_start) -> int:
         if contender is not None:
             contender.bracket_ratios(report["brackets"])
         for row in report["brackets"]["summary"]:
-            print(
+            display.note(
                 f"  brackets {row['algebra']:6s} {row['method']:28s} worst error {wp.fmt_err(row['error'])} "
                 f"time/point {wp.fmt_time(row['time_per_point'])}"
             )
@@ -351,10 +369,11 @@ def _main(args, problems, protocol, contender, t_start) -> int:
     # ---- 4. batch throughput
     if not args.no_batch and "heavy_top" in report["flows"]:
         if args.batch_method not in {r["method"] for r in report["flows"]["heavy_top"]["points"]}:
-            print(
+            display.note(
                 f"  batch throughput skipped: --batch-method {args.batch_method} was not benchmarked on the heavy top"
             )
         else:
+            display.phase("batch throughput: 1, 10^2, 10^4 trajectories against scipy")
             report["batch"] = _batch(
                 args.quick,
                 S,
@@ -365,16 +384,17 @@ def _main(args, problems, protocol, contender, t_start) -> int:
                 args.batch_method,
             )
             for r in report["batch"]["rows"]:
-                print(
+                display.note(
                     f"  batch M={r['M']:>6d}: ours {wp.fmt_time(r['ours_per_traj'])}/traj, scipy DOP853 loop "
                     f"{wp.fmt_time(r['scipy_per_traj'])}/traj, time ratio ours/scipy {r['ratio']:.3g}"
                 )
             if heyoka:
+                display.phase("the largest batch against heyoka's taylor_adaptive_batch")
                 report["batch_heyoka"] = _batch_heyoka(
                     args.quick, S, report["batch"]["method"], report["batch"]["steps"]
                 )
                 for r in report["batch_heyoka"]["rows"]:
-                    print(
+                    display.note(
                         f"  batch vs heyoka M={r['M']}: {r['label']}: worst error {wp.fmt_err(r['worst'])}, "
                         f"{wp.fmt_time(r['per_traj'])}/traj, ratio to heyoka {r['ratio']:.3g}"
                     )
@@ -383,12 +403,13 @@ def _main(args, problems, protocol, contender, t_start) -> int:
         _reuse(report, Path(args.reuse), out)
     report["loadavg_end"] = list(os.getloadavg())
     report["seconds"] = time.perf_counter() - t_start
+    display.phase("writing the report")
     write_text(
         out / "report.json",
         json.dumps(_finite(report), indent=1, default=_json_default, allow_nan=False),
     )
     write_text(out / "report.md", render_markdown(report))
-    print(
+    display.note(
         f"wrote {out / 'report.json'}, {out / 'report.md'} and figures ({report['seconds']:.0f} s)"
     )
     return 0
@@ -616,7 +637,9 @@ def _time_flow(name, quick, ref, ladders, skipped, out, rounds, extra=()) -> dic
     }
 
 
-def _protocol(quick: bool, S: dict, opts: dict, names: list[str], M: int) -> dict:
+def _protocol(
+    quick: bool, S: dict, opts: dict, names: list[str], M: int, display: Progress
+) -> dict:
     """The protocol flow against heyoka on each problem (:mod:`reports._bench_protocol`): the judges
     (real128 end states, long-double batch samples) in parallel, then every timing serially."""
     K = min(S["protocol_sample"], M)
@@ -627,18 +650,24 @@ def _protocol(quick: bool, S: dict, opts: dict, names: list[str], M: int) -> dic
         "dir": str(root),
         "files_at_start": sum(1 for q in root.rglob("*") if q.is_file()) if root.is_dir() else 0,
     }
-    print(
-        f"  protocol flow: references for {', '.join(names)} (heyoka real128; batch samples of {K} "
-        "in long double)...",
-        flush=True,
+    display.phase(
+        f"protocol flow: judges of {', '.join(names)} (heyoka real128; batch samples of {K} in "
+        "long double; in parallel)"
     )
-    refs = map_tasks(bp.reference_task, [(n, quick) for n in names], **opts)
+    refs = map_tasks(
+        bp.reference_task,
+        [(n, quick) for n in names],
+        **opts,
+        on_result=display.callback(
+            lambda i, v: f"protocol judge {v['problem']}", lambda i, v: v["how"]
+        ),
+    )
     samples = map_tasks(
         bp.batch_reference_task, [(n, quick, M, j) for n in names for j in range(K)], **opts
     )
     out: dict = {}
     for i, (name, ref) in enumerate(zip(names, refs)):
-        print(f"  protocol flow: {name}: one trajectory (ours, heyoka's grid)...", flush=True)
+        display.start(f"protocol flow {name}: one trajectory (ours, heyoka's grid)")
         r = bp.measure_problem(name, quick, ref, S["rounds"], modes=S["protocol_modes"])
         best = r["heyoka_best"]
         hy_txt = (
@@ -648,25 +677,25 @@ def _protocol(quick: bool, S: dict, opts: dict, names: list[str], M: int) -> dic
             if best
             else r["note"]
         )
-        print(
-            f"    ours {fmt_time(r['ours']['time'])}, error {fmt_err(r['ours']['error'])}; {hy_txt}",
-            flush=True,
+        display.done(
+            None,
+            f"ours {fmt_time(r['ours']['time'])}, error {fmt_err(r['ours']['error'])}; {hy_txt}",
         )
-        print(f"  protocol flow: {name}: batch of {M}...", flush=True)
+        display.start(f"protocol flow {name}: batch of {M}")
         compact = best["compact_mode"] if best else True
         r["batch"] = bp.measure_batch(
             name, quick, M, samples[i * K : (i + 1) * K], min(3, S["rounds"]), compact
         )
         b = r["batch"]
-        print(
-            f"    batch: ours {fmt_time(b['ours']['per_traj'])}/traj (worst sampled error "
+        display.done(
+            None,
+            f"ours {fmt_time(b['ours']['per_traj'])}/traj (worst sampled error "
             f"{fmt_err(b['ours']['error'])}); "
             + (
                 f"heyoka {fmt_time(b['heyoka_best']['time'] / M)}/traj: ratio {b['ratio']:.3g}"
                 if b["heyoka_best"]
                 else "heyoka's grid does not reach our error"
             ),
-            flush=True,
         )
         out[name] = r
     return {
@@ -694,8 +723,8 @@ def _protocol(quick: bool, S: dict, opts: dict, names: list[str], M: int) -> dic
     }
 
 
-def _print_flow(res) -> None:
-    print(
+def _print_flow(res, display: Progress) -> None:
+    display.note(
         f"  {res['title']}: {len(res['points'])} points, "
         f"{sum(r['on_front'] for r in res['points'])} on the Pareto front"
     )
@@ -708,12 +737,12 @@ def _print_flow(res) -> None:
                     f"; heyoka {fmt_time(r['t_heyoka'])}: ratio {r['ratio_best_over_heyoka']:.3g}"
                 )
             )
-            print(
+            display.note(
                 f"    error {r['label']}: best tstarg {r['best_tstarg']} {fmt_time(r['t_best'])}, "
                 f"scipy DOP853 {fmt_time(r['t_dop853'])}: ratio {r['ratio_best_over_dop853']:.3g}{hy}"
             )
         else:
-            print(f"    error {r['label']}: {r['note']}")
+            display.note(f"    error {r['label']}: {r['note']}")
 
 
 def _fast_path(case: dict) -> str:
@@ -1251,7 +1280,7 @@ def _load_contender(args):
             )
         except ImportError as exc:
             raise ValueError(f"{what}: cannot import it: {exc}") from None
-        provided = [m for m in ("flow", "poisson_tensor") if callable(getattr(obj, m, None))]
+        provided = [m for m in ("flow", "poisson_tensor") if provides(obj, m)]
     if not provided:
         if isinstance(obj, CommandImplementation):
             obj.close()

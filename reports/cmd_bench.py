@@ -8,6 +8,7 @@ only, so that ``tstarg --help`` does not load numpy, scipy and the kernels).
 from __future__ import annotations
 
 from ._parallel import add_parallel_arguments
+from ._progress import add_quiet_argument
 
 HELP = (
     "work-precision benchmarks: flows and brackets vs scipy, heyoka and the mpmath reference, "
@@ -99,6 +100,7 @@ def add_arguments(p) -> None:
         help="with --cmd: seconds per request (default 600: a flow to t = 100 may be long)",
     )
     add_parallel_arguments(p)
+    add_quiet_argument(p)
 
 
 def main(args) -> int:
