@@ -9,7 +9,7 @@ records which is which.
 Tools of the first-principles route:
 
 * su(2) group elements as 2x2 matrices ``exp(x^a E_a)``, ``E_a = -(i/2) sigma_a``
-  (CONVENTIONS.md), coordinates of the first kind recovered by ``mpmath.logm``
+  (docs/conventions.md), coordinates of the first kind recovered by ``mpmath.logm``
   (``x^a = -2 tr(X E_a)`` since ``tr(E_a E_b) = -delta_ab / 2``), derivatives by
   ``mpmath.diff``; all at 30+ digits, tolerance ``10^-(dps - 8)`` times the scale;
 * exact rational arithmetic (sympy) for algebraic identities.
@@ -131,7 +131,7 @@ def twee1_frame_printed() -> Outcome:
 
 
 def twee1_frame_corrected() -> Outcome:
-    """Corrected: ``L^a_b(g, h) = d(gh)^a / dh^b``; then ``L(g, e) = phi1(-ad_x)^-1`` (CONVENTIONS.md)
+    """Corrected: ``L^a_b(g, h) = d(gh)^a / dh^b``; then ``L(g, e) = phi1(-ad_x)^-1`` (docs/conventions.md)
     and ``L(g^-1, g) = phi1(-ad_x)`` (twee1, twee4, twee5: the coframe is dual to the frame)."""
     with mpmath.workdps(DPS + 15):
         x = [mpmath.mpf(v) for v in _X0]
@@ -502,9 +502,9 @@ PAPER_LABELS = (
 
 
 def paper_path() -> Path | None:
-    """The paper's LaTeX source: ``$TSTARG_PAPER``, else ``shared/paper.tex`` in the folder holding the
-    repository (``../shared/paper.tex``) or in a folder above it (a git worktree such as
-    ``/work/wt/<name>`` sits one level deeper than the main checkout)."""
+    """The paper's LaTeX source, needed only to re-index the paper (the index ships with the
+    package, :mod:`oracles.paper_index`): ``$TSTARG_PAPER``, else a ``shared/paper.tex`` in a
+    folder above the checkout (the authors' layout), else None."""
     repo = Path(__file__).resolve().parents[1]
     cands = [os.environ.get("TSTARG_PAPER")] + [a / "shared" / "paper.tex" for a in repo.parents]
     for c in cands:

@@ -20,6 +20,8 @@ import random
 import mpmath
 import sympy as sp
 
+from tstarg.refimpl._validate import exact_sympy
+
 from .claim_checks import (
     _E,
     _X0,
@@ -48,8 +50,8 @@ def _from_brackets(n: int, brackets: dict) -> list:
     F = [[[sp.Integer(0)] * n for _ in range(n)] for _ in range(n)]
     for (a, b), out in brackets.items():
         for m, c in out.items():
-            F[m][a][b] = sp.sympify(c)
-            F[m][b][a] = -sp.sympify(c)
+            F[m][a][b] = exact_sympy(c, f"f^{m}_{a}{b}")
+            F[m][b][a] = -F[m][a][b]
     return F
 
 

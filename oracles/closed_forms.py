@@ -1,4 +1,4 @@
-"""Closed-form solutions and first integrals, stated in our conventions (CONVENTIONS.md).
+"""Closed-form solutions and first integrals, stated in our conventions (docs/conventions.md).
 
 Free rigid body (twee13, twee14, twee18 with L = 0; so(3) = su(2), f^m_ab = eps_mab)
 ----------------------------------------------------------------------------------
@@ -60,6 +60,7 @@ import mpmath
 import sympy as sp
 
 from tstarg.refimpl import su2
+from tstarg.refimpl._validate import exact_sympy
 from tstarg.refimpl.reference import Reference
 
 __all__ = [
@@ -191,8 +192,8 @@ def heavy_top_integrals(inertia_diag, L) -> dict:
     ``casimir_pi_gamma``; ``lagrange``, ``kovalevskaya``, ``goryachev_chaplygin`` when ``I`` and ``L``
     have the required form.
     """
-    I = [sp.nsimplify(v) for v in inertia_diag]
-    Lv = sp.Matrix([sp.nsimplify(v) for v in L])
+    I = [exact_sympy(v, "inertia_diag entry") for v in inertia_diag]  # strings never evaluated
+    Lv = sp.Matrix([exact_sympy(v, "L entry") for v in L])
     G, p = _sym()
     Om = sp.Matrix([p[i] / I[i] for i in range(3)])
     out = {

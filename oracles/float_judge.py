@@ -1,4 +1,4 @@
-"""The float64 judges of the certification and their error models (CONVENTIONS.md, "Errors and
+"""The float64 judges of the certification and their error models (docs/conventions.md, "Errors and
 tolerances").
 
 * :func:`conditioning`, :func:`cond_omega`, :func:`tolerance`, :func:`flow_tol`: the error model of
@@ -34,6 +34,7 @@ __all__ = [
     "THETA13",
     "JUDGE_RTOL",
     "FloatJudge",
+    "MatrixGroup",
     "ad",
     "centre_representation",
     "compare_state",
@@ -47,6 +48,7 @@ __all__ = [
     "meets_degenerate_set",
     "phi1",
     "reference_work",
+    "sensitivity_at",
     "tolerance",
 ]
 
@@ -169,14 +171,15 @@ class FloatJudge:
     ``0.9 * 2 pi``, after which only ``(pi, Ad)`` are carried. Gravity: ``Gamma = Ad(g)^T gamma``,
     ``dV_b = -Gamma_m f^m_bc L^c`` (twee15/twee16).
 
-    ``group=True`` on an algebra with a non-trivial centre ``z`` (where ``Ad`` cannot see the
-    central part of ``g``) also carries ``G = rho(g)`` in a faithful representation ``rho``
-    (:func:`centre_representation`): ``dG/dt = G rho(Omega)``."""
+    ``rep`` (a :class:`MatrixGroup`: the group the flow is judged on) also carries ``G = rho(g)``,
+    ``dG/dt = G rho(Omega)``: faithful on the group, it sees what ``Ad`` cannot (the central part of
+    ``g``; the sheet of SU(2) over SO(3)). ``group=True`` without ``rep``: refimpl's faithful
+    representation where the centre is non-trivial (:func:`centre_representation`)."""
 
-    def __init__(self, f, theta, ups, inertia, potential, group=False):
+    def __init__(self, f, theta, ups, inertia, potential, group=False, rep=None):
         self.f, self.theta, self.U = (np.array(a, dtype=float) for a in (f, theta, ups))
         self.n = self.f.shape[0]
-        self.rep = centre_representation(self.f) if group else None
+        self.rep = rep if rep is not None else (centre_representation(self.f) if group else None)
         self.r = 0 if self.rep is None else self.rep.dim
         self.Iinv = np.linalg.inv(np.array(inertia, dtype=float))
         self.pot = (
@@ -217,66 +220,156 @@ class FloatJudge:
         return H
 
     def run(self, x0, pi0, t, rtol=JUDGE_RTOL):
-        """``(x or None, pi, Ad)`` at ``t`` (``x`` None once it approached the chart edge); with
-        ``group``, ``G = rho(g(t))`` in :attr:`last_group` (None without a centre)."""
+        """``(x or None, pi, Ad)`` at ``t`` (``x`` None once it approached the chart edge); with a
+        representation, ``G = rho(g(t))`` in :attr:`last_group` (None without one)."""
+        (out,), groups = self.run_at(x0, pi0, [t], rtol)
+        self.last_group = groups[0]
+        return out
+
+    def run_at(self, x0, pi0, times, rtol=JUDGE_RTOL):
+        """The states ``(x or None, pi, Ad)`` at every time of ``times`` (one sign, any order) from one
+        integration (DOP853's dense output between steps), and ``rho(g(t))`` at each (None without a
+        representation)."""
         n, r = self.n, self.r
         k = n + n * n + r * r  # where x starts in the state
+        times = [float(t) for t in times]
+        if any(t > 0 for t in times) and any(t < 0 for t in times):
+            raise ValueError("run_at: times must have one sign")
+        x0 = np.asarray(x0, dtype=float)
         Ad0 = scipy.linalg.expm(ad(self.f, x0))
-        G0 = [] if r == 0 else [self.rep.exp(np.asarray(x0, float)).ravel()]
-        y0 = np.concatenate([pi0, Ad0.ravel(), *G0, x0])
+        G0 = [] if r == 0 else [self.rep.exp(x0).ravel()]
+        y0 = np.concatenate([np.asarray(pi0, dtype=float), Ad0.ravel(), *G0, x0])
         scale = max(1.0, float(np.max(np.abs(y0))))
-        self.last_group = None
+        end = max(times, key=abs)
+        found: dict[float, tuple] = {}
+        if end == 0:
+            return [(x0.copy(), np.array(pi0, float), Ad0) for _ in times], [
+                G0[0].reshape(r, r) if r else None for _ in times
+            ]
 
         def edge(s, y, w):
             return np.linalg.norm(ad(self.f, y[k:]), 2) - 0.9 * 2 * np.pi
 
         edge.terminal = True
-        if t == 0:
-            if r:
-                self.last_group = G0[0].reshape(r, r)
-            return np.array(x0, float), np.array(pi0, float), Ad0
+        want = sorted({t for t in times if t != 0}, key=abs)
         sol = solve_ivp(
             self.rhs,
-            (0.0, t),
+            (0.0, end),
             y0,
             method="DOP853",
             rtol=rtol,
             atol=rtol * scale,
             args=(True,),
             events=edge,
+            dense_output=True,
         )
         if sol.status < 0:
             raise ArithmeticError(f"judge failed: {sol.message}")
-        y = sol.y[:, -1]
-        if sol.status == 1:  # x reached the chart edge: carry (pi, Ad) on
-            sol = solve_ivp(
+        t_edge = sol.t[-1]
+        for t in want:
+            if abs(t) <= abs(t_edge):
+                y = sol.y[:, -1] if t == t_edge else sol.sol(t)
+                found[t] = (y[k:], y[:k])
+        rest = [t for t in want if t not in found]
+        if rest:  # x reached the chart edge: carry (pi, Ad, G) on
+            sol2 = solve_ivp(
                 self.rhs,
-                (sol.t[-1], t),
-                y[:k],
+                (t_edge, end),
+                sol.y[:k, -1],
                 method="DOP853",
                 rtol=rtol,
                 atol=rtol * scale,
                 args=(False,),
+                dense_output=True,
             )
-            if sol.status < 0:
-                raise ArithmeticError(f"judge failed: {sol.message}")
-            y, x = sol.y[:, -1], None
-        else:
-            x = y[k:]
-        if r:
-            self.last_group = y[n + n * n : k].reshape(r, r)
-        return x, y[:n], y[n : n + n * n].reshape(n, n)
+            if sol2.status < 0:
+                raise ArithmeticError(f"judge failed: {sol2.message}")
+            for t in rest:
+                y = sol2.y[:, -1] if t == end else sol2.sol(t)
+                found[t] = (None, y[:k])
+        out, groups = [], []
+        for t in times:
+            if t == 0:
+                out.append((x0.copy(), np.array(pi0, float), Ad0))
+                groups.append(G0[0].reshape(r, r) if r else None)
+                continue
+            x, y = found[t]
+            out.append(
+                (None if x is None else np.array(x), y[:n].copy(), y[n : n + n * n].reshape(n, n))
+            )
+            groups.append(y[n + n * n : k].reshape(r, r) if r else None)
+        return out, groups
 
     def judged(self, x0, pi0, t):
         """The judge at rtol 1e-13 and its error (the difference from a run at rtol 1e-12)."""
-        a = self.run(x0, pi0, t)
-        ga = self.last_group
-        b = self.run(x0, pi0, t, rtol=10 * JUDGE_RTOL)
-        ex = None if a[0] is None or b[0] is None else float(np.max(np.abs(a[0] - b[0])))
-        errs = (ex, float(np.max(np.abs(a[1] - b[1]))), float(np.max(np.abs(a[2] - b[2]))))
-        if ga is None:
-            return a, errs
-        return a, errs + (float(np.max(np.abs(ga - self.last_group))),), ga
+        (a,), (ga,), errs = self.judged_at(x0, pi0, [t])
+        return (a, errs[0]) if ga is None else (a, errs[0], ga)
+
+    def judged_at(self, x0, pi0, times):
+        """:meth:`run_at` at rtol 1e-13, and per time its error estimate: the difference from a run
+        at rtol 1e-12, per part ``(x or None, pi, Ad[, G])``. An estimate (DOP853's error at rtol
+        1e-13 is about a tenth of its error at 1e-12 for a smooth problem), not a bound."""
+        a, ga = self.run_at(x0, pi0, times)
+        b, gb = self.run_at(x0, pi0, times, rtol=10 * JUDGE_RTOL)
+        errs = []
+        for (ax, ap, aA), (bx, bp, bA), g1, g2 in zip(a, b, ga, gb):
+            ex = None if ax is None or bx is None else float(np.max(np.abs(ax - bx)))
+            e = (ex, float(np.max(np.abs(ap - bp))), float(np.max(np.abs(aA - bA))))
+            errs.append(e if g1 is None else e + (float(np.max(np.abs(g1 - g2))),))
+        return a, ga, errs
+
+
+def sensitivity_at(judge, x0, pi0, times, states, groups) -> list[float]:
+    """An estimate of the condition of the flow map at each time: ``sqrt(2n) |Phi(z0 + h u) -
+    Phi(z0)|_inf / h`` for a fixed unit direction ``u`` (``h = 1e-6 max(1, |z0|)``), over ``pi``,
+    ``Ad(g)`` and ``rho(g)``, at least 1. A backward-stable integrator (the exact flow of a start
+    perturbed by its tolerance ``tau``) errs by ``tau ||D Phi||``; for a random direction
+    ``E |D Phi u|^2 = ||D Phi||_F^2 / 2n``, so the factor ``sqrt(2n)`` recovers the Frobenius norm,
+    an upper bound of ``||D Phi||_2``, on average (an estimate, not a bound). The perturbed run is
+    at rtol 1e-11: its error over ``h`` is ~1e-5 of the estimate."""
+    n = judge.n
+    u = np.cos(np.arange(1, 2 * n + 1) * 1.618)  # a fixed direction, every component nonzero
+    u /= np.linalg.norm(u)
+    x0, pi0 = np.asarray(x0, dtype=float), np.asarray(pi0, dtype=float)
+    h = 1e-6 * max(1.0, float(np.max(np.abs(np.concatenate([x0, pi0])))))
+    moved, mgroups = judge.run_at(x0 + h * u[:n], pi0 + h * u[n:], times, rtol=1e-11)
+    out = []
+    for (_, ap, aA), (_, bp, bA), g1, g2 in zip(states, moved, groups, mgroups):
+        d = max(float(np.max(np.abs(ap - bp))), float(np.max(np.abs(aA - bA))))
+        if g1 is not None:
+            d = max(d, float(np.max(np.abs(g1 - g2))))
+        out.append(max(1.0, math.sqrt(2 * n) * d / h))
+    return out
+
+
+class MatrixGroup:
+    """The group generated by a faithful representation ``rho(e_a) = mats[a]`` (``(n, r, r)``) of an
+    algebra, named ``name``: ``exp``, ``matrix`` and ``dim`` as :class:`refimpl._representation.
+    Representation`. Complex matrices (su(2)'s ``E_a = -(i/2) sigma_a``) are carried realified,
+    ``[[Re, -Im], [Im, Re]]``: the same group, real for the ODE judges."""
+
+    def __init__(self, mats, name: str):
+        mats = np.asarray(mats)
+        if np.iscomplexobj(mats):
+            re, im = mats.real.astype(float), mats.imag.astype(float)
+            if np.any(im):
+                mats = np.concatenate(
+                    [np.concatenate([re, -im], axis=2), np.concatenate([im, re], axis=2)], axis=1
+                )
+            else:
+                mats = re
+        self.mats = np.asarray(mats, dtype=float)
+        self.name = name
+
+    @property
+    def dim(self) -> int:
+        return int(self.mats.shape[-1])
+
+    def matrix(self, x):
+        return np.einsum("...a,aij->...ij", np.asarray(x, dtype=float), self.mats)
+
+    def exp(self, x):
+        return scipy.linalg.expm(self.matrix(x))
 
 
 def centre_representation(f):

@@ -32,12 +32,16 @@ Model: ``f = eps``, ``Theta = -xi.f``, ``Upsilon^mn = t eps_3mn`` (``tau = (0, 0
   ``dGamma_2/dt = Gamma_3 pi_1 - Gamma_1/6 = 0``, adds ``Gamma_1 = 18 Gamma_3^2``; **determined**.
   Branch ``Gamma_1 = -1/6 - 9 Gamma_3^2``: ends in ``9 Gamma_3^2/2 + 1/36 = 0``, no real point:
   **inconsistent**.
+
+Expected manifolds are numbers or functions of the symbols by name (``lambda s: -12 * s["Gamma1"]``):
+no string is ever parsed as an expression.
 """
 
 from __future__ import annotations
 
 import sympy as sp
 
+from tstarg.refimpl._validate import exact_sympy
 from tstarg.refimpl.gnh import gnh, lie_poisson_model, verify_result
 
 __all__ = ["EXAMPLES", "check_example", "paper_zetas", "run_example", "su2_model"]
@@ -49,14 +53,24 @@ def _eps():
     return [[[int(sp.LeviCivita(m, a, b)) for b in range(3)] for a in range(3)] for m in range(3)]
 
 
+def _numbers(values, name: str, length: int) -> list:
+    """``length`` caller numbers as sympy expressions (:func:`refimpl._validate.exact_sympy`:
+    strings are parsed as decimal or rational literals, never evaluated)."""
+    if isinstance(values, (str, bytes)) or len(values) != length:
+        raise ValueError(f"{name} must be a sequence of {length} numbers, got {values!r:.60}")
+    return [exact_sympy(v, f"{name}[{k}]") for k, v in enumerate(values)]
+
+
 def su2_model(xi, t, inertia_diag, potential=None):
-    """The section-cinq model with ``tau = (0, 0, t)`` (sympy rationals or symbols)."""
+    """The section-cinq model with ``tau = (0, 0, t)`` (sympy rationals or symbols; ints,
+    ``Fraction``, floats and decimal or rational strings are converted exactly, never evaluated)."""
     e = _eps()
-    th = [
-        [-sum(sp.sympify(xi[k]) * e[k][a][b] for k in range(3)) for b in range(3)] for a in range(3)
-    ]
-    up = [[sp.sympify(t) * e[2][m][n] for n in range(3)] for m in range(3)]
-    return lie_poisson_model(e, th, up, sp.diag(*inertia_diag), potential=potential)
+    xs = _numbers(xi, "xi", 3)
+    ts = exact_sympy(t, "t")
+    Is = _numbers(inertia_diag, "inertia_diag", 3)
+    th = [[-sum(xs[k] * e[k][a][b] for k in range(3)) for b in range(3)] for a in range(3)]
+    up = [[ts * e[2][m][n] for n in range(3)] for m in range(3)]
+    return lie_poisson_model(e, th, up, sp.diag(*Is), potential=potential)
 
 
 EXAMPLES = {
@@ -105,7 +119,11 @@ EXAMPLES = {
         "I": (2, 2, 3),
         "V": {"kind": "gravity", "L": (0, 0, 1), "gamma": (0, 0, 1)},
         "outcome": "determined",
-        "manifold": {"pi3": R(1, 2), "pi1": "-12*Gamma1", "pi2": "-12*Gamma2"},
+        "manifold": {
+            "pi3": R(1, 2),
+            "pi1": lambda s: -12 * s["Gamma1"],
+            "pi2": lambda s: -12 * s["Gamma2"],
+        },
     },
     "heavy_asymmetric": {
         "xi": (0, 0, 0),
@@ -116,9 +134,9 @@ EXAMPLES = {
         "manifold": {
             "pi3": R(1, 2),
             "pi2": 0,
-            "pi1": "3*Gamma3",
+            "pi1": lambda s: 3 * s["Gamma3"],
             "Gamma2": 0,
-            "Gamma1": "18*Gamma3**2",
+            "Gamma1": lambda s: 18 * s["Gamma3"] ** 2,
         },
     },
 }
@@ -136,8 +154,8 @@ def paper_zetas(model, result, ex) -> tuple:
     subs = result.substitution
     pi = model.names["pi"]
     Iinv = model.names["Iinv"]
-    t = sp.sympify(ex["t"])
-    xi = [sp.sympify(v) for v in ex["xi"]]
+    t = exact_sympy(ex["t"], "t")
+    xi = _numbers(ex["xi"], "xi", 3)
     K = (Iinv * pi).subs(subs)
     dH = model.frame_derivative(model.hamiltonian).subs(subs)
     Vg = dH[:3, 0]
@@ -173,8 +191,8 @@ def check_example(name: str):
             v = verify_result(model, r)
             if not all(v.values()):
                 return False, results, f"verify_result {v}"
-            t = sp.sympify(ex["t"])
-            xi = [sp.sympify(x) for x in ex["xi"]]
+            t = exact_sympy(ex["t"], "t")
+            xi = _numbers(ex["xi"], "xi", 3)
             K = model.names["Iinv"] * pi
             dV = model.frame_derivative(model.hamiltonian)[:3, 0]
             pp = [pi[k] + xi[k] for k in range(3)]
@@ -196,6 +214,7 @@ def check_example(name: str):
             names = {str(s): s for s in list(pi) + (list(G) if G is not None else [])}
             for k, v in ex["manifold"].items():
                 val = names[k].subs(r.substitution)
-                if sp.simplify(val - sp.sympify(v, locals=names)) != 0:
+                want = v(names) if callable(v) else exact_sympy(v, f"manifold[{k!r}]")
+                if sp.simplify(val - want) != 0:
                     return False, results, f"{k} = {val} on the final manifold, expected {v}"
     return True, results, "; ".join(f"{r.outcome}: {r.substitution}" for r in results)

@@ -1,7 +1,16 @@
 """An index of the paper's LaTeX source: every displayed formula and every mathematical sentence.
 
 The claims registry (``oracles.claims``, ``oracles.claims_unlabelled``) must have one entry per item
-listed here; ``tests/test_claims_coverage.py`` enforces it against ``../shared/paper.tex``.
+listed here; ``tests/test_claims_coverage.py`` enforces it.
+
+The index ships with the package (``oracles/paper_index.json``, :func:`shipped_index`), so the
+registry, ``tstarg claims`` and the tests work without the paper's LaTeX source. The source is
+needed only to re-index after the paper changes::
+
+    python -m tstarg.oracles.paper_index PATH/TO/paper.tex   # rewrites oracles/paper_index.json
+
+and ``tests/test_paper_index.py`` checks that the shipped index equals a fresh index of the paper
+whenever the source is at hand (``$TSTARG_PAPER``).
 
 Displayed formulas
     Every display environment of the body: ``equation``, ``eqnarray``, ``align``, ``gather``,
@@ -27,17 +36,28 @@ the coverage test then names it.
 
 from __future__ import annotations
 
+import functools
+import hashlib
+import json
 import re
+import sys
 from dataclasses import dataclass
+from pathlib import Path
 
 __all__ = [
     "ASSERTION_WORDS",
+    "DATA",
     "Display",
     "PaperIndex",
     "Sentence",
     "index_paper",
     "normalise",
+    "shipped_index",
+    "write_index",
 ]
+
+DATA = Path(__file__).with_name("paper_index.json")
+"""The shipped index (package data), written by :func:`write_index`."""
 
 _MACROS = {
     r"\be": r"\begin{equation}",
@@ -122,8 +142,45 @@ class Sentence:
 
 @dataclass(frozen=True)
 class PaperIndex:
+    """The paper's displays and mathematical sentences, with its title and authors as printed
+    (LaTeX accents and line breaks removed)."""
+
     displays: tuple[Display, ...]
     sentences: tuple[Sentence, ...]
+    title: str = ""
+    authors: str = ""
+
+    def to_json(self) -> dict:
+        return {
+            "title": self.title,
+            "authors": self.authors,
+            "displays": [
+                {
+                    "id": d.id,
+                    "section": d.section,
+                    "env": d.env,
+                    "labels": list(d.labels),
+                    "latex": d.latex,
+                }
+                for d in self.displays
+            ],
+            "sentences": [
+                {"id": t.id, "section": t.section, "text": t.text} for t in self.sentences
+            ],
+        }
+
+    @classmethod
+    def from_json(cls, data: dict) -> "PaperIndex":
+        """The inverse of :meth:`to_json`; a malformed file is a ``ValueError`` naming the field."""
+        try:
+            displays = tuple(
+                Display(d["id"], d["section"], d["env"], tuple(d["labels"]), d["latex"])
+                for d in data["displays"]
+            )
+            sentences = tuple(Sentence(t["id"], t["section"], t["text"]) for t in data["sentences"])
+            return cls(displays, sentences, str(data["title"]), str(data["authors"]))
+        except (KeyError, TypeError) as exc:
+            raise ValueError(f"paper index: malformed data ({type(exc).__name__}: {exc})") from None
 
 
 def normalise(s: str) -> str:
@@ -206,6 +263,24 @@ def _is_mathematical(sentence: str) -> bool:
     return has_math and bool(_ASSERT_RE.search(sentence))
 
 
+def _plain(latex: str) -> str:
+    r"""A title or author line without LaTeX: accents ``\'{\i}`` -> i, ``\\`` -> space."""
+    t = re.sub(r"\\\\", " ", latex)
+    t = re.sub(r"\\['`^\"~]\{?\\?([A-Za-z])\}?", r"\1", t)
+    t = re.sub(r"[{}]", "", t)
+    return normalise(t)
+
+
+def _front_matter(text: str) -> tuple[str, str]:
+    """The ``\\title`` and ``\\author`` of the LaTeX source (empty when absent)."""
+
+    def arg(cmd: str) -> str:
+        m = re.search(r"\\" + cmd + r"\{((?:[^{}]|\{[^{}]*\})*)\}", _strip_comments(text))
+        return _plain(m.group(1)) if m else ""
+
+    return arg("title"), arg("author")
+
+
 def index_paper(text: str) -> PaperIndex:
     """Parse the paper's LaTeX ``text`` into its displays and mathematical sentences (see module doc)."""
     body = _expand_macros(_strip_comments(_body(text)))
@@ -237,4 +312,45 @@ def index_paper(text: str) -> PaperIndex:
             if _is_mathematical(s):
                 scount[sec] = scount.get(sec, 0) + 1
                 sentences.append(Sentence(f"{sec}.s{scount[sec]:02d}", sec, s))
-    return PaperIndex(tuple(displays), tuple(sentences))
+    title, authors = _front_matter(text)
+    return PaperIndex(tuple(displays), tuple(sentences), title, authors)
+
+
+@functools.lru_cache(maxsize=1)
+def shipped_index() -> PaperIndex:
+    """The index shipped with the package (:data:`DATA`): what the registry is checked against."""
+    try:
+        data = json.loads(DATA.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"paper index {DATA}: cannot be read ({exc})") from None
+    return PaperIndex.from_json(data)
+
+
+def write_index(text: str, path: Path = DATA) -> PaperIndex:
+    """Index the LaTeX ``text`` and write it to ``path`` (default: the shipped :data:`DATA`),
+    with the SHA-256 of the source it came from."""
+    index = index_paper(text)
+    data = {
+        "source_sha256": hashlib.sha256(text.encode("utf-8")).hexdigest(),
+        "written_by": "python -m tstarg.oracles.paper_index PAPER.tex",
+        **index.to_json(),
+    }
+    Path(path).write_text(json.dumps(data, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
+    shipped_index.cache_clear()
+    return index
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m tstarg.oracles.paper_index PAPER.tex [OUT.json]``: re-index the paper."""
+    argv = sys.argv[1:] if argv is None else argv
+    if not 1 <= len(argv) <= 2:
+        print("usage: python -m tstarg.oracles.paper_index PAPER.tex [OUT.json]", file=sys.stderr)
+        return 2
+    out = Path(argv[1]) if len(argv) == 2 else DATA
+    ix = write_index(Path(argv[0]).read_text(encoding="utf-8"), out)
+    print(f"{out}: {len(ix.displays)} displays, {len(ix.sentences)} mathematical sentences")
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

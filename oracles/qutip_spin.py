@@ -19,10 +19,10 @@ Consequences checked here:
 * rigid body ``H = 1/(2j) sum P_a^2 / I_a`` on a spin-``j`` coherent state: ``<P>/j``
   follows the unit-sphere Euler flow (oracles.closed_forms, elliptic functions) with an
   error ``O(1/j)`` at fixed time.
-* attitude: ``Omega = g^-1 dg/dt`` (CONVENTIONS.md) in the spin-``j`` representation
+* attitude: ``Omega = g^-1 dg/dt`` (docs/conventions.md) in the spin-``j`` representation
   ``E_a = -i J_a`` gives ``d g/dt = g (-i Omega(t).J)``, so ``g(t)^-1`` is qutip's propagator
   of the body-frame Hamiltonian ``H(t) = -Omega(t).J``. For spin 1/2 (``E_a = -(i/2) sigma_a``)
-  this is the matrix of CONVENTIONS.md.
+  this is the matrix of docs/conventions.md.
 """
 
 from __future__ import annotations

@@ -1,13 +1,13 @@
 """The SU(2) case study (section cinq) done symbolically with sympy, against our conventions.
 
 Every function builds the paper's printed object (vijf1 ... vijf16) and an *independent*
-object from CONVENTIONS.md -- ``W = [[S, 1], [-1, Upsilon]]`` with
+object from docs/conventions.md -- ``W = [[S, 1], [-1, Upsilon]]`` with
 ``S_ab = pi_m eps_mab - Theta_ab``, ``Theta_ab = -xi_k eps_kab`` (zeven3),
 ``Upsilon^mn = tau_l eps_lmn`` -- and returns the residual(s) (sympy expressions that
 must simplify to 0). Nothing here is compared against a number produced by the code
 under test; the two sides are two routes to the same object.
 
-Conventions used for the independent route (CONVENTIONS.md):
+Conventions used for the independent route (docs/conventions.md):
 
 * ``i_X omega_L = dH`` with ``omega_L = 1/2 theta^T ^ W theta`` reads, with ``X`` the column
   of frame components ``(X^a, X_m)`` and ``dH = (H_b, H^n)`` (``H_b = <dH|e^L_b>``,
@@ -24,9 +24,12 @@ every Hamiltonian ``H = K(pi) + V(g)``.
 
 from __future__ import annotations
 
+import operator
 from functools import cache
 
 import sympy as sp
+
+from tstarg.refimpl._validate import exact_sympy
 
 __all__ = [
     "eps",
@@ -46,7 +49,11 @@ __all__ = [
 
 def eps(a: int, b: int, c: int) -> int:
     """Levi-Civita symbol on indices 0..2: the structure constants ``f^a_bc`` of su(2)."""
-    return int(sp.LeviCivita(a, b, c))
+    try:  # integers only: sp.LeviCivita would sympify (evaluate) strings
+        idx = [operator.index(i) for i in (a, b, c)]
+    except TypeError:
+        raise ValueError(f"eps takes three integer indices, got {(a, b, c)!r:.80}") from None
+    return int(sp.LeviCivita(*idx))
 
 
 @cache
@@ -66,7 +73,7 @@ def symbols() -> dict:
 
 
 def model_matrices(pi: sp.Matrix, xi: sp.Matrix, tau: sp.Matrix) -> dict:
-    """``S, Upsilon, Theta, W, Phi, Psi`` from CONVENTIONS.md (independent of section cinq)."""
+    """``S, Upsilon, Theta, W, Phi, Psi`` from docs/conventions.md (independent of section cinq)."""
     Theta = sp.Matrix(3, 3, lambda a, b: -sum(xi[k] * eps(k, a, b) for k in range(3)))
     S = sp.Matrix(3, 3, lambda a, b: sum(pi[m] * eps(m, a, b) for m in range(3))) - Theta
     U = sp.Matrix(3, 3, lambda m, n: sum(tau[l] * eps(l, m, n) for l in range(3)))
@@ -92,11 +99,13 @@ def paper_phi_psi(pi: sp.Matrix, xi: sp.Matrix, tau: sp.Matrix) -> dict:
 
 
 def _zero(expr) -> bool:
-    return sp.simplify(sp.expand(expr)) == 0
+    return sp.simplify(sp.expand(exact_sympy(expr, "expr"))) == 0  # strings parsed, never evaluated
 
 
 def _mat_zero(M) -> bool:
-    return all(_zero(v) for v in sp.Matrix(M))
+    if not isinstance(M, sp.MatrixBase):
+        raise TypeError(f"_mat_zero takes a sympy matrix, got {type(M).__name__}")
+    return all(_zero(v) for v in M)
 
 
 def residuals_nondegenerate() -> dict[str, bool]:
@@ -108,7 +117,7 @@ def residuals_nondegenerate() -> dict[str, bool]:
     * ``delta``: ``det Phi = C1^2``;
     * ``vijf2``, ``vijf3``: the printed ``X^a C1``, ``X_m C1`` satisfy ``X^T W = dH^T`` times C1;
     * ``vijf4``: the printed equations of motion (general symmetric ``I^-1``) equal the
-      CONVENTIONS.md row forms with ``Phi^-1``, ``Psi^-1`` computed by sympy;
+      docs/conventions.md row forms with ``Phi^-1``, ``Psi^-1`` computed by sympy;
     * ``vijf5``: for ``V = 0``, ``dpi_m/dt = Omega^a pi'_b eps_bam`` equals vier11.
     """
     s = symbols()
@@ -260,7 +269,7 @@ def solve_vector_field(W: sp.Matrix, dH: sp.Matrix) -> sp.Matrix:
 
 
 def residuals_degenerate() -> dict[str, bool]:
-    """Checks of vijf6 -- vijf16 against the CONVENTIONS.md matrix ``W`` on ``Pi_1`` (True = holds).
+    """Checks of vijf6 -- vijf16 against the docs/conventions.md matrix ``W`` on ``Pi_1`` (True = holds).
 
     * ``vijf6``: ``C1 = 1 - pi'.tau`` vanishes at ``pi_3 = 1/t - xi_3``;
     * ``vijf7``: the push-forward of ``j_1`` (Jacobian of ``pi_3 = const``) has ``X_3 = 0``;

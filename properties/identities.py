@@ -46,6 +46,7 @@ import numpy as np
 import sympy
 
 from tstarg.refimpl import LieAlgebra
+from tstarg.refimpl._validate import parse_number
 from tstarg.refimpl.accuracy import correct_digits as _digits
 from tstarg.refimpl.accuracy import max_abs
 from tstarg.refimpl.flows import reference_flow
@@ -129,14 +130,7 @@ def _exact(v: Any) -> sympy.Expr:
         man, exp = v.man_exp
         return sympy.Integer(man) * sympy.Integer(2) ** exp
     if isinstance(v, str):
-        if len(v) > 1000:
-            raise ValueError(f"number string of {len(v)} characters (at most 1000)")
-        try:
-            q = Fraction(v.strip())
-        except (ValueError, ZeroDivisionError):
-            raise ValueError(
-                f"{v!r:.60} is not a decimal or rational number (strings are never evaluated)"
-            ) from None
+        q = parse_number(v)  # the one parser (refimpl._validate): never evaluated
         return sympy.Rational(q.numerator, q.denominator)
     raise TypeError(f"cannot use {type(v).__name__} {v!r:.60} as an exact real number")
 

@@ -38,6 +38,7 @@ from __future__ import annotations
 import contextlib
 import io
 import math
+import re
 import signal
 import struct
 import threading
@@ -52,7 +53,7 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import seed as hyp_seed
 from hypothesis import strategies as st
-from hypothesis.errors import Unsatisfiable
+from hypothesis.errors import Unsatisfiable, UnsatisfiedAssumption
 from hypothesis.reporting import with_reporter
 
 __all__ = [
@@ -325,6 +326,12 @@ def _label(v: Any, path: str = "example") -> list[tuple[str, Any]]:
             ("x", x),
             ("pi", pi),
         ]
+    if isinstance(v, tuple) and hasattr(v, "_fields"):  # a namedtuple: its fields are the labels
+        return [
+            lab
+            for k, p in zip(v._fields, v)
+            for lab in (_label(p, k) if isinstance(p, tuple) else [(k, p)])
+        ]
     if isinstance(v, tuple):
         has_model = any(_is_model(p) for p in v)
         out = []
@@ -437,6 +444,11 @@ class _Stop(BaseException):
     """The check's budget is used up: end the Hypothesis run now (not a failure by itself)."""
 
 
+def _failure_kind(exc: BaseException) -> str:
+    """A failure's kind: its type and message with the numbers taken out."""
+    return type(exc).__name__ + re.sub(r"[-+0-9.eE]+", "#", str(exc))[:120]
+
+
 def _strip_notes(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}"[:2000]
 
@@ -473,6 +485,7 @@ def run_property(
         "stopped": False,
         "example_seconds": ex_s,
         "first_failure": None,
+        "kind": None,
     }
     if REPLAY and name not in REPLAY:
         res.extra["not_replayed"] = True
@@ -505,10 +518,15 @@ def run_property(
             if digits is not None:
                 res.min_digits = digits if res.min_digits is None else min(res.min_digits, digits)
             assert ratio <= 1.0, f"{name}: error/tolerance ratio {ratio:.3g} > 1"
-        except (KeyboardInterrupt, _Stop):
-            raise
+        except (KeyboardInterrupt, _Stop, UnsatisfiedAssumption):
+            raise  # a reject() in the body draws again: no failure (it must not start shrinking)
         except BaseException as exc:
-            state["failure"] = _record_failure(example, notes, ratio, _strip_notes(exc))
+            # while shrinking, only failures of the first one's kind replace it (a call that times out
+            # on a larger model the shrinker tried is another failure, not a smaller example of it)
+            kind = _failure_kind(exc)
+            if state["failure"] is None or kind == state["kind"]:
+                state["failure"] = _record_failure(example, notes, ratio, _strip_notes(exc))
+                state["kind"] = kind
             if state["first_failure"] is None:
                 state["first_failure"] = time.perf_counter()
             if isinstance(

@@ -33,6 +33,7 @@ from tstarg.refimpl import (
     delta2,
 )
 from tstarg.refimpl._algebra import jacobi_residual
+from tstarg.refimpl._validate import exact_sympy
 from tstarg.refimpl.fast import implementation as _fast
 
 __all__ = [
@@ -445,10 +446,15 @@ def catalogue_algebras(*, names=None, max_dim: int | None = None, semisimple: bo
 
 
 def _exact_matrix(m) -> sympy.Matrix:
+    """A matrix of numbers as an exact sympy matrix (:func:`refimpl._validate.exact_sympy`: floats at
+    their binary value, strings parsed as decimal or rational literals, never evaluated)."""
+    rows = np.asarray(m, dtype=object)
+    if rows.ndim != 2:
+        raise ValueError(f"_exact_matrix needs a 2-d array of numbers, got shape {rows.shape}")
     return sympy.Matrix(
         [
-            [sympy.nsimplify(v) if isinstance(v, float) else sympy.sympify(v) for v in row]
-            for row in np.asarray(m, dtype=object)
+            [exact_sympy(v, f"matrix entry [{i}, {j}]") for j, v in enumerate(r)]
+            for i, r in enumerate(rows)
         ]
     )
 
@@ -457,8 +463,8 @@ def _in_span(basis, theta) -> bool:
     """``theta`` in the span of ``basis`` (exact ranks of the flattened upper triangles)."""
     n = np.asarray(theta).shape[0]
     iu = [(a, b) for a in range(n) for b in range(a + 1, n)]
-    cols = [[sympy.sympify(bm[a, b]) for a, b in iu] for bm in basis]
-    t = [sympy.sympify(theta[a, b]) for a, b in iu]
+    cols = [[exact_sympy(bm[a, b], "basis entry") for a, b in iu] for bm in basis]
+    t = [exact_sympy(theta[a, b], "theta entry") for a, b in iu]
     if not cols:
         return all(v == 0 for v in t)
     m = sympy.Matrix(cols).T
@@ -743,7 +749,7 @@ def _dyadic(k: int = 16, denominator: int = 8):
 
 def scenes(*, names=None, potential: bool | None = None, batch: bool | None = None):
     """A scene as a plain dict in the TOML format of :func:`refimpl.flows.parse_scene`
-    (DESIGN.md "Scenes"); every number is a float with an exact dyadic value, so a TOML
+    (docs/design.md "Scenes"); every number is a float with an exact dyadic value, so a TOML
     round trip is lossless. Keys:
 
     ``name``; ``algebra`` (catalogue name) or ``f`` (``(n, n, n)`` nested lists);

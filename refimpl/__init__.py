@@ -13,7 +13,7 @@ Cohomology (zeven1, zeven3)
     :func:`cohomology`, :func:`h2_dim`, :func:`check_cocycle`, :func:`solve_coboundary`.
 Frames (twee1, twee3)
     :func:`frames` (float64 or mpmath at any precision).
-Implementations (DESIGN.md protocol)
+Implementations (docs/design.md protocol)
     :mod:`refimpl.reference` (``Reference(dps)``, ``implementation`` at 50 digits)
     and :mod:`refimpl.fast` (``Fast``, ``implementation``); :class:`Implementation`
     states the protocol.
@@ -109,6 +109,7 @@ __all__ = [
     "run_scene",
 ]
 
+from ._version import __version__  # pyproject.toml's version, through importlib.metadata
 from .rigorous import (
     Balls,
     Rigorous,
@@ -121,6 +122,7 @@ from .rigorous import (
 )
 
 __all__ += [
+    "__version__",
     "Balls",
     "Rigorous",
     "UndecidedError",

@@ -34,6 +34,7 @@ import sympy
 from flint import arb, arb_mat, fmpq, fmpz
 
 from ._algebra import LieAlgebra
+from ._validate import parse_number
 
 __all__ = [
     "Balls",
@@ -129,7 +130,7 @@ def to_arb(v: Any, name: str = "value") -> arb:
         if isinstance(v, Fraction):
             return arb(fmpq(v.numerator, v.denominator))
         if isinstance(v, str):
-            q = Fraction(v.strip())
+            q = parse_number(v)  # the one parser (refimpl._validate): never evaluated
             return arb(fmpq(q.numerator, q.denominator))
         if isinstance(v, mpmath.mpf):
             return _mpf_to_arb(v)
@@ -153,7 +154,7 @@ def to_exact(v: Any) -> sympy.Expr:
     if isinstance(v, Fraction):
         return sympy.Rational(v.numerator, v.denominator)
     if isinstance(v, str):
-        q = Fraction(v.strip())
+        q = parse_number(v)  # the one parser (refimpl._validate): never evaluated
         return sympy.Rational(q.numerator, q.denominator)
     if isinstance(v, mpmath.mpf):
         sign, man, exp, _ = v._mpf_

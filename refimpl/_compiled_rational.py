@@ -1,6 +1,6 @@
 """Compiled (numba) adaptive Taylor method for the rational body fields with ``Upsilon != 0``.
 
-The field (vier10/vier11, the body system of :meth:`refimpl._flow_fast.NumpyModel.omega_pidot`)
+The field (vier10/vier11, the body system of :meth:`refimpl.model.Model.omega_pidot`)
     ``S(pi)_ab = pi_m f^m_ab - Theta_ab``, ``Psi = 1 + Upsilon S``, ``Phi = Psi^T`` (= ``1 + S Upsilon``
     for antisymmetric ``S`` and ``Upsilon``), ``dK = I^-1 pi``, ``dV = -G_L Gamma`` with
     ``(G_L)_bm = f^m_bc L_c`` (gravity, twee15), and
@@ -196,7 +196,7 @@ def rational_taylor_body(
     """Body system of ``N`` trajectories (``x0``, ``pi0`` of shape (n, N)) to time ``t`` by the compiled
     rational Taylor method at the *local* tolerance ``tol`` (any ``Upsilon``; ``Upsilon = 0`` works too).
 
-    Returns the dict of :func:`refimpl._flow_fast.integrate_fast` (``x`` None) plus ``steps`` (N,) and
+    Returns the fields of :class:`refimpl.flows.FlowResult` as a dict (``x`` None) with ``steps`` (N,) and
     ``cond_phi`` (the largest ``cond_inf(Phi)`` met per trajectory). Raises
     :class:`refimpl._errors.DegeneratePointError` when a trajectory reaches the degenerate set and
     ``ValueError`` when it becomes non-finite or exceeds the step budget (naming the trajectories)."""

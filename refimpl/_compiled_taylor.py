@@ -31,7 +31,7 @@ Adaptive order and step (Jorba and Zou 2005, section 3.2; the control heyoka use
     a caller-chosen order keeps the tolerance), which makes the last terms of the series, an estimate of the remainder, about ``eps * s``
     (a local error per step). Each trajectory of a batch runs its own control (its own steps),
     so no trajectory's step is set by another's; the global error is checked by the callers
-    (:func:`refimpl._flow_fast.fast_flow` compares two tolerances).
+    (:func:`refimpl.flows.fast_flow` compares two tolerances).
 
 Without numba (``HAVE_NUMBA`` False) the same functions run as plain Python (slow but exact same
 arithmetic); :data:`PATH` says which path ran.

@@ -12,14 +12,19 @@ from . import _compiled_tensors as _ctens
 from ._errors import ChartError, DegeneratePointError
 from ._validate import (
     MAX_ELEMENTS,
+    check_batch_memory,
     check_inertia,
+    check_out_buffer,
     check_points,
     check_potential,
     check_structure_constants,
     check_theta,
     check_upsilon,
     outside_chart,
+    refuse_overflow,
+    within_boundary,
 )
+from ._version import __version__
 
 __all__ = ["FastCore", "PoissonBatch", "FieldBatch", "DegeneratePointError", "C_P"]
 
@@ -421,7 +426,10 @@ def _inv_batch(M: np.ndarray) -> np.ndarray:
 
 
 def _frob(M: np.ndarray) -> np.ndarray:
-    return np.sqrt(np.sum(M * M, axis=(-2, -1)))
+    with np.errstate(
+        over="ignore", invalid="ignore"
+    ):  # inf for entries near 1e300: a bound, not an error
+        return np.sqrt(np.sum(M * M, axis=(-2, -1)))
 
 
 def _summand_norms(f, theta, x, p):
@@ -528,9 +536,8 @@ def _check_points_fast(x, pi, n: int) -> tuple[np.ndarray, np.ndarray]:
         and x.shape[-1:] == (n,)
         and x.size <= MAX_ELEMENTS
     ):
-        with np.errstate(all="ignore"):
-            if np.isfinite(np.sum(x)) and np.isfinite(np.sum(pi)):
-                return x, pi
+        if within_boundary(x) and within_boundary(pi):  # issue 30 hook: finite and |v| <= 1e300
+            return x, pi
     return check_points(x, pi, n, batched=True)
 
 
@@ -550,7 +557,7 @@ def _ct_bernoulli() -> np.ndarray:
 class FastCore:
     """The fast float64 implementation (protocol methods ``poisson_tensor``, ``hamiltonian_vector_field``).
 
-    Protocol contract (DESIGN.md): ``batched = True``; outputs carry the
+    Protocol contract (docs/design.md): ``batched = True``; outputs carry the
     leading axes of ``x`` and ``pi``; a degenerate point raises
     :class:`DegeneratePointError` naming the points. The richer batch API,
     :meth:`poisson_batch` and :meth:`vector_field_batch`, never raises for
@@ -558,7 +565,7 @@ class FastCore:
     """
 
     name = "tstarg-fast"
-    version = "0.1.0"
+    version = __version__  # the package's (pyproject.toml)
     batched = True
     precision_digits = 15.9  # float64
 
@@ -598,8 +605,20 @@ class FastCore:
         :mod:`refimpl._compiled_tensors` when numba imports, else the numpy kernels; ``True``
         requires numba; ``False`` forces numpy. ``path`` names what ran.
         """
+        check_out_buffer(out, ("x", x), ("pi", pi))  # issue 30 hook: read-only or aliasing out=
         f, th, up = self._model(f, theta, upsilon)
+        return self.poisson_batch_validated(
+            f, th, up, x, pi, layout=layout, out=out, compiled=compiled
+        )
+
+    def poisson_batch_validated(
+        self, f, th, up, x, pi, *, layout: str = "points", out=None, compiled: bool | None = None
+    ) -> PoissonBatch:
+        """:meth:`poisson_batch` on a model already validated (the arrays of a
+        :class:`refimpl.model.Model`): the structure constants, Theta and Upsilon are not checked
+        again; the points are."""
         n = f.shape[0]
+        check_batch_memory(np.size(x) // n, n, what="poisson_batch")  # issue 30 hook
         if compiled is None:
             compiled = _ctens.HAVE_NUMBA
         elif compiled and not _ctens.HAVE_NUMBA:
@@ -797,6 +816,7 @@ class FastCore:
         """
         f, th, up = self._model(f, theta, upsilon)
         n = f.shape[0]
+        check_batch_memory(np.size(x) // n, n, what="vector_field_batch")  # issue 30 hook
         inertia = check_inertia(inertia, n)
         pot = check_potential(potential, n)
         xa, pa = check_points(x, pi, n, batched=True)
@@ -912,6 +932,7 @@ class FastCore:
         """Protocol method 1: ``P[..., i, j] = {z_i, z_j}``, ``z = (x, pi)``."""
         res = self.poisson_batch(f, theta, upsilon, x, pi)
         self._raise_outside(res.outside_chart, "poisson_tensor")
+        refuse_overflow("poisson_tensor", {"P": res.P}, res.degenerate, "Upsilon = 0" in res.path)
         self._raise_degenerate(res.degenerate, "poisson_tensor")
         return res.P
 
@@ -919,6 +940,8 @@ class FastCore:
         """Protocol method 2: ``(xdot, pidot)`` with the leading axes of ``x``."""
         res = self.vector_field_batch(f, theta, upsilon, inertia, potential, x, pi)
         self._raise_outside(res.outside_chart, "hamiltonian_vector_field")
+        pair = {"xdot": res.xdot, "pidot": res.pidot}  # issue 30 hook: overflow refused as such
+        refuse_overflow("hamiltonian_vector_field", pair, res.degenerate, False)
         self._raise_degenerate(res.degenerate, "hamiltonian_vector_field")
         return res.xdot, res.pidot
 

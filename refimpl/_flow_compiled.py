@@ -11,7 +11,7 @@ Systems
     (:func:`refimpl._taylor.quadratic_field_su2_full`, ``dq/dt = q * (0, Omega/2)``), still quadratic, so
     the configuration is integrated by the same Taylor recurrences without any chart or re-basing;
     the output ``x`` is the principal logarithm ``x = 2 atan2(|q|, q_0) q/|q|`` (as the splitting
-    methods' :func:`refimpl._flow_fast.quat_to_x`), equal to the chart coordinate of the re-basing
+    methods' :func:`quat_to_x`), equal to the chart coordinate of the re-basing
     methods wherever that never left ``||ad_x||_F <= 1``.
 
 Error control (per trajectory, never shared)
@@ -158,7 +158,7 @@ def compiled_taylor_body(
     """Body system of ``N`` trajectories (``x0``, ``pi0`` of shape (n, N)) to time ``t``: fixed steps
     (``order`` and ``nsteps``) or the adaptive kernel at the *local* tolerance ``tol``.
 
-    Returns the dict of :func:`refimpl._flow_fast.integrate_fast` (``x`` None) plus ``steps`` (N,)."""
+    Returns the fields of :class:`refimpl.flows.FlowResult` (``x`` None, ``steps`` (N,)) as a dict."""
     if not model.upsilon_zero:
         raise ValueError(
             "compiled Taylor: the body field is a quadratic polynomial only for Upsilon = 0 (vier6)"

@@ -1,6 +1,6 @@
 """Reference flows (mpmath, any precision): the full state (x, pi) and the reduced body systems.
 
-Systems (CONVENTIONS.md; the paper's labels)
+Systems (docs/conventions.md; the paper's labels)
 
 * Full state, vier10/vier11: ``Omega = Psi^-1 (dK - U dV)``,
   ``pidot = Phi^-1 (-dV - S dK)``, ``xdot = L(g, e) Omega`` with
@@ -9,7 +9,7 @@ Systems (CONVENTIONS.md; the paper's labels)
   is twee13/twee14; with ``Theta`` it is drie4/drie6.
 * Reduced body system: ``dV`` depends on ``g`` only through ``Gamma``, which
   obeys ``dGamma_mu/dt = Omega^b f^a_{b mu} Gamma_a`` (twee17 with the sign
-  corrected, CONVENTIONS.md / tests/test_vector_field.py); so ``(pi, Gamma)``
+  corrected, docs/conventions.md / tests/test_vector_field.py); so ``(pi, Gamma)``
   is closed (Euler-Poisson, twee17/twee18), and ``pi`` alone is closed when
   ``V = 0`` (Euler, twee14, drie6).
 
@@ -36,6 +36,7 @@ digits on which both agree (``digits``).
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from fractions import Fraction
 from itertools import combinations
@@ -45,11 +46,12 @@ import numpy as np
 
 from ._algebra import LieAlgebra
 from ._errors import DegeneratePointError
+from ._flow_checks import check_time
 from ._integrators import gbs_mp
 from ._reference_core import MAX_DPS, _as_float, _to_mpf
 from ._reference_core import ReferenceCore as Reference
 from ._representation import Representation, representation_for
-from ._validate import MAX_REFERENCE_FLOW_TIME, check_inertia, check_potential
+from ._validate import MAX_REFERENCE_FLOW_TIME, ProgressBudget, check_inertia, check_potential
 
 __all__ = [
     "ModelMP",
@@ -62,24 +64,6 @@ __all__ = [
 
 GUARD = 15
 REBASE = mpmath.mpf(1)  # ||ad_x||_1 above which the chart is re-based (well inside |eig| < 2 pi)
-
-
-def check_time(t, name: str = "t", *, allow_negative: bool = False) -> float:
-    """A time span must be a finite real number (>= 0 unless ``allow_negative``: flows run backwards too).
-
-    Exact inputs are accepted (int, Fraction, ``"1/2"``, mpf, sympy); complex numbers (even with a zero
-    imaginary part), NaN, infinities and non-numbers are refused with a ValueError naming ``name``."""
-    cond = "a finite real number" + ("" if allow_negative else " >= 0")
-    if isinstance(t, (complex, np.complexfloating, mpmath.mpc)) or isinstance(t, bool):
-        raise ValueError(f"{name} must be {cond}, got {t!r}")
-    try:
-        with mpmath.workdps(30):
-            tv = float(_to_mpf(t))  # exact inputs accepted: int, Fraction, "1/2", mpf, sympy
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be {cond}, got {t!r}") from None
-    if not np.isfinite(tv) or (tv < 0 and not allow_negative):
-        raise ValueError(f"{name} must be {cond}, got {t!r}")
-    return tv
 
 
 def _jacobi_mp(F, n):
@@ -116,7 +100,14 @@ def _jacobi_jacobian(u, n):
     return np.concatenate(rows, axis=0), pairs
 
 
-_LIE_CACHE: dict = {}
+_LIE_CACHE: OrderedDict = OrderedDict()  # bounded: _LIE_CACHE_MAX entries, oldest dropped
+_LIE_CACHE_MAX = 64
+
+
+def _remember(key, value) -> None:
+    _LIE_CACHE[key] = value
+    while len(_LIE_CACHE) > _LIE_CACHE_MAX:
+        _LIE_CACHE.popitem(last=False)
 
 
 def _rational_reading(ff):
@@ -191,12 +182,12 @@ def lie_constants_mp(f, Fm):
     if float_input:
         F = _rational_reading(ff)
         if F is not None:
-            _LIE_CACHE[key] = (F, "rational")  # float input: key is not None
+            _remember(key, (F, "rational"))  # float input: key is not None
             return [m.copy() for m in F], "rational"
     res = _jacobi_mp(Fm, n)
     if max((abs(v) for v in res), default=0) <= tol:
         if key is not None:
-            _LIE_CACHE[key] = (None, "as given")
+            _remember(key, (None, "as given"))
         return Fm, "as given"
     pairs = list(combinations(range(n), 2))
     u = [Fm[m][a, b] for m in range(n) for a, b in pairs]
@@ -207,7 +198,7 @@ def lie_constants_mp(f, Fm):
         r = _jacobi_mp(F, n)
         if max(abs(v) for v in r) <= tol:
             if key is not None:
-                _LIE_CACHE[key] = (F, "projected")
+                _remember(key, (F, "projected"))
             return [m.copy() for m in F], "projected"
         Jac, _ = _jacobi_jacobian(np.array([float(v) for v in u]), n)
         du, *_ = np.linalg.lstsq(Jac, -np.array([float(v) for v in r]), rcond=1e-10)
@@ -432,7 +423,7 @@ def _log_coordinates(model: ModelMP, Ad_total, g_rep):
     return model.rep.mp_log(g_rep, Ad_total, model.Fm)
 
 
-def _run(model: ModelMP, system: str, x0, pi0, times, tol, k, sign=1):
+def _run(model: ModelMP, system: str, x0, pi0, times, tol, k, sign=1, budget=False):
     """Integrate to each of ``times`` (increasing, >= 0); ``sign = -1`` runs the flow backwards
     (``y' = -F(y)`` in the time ``s = -t``: the fields are autonomous)."""
     n = model.n
@@ -505,6 +496,9 @@ def _run(model: ModelMP, system: str, x0, pi0, times, tol, k, sign=1):
 
     t_prev = mpmath.mpf(0)
     steps = 0
+    if budget and times:  # issue 30 hook: the time budget, extrapolated from the progress
+        span = mpmath.nstr(sign * mpmath.mpf(times[-1]), 6)
+        after = ProgressBudget("reference flow").watch(after, times[-1], f"the flow to t = {span}")
     for tk in times:
         tk = mpmath.mpf(tk)
         if tk > t_prev:
@@ -569,6 +563,7 @@ def reference_trajectory(
     dps: int = 50,
     system: str = "full",
     check: bool = False,
+    time_budget: bool = False,
 ) -> ReferenceTrajectory:
     """The reference trajectory sampled at ``times`` (increasing and >= 0, or decreasing and <= 0 for
     the flow backwards). ``x`` always exists (the logarithm of ``g``, :mod:`refimpl._representation`);
@@ -578,6 +573,8 @@ def reference_trajectory(
     ``system="body"``: the reduced body system (Euler or Euler-Poisson).
     ``check=True`` repeats the run at ``dps + 15`` digits with a 10^-10
     smaller tolerance and stores the digits of agreement in ``digits``.
+    ``time_budget=True`` (the protocol's :func:`reference_flow`) refuses a run whose CPU time,
+    extrapolated from its progress, would exceed :data:`refimpl._validate.TIME_BUDGET_S`.
     """
     if not isinstance(dps, int) or dps < 15:
         raise ValueError(f"dps must be an int >= 15, got {dps!r}")
@@ -608,9 +605,8 @@ def reference_trajectory(
             xv = Reference._vec(x0, n, "x0")
             pv = Reference._vec(pi0, n, "pi0")
             tms = [sign * _to_mpf(t) for t in times_exact]
-            return _run(
-                model, system, xv, pv, tms, mpmath.mpf(10) ** (-tol_digits), _order_for(d), sign
-            )
+            tol = mpmath.mpf(10) ** (-tol_digits)
+            return _run(model, system, xv, pv, tms, tol, _order_for(d), sign, time_budget)
 
     tr = once(dps, dps + 5)
     if check:
@@ -632,7 +628,7 @@ def reference_trajectory(
 def reference_flow(
     f, theta, upsilon, inertia, potential, x0, pi0, t, dps: int = 50, *, return_group: bool = False
 ):
-    """Protocol method 3 (DESIGN.md): the state ``(x, pi)`` at time ``t`` from ``(x0, pi0)`` at 0.
+    """Protocol method 3 (docs/design.md): the state ``(x, pi)`` at time ``t`` from ``(x0, pi0)`` at 0.
 
     Full state of vier10/vier11, integrated at ``dps`` digits (see the module
     docstring), re-based through the algebra's faithful representation; ``x`` is the logarithm of
@@ -646,7 +642,17 @@ def reference_flow(
     check_time(t, allow_negative=True)
     exact = Reference._wants_exact(f, theta, upsilon, inertia, potential, x0, pi0, t)
     tr = reference_trajectory(
-        f, theta, upsilon, inertia, potential, x0, pi0, [t], dps=dps, system="full"
+        f,
+        theta,
+        upsilon,
+        inertia,
+        potential,
+        x0,
+        pi0,
+        [t],
+        dps=dps,
+        system="full",
+        time_budget=True,
     )
     x, pi = tr.x[-1], tr.pi[-1]
     if exact:

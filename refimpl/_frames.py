@@ -5,7 +5,7 @@
 * ``Ad = Ad(g) = exp(ad_x)``; ``K = K(g) = Ad(g^-1)^T`` (coadjoint, twee3).
 
 (The paper defines ``L(g, h)`` as a derivative in ``g`` but uses the
-derivative in ``h``; CONVENTIONS.md records the erratum.)
+derivative in ``h``; docs/conventions.md records the erratum.)
 """
 
 from __future__ import annotations

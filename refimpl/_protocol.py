@@ -1,4 +1,4 @@
-"""The implementation protocol (DESIGN.md): one machine-readable spec, and the class stating it.
+"""The implementation protocol (docs/design.md): one machine-readable spec, and the class stating it.
 
 :data:`SPEC` is the single source of truth for the protocol. It holds, per method, the
 arguments (name, kind, shape), the optional keyword arguments, the result (kind, shape, the
@@ -20,7 +20,7 @@ against it by a test:
 Adding a method is: one :class:`Method` entry here, one check, one client line (the worked
 example is in ``docs/protocol.md``).
 
-The obligations, in words (conventions of CONVENTIONS.md):
+The obligations, in words (conventions of docs/conventions.md):
 
 1. ``poisson_tensor(f, theta, upsilon, x, pi) -> P``: ``f`` of shape ``(n, n, n)`` with
    ``f[m, a, b] = f^m_ab``; ``theta``, ``upsilon`` antisymmetric ``(n, n)``; ``x`` canonical

@@ -14,14 +14,21 @@ import sympy
 from ._algebra import LieAlgebra
 from ._errors import ChartError, DegeneratePointError
 from ._validate import (
+    MAX_DPS,
     TWO_PI,
+    BudgetError,
     ad_chart_radius,
+    check_finite_result,
     check_inertia,
     check_potential,
+    check_precision_digits,
     check_structure_constants,
     check_theta,
     check_upsilon,
+    parse_number,
 )
+from ._validate import MAX_MAGNITUDE as _MAX_MAGNITUDE_FLOAT
+from ._version import __version__
 
 __all__ = [
     "ReferenceCore",
@@ -34,15 +41,14 @@ __all__ = [
 ]
 
 GUARD_DIGITS = 12
-MAX_DPS = 5000
-"""Precision cap of ``Reference(dps)``: 5000 significant digits (a 6 x 6 inverse there costs about a
-second; the escalation ladder stops at 400 by default)."""
+# the precision cap (5000 digits: a 6 x 6 inverse there costs about a second; the escalation ladder
+# stops at 400 by default) and the magnitude boundary are stated once, in refimpl._validate
 MAX_AD_NORM = 400.0
 """Work budget of the frames: ``||ad_x||_1 <= 400``. Summing ``phi1(-ad_x)`` costs ``~e ||ad_x||``
 terms at ``||ad_x|| / ln 10`` extra digits (the cancellation of ``e^||ad_x||``); on algebras whose
 ``ad_x`` has real eigenvalues the chart alone does not bound ``x``."""
-MAX_MAGNITUDE = mpmath.mpf("1e300")
-"""Inputs are real numbers of magnitude below 1e300 (the float64 range, with room)."""
+MAX_MAGNITUDE = mpmath.mpf(_MAX_MAGNITUDE_FLOAT)
+"""Inputs are real numbers of magnitude at most 1e300 (:data:`refimpl._validate.MAX_MAGNITUDE`)."""
 
 
 def _as_float(v: Any, name: str) -> np.ndarray:
@@ -63,7 +69,7 @@ def _is_exact_scalar(v: Any) -> bool:
 
 def _to_mpf(v: Any) -> mpmath.mpf:
     """A finite real number of magnitude below :data:`MAX_MAGNITUDE` as an mpf; strings are parsed by
-    ``mpmath.mpf`` or ``fractions.Fraction`` only (never evaluated)."""
+    :func:`refimpl._validate.parse_number` only (never evaluated)."""
     out = _to_mpf_raw(v)
     if not mpmath.isfinite(out):
         raise ValueError(f"non-finite number {v!r}")
@@ -82,16 +88,8 @@ def _to_mpf_raw(v: Any) -> mpmath.mpf:
     if isinstance(v, Fraction):
         return mpmath.mpf(v.numerator) / v.denominator
     if isinstance(v, str):
-        if len(v) > 1000:
-            raise ValueError(f"number string of {len(v)} characters (at most 1000)")
-        try:
-            return mpmath.mpf(v)
-        except ValueError:
-            try:
-                q = Fraction(v)  # rational strings such as "1/3"
-            except (ValueError, ZeroDivisionError):
-                raise ValueError(f"{v!r:.60} is not a decimal or rational number") from None
-            return mpmath.mpf(q.numerator) / q.denominator
+        q = parse_number(v, "number")  # the one parser: never evaluated
+        return mpmath.mpf(q.numerator) / q.denominator
     if isinstance(v, sympy.Basic):
         if not v.is_real:
             raise ValueError(f"{v} is not a real number")
@@ -115,19 +113,11 @@ class ReferenceCore:
     """
 
     name = "tstarg-reference"
-    version = "0.1.0"
+    version = __version__  # the package's (pyproject.toml)
     batched = False
 
     def __init__(self, dps: int = 50):
-        if (
-            isinstance(dps, bool)
-            or not isinstance(dps, (int, np.integer))
-            or not 15 <= dps <= MAX_DPS
-        ):
-            raise ValueError(
-                f"dps must be an int in [15, {MAX_DPS}] (the precision cap), got {dps!r}"
-            )
-        self.dps = int(dps)
+        self.dps = check_precision_digits(dps)  # the boundary's precision cap
 
     def __repr__(self) -> str:
         return f"Reference(dps={self.dps})"
@@ -266,9 +256,17 @@ class ReferenceCore:
                     f"x = {[mpmath.nstr(v, 8) for v in x]} is outside the chart of exponential coordinates: "
                     f"det phi1(-ad_x) = {mpmath.nstr(det, 5)} (an eigenvalue of ad_x is near 2 pi i k)"
                 )
-            L = mpmath.inverse(A)
-            Ad = mpmath.expm(adx)
-            K = mpmath.inverse(Ad).T
+            try:
+                L = mpmath.inverse(A)
+                Ad = mpmath.expm(adx)
+                K = mpmath.inverse(Ad).T
+            except ZeroDivisionError:  # mpmath's LU: a pivot below ||.|| eps at this precision
+                raise ValueError(
+                    f"x = {[mpmath.nstr(v, 8) for v in x]}: the frame phi1(-ad_x) or Ad = exp(ad_x) is "
+                    f"numerically singular at {self.dps} digits (||ad_x||_1 = {mpmath.nstr(norm, 5)}: "
+                    f"real eigenvalues of ad_x spread the frame over e^||ad_x||); the point is beyond "
+                    f"the reference's working range at this precision (raise dps or bring x closer to 0)"
+                ) from None
         return {"A": A, "L": L, "Ad": Ad, "K": K, "ad": adx}
 
     @staticmethod
@@ -316,18 +314,72 @@ class ReferenceCore:
         ``n eps_work ||Phi||^n`` of a determinant computed with ``dps + GUARD_DIGITS`` digits."""
         n = Phi.rows
         scale = max(mpmath.mpf(1), mpmath.mnorm(Phi, 1)) ** n
-        if abs(Delta) <= 16 * n * mpmath.eps * scale:
+        if (
+            abs(Delta) <= 16 * n * mpmath.eps * scale
+        ):  # relative to ||Phi||^n (Hadamard), not absolute
+            what = (
+                f"Delta = det Phi is zero to working precision relative to the scale of Phi: "
+                f"|Delta| = {mpmath.nstr(abs(Delta), 5)} <= 16 n eps ||Phi||_1^n = "
+                f"{mpmath.nstr(16 * n * mpmath.eps * scale, 3)} at {self.dps} digits"
+                + (" (mpmath's LU met a pivot below ||Phi|| eps)" if Delta == 0 else "")
+            )
             raise DegeneratePointError(
                 f"point with pi = {[mpmath.nstr(v, 10) for v in pi]} is on the degenerate set Pi_1 "
-                f"(vier12): Delta = det Phi = {mpmath.nstr(Delta, 5)}; omega_L has no inverse there"
+                f"(vier12) to working precision: {what}; omega_L has no inverse there"
             )
+
+    def _phi_decided(self, F, theta, upsilon, pi) -> tuple[dict, int]:
+        """``(phi_psi_delta at d digits, d)``: the working digits ``d`` at which Delta is decided
+        nonzero *and* inverting Phi still keeps the current digits.
+
+        Whether Delta is zero is judged relative to the scale of Phi (Hadamard: ``|Delta| <=
+        ||Phi||^n``), never absolutely, and never from one precision alone: while ``|Delta| <=
+        16 n eps ||Phi||_1^n`` the digits are doubled up to the cap ``MAX_DPS + GUARD_DIGITS``
+        (Phi ~ 1e66 with Delta ~ 1e198 is far from singular). Once decided, the inverse of Phi loses
+        at most ``log10(||Phi||_1^n / |Delta|)`` digits (that ratio bounds ``cond(Phi)`` from above),
+        so ``d`` adds them. A point still undecided at the cap is degenerate to that precision
+        (:class:`DegeneratePointError`); one decided but needing more than the cap is a
+        :class:`refimpl._validate.BudgetError`. Float and integer inputs are exact at every ``d``;
+        rationals were rounded once at the instance's digits.
+        """
+        base = mpmath.mp.dps
+        cap = MAX_DPS + GUARD_DIGITS
+        d = base
+        while True:
+            with mpmath.workdps(d):
+                q = self.phi_psi_delta(F, theta, upsilon, pi)
+                n = q["Phi"].rows
+                scale = max(mpmath.mpf(1), mpmath.mnorm(q["Phi"], 1)) ** n
+                decided = abs(q["Delta"]) > 16 * n * mpmath.eps * scale
+                if decided:
+                    lost = int(mpmath.ceil(mpmath.log10(scale / abs(q["Delta"]))))
+                    need = base + max(lost, 0)
+                    if need <= d:
+                        return q, d
+                    if need > cap:
+                        raise BudgetError(
+                            f"point with pi = {[mpmath.nstr(v, 10) for v in pi]}: Phi is so ill-conditioned "
+                            f"(||Phi||_1^n / |Delta| = 10^{lost}) that inverting it needs {need} digits, "
+                            f"over the precision cap {MAX_DPS}"
+                        )
+                    d = need
+                    continue
+            if d >= cap:
+                with mpmath.workdps(d):
+                    self._check_nondegenerate(
+                        q["Phi"], q["Delta"], pi
+                    )  # raises: degenerate at the cap
+            d = min(2 * d, cap)
 
     # ------------------------------------------------------ Poisson tensor
     def body_tensor_mp(self, F, theta, upsilon, pi, route: str = "closed") -> mpmath.matrix:
         """``-W^-1``: the Poisson tensor in the body frame ``(eps_L, dpi)`` (vier9)."""
+        q, d = self._phi_decided(F, theta, upsilon, pi)
+        with mpmath.workdps(d):
+            return self._body_tensor_at(F, theta, upsilon, pi, q, route)
+
+    def _body_tensor_at(self, F, theta, upsilon, pi, q, route):
         n = len(F)
-        q = self.phi_psi_delta(F, theta, upsilon, pi)
-        self._check_nondegenerate(q["Phi"], q["Delta"], pi)
         if route == "closed":
             Phi_inv = mpmath.inverse(q["Phi"])
             Psi_inv = mpmath.inverse(q["Psi"])
@@ -393,9 +445,9 @@ class ReferenceCore:
                     T[n + i, n + i] = 1
                 return T * body * T.T
             if route == "first_principles":
-                q = self.phi_psi_delta(F, th, up, pv)
-                self._check_nondegenerate(q["Phi"], q["Delta"], pv)
-                return -mpmath.inverse(self.omega_holonomic_mp(F, th, up, xv, pv))
+                _q, d = self._phi_decided(F, th, up, pv)
+                with mpmath.workdps(d):
+                    return -mpmath.inverse(self.omega_holonomic_mp(F, th, up, xv, pv))
             raise ValueError(f"unknown route {route!r} (closed or first_principles)")
 
     # --------------------------------------------------------- the bracket
@@ -411,9 +463,9 @@ class ReferenceCore:
             n = len(F)
             xv, pv = self._vec(x, n, "x"), self._vec(pi, n, "pi")
             L = self.frames_mp(F, xv)["L"]
-            q = self.phi_psi_delta(F, th, up, pv)
-            self._check_nondegenerate(q["Phi"], q["Delta"], pv)
-            Phi_inv, Psi_inv = mpmath.inverse(q["Phi"]), mpmath.inverse(q["Psi"])
+            q, d = self._phi_decided(F, th, up, pv)
+            with mpmath.workdps(d):
+                Phi_inv, Psi_inv = mpmath.inverse(q["Phi"]), mpmath.inverse(q["Psi"])
 
             def grad(fun):
                 z0 = list(xv) + list(pv)
@@ -487,8 +539,7 @@ class ReferenceCore:
             dK = Iinv * pv
             if route == "closed":
                 fr = self.frames_mp(F, xv)
-                q = self.phi_psi_delta(F, th, up, pv)
-                self._check_nondegenerate(q["Phi"], q["Delta"], pv)
+                q, d = self._phi_decided(F, th, up, pv)
                 dV = (
                     mpmath.zeros(n, 1)
                     if grav is None
@@ -496,8 +547,9 @@ class ReferenceCore:
                 )
                 # Row-vector forms of vier10 / vier11, written as columns:
                 # Omega = Psi^-1 (dK - U dV), pidot = Phi^-1 (-dV - S dK).
-                Omega = mpmath.lu_solve(q["Psi"], dK - up * dV)
-                pidot = mpmath.lu_solve(q["Phi"], -dV - q["S"] * dK)
+                with mpmath.workdps(d):  # the digits at which Phi is decided and inverted
+                    Omega = mpmath.lu_solve(q["Psi"], dK - up * dV)
+                    pidot = mpmath.lu_solve(q["Phi"], -dV - q["S"] * dK)
                 xdot = fr["L"] * Omega
                 return xdot, pidot
             if route == "first_principles":
@@ -549,7 +601,9 @@ class ReferenceCore:
         arr = np.array(vals, dtype=object).reshape(shape)
         if exact:
             return arr
-        return np.array([float(v) for v in arr.flat]).reshape(shape)
+        out = np.array([float(v) for v in arr.flat]).reshape(shape)
+        check_finite_result("reference", {"the float64 result": out})  # the boundary: no silent inf
+        return out
 
     def poisson_tensor(self, f, theta, upsilon, x, pi):
         """Protocol method 1: ``P`` of shape ``(2n, 2n)`` in holonomic coordinates (closed route)."""

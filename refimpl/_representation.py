@@ -2,7 +2,7 @@
 group-level ``exp`` / ``log`` through them (what re-basing flows need to re-express ``g = exp(x)``).
 
 Construction (:func:`faithful_representation`, cached per algebra by the bytes of ``f``;
-conventions of CONVENTIONS.md, ``[e_a, e_b] = f^m_ab e_m``, ``ad_x[m, b] = x^a f[m, a, b]``):
+conventions of docs/conventions.md, ``[e_a, e_b] = f^m_ab e_m``, ``ad_x[m, b] = x^a f[m, a, b]``):
 
 1. centre ``z = 0`` (every semisimple algebra in any basis): the adjoint representation
    ``rho(e_a) = ad_{e_a} = f[:, a, :]``;

@@ -1,6 +1,6 @@
 """Rigorous flows of the polynomial body systems: an interval Taylor method with Lohner's QR wrapping control.
 
-Systems (CONVENTIONS.md; ``Upsilon = 0``, so ``Phi = 1`` and ``Omega = dK = I^-1 pi``):
+Systems (docs/conventions.md; ``Upsilon = 0``, so ``Phi = 1`` and ``Omega = dK = I^-1 pi``):
 
 * Euler with a cocycle (twee14, drie6): ``pidot = -dV - S dK`` with ``S = pi.f - Theta``,
   i.e. ``pidot_a = -f^m_ab pi_m Omega^b + Theta_ab Omega^b``;
@@ -46,6 +46,7 @@ affects tightness, never validity.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -288,7 +289,7 @@ def _lohner_step(F, yhat, B, r, h, p, q, tol):
     yhat_n = [v.mid() for v in phi]
     e = arb_mat(d, 1, [v - m for v, m in zip(phi, yhat_n)])
     rn = (Bn_inv * M) * r + Bn_inv * e
-    return yhat_n, Bn, rn, remmax
+    return yhat_n, Bn, rn, remmax, E, C, (Ys, Yr[q + 1])
 
 
 def enclose_quadratic(
@@ -301,21 +302,35 @@ def enclose_quadratic(
     tol: float = 2.0**-184,
     h0: float = 0.05,
     max_steps: int = 100000,
-) -> tuple[list, int, int]:
+    on_step=None,
+    jacobian: bool = False,
+    max_seconds: float | None = None,
+) -> tuple:
     """Enclose ``y(T)`` for ``y' = F(y)``, ``y(0) in y0`` (balls), at the current precision (module docstring).
 
-    Returns ``(balls of y(T), accepted steps, rejected steps)``; raises ``ValueError`` when the step
-    size underflows (no enclosure or remainder small enough) or after ``max_steps`` steps.
+    Returns ``(balls of y(T), accepted steps, rejected steps)``, and with ``jacobian=True`` a fourth item:
+    a ball matrix containing ``D phi_T(y)`` for every ``y`` in ``y0`` (the chain rule over the steps'
+    Jacobians ``C_k``, each valid over a set containing the trajectories). ``on_step(t0, h, E, series)``,
+    if given, is called after each accepted step with its start ``t0``, length ``h`` (balls), a-priori
+    enclosure ``E`` (boxes containing every solution on ``[t0, t0 + h]``) and ``series = (Ys, R)``: every
+    solution from the step's set satisfies ``y(t0 + s) in sum_k Ys[k] s^k + R s^(q+1)`` for ``s`` in
+    ``[0, h]`` (Taylor coefficients over the set, Lagrange remainder over ``E``). Raises ``ValueError`` when
+    the step size underflows (no enclosure or remainder small enough), after ``max_steps`` steps, or
+    when the time the run needs, estimated from the steps done, exceeds ``max_seconds`` (a budget).
     """
-    if T.is_zero():
-        return list(y0), 0, 0
     d = F.d
+    I = arb_mat([[1 if i == j else 0 for j in range(d)] for i in range(d)])
+    if T.is_zero():
+        return (list(y0), 0, 0, I) if jacobian else (list(y0), 0, 0)
     yhat = [v.mid() for v in y0]
-    B = arb_mat([[1 if i == j else 0 for j in range(d)] for i in range(d)])
+    B = I
     r = arb_mat(d, 1, [v - m for v, m in zip(y0, yhat)])
+    Jtot = I
     tnow = arb(0)  # exact: a sum of dyadic steps
     h = h0
     steps = rejected = 0
+    Tf = float(T.mid())
+    start = time.process_time()
     while True:
         left = T - tnow
         if not (left > 0):
@@ -332,17 +347,31 @@ def enclose_quadratic(
                     "(the enclosure or the remainder cannot be made small enough)"
                 )
             continue
-        yhat, B, r, remmax = res
+        yhat, B, r, remmax, E, C, series = res
         steps += 1
+        if jacobian:
+            Jtot = C * Jtot
+        if on_step is not None:
+            on_step(tnow, hb, E, series)
         if last:
             break
         tnow += hb
+        if max_seconds is not None and steps % 4 == 0:
+            spent = time.process_time() - start
+            need = spent * Tf / max(float(tnow.mid()), 1e-300)
+            if need > max_seconds:
+                raise ValueError(
+                    f"rigorous flow: the run would take about {need:.3g} s of CPU (estimated from "
+                    f"{steps} steps to t = {float(tnow.mid()):.3g} of {Tf:g}), over the budget "
+                    f"max_seconds = {max_seconds:g}"
+                )
         if remmax < tol * 1e-6:
             h = h * 1.25
         if steps > max_steps:
             raise ValueError(f"rigorous flow: more than max_steps = {max_steps} steps")
     Br = B * r
-    return [yhat[i] + Br[i, 0] for i in range(d)], steps, rejected
+    out = [yhat[i] + Br[i, 0] for i in range(d)]
+    return (out, steps, rejected, Jtot) if jacobian else (out, steps, rejected)
 
 
 def body_flow_enclosure(

@@ -103,7 +103,7 @@ class QuadraticField:
 
 
 def quadratic_field(model) -> QuadraticField:
-    """The body field of a :class:`refimpl._flow_fast.NumpyModel` with ``Upsilon = 0`` as a quadratic polynomial.
+    """The body field of a :class:`refimpl.model.Model` with ``Upsilon = 0`` as a quadratic polynomial.
 
     Coefficients (``w = I^-1 pi`` eliminated; ``n = dim g``, ``Gamma`` at indices ``n..2n-1``):
 
@@ -153,7 +153,7 @@ def quadratic_field_su2_full(model) -> QuadraticField:
     """The su(2) body field extended by the group element as a unit quaternion: still quadratic.
 
     State ``y = (pi, [Gamma,] q)`` with ``g = q_0 - i q.sigma`` (the matrix of ``exp(x^a E_a)``,
-    ``E_a = -(i/2) sigma_a``; :func:`refimpl._flow_fast.qmul` is the matching Hamilton product). The
+    ``E_a = -(i/2) sigma_a``; :func:`refimpl.flows.qmul` is the matching Hamilton product). The
     left-trivialised kinematics ``g^-1 dg/dt = Omega^a E_a`` (``Omega = I^-1 pi`` for ``Upsilon = 0``,
     vier10) read ``dq/dt = q * (0, Omega/2)``::
 

@@ -1,4 +1,26 @@
-"""Validation of the implementation protocol's inputs, shared by both implementations.
+"""Validation of the implementation protocol's inputs, shared by every implementation.
+
+**The boundary** (issue 30), stated here once and applied by the fast, the reference and the
+rigorous implementations alike (they call the checks below; nothing else decides what is accepted):
+
+=============  ==============================================================================
+magnitudes     every number of ``f``, ``theta``, ``upsilon``, ``inertia``, ``potential``, ``x`` and
+               ``pi`` has ``|v| <= MAX_MAGNITUDE`` (1e300); results that still overflow float64
+               are refused (:func:`check_finite_result`), never returned as inf or NaN
+dimension      ``n <= MAX_DIMENSION`` (32) for float algebras, ``n <= MAX_EXACT_DIMENSION`` (16)
+               for exact ones (their Jacobi check is symbolic), refused before any ``n^4`` work
+memory         every batch's working set ``<= MAX_WORK_BYTES`` (2 GiB), estimated before it is
+               allocated (:func:`check_batch_memory`); input arrays ``<= MAX_ELEMENTS`` numbers
+precision      ``dps <= MAX_DPS`` (5000 digits) and ``prec_bits <= MAX_PREC_BITS`` (the same
+               precision in bits) (:func:`check_precision_digits`, :func:`check_precision_bits`)
+time           ``TIME_BUDGET_S`` (20 s of CPU) per flow call: the cost is estimated before each run
+               and the run refused with the estimate (:class:`TimeBudget`, :class:`BudgetError`)
+counts         ``|t| <= MAX_FLOW_TIME``, ``steps <= MAX_FLOW_STEPS``, ``tol >= MIN_FLOW_TOL``
+               (:func:`check_flow_request`), and the rate budget of :func:`check_flow_rates`
+chart          ``rho(x) < 2 pi`` (:func:`check_chart`); the degenerate set: ``Delta`` small
+               relative to the scale of Phi (:func:`degenerate_relative`)
+strings        numbers written as strings go through :func:`parse_number` only, never evaluated
+=============  ==============================================================================
 
 Every failure is a ``ValueError`` naming the input and the violated condition
 (with the residual where there is one). Tolerances are error models in units
@@ -8,15 +30,25 @@ and cocycles are cached by value, so a batch pays for the checks once.
 
 from __future__ import annotations
 
+import math
+import os
+import re
+import time
+from fractions import Fraction
 from functools import lru_cache
 from typing import Any
 
 import numpy as np
 
-from ._algebra import EPS, LieAlgebra, jacobi_residual
+from ._algebra import EPS, LieAlgebra
 from ._errors import ChartError
 
 __all__ = [
+    "parse_number",
+    "exact_fraction",
+    "exact_sympy",
+    "MAX_NUMBER_CHARS",
+    "MAX_DECIMAL_EXPONENT",
     "check_structure_constants",
     "check_theta",
     "check_upsilon",
@@ -62,6 +94,117 @@ MIN_FLOW_TOL = 1e-14
 count can meet it (the step doubling would only run to its limit)."""
 
 _REAL_KINDS = "fiu"
+
+
+# ------------------------------------------------------------------ numbers given as strings
+MAX_NUMBER_CHARS = 1000
+"""A number string has at most this many characters."""
+MAX_DECIMAL_EXPONENT = 10_000
+"""A decimal exponent ``e+-k`` has ``|k|`` at most this (``Fraction("1e999999999")`` alone would
+build a billion-digit integer; ``1e10000`` is already far beyond every magnitude budget)."""
+_DECIMAL_RE = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE]([+-]?[0-9]+))?")
+_RATIONAL_RE = re.compile(r"[+-]?[0-9]+/[0-9]+")
+
+
+def parse_number(text: str, name: str = "value") -> Fraction:
+    """The one parser of numbers written as strings: a decimal literal (``"-1.25e-3"``) or a
+    rational literal (``"-1/3"``), ASCII digits, surrounding blanks ignored, nothing else.
+
+    Strings are never evaluated (``sympify``, ``eval``, ``S(...)`` and ``nsimplify`` of a string
+    run Python code); this regular-expression parser and :class:`fractions.Fraction` on the
+    matched literal are the only route from a caller's string to a number in tstarg. Refused with
+    ``ValueError`` naming ``name``: anything else (code, ``"nan"``, ``"inf"``, ``"0x1p3"``,
+    underscores), strings over :data:`MAX_NUMBER_CHARS` characters, exponents beyond
+    :data:`MAX_DECIMAL_EXPONENT`, and a zero denominator.
+    """
+    if not isinstance(text, str):
+        raise TypeError(f"{name}: parse_number takes a str, got {type(text).__name__}")
+    if len(text) > MAX_NUMBER_CHARS:
+        raise ValueError(
+            f"{name} is a string of {len(text)} characters; a number string has at most "
+            f"{MAX_NUMBER_CHARS} (strings are never evaluated)"
+        )
+    s = text.strip()
+    m = _DECIMAL_RE.fullmatch(s)
+    if m is not None:
+        if m.group(1) is not None and abs(int(m.group(1))) > MAX_DECIMAL_EXPONENT:
+            raise ValueError(
+                f"{name} = {text!r:.60} has a decimal exponent beyond +-{MAX_DECIMAL_EXPONENT}"
+            )
+        return Fraction(s)
+    if _RATIONAL_RE.fullmatch(s):
+        num, den = s.split("/")
+        if int(den) == 0:
+            raise ValueError(f"{name} = {text!r:.60} has a zero denominator")
+        return Fraction(int(num), int(den))
+    raise ValueError(
+        f"{name} = {text!r:.60} is not a decimal or rational literal such as '-1.5e-3' or '1/3' "
+        f"(strings are parsed, never evaluated; give numbers or sympy expressions instead)"
+    )
+
+
+def exact_fraction(value: Any, name: str = "value") -> Fraction:
+    """A caller's real number as the exact :class:`fractions.Fraction` it denotes.
+
+    Accepted: ``int`` and numpy integers, ``Fraction``, finite floats (their exact binary value),
+    strings through :func:`parse_number`, sympy ``Integer``/``Rational``/``Float``, mpmath ``mpf``.
+    Refused by name (``ValueError``): booleans, complex numbers, NaN and infinities, and every other
+    type (irrational sympy numbers have no exact fraction: use :func:`exact_sympy`).
+    """
+    if isinstance(value, (bool, np.bool_)) or value is None:
+        raise ValueError(f"{name} is {value!r}; a real number is expected")
+    if isinstance(value, (int, np.integer)):
+        return Fraction(int(value))
+    if isinstance(value, Fraction):
+        return value
+    if isinstance(value, (float, np.floating)):
+        if not math.isfinite(float(value)):
+            raise ValueError(f"{name} is the non-finite number {value!r}")
+        return Fraction(float(value))
+    if isinstance(value, str):
+        return parse_number(value, name)
+    mod = type(value).__module__ or ""
+    if mod.startswith("sympy"):
+        import sympy
+
+        if isinstance(value, sympy.Rational):  # Integer is a Rational
+            return Fraction(int(value.p), int(value.q))
+        if isinstance(value, sympy.Float):
+            return _mpf_fraction(value._mpf_, name)
+        raise ValueError(
+            f"{name} = {value!s:.60} is not a rational or float sympy number (no exact fraction)"
+        )
+    if mod.startswith("mpmath"):
+        import mpmath
+
+        if isinstance(value, mpmath.mpf):
+            return _mpf_fraction(value._mpf_, name)
+    raise ValueError(f"{name} has type {type(value).__name__}; a real number is expected")
+
+
+def _mpf_fraction(mpf_tuple: tuple, name: str) -> Fraction:
+    sign, man, exp, _bc = mpf_tuple
+    if not man and exp:  # mpmath's special values (inf, -inf, nan) have man = 0, exp != 0
+        raise ValueError(f"{name} is a non-finite number")
+    if abs(exp) > 4 * MAX_DECIMAL_EXPONENT:
+        raise ValueError(f"{name} has a binary exponent {exp} beyond every magnitude budget")
+    q = Fraction(int(man)) * (Fraction(2) ** int(exp))
+    return -q if sign else q
+
+
+def exact_sympy(value: Any, name: str = "value"):
+    """A caller's number as a sympy expression, with no string ever evaluated.
+
+    sympy objects pass unchanged (symbols and radicals included: they were built by code, not
+    parsed); every other number goes through :func:`exact_fraction` (strings through
+    :func:`parse_number`) and becomes an exact ``sympy.Rational``.
+    """
+    import sympy
+
+    if isinstance(value, sympy.Basic):
+        return value
+    q = exact_fraction(value, name)
+    return sympy.Rational(q.numerator, q.denominator)
 
 
 def _element_kind_error(value: Any, name: str) -> str | None:
@@ -124,11 +267,43 @@ def as_float_array(value: Any, name: str) -> np.ndarray:
 
 
 def _finite(arr: np.ndarray, name: str) -> None:
+    """Every entry finite and within the magnitude boundary (:data:`MAX_MAGNITUDE`)."""
     if not np.all(np.isfinite(arr)):
         bad = np.argwhere(~np.isfinite(arr))
         raise ValueError(
             f"{name} contains NaN or infinity at {len(bad)} entr{'y' if len(bad) == 1 else 'ies'}, "
             f"first at index {tuple(int(i) for i in bad[0])}"
+        )
+    check_magnitude(arr, name)
+
+
+def check_jacobi(f: np.ndarray, label: str = "structure constants f") -> None:
+    """The Jacobi identity of float64 ``f`` to rounding, in ``n^3`` memory (one ``m`` at a time) and
+    without overflow (``f`` is divided by ``sigma = max(1, max|f|)`` first; the identity is
+    quadratic, so the residual and its tolerance scale by ``sigma^2`` alike)."""
+    n = f.shape[0]
+    check_dimension(n, what=label)
+    if not f.size:
+        return
+    sigma = max(1.0, float(np.max(np.abs(f))))
+    g = f / sigma
+    # Each Jacobi entry sums 3n rounded products of size <= max|g|^2 <= 1: 3 n eps, x4 slack.
+    tol = 12 * n * float(EPS)
+    flat = g.reshape(n, n * n)
+    worst, where = 0.0, None
+    for m in range(n):
+        t = (g[m] @ flat).reshape(n, n, n)  # t[a, b, c] = g^m_ak g^k_bc
+        jac = np.abs(t + t.transpose(1, 2, 0) + t.transpose(2, 0, 1))
+        w = float(jac.max())
+        if w > worst:
+            worst, where = (
+                w,
+                (m,) + tuple(int(i) for i in np.unravel_index(int(np.argmax(jac)), jac.shape)),
+            )
+    if worst > tol:
+        raise ValueError(
+            f"{label} break the Jacobi identity: worst residual {worst * sigma * sigma:.3g} at "
+            f"(m, a, b, c) = {where} (tolerance 12 n eps max(1, max|f|)^2 = {tol * sigma * sigma:.3g})"
         )
 
 
@@ -144,15 +319,7 @@ def _check_f_cached(data: bytes, n: int) -> None:
             f"structure constants f are not antisymmetric in (a, b): |f[m,a,b] + f[m,b,a]| = "
             f"{asym.max():.3g} at (m, a, b) = {tuple(int(i) for i in idx)}"
         )
-    jac = np.abs(jacobi_residual(f))
-    # Each Jacobi entry sums 3n rounded products of size <= max|f|^2: 3 n eps max|f|^2, x4 slack.
-    tol = 12 * n * EPS * scale**2
-    if jac.size and jac.max() > tol:
-        idx = np.unravel_index(int(np.argmax(jac)), jac.shape)
-        raise ValueError(
-            f"structure constants f break the Jacobi identity: worst residual {jac.max():.3g} at "
-            f"(m, a, b, c) = {tuple(int(i) for i in idx)} (tolerance 12 n eps max|f|^2 = {tol:.3g})"
-        )
+    check_jacobi(f)
 
 
 def check_structure_constants(f: Any) -> np.ndarray:
@@ -161,6 +328,7 @@ def check_structure_constants(f: Any) -> np.ndarray:
         raise ValueError(
             f"structure constants f must have shape (n, n, n) with n >= 1, got {arr.shape}"
         )
+    check_dimension(arr.shape[0])
     _finite(arr, "structure constants f")
     arr = np.ascontiguousarray(arr)
     _check_f_cached(arr.tobytes(), arr.shape[0])
@@ -186,6 +354,11 @@ def _check_square_antisym(value: Any, n: int, name: str) -> np.ndarray:
 def _check_theta_cached(fdata: bytes, tdata: bytes, n: int) -> None:
     f = np.frombuffer(fdata, dtype=float).reshape(n, n, n)
     t = np.frombuffer(tdata, dtype=float).reshape(n, n)
+    # the check is bilinear in (f, theta): both are divided by max(1, max|.|) first (no overflow for
+    # entries up to MAX_MAGNITUDE); the tolerance below is then stated for the scaled arrays
+    sf = max(1.0, float(np.max(np.abs(f))))
+    st = max(1.0, float(np.max(np.abs(t))))
+    f, t = f / sf, t / st
     res = (
         -np.einsum("kc,kab->abc", t, f)
         + np.einsum("kb,kac->abc", t, f)
@@ -193,8 +366,15 @@ def _check_theta_cached(fdata: bytes, tdata: bytes, n: int) -> None:
     )
     worst = float(np.max(np.abs(res)))
     # delta_2 Theta sums 3n products: 3 n eps max|f| max|Theta|, x8 slack.
-    tol = 24 * n * EPS * max(1.0, float(np.max(np.abs(f)))) * max(1.0, float(np.max(np.abs(t))))
-    if worst > tol:
+    tol = (
+        24
+        * n
+        * float(EPS)
+        * max(1.0, float(np.max(np.abs(f))))
+        * max(1.0, float(np.max(np.abs(t))))
+    )
+    if worst > tol:  # compared scaled; reported at the caller's scale
+        worst, tol = worst * sf * st, tol * sf * st
         idx = np.unravel_index(int(np.argmax(np.abs(res))), res.shape)
         raise ValueError(
             f"theta is not a 2-cocycle (zeven1): max |delta_2 theta| = {worst:.3g} at (a, b, c) = "
@@ -299,6 +479,7 @@ def check_points(x: Any, pi: Any, n: int, *, batched: bool) -> tuple[np.ndarray,
             where = ", ".join(str(tuple(int(i) for i in b)) for b in bad[:5])
             more = f" and {len(bad) - 5} more" if len(bad) > 5 else ""
             raise ValueError(f"{name} contains NaN or infinity at point(s) {where or '()'}{more}")
+        check_magnitude(arr, name)
     return xa, pa
 
 
@@ -459,3 +640,261 @@ def check_flow_rates(
             f"|t| * ||I^-1|| |pi| = {abs(t) * rate[k]:.3g} rad > {limit:.3g} (2^14 (2 + |t|))"
             + (f"; {bad.size - 1} more point(s) likewise" if bad.size > 1 else "")
         )
+
+
+# ------------------------------------------------------------------ the boundary: budgets
+MAX_MAGNITUDE = 1e300
+"""Every input number has ``|v| <= MAX_MAGNITUDE`` (the float64 range, with room for products)."""
+MAX_DIMENSION = 32
+"""Largest algebra dimension ``n``: the Jacobi check costs ``n^5`` multiply-adds, a Poisson tensor
+``(2n)^3`` per point in float64 and about ``30 n^3`` multiprecision operations per point in the
+reference (about 10 s at n = 32)."""
+MAX_EXACT_DIMENSION = 16
+"""Largest dimension of an exact (symbolic) algebra: its validation simplifies ``n^4`` Jacobi
+entries with sympy (about 0.2 s at n = 10, growing as ``n^4``)."""
+MAX_WORK_BYTES = 2 * 2**30
+"""Largest working set of one batched call, estimated before the work (2 GiB)."""
+MAX_DPS = 5000
+"""Precision cap: 5000 significant digits (``Reference(dps)``)."""
+MAX_PREC_BITS = int(MAX_DPS * 3.3219280948873626) + 1
+"""The same cap in bits (``Rigorous(prec_bits)``): 16610 bits."""
+TIME_BUDGET_S = float(os.environ.get("TSTARG_TIME_BUDGET_S", "20"))
+"""CPU seconds one flow call may spend: estimated before each run, refused with the estimate
+(20 s; the environment variable ``TSTARG_TIME_BUDGET_S`` sets another value for long benchmark runs)."""
+
+
+class BudgetError(ValueError):
+    """A request beyond a stated budget (dimension, memory, precision, time), refused before the
+    work with the budget's name and the estimate."""
+
+
+def check_magnitude(arr: np.ndarray, name: str) -> None:
+    """Refuse entries with ``|v| > MAX_MAGNITUDE`` (``arr`` float64, already finite), naming the
+    first such entry."""
+    with np.errstate(invalid="ignore"):
+        big = np.abs(arr) > MAX_MAGNITUDE
+    if big.any():
+        idx = tuple(int(i) for i in np.argwhere(big)[0])
+        raise ValueError(
+            f"{name} has an entry of magnitude {float(np.abs(arr[idx])):.3g} at index {idx}, beyond "
+            f"the boundary |v| <= {MAX_MAGNITUDE:g} of every implementation"
+        )
+
+
+def within_boundary(arr: np.ndarray) -> bool:
+    """Fast test for a float64 array: every entry finite with ``|v| <= MAX_MAGNITUDE`` (NaN fails).
+    For the shortcut paths; on False the full check (:func:`check_points`) names the entry."""
+    if arr.size == 0:
+        return True
+    return bool(np.max(arr) <= MAX_MAGNITUDE and np.min(arr) >= -MAX_MAGNITUDE)
+
+
+def check_dimension(n: int, *, exact: bool = False, what: str = "structure constants f") -> None:
+    """Refuse algebras beyond :data:`MAX_DIMENSION` (:data:`MAX_EXACT_DIMENSION` when exact) before
+    any work, with the estimate of what the work would cost."""
+    limit = MAX_EXACT_DIMENSION if exact else MAX_DIMENSION
+    if n > limit:
+        kind = "exact (symbolic) " if exact else ""
+        raise BudgetError(
+            f"{what}: dimension n = {n} exceeds the dimension budget n <= {limit} of {kind}algebras: "
+            f"its Jacobi check alone needs n^5 = {float(n) ** 5:.3g} multiply-adds over "
+            f"n^4 = {float(n) ** 4:.3g} entries ({8 * float(n) ** 4 / 2**30:.3g} GiB as float64"
+            + (", each simplified by sympy" if exact else "")
+            + ")"
+        )
+
+
+def check_batch_memory(points: int, n: int, *, what: str, per_point_matrices: float = 6.0) -> None:
+    """Refuse a batch whose working set ``8 * points * per_point_matrices * n^2`` bytes exceeds
+    :data:`MAX_WORK_BYTES` (the Poisson tensor alone is ``(2n)^2 = 4 n^2`` numbers per point; inputs,
+    diagnostics and the chunked kernels' temporaries add about ``2 n^2`` more)."""
+    need = 8.0 * float(points) * per_point_matrices * float(n) ** 2
+    if need > MAX_WORK_BYTES:
+        raise BudgetError(
+            f"{what}: {points} points of dimension {n} need about {need / 2**30:.3g} GiB of working "
+            f"memory, over the budget of {MAX_WORK_BYTES / 2**30:g} GiB per call (split the batch)"
+        )
+
+
+def check_precision_digits(dps: Any, *, what: str = "dps", low: int = 15) -> int:
+    """``dps`` an int in ``[low, MAX_DPS]`` (the precision cap), returned as int."""
+    if isinstance(dps, (bool, np.bool_)) or not isinstance(dps, (int, np.integer)):
+        raise ValueError(
+            f"{what} must be an int in [{low}, {MAX_DPS}] (the precision cap), got {dps!r}"
+        )
+    if not low <= int(dps) <= MAX_DPS:
+        raise BudgetError(
+            f"{what} must be an int in [{low}, {MAX_DPS}] (the precision cap), got {dps!r}"
+        )
+    return int(dps)
+
+
+def check_precision_bits(bits: Any, *, what: str = "prec_bits", low: int = 53) -> int:
+    """``bits`` an int in ``[low, MAX_PREC_BITS]`` (the precision cap of :data:`MAX_DPS` digits)."""
+    if isinstance(bits, (bool, np.bool_)) or not isinstance(bits, (int, np.integer)):
+        raise ValueError(
+            f"{what} must be an int in [{low}, {MAX_PREC_BITS}] (the precision cap), got {bits!r}"
+        )
+    if not low <= int(bits) <= MAX_PREC_BITS:
+        raise BudgetError(
+            f"{what} must be an int in [{low}, {MAX_PREC_BITS}] (the precision cap of {MAX_DPS} "
+            f"digits), got {bits!r}"
+        )
+    return int(bits)
+
+
+def check_finite_result(what: str, arrays: dict, *, flagged: np.ndarray | None = None) -> None:
+    """Refuse a result with entries that are not finite at points not already flagged (degenerate or
+    outside the chart): the inputs were within the boundary but the result overflows float64.
+
+    ``arrays``: ``{name: array}``, each with the batch axes first; ``flagged``: boolean mask of the
+    batch axes (or None)."""
+    for name, arr in arrays.items():
+        a = np.asarray(arr)
+        batch = a.shape[: flagged.ndim] if flagged is not None else a.shape[:0]
+        with np.errstate(invalid="ignore"):
+            ok = np.isfinite(a).reshape(batch + (-1,)).all(axis=-1)
+        if flagged is not None:
+            ok = ok | flagged
+        if not np.all(ok):
+            bad = np.argwhere(~np.asarray(ok))
+            where = (
+                f" at batch indices {[tuple(int(i) for i in b) for b in bad[:5]]}"
+                if bad.size
+                else ""
+            )
+            raise ValueError(
+                f"{what}: {name} overflows float64{where}: the inputs are within the magnitude "
+                f"boundary (|v| <= {MAX_MAGNITUDE:g}) but the result is not representable; scale "
+                f"the momenta or the structure constants down"
+            )
+
+
+class TimeBudget:
+    """The time budget of one call: :data:`TIME_BUDGET_S` CPU seconds (``time.process_time``, so a
+    loaded machine does not shrink it) from construction.
+
+    ``refuse_if(estimate_s, doing)`` raises :class:`BudgetError` *before* a piece of work whose
+    estimated cost would cross the budget, stating the estimate; ``spent()`` is the CPU time used.
+    """
+
+    def __init__(self, what: str, seconds: float | None = None):
+        self.what = what
+        self.seconds = float(TIME_BUDGET_S if seconds is None else seconds)
+        self.start = time.process_time()
+
+    def spent(self) -> float:
+        return time.process_time() - self.start
+
+    def refuse_if(self, estimate_s: float, doing: str) -> None:
+        spent = self.spent()
+        if not spent + estimate_s <= self.seconds:
+            raise BudgetError(
+                f"{self.what}: {doing} would take about {estimate_s:.3g} s of CPU (estimated before "
+                f"the work, {spent:.3g} s already spent), over the time budget of {self.seconds:g} s "
+                f"per call (refimpl._validate.TIME_BUDGET_S); shorten t, loosen tol or split the batch"
+            )
+
+
+def degenerate_relative(delta_abs: float, phi_norm: float, n: int, eps: float) -> bool:
+    """Delta = det Phi is zero to working precision when ``|Delta| <= 16 n eps ||Phi||^n`` --
+    relative to the scale of Phi (Hadamard: ``|det Phi| <= ||Phi||^n``), never absolute:
+    ``Phi = 1 + S Upsilon`` of size 1e66 has a determinant of size 1e198 that is far from 0."""
+    return bool(delta_abs <= 16 * n * eps * phi_norm**n)
+
+
+def check_out_buffer(out: Any, *inputs: tuple[str, Any]) -> None:
+    """An ``out=`` buffer must be a writable numpy array that shares no memory with any input
+    (``inputs``: ``(name, array)`` pairs); refused by name otherwise. Shape, dtype and layout are
+    the caller's checks."""
+    if out is None:
+        return
+    if not isinstance(out, np.ndarray):
+        raise ValueError(f"out must be a numpy array or None, got {type(out).__name__}")
+    if not out.flags.writeable:
+        raise ValueError("out is a read-only array: results cannot be written into it")
+    for name, arr in inputs:
+        if isinstance(arr, np.ndarray) and np.may_share_memory(out, arr):
+            if np.shares_memory(out, arr, max_work=10**6):
+                raise ValueError(
+                    f"out overlaps the input {name}: writing the result would overwrite the "
+                    f"caller's {name} (pass a separate buffer)"
+                )
+
+
+def refuse_overflow(what: str, arrays: dict, degenerate: np.ndarray, upsilon_zero: bool) -> None:
+    """The protocol methods' last step before returning a float64 result (inputs inside the chart):
+    entries that are not finite at points not flagged degenerate mean the result overflowed float64,
+    refused as such (:func:`check_finite_result`). With ``Upsilon = 0`` no point is degenerate
+    (``Phi = 1``), so a point flagged there overflowed too and is refused as overflow, never as
+    "degenerate"."""
+    degenerate = np.asarray(degenerate, dtype=bool)
+    check_finite_result(
+        what, arrays, flagged=np.zeros_like(degenerate) if upsilon_zero else degenerate
+    )
+
+
+class StepBudget(TimeBudget):
+    """:class:`TimeBudget` for fixed-step integrations: the CPU cost of one step is measured on the
+    work itself (a short probe run with the same step size and batch, :meth:`calibrate`), and every
+    run of ``N`` steps is estimated as ``N`` times that cost *before* it starts (:meth:`before`);
+    each finished run refines the cost (:meth:`after`). A count budget (``steps``, ``|t|``) thus holds
+    in time too: ``steps = 10**7`` within :data:`MAX_FLOW_STEPS` is still refused when its estimate
+    exceeds :data:`TIME_BUDGET_S`.
+    """
+
+    per_step: float = 0.0
+
+    def calibrate(self, probe, steps: int) -> None:
+        """Time ``probe(steps)`` (errors in the probe are left to the real run)."""
+        start = time.process_time()
+        try:
+            probe(steps)
+        except Exception:  # noqa: BLE001 - only the time is wanted here
+            pass
+        self.per_step = max((time.process_time() - start) / max(steps, 1), self.per_step)
+
+    def before(self, steps: int, doing: str) -> float:
+        """Refuse a run of ``steps`` steps whose estimate would cross the budget; returns the start time."""
+        self.refuse_if(
+            self.per_step * steps, f"{doing} ({steps} steps at ~{self.per_step:.2g} s each)"
+        )
+        return time.process_time()
+
+    def after(self, steps: int, started: float) -> None:
+        took = time.process_time() - started
+        if steps > 0 and took > 0:
+            self.per_step = took / steps
+
+
+class ProgressBudget(TimeBudget):
+    """:class:`TimeBudget` for integrations whose step count is not known in advance (the adaptive
+    reference flow): after each step the total cost is extrapolated from the fraction of the span
+    done, and the run is refused -- with the estimate -- as soon as that extrapolation crosses the
+    budget (after :attr:`grace` seconds, so that the first steps' noise does not decide)."""
+
+    grace: float = 1.0
+
+    def progress(self, fraction: float, doing: str) -> None:
+        spent = self.spent()
+        if spent < min(self.grace, self.seconds) or not fraction > 0:
+            if spent > self.seconds:
+                self.refuse_if(0.0, doing)
+            return
+        total = spent / min(fraction, 1.0)
+        if total > self.seconds:
+            raise BudgetError(
+                f"{self.what}: {doing} would take about {total:.3g} s of CPU (extrapolated after "
+                f"{100 * fraction:.3g}% of the span in {spent:.3g} s), over the time budget of "
+                f"{self.seconds:g} s per call (refimpl._validate.TIME_BUDGET_S); shorten t or lower dps"
+            )
+
+    def watch(self, after, t_end, doing: str):
+        """``after_step(t, y)`` of an integrator, wrapped to report progress ``t / t_end`` first."""
+        end = float(abs(t_end)) or 1.0
+
+        def step(t, y):
+            self.progress(float(abs(t)) / end, doing)
+            return y if after is None else after(t, y)
+
+        return step

@@ -1,4 +1,4 @@
-"""Agreement measured as in CONVENTIONS.md: the one max-abs / correct-digits helper of the house.
+"""Agreement measured as in docs/conventions.md: the one max-abs / correct-digits helper of the house.
 
 ``correct digits = -log10(max|approx - ref| / max(max|ref|, floor))``, computed in mpmath at a
 precision high enough that the comparison itself does not round. Every value is converted

@@ -26,7 +26,7 @@ Given a tolerance ``tol``, the allowed error of point ``k`` is
 
 * ``relative=True`` (default): ``allowed_k = tol * max(1, max_ij |P_k,ij|)``
   (mixed absolute/relative, the same scale as the error model and as the
-  "correct digits" of CONVENTIONS.md);
+  "correct digits" of docs/conventions.md);
 * ``relative=False``: ``allowed_k = tol``.
 
 Every point of the batch ends in exactly one of three states, and none is

@@ -1,6 +1,6 @@
 """The fast implementation: numpy float64, batched over any leading axes, with error bounds.
 
-Same mathematics as :mod:`refimpl.reference` (CONVENTIONS.md), computed
+Same mathematics as :mod:`refimpl.reference` (docs/conventions.md), computed
 independently:
 
 * **su(2) closed forms** (``f = eps`` exactly): ``L(g,e) = 1 + K/2 + c K^2``
@@ -64,14 +64,14 @@ from __future__ import annotations
 
 from ._errors import DegeneratePointError
 from ._fast_kernels import C_P, FastCore, FieldBatch, PoissonBatch
-from ._flow_fast import fast_flow
 from ._protocol import Implementation
+from .flows import fast_flow
 
 __all__ = ["Fast", "implementation", "PoissonBatch", "FieldBatch", "DegeneratePointError", "C_P"]
 
 
 class Fast(FastCore, Implementation):
-    """The fast float64 implementation of the whole protocol (DESIGN.md).
+    """The fast float64 implementation of the whole protocol (docs/design.md).
 
     The batched kernels (:meth:`poisson_batch`, :meth:`vector_field_batch`, and the protocol's
     ``poisson_tensor`` and ``hamiltonian_vector_field``) come from

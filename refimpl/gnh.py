@@ -42,6 +42,8 @@ from numbers import Integral, Real
 
 import sympy as sp
 
+from ._validate import parse_number
+
 __all__ = ["GNHResult", "PresymplecticModel", "Stage", "gnh", "lie_poisson_model", "verify_result"]
 
 
@@ -140,7 +142,7 @@ class GNHResult:
 
 
 def _clean(expr) -> sp.Expr:
-    expr = sp.together(sp.expand(expr))
+    expr = sp.together(sp.expand(_expr(expr)))  # _expr: strings parsed, never evaluated
     num, _den = sp.fraction(expr)
     try:
         return sp.factor(sp.expand(num))
@@ -175,12 +177,7 @@ def _expr(v) -> sp.Expr:
     if isinstance(v, Fraction):
         return sp.Rational(v.numerator, v.denominator)
     if isinstance(v, str):
-        try:
-            q = Fraction(v.strip())
-        except (ValueError, ZeroDivisionError):
-            raise ValueError(
-                f"{v!r:.60} is not a decimal or rational literal; give sympy expressions, strings are never evaluated"
-            ) from None
+        q = parse_number(v)  # the one parser (refimpl._validate): never evaluated
         return sp.Rational(q.numerator, q.denominator)
     if isinstance(v, Real):
         fv = float(v)

@@ -1,7 +1,7 @@
 """One model: ``(f, Theta, Upsilon, inertia, potential)`` validated once, and what is derived from it.
 
 :class:`Model` is the single float64 model type of the fast side (the protocol's five model inputs
-of DESIGN.md, ``H = 1/2 pi.I^-1 pi + V(g)`` under ``omega_L``, twee10/twee15). It is built once at the
+of docs/design.md, ``H = 1/2 pi.I^-1 pi + V(g)`` under ``omega_L``, twee10/twee15). It is built once at the
 protocol boundary by the validation of :mod:`refimpl._validate` (never repeated downstream) and is
 immutable: every attribute is fixed at construction. Everything derived from it -- the inverse
 inertia, which terms are present, the faithful representation, the quadratic and rational body fields
@@ -291,7 +291,7 @@ class Model:
 
 @dataclass(frozen=True)
 class State:
-    """A point ``(x, pi)`` of ``T*G`` in exponential coordinates at time ``t`` (CONVENTIONS.md).
+    """A point ``(x, pi)`` of ``T*G`` in exponential coordinates at time ``t`` (docs/conventions.md).
 
     ``x`` and ``pi`` have shape ``(n,)``, or a batch ``(..., n)``; :meth:`checked` validates them
     against a model (finite, real, matching shapes; :func:`refimpl._validate.check_points`).

@@ -1,6 +1,6 @@
 """The mpmath reference implementation: any precision, one point at a time, written to be read.
 
-Mathematics (CONVENTIONS.md, the paper's labels):
+Mathematics (docs/conventions.md, the paper's labels):
 
 * ``g = exp(x^a e_a)``; ``A(x) = phi1(-ad_x)`` with ``phi1(M) = (e^M - 1)/M``
   is the paper's ``L(g^-1, g)`` (coframe ``eps_L = A dx``) and
@@ -43,7 +43,7 @@ __all__ = ["Reference", "implementation", "DegeneratePointError", "GUARD_DIGITS"
 
 
 class Reference(ReferenceCore, Implementation):
-    """The reference implementation of the whole protocol at ``dps`` digits (DESIGN.md).
+    """The reference implementation of the whole protocol at ``dps`` digits (docs/design.md).
 
     Brackets and vector fields come from :class:`refimpl._reference_core.ReferenceCore`;
     protocol method 3 adds the reference flow.

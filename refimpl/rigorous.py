@@ -7,7 +7,7 @@ numbers; the catalogue's algebraic structure constants (``sqrt(3)/2`` in su(3),
 ``sqrt(|h|)`` in Bianchi VII_h) enter as balls around the irrational numbers, from the
 algebra's exact constants (``LieAlgebra.f_exact``).
 
-Mathematics (CONVENTIONS.md; the paper's labels):
+Mathematics (docs/conventions.md; the paper's labels):
 
 * ``ad_x[m, b] = x^a f^m_ab``; ``A = L(g^-1, g) = phi1(-ad_x)`` with
   ``phi1(M) = sum_k M^k/(k+1)!`` (twee1): the series is summed in ball arithmetic to
@@ -34,7 +34,7 @@ Mathematics (CONVENTIONS.md; the paper's labels):
   ``xdot = L Omega``; gravity (twee15, twee16): ``Gamma = Ad(g)^T gamma``,
   ``dV_b = -Gamma_m f^m_bc L^c``.
 
-Protocol (DESIGN.md): ``poisson_tensor`` and ``hamiltonian_vector_field`` return float64
+Protocol (docs/design.md): ``poisson_tensor`` and ``hamiltonian_vector_field`` return float64
 midpoints (the evaluation is repeated at higher precision until every radius is below
 ``2^-60`` of the array's scale, so the midpoints are the correctly rounded doubles up to
 an ulp). The ``*_balls`` methods return :class:`Balls`. There is no ``flow`` method (the
@@ -77,30 +77,89 @@ from ._arb import (
     upper,
     workprec,
 )
-from ._errors import DegeneratePointError
+from ._errors import ChartError, DegeneratePointError
+from ._reference_core import MAX_AD_NORM, MAX_DPS, MAX_MAGNITUDE
 from ._rigorous_flow import body_flow_enclosure
+from ._rigorous_state import full_state_enclosure, judge_flow
 from ._validate import (
+    check_chart,
     check_inertia,
     check_potential,
     check_structure_constants,
     check_theta,
     check_upsilon,
 )
+from ._version import __version__
 
 __all__ = [
     "Balls",
+    "ChartError",
     "DegeneratePointError",
+    "MAX_PREC_BITS",
     "Rigorous",
     "UndecidedError",
     "body_flow_enclosure",
     "distance_to_ball",
     "error_bounds",
     "implementation",
+    "full_state_enclosure",
+    "judge_flow",
     "judge_poisson",
     "judge_vector_field",
 ]
 
 LOG2E = 1.4426950408889634
+MAX_PREC_BITS = math.ceil(MAX_DPS * math.log2(10))
+"""Precision cap in bits: the reference's cap of ``MAX_DPS`` = 5000 digits (16610 bits), for
+``prec_bits`` and ``max_prec_bits`` alike (beyond it one 8 x 8 inverse takes seconds)."""
+_MAX_MAG = float(MAX_MAGNITUDE)
+
+
+def check_magnitudes(arr: np.ndarray, name: str) -> np.ndarray:
+    """The shared magnitude boundary (the reference's ``MAX_MAGNITUDE`` = 1e300): finite numbers of
+    modulus at most 1e300, on the float64 view of an input; raises ``ValueError`` naming the input."""
+    a = np.asarray(arr, dtype=float)
+    with np.errstate(all="ignore"):
+        bad = ~(np.abs(a) <= _MAX_MAG)
+    if bad.any():
+        idx = tuple(int(i) for i in np.argwhere(bad)[0])
+        v = a[idx] if a.ndim else float(a)
+        why = "NaN or infinity" if not np.isfinite(v) else f"magnitude {abs(v):.3g} > {_MAX_MAG:g}"
+        raise ValueError(
+            f"{name}: {why} at index {idx} (inputs are real numbers of magnitude at most {_MAX_MAG:g}, "
+            "as for the reference)"
+        )
+    return a
+
+
+def _bounded(B: Balls, what: str) -> Balls:
+    """The output boundary: every ball lies within magnitude ``MAX_MAGNITUDE`` (1e300), so its float64
+    midpoint and radius are finite. Beyond it (e.g. ``pidot ~ pi^2`` for ``|pi| ~ 1e200``) the exact value
+    exists but no float64 answer does: refused, naming the result and its proven magnitude."""
+    bound = arb(_MAX_MAG)
+    for idx, b in np.ndenumerate(B.balls):
+        if not (abs(b) <= bound):
+            raise ValueError(
+                f"{what}[{', '.join(map(str, idx))}] = {b.str(5)}: its magnitude is beyond {_MAX_MAG:g} "
+                "(the float64 range with room): refused, as the reference refuses such inputs"
+            )
+    return B
+
+
+def check_frames_budget(ff: np.ndarray, xf: np.ndarray) -> None:
+    """The chart and the work budget of the frames at ``x`` (float64 view), shared with the fast path and
+    the reference: ``x`` at or beyond the chart edge to float64 accuracy is refused with
+    :class:`ChartError` (``check_chart(strict=True)``, the fast path's rule; it refuses every point the
+    reference's determinant test refuses), and ``||ad_x||_1 > MAX_AD_NORM`` (400, the reference's
+    budget) with ``ValueError``: the phi1 series needs ``~1.5 log2(e) ||ad_x||`` guard bits."""
+    check_chart(ff, xf[None, :], strict=True)
+    with np.errstate(all="ignore"):
+        norm = float(np.max(np.abs(np.einsum("a,mab->mb", xf, ff)).sum(axis=0), initial=0.0))
+    if not norm <= MAX_AD_NORM:
+        raise ValueError(
+            f"x = {np.array2string(xf, precision=6)}: ||ad_x||_1 = {norm:.5g} exceeds the work budget "
+            f"{MAX_AD_NORM:g} (the reference's; the frame series needs ~||ad_x|| guard bits and terms)"
+        )
 
 
 class UndecidedError(ValueError):
@@ -124,6 +183,24 @@ def _entries(v: Any, shape: tuple, name: str) -> list:
     if arr.shape != shape:
         raise ValueError(f"{name} must have shape {shape}, got {arr.shape}")
     return [to_arb(e, name) for e in arr.flat]
+
+
+def _fview(v: Any, name: str) -> np.ndarray:
+    """:func:`float_view`, with an exact number beyond the float64 range reported as a magnitude error."""
+    try:
+        return float_view(v, name)
+    except OverflowError:
+        raise ValueError(
+            f"{name}: a number beyond the float64 range (inputs have magnitude at most {_MAX_MAG:g})"
+        ) from None
+
+
+def _point_view(v: Any, n: int, name: str) -> np.ndarray:
+    """The float64 view of a point input of shape ``(n,)``: shape, finiteness and magnitude checked."""
+    a = _fview(v, name)
+    if a.shape != (n,):
+        raise ValueError(f"{name} must have shape ({n},), got {a.shape}")
+    return check_magnitudes(a, name)
 
 
 def _vec(v: Any, n: int, name: str) -> arb_mat:
@@ -229,16 +306,28 @@ class Rigorous:
     """
 
     name = "tstarg-rigorous"
-    version = "0.1.0"
+    version = __version__  # the package's (pyproject.toml)
     batched = False
 
     def __init__(self, prec_bits: int = 200, max_prec_bits: int | None = None):
-        if not isinstance(prec_bits, int) or isinstance(prec_bits, bool) or prec_bits < 53:
-            raise ValueError(f"prec_bits must be an int >= 53, got {prec_bits!r}")
-        cap = 8 * prec_bits if max_prec_bits is None else max_prec_bits
-        if not isinstance(cap, int) or cap < prec_bits:
+        if (
+            not isinstance(prec_bits, int)
+            or isinstance(prec_bits, bool)
+            or not 53 <= prec_bits <= MAX_PREC_BITS
+        ):
             raise ValueError(
-                f"max_prec_bits must be an int >= prec_bits = {prec_bits}, got {max_prec_bits!r}"
+                f"prec_bits must be an int in [53, {MAX_PREC_BITS}] (the precision cap: the reference's "
+                f"{MAX_DPS} digits), got {prec_bits!r}"
+            )
+        cap = min(8 * prec_bits, MAX_PREC_BITS) if max_prec_bits is None else max_prec_bits
+        if (
+            not isinstance(cap, int)
+            or isinstance(cap, bool)
+            or not prec_bits <= cap <= MAX_PREC_BITS
+        ):
+            raise ValueError(
+                f"max_prec_bits must be an int in [prec_bits = {prec_bits}, {MAX_PREC_BITS}], "
+                f"got {max_prec_bits!r}"
             )
         self.prec_bits = prec_bits
         self.max_prec_bits = cap
@@ -249,10 +338,12 @@ class Rigorous:
     # -------------------------------------------------------------- validation
     @staticmethod
     def _validate(f, theta, upsilon):
-        ff = check_structure_constants(float_view(f, "structure constants f"))
+        ff = check_structure_constants(
+            check_magnitudes(_fview(f, "structure constants f"), "structure constants f")
+        )
         n = ff.shape[0]
-        check_theta(float_view(theta, "theta"), ff)
-        check_upsilon(float_view(upsilon, "upsilon"), n)
+        check_theta(check_magnitudes(_fview(theta, "theta"), "theta"), ff)
+        check_upsilon(check_magnitudes(_fview(upsilon, "upsilon"), "upsilon"), n)
         return n
 
     # -------------------------------------------------------------- the core
@@ -368,23 +459,27 @@ class Rigorous:
         n = self._validate(f, theta, upsilon)
         exact_inputs = (f, theta, upsilon, pi)
         if vf is not None:
-            check_inertia(float_view(vf[0], "inertia"), n)
+            check_inertia(check_magnitudes(_fview(vf[0], "inertia"), "inertia"), n)
             pot = vf[1]
             check_potential(
                 None
                 if pot is None
                 else {
-                    k: (float_view(v, f"potential[{k!r}]") if k != "kind" else v)
+                    k: (
+                        check_magnitudes(_fview(v, f"potential[{k!r}]"), f"potential[{k!r}]")
+                        if k != "kind"
+                        else v
+                    )
                     for k, v in pot.items()
                 },
                 n,
             )
-
         ff = float_view(f, "structure constants f")
-        xf = float_view(x, "x") if np.shape(x) == (n,) else np.zeros(n)
-        guard = self._guard(
-            ff, np.where(np.isfinite(xf), xf, 0.0)
-        )  # bad x is reported by the conversion
+        xf = _point_view(x, n, "x")
+        _point_view(pi, n, "pi")
+        if "frames" in want or "P" in want or vf is not None:
+            check_frames_budget(ff, xf)
+        guard = self._guard(ff, xf)
 
         def at(prec):
             wp = prec + guard
@@ -439,7 +534,7 @@ class Rigorous:
         for k, B in enumerate(blocks):
             i, j = divmod(k, 2)
             out[i * n : (i + 1) * n, j * n : (j + 1) * n] = mat_entries(B)
-        return Balls(out, prec)
+        return _bounded(Balls(out, prec), "the Poisson tensor")
 
     def frames_balls(self, f, x) -> dict:
         """``{"A", "L", "Ad"}`` as :class:`Balls`: ``phi1(-ad_x)``, its inverse, ``exp(ad_x)`` (twee1, twee3)."""
@@ -482,8 +577,8 @@ class Rigorous:
         """``(xdot, pidot)`` as balls (vier10, vier11; gravity twee15/twee16)."""
         r = self._evaluate(f, theta, upsilon, x, pi, vf=(inertia, potential), want=())
         return (
-            Balls(np.array(r["xdot"].entries(), dtype=object), r["prec"]),
-            Balls(np.array(r["pidot"].entries(), dtype=object), r["prec"]),
+            _bounded(Balls(np.array(r["xdot"].entries(), dtype=object), r["prec"]), "xdot"),
+            _bounded(Balls(np.array(r["pidot"].entries(), dtype=object), r["prec"]), "pidot"),
         )
 
     # ------------------------------------------------------------ the protocol

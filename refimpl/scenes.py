@@ -32,6 +32,7 @@ The planner (:func:`plan`) states each choice and what it skipped:
 from __future__ import annotations
 
 import os
+import stat
 import tomllib
 from dataclasses import dataclass, field
 
@@ -39,10 +40,12 @@ import numpy as np
 
 from ._catalogue import catalogue
 from ._fast_kernels import FastCore
-from ._flow_fast import METHODS, NumpyModel, check_tolerance, fast_trajectory, integrate_fast
-from ._flow_reference import check_time
+from ._flow_checks import check_time
 from ._invariants import casimirs, energy, momentum_map
 from ._validate import MAX_FLOW_TIME, MIN_FLOW_TOL, as_float_array, check_flow_rates, check_inertia
+from .flows._fast import NumpyModel, fast_trajectory, integrate_fast
+from .flows.base import check_tolerance
+from .flows.registry import METHODS
 
 MAX_SAMPLES = 10**6
 """Loader budget: at most this many output samples per trajectory."""
@@ -299,23 +302,84 @@ MAX_SCENE_BYTES = 10 * 2**20
 """Loader budget: a scene file is at most 10 MiB."""
 
 
-def load_scene(path) -> Scene:
-    """Read and validate a TOML scene file (at most :data:`MAX_SCENE_BYTES`)."""
+MAX_NESTING = 32
+"""Deepest nesting of tables and arrays accepted in a scene (a scene needs 4)."""
+
+
+def read_regular_file(
+    path, *, what: str = "file", max_bytes: int = MAX_SCENE_BYTES, empty_ok: bool = False
+) -> bytes:
+    """The bytes of ``path``, read only from a regular file of 1..``max_bytes`` bytes.
+
+    The limit holds while reading (a file growing under us, ``/dev/zero``); a FIFO, a device
+    or a folder is refused without reading (opened non-blocking: a FIFO with no writer never
+    blocks). Every refusal is a ``ValueError`` naming the path and the condition.
+    """
+    name = os.fspath(path) if isinstance(path, (str, bytes, os.PathLike)) else None
+    if not isinstance(name, str) or not name or "\x00" in name:
+        raise ValueError(f"{what}: expected a file path, got {path!r:.80}")
     try:
-        size = os.path.getsize(path)
+        fd = os.open(name, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
     except OSError as exc:
-        raise ValueError(f"{path}: cannot read the scene file: {exc.strerror}") from None
-    if size > MAX_SCENE_BYTES:
-        raise ValueError(
-            f"{path}: scene file of {size} bytes, over the budget of {MAX_SCENE_BYTES}"
-        )
-    with open(path, "rb") as fh:
-        try:
-            d = tomllib.load(fh)
-        except tomllib.TOMLDecodeError as exc:
-            raise ValueError(f"{path}: not valid TOML: {exc}") from None
-        except UnicodeDecodeError as exc:
-            raise ValueError(f"{path}: not valid TOML (not UTF-8: {exc.reason})") from None
+        raise ValueError(f"{what} {name}: cannot read: {exc.strerror}") from None
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            kind = (
+                "a folder"
+                if stat.S_ISDIR(st.st_mode)
+                else "a FIFO"
+                if stat.S_ISFIFO(st.st_mode)
+                else "a device"
+                if stat.S_ISCHR(st.st_mode) or stat.S_ISBLK(st.st_mode)
+                else "not a regular file"
+            )
+            raise ValueError(f"{what} {name}: is {kind}; only regular files are read")
+        chunks, size = [], 0
+        while True:
+            chunk = os.read(fd, 1 << 20)
+            if not chunk:
+                break
+            size += len(chunk)
+            if size > max_bytes:
+                raise ValueError(f"{what} {name}: larger than the limit of {max_bytes} bytes")
+            chunks.append(chunk)
+    finally:
+        os.close(fd)
+    if size == 0 and not empty_ok:
+        raise ValueError(f"{what} {name}: is empty")
+    return b"".join(chunks)
+
+
+def nesting_depth(obj) -> int:
+    """Nesting depth of dicts and lists, without recursion."""
+    deepest, stack = 0, [(obj, 1)]
+    while stack:
+        v, d = stack.pop()
+        if isinstance(v, dict):
+            v = list(v.values())
+        if isinstance(v, list):
+            deepest = max(deepest, d)
+            if d > MAX_NESTING:
+                return d
+            stack.extend((x, d + 1) for x in v)
+    return deepest
+
+
+def load_scene(path) -> Scene:
+    """Read and validate a TOML scene file: a regular file of at most :data:`MAX_SCENE_BYTES`,
+    nested at most :data:`MAX_NESTING` deep (:func:`read_regular_file`)."""
+    data = read_regular_file(path, what="scene file", max_bytes=MAX_SCENE_BYTES)
+    try:
+        d = tomllib.loads(data.decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{path}: not valid TOML (not UTF-8: {exc.reason})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"{path}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise ValueError(f"{path}: nested too deeply (at most {MAX_NESTING} levels)") from None
+    if nesting_depth(d) > MAX_NESTING:
+        raise ValueError(f"{path}: nested too deeply (at most {MAX_NESTING} levels)")
     return parse_scene(d)
 
 

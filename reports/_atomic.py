@@ -1,7 +1,8 @@
 """Writing reports so that none is lost or torn, and runs that do not overwrite each other.
 
 * :func:`write_text` / :func:`write_bytes`: the data goes to a temporary file in the same
-  folder, is flushed and ``fsync``-ed, then ``os.replace``-d over the target (atomic on POSIX):
+  folder (with the permissions the user's umask gives a new file), is flushed and
+  ``fsync``-ed, then ``os.replace``-d over the target (atomic on POSIX):
   a reader, or a process killed at any instant, sees the old file or the new one, never a
   truncated one. :func:`save_figure` does the same for matplotlib figures.
 * :func:`claim_output`: an exclusive lock (``fcntl.flock`` on ``<folder>/.tstarg.lock``) held
@@ -19,10 +20,31 @@ import re
 import tempfile
 from pathlib import Path
 
-__all__ = ["LOCK_NAME", "claim_output", "safe_name", "save_figure", "write_bytes", "write_text"]
+__all__ = [
+    "LOCK_NAME",
+    "claim_output",
+    "replacing",
+    "safe_name",
+    "save_figure",
+    "write_bytes",
+    "write_text",
+]
 
 LOCK_NAME = ".tstarg.lock"
 _HELD: dict[str, int] = {}  # folder -> fd of the lock this process holds
+
+
+def _umask() -> int:
+    """The process's umask, read without changing it (Linux ``/proc``), else set and restored."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    old = os.umask(0o022)
+    os.umask(old)
+    return old
 
 
 def write_bytes(path, data: bytes) -> Path:
@@ -31,6 +53,9 @@ def write_bytes(path, data: bytes) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
+        os.fchmod(
+            fd, 0o666 & ~_umask()
+        )  # the user's umask, as open() would give (not mkstemp's 0600)
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
             fh.flush()
@@ -47,6 +72,26 @@ def write_bytes(path, data: bytes) -> Path:
         finally:
             os.close(dfd)
     return path
+
+
+@contextlib.contextmanager
+def replacing(path):
+    """``with replacing(path) as tmp:`` write ``tmp`` with any writer (a library that wants a
+    path); on success it replaces ``path`` atomically (same folder, umask permissions, fsync)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        os.chmod(tmp, 0o666 & ~_umask())
+        with open(tmp, "rb+") as fh:
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
 
 
 def write_text(path, text: str, encoding: str = "utf-8") -> Path:

@@ -1286,7 +1286,7 @@ def _load_contender(args):
             obj.close()
         raise ValueError(
             f"{what} provides neither flow nor poisson_tensor (the protocol methods tstarg bench "
-            "times: DESIGN.md, the implementation protocol)"
+            "times: docs/design.md, the implementation protocol)"
         )
     return _Contender(obj, what, provided)
 

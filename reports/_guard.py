@@ -1,7 +1,7 @@
 """What ``tstarg certify`` puts between the battery and the implementation under test.
 
 * :func:`materialize` turns a target description into an implementation: ``"module:object"``,
-  a bare ``"module"`` (DESIGN.md: an implementation may be a module), or
+  a bare ``"module"`` (docs/design.md: an implementation may be a module), or
   ``{"cmd": "PROGRAM ARGS", "timeout": s, "stderr_log": path}`` for a JSON-lines program
   (:mod:`reports.jsonl`). A target that provides none of the protocol's methods is refused
   (:class:`NotAnImplementation`) before anything runs.
@@ -36,10 +36,21 @@ from tstarg.refimpl import PROTOCOL, check_attributes, provided_methods, provide
 from ._imports import import_module, resolve
 from .jsonl import METHODS, CommandImplementation, check_timeout
 
-__all__ = ["Guarded", "NotAnImplementation", "certify_target", "explain", "materialize"]
+__all__ = [
+    "Guarded",
+    "NotAnImplementation",
+    "certify_target",
+    "explain",
+    "load",
+    "materialize",
+]
 
-ATTRIBUTES = tuple(a.name for a in PROTOCOL.attributes if a.where == "attribute") + (
-    "domain",  # the declared domain (certification.declared_domain): hidden, it was never certified
+ATTRIBUTES = (
+    tuple(a.name for a in PROTOCOL.attributes if a.where == "attribute")
+    + (
+        "domain",  # the declared domain (certification.declared_domain): hidden, it was never certified
+        "group",  # the group the flows live on (certification.group): hidden, SO(3) would be judged as SU(2)
+    )
 )
 """The attributes the guard passes through, from the protocol spec."""
 
@@ -78,7 +89,7 @@ class Guarded:
         if not provided:
             raise NotAnImplementation(
                 f"target {self._label} ({type(target).__name__}) provides none of the protocol's methods "
-                f"({', '.join(METHODS)}): not an implementation (DESIGN.md, the implementation protocol)"
+                f"({', '.join(METHODS)}): not an implementation (docs/design.md, the implementation protocol)"
             )
         _validate_attributes(target, self._label)
         self.provided = provided
@@ -322,13 +333,20 @@ def explain(check, *, seconds: float = 60.0) -> None:
 
 # ------------------------------------------------------------------ the run
 def _unit(item):
-    """Worker: one check id on a freshly materialized, guarded target, within the run's budgets."""
+    """Worker: one check id on a freshly loaded target (guarded unless ``guard`` is False), within
+    the run's budgets (none when ``budget`` is None)."""
     from .certification import certify
 
-    spec, cid, kwargs, budget = item
+    spec, cid, kwargs, budget, guard = item
     if isinstance(spec, dict) and spec.get("stderr_dir"):
         spec = dict(spec, stderr_log=str(Path(spec["stderr_dir"]) / f"{cid}.log"))
-    impl = materialize(spec, call_timeout=budget["call_timeout"])
+    if budget is None:
+        impl = load(spec, guard=guard, call_timeout=None)
+        try:
+            return certify(impl, checks=[cid], **kwargs)
+        finally:
+            _close(impl)
+    impl = load(spec, guard=guard, call_timeout=budget["call_timeout"])
     left = budget["deadline"] - time.time()
     check_s = max(1e-3, min(budget["check_seconds"], left))
     try:
@@ -339,18 +357,57 @@ def _unit(item):
         ):
             return certify(impl, checks=[cid], **kwargs)
     finally:
-        impl.close()
+        _close(impl)
+
+
+def _close(impl) -> None:
+    close = getattr(impl, "close", None)
+    if callable(close) and isinstance(impl, (Guarded, CommandImplementation)):
+        close()
+
+
+def load(spec, *, guard: bool = True, call_timeout: float | None = 10.0):
+    """The one target loader: ``"module"``, ``"module:object"``, ``{"cmd": ...}`` or an object
+    (in-process runs); guarded (:func:`materialize`) unless ``guard`` is False."""
+    if guard:
+        if not isinstance(spec, (str, dict)):
+            return Guarded(spec, call_timeout=call_timeout or 3600.0)
+        return materialize(spec, call_timeout=call_timeout or 3600.0)
+    if isinstance(spec, dict) and "cmd" in spec:
+        return CommandImplementation(
+            spec["cmd"],
+            timeout=check_timeout(spec.get("timeout", call_timeout or 10.0), "--timeout"),
+            stderr_log=spec.get("stderr_log"),
+        )
+    if isinstance(spec, str):
+        if not spec:
+            raise ValueError("certification target must not be empty")
+        return resolve(spec) if ":" in spec else import_module(spec)
+    return spec
 
 
 def certify_target(
-    spec, *, workers=None, scheduler=None, budget: dict, checks=None, provided=None, **kwargs
+    spec,
+    *,
+    workers=None,
+    scheduler=None,
+    budget: dict | None = None,
+    checks=None,
+    provided=None,
+    guard: bool = True,
+    **kwargs,
 ):
-    """Run the battery on ``spec`` with the budgets ``{"call_timeout", "example_seconds",
-    "check_seconds", "shrink_seconds", "deadline" (time.time())}``; one unit per check id,
-    merged in order. Check ids listed in ``skips`` or needing a method outside ``provided``
-    (when given) get their reason without starting a unit (no program started for nothing)."""
+    """The one run-and-merge, for in-process (``workers=1``; ``spec`` may then be an object),
+    guarded and parallel runs: the battery on ``spec`` with the budgets ``{"call_timeout",
+    "example_seconds", "check_seconds", "shrink_seconds", "deadline" (time.time())}`` (None: no
+    limits); one unit per check id (:func:`reports._parallel.map_tasks`), merged in check order.
+    Check ids listed in ``skips`` or needing a method outside ``provided`` (when given) get their
+    reason without starting a unit (no program started for nothing). ``guard=False`` runs the
+    battery on the bare target (no per-call limits, no input/output guard): what
+    ``certification.certify_parallel`` promises, the serial result split over workers."""
     from ._parallel import map_tasks
     from .certification import CHECKS, Certificate
+    from .certification.registry import missing
 
     t0 = time.perf_counter()
     ids = [c for c in CHECKS if checks is None or c in checks]
@@ -359,14 +416,14 @@ def certify_target(
     for cid in ids:
         if cid in skips:
             pre[cid] = skips[cid]
-        elif provided is not None and CHECKS[cid] not in provided:
-            pre[cid] = f"the implementation has no method {CHECKS[cid]!r}"
+        elif provided is not None and missing(cid, provided) is not None:
+            pre[cid] = missing(cid, provided)
     run_ids = [c for c in ids if c not in pre] or ids[:1]
-    items = [(spec, cid, kwargs, budget) for cid in run_ids]
+    items = [(spec, cid, kwargs, budget, guard) for cid in run_ids]
     if (workers == 1 or len(items) == 1) and scheduler is None:
         parts = [_unit(it) for it in items]
     else:
-        parts = map_tasks(_unit, items, workers=workers, scheduler=scheduler)
+        parts = map_tasks(_unit, items, workers=workers, scheduler=scheduler, wait=False)
     first = parts[0]
     cert = Certificate(
         implementation=first.implementation,
@@ -377,6 +434,7 @@ def certify_target(
         xfailed=dict(kwargs.get("xfails") or {}),
         command=first.command,
         domain=first.domain,  # what was certified, and the notes on it, survive the merge
+        group=first.group,
     )
     for part in parts:
         cert.checks.extend(part.checks)
@@ -385,7 +443,8 @@ def certify_target(
         cert.notes.extend(n for n in part.notes if n not in cert.notes)
     cert.skipped.update({k: v for k, v in pre.items() if k not in cert.skipped})
     cert.skipped = {k: cert.skipped[k] for k in CHECKS if k in cert.skipped}
-    for c in cert.checks:
-        explain(c)
+    if guard:
+        for c in cert.checks:
+            explain(c)
     cert.seconds = time.perf_counter() - t0
     return cert

@@ -13,7 +13,7 @@ def import_module(name: str) -> ModuleType:
     """Import ``name``; a house module may be named without its ``tstarg.`` prefix.
 
     ``refimpl.fast`` and ``tstarg.refimpl.fast`` name the same module, so the names that
-    DESIGN.md uses (``tstarg certify refimpl.fast:implementation``) keep working.
+    docs/design.md uses (``tstarg certify refimpl.fast:implementation``) keep working.
     """
     if name.split(".", 1)[0] in HOUSE:
         name = "tstarg." + name

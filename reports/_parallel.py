@@ -113,6 +113,7 @@ def map_tasks(
     workers: int | None = None,
     scheduler: Any = None,
     on_result: Callable[[int, Any], None] | None = None,
+    wait: bool = True,
 ) -> list:
     """``[fn(item) for item in items]``, computed serially, over local processes or on Dask.
 
@@ -120,6 +121,9 @@ def map_tasks(
     object). Results come back in the order of ``items``. ``on_result(index, value)``, if
     given, is called in this process as each result arrives (a process pool calls it in
     completion order): the hook of a progress display (:meth:`reports._progress.Progress.callback`).
+    ``wait=False``: return as soon as the results are in, without waiting for the worker processes
+    to leave (code under test may keep a worker alive, e.g. with a non-daemon thread; the
+    supervisor kills what is left).
     """
     items = list(items)
     if workers is not None and (not isinstance(workers, int) or workers < 1):
@@ -131,10 +135,13 @@ def map_tasks(
     if k == 1:
         return _collect(items, (guarded(it) for it in items), on_result)
     _pin_blas()  # inherited by the forked workers
-    with ProcessPoolExecutor(max_workers=k) as pool:
+    pool = ProcessPoolExecutor(max_workers=k)
+    try:
         if on_result is not None:
             return _as_they_arrive(pool, guarded, items, on_result)
         return _collect(items, pool.map(guarded, items))
+    finally:
+        pool.shutdown(wait=wait, cancel_futures=True)
 
 
 def _map_dask(guarded: _Guarded, items: list, scheduler, workers: int | None) -> list:

@@ -36,7 +36,7 @@ Every point is judged against the mpmath reference (the judge) at
 as exact binary numbers; the two rungs must agree to ``JUDGE_MIN_DIGITS``.
 Per point: ``digits lost = D64 - digits obtained`` with
 ``D64 = -log10(eps/2) = 15.95`` and ``digits obtained = -log10(err / max(1,
-max|ref|))`` (CONVENTIONS.md), the error model's prediction (the same with the
+max|ref|))`` (docs/conventions.md), the error model's prediction (the same with the
 fast ``error_bound``), and the outcome of :mod:`refimpl.escalate` at the
 requested tolerance:
 
@@ -86,7 +86,7 @@ def _antisym(A: np.ndarray) -> np.ndarray:
 
 
 def _tau_matrix(tau) -> np.ndarray:
-    """``Upsilon^mn = tau_l eps_lmn`` (CONVENTIONS.md, section cinq)."""
+    """``Upsilon^mn = tau_l eps_lmn`` (docs/conventions.md, section cinq)."""
     t0, t1, t2 = (float(v) for v in tau)
     return np.array([[0.0, t2, -t1], [-t2, 0.0, t0], [t1, -t0, 0.0]])
 
@@ -354,8 +354,8 @@ def _chart_points(name: str, quick: bool) -> list[dict]:
     for c in cs:
         with np.errstate(over="ignore"):
             x = (2 * np.pi * c) * u
-        if not np.all(np.isfinite(x)):
-            x = np.sign(u) * 1e300
+        if not np.all(np.isfinite(x)) or np.max(np.abs(x)) > 1e300:  # the magnitude boundary
+            x = np.clip(np.where(np.isfinite(x), x, np.sign(u) * 1e300), -1e300, 1e300)
         # the 1e300 point is drawn at the plot's edge (a log axis overflows there): param inf
         out.append(
             {

@@ -34,7 +34,6 @@ from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
 from tstarg.refimpl import catalogue
-from tstarg.refimpl._flow_fast import scalar_rhs
 from tstarg.refimpl._taylor import quadratic_field
 from tstarg.refimpl.fast import Fast
 from tstarg.refimpl.flows import (
@@ -43,6 +42,7 @@ from tstarg.refimpl.flows import (
     euler_top_closed_form,
     integrate_fast,
     reference_trajectory,
+    scalar_rhs,
 )
 from tstarg.refimpl.reference import Reference
 
@@ -453,7 +453,7 @@ def _hy_det(M):
 
 def heyoka_rational_rhs(model):
     """The body field with ``Upsilon != 0`` in heyoka expressions (vier10/vier11, as
-    :meth:`refimpl._flow_fast.NumpyModel.omega_pidot`): ``Psi = 1 + Upsilon S(pi)``, ``Omega = adj(Psi) (dK -
+    :meth:`refimpl.model.Model.omega_pidot`): ``Psi = 1 + Upsilon S(pi)``, ``Omega = adj(Psi) (dK -
     Upsilon dV) / det Psi``, ``pidot = adj(Psi)^T (-dV - S dK) / det Psi`` (``Phi = Psi^T``), ``Gammadot_mu =
     Omega^b f^a_{b mu} Gamma_a``. Written for ``n <= 4`` (cofactor expansion); returns ``(vars, rhs)``."""
     import heyoka as hy  # optional contender
@@ -626,9 +626,7 @@ def scipy_rhs(model):
     """The right-hand side handed to scipy: the generated scalar body field (``Upsilon = 0``), else the
     numpy body field."""
     if model.upsilon_zero:
-        return scalar_rhs(
-            model
-        ), "generated scalar Python body field (refimpl._flow_fast.scalar_rhs)"
+        return scalar_rhs(model), "generated scalar Python body field (refimpl.flows.scalar_rhs)"
     F = model.body_rhs()
     return (lambda t, y: F(y[:, None])[:, 0]), "numpy body field (NumpyModel.body_rhs)"
 
@@ -1030,12 +1028,12 @@ def fmt_time(t) -> str:
 
 # ------------------------------------------------------------------ a third-party implementation
 # ``tstarg bench --impl module:object`` / ``--cmd "PROGRAM ARGS"``: an implementation of the
-# protocol (DESIGN.md; the object ``tstarg certify`` takes) on the same diagrams as ours.
+# protocol (docs/design.md; the object ``tstarg certify`` takes) on the same diagrams as ours.
 
 
 def impl_flow_setting(impl) -> str:
     """How the implementation's ``flow`` can be driven over a work-precision ladder: ``"steps"``
-    when it takes the protocol's optional ``steps=`` keyword (DESIGN.md: a fixed step count; a
+    when it takes the protocol's optional ``steps=`` keyword (docs/design.md: a fixed step count; a
     JSON-lines program is asked for ``steps`` only when its ``capabilities`` declare an ``order``),
     ``"tol"`` when it takes a ``tol=`` keyword, else ``"default"``: one point at its own accuracy."""
     if isinstance(impl, CommandImplementation):

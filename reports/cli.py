@@ -10,7 +10,9 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import subprocess
 import sys
+from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -27,9 +29,63 @@ def _modules():
                 raise
 
 
+def commit() -> str:
+    """The git commit tstarg runs from (``git describe --always --dirty``) when its files are a
+    git checkout of the project (an editable install), else ``"unknown"`` (an installed wheel)."""
+    root = Path(__file__).resolve().parents[1]
+    if not (root / "pyproject.toml").is_file():
+        return "unknown"
+    try:
+        top = subprocess.run(
+            ["git", "-C", str(root), "rev-parse", "--show-toplevel"],
+            capture_output=True,
+            text=True,
+            timeout=10,
+        )
+        if top.returncode != 0 or Path(top.stdout.strip()).resolve() != root:
+            return "unknown"
+        desc = subprocess.run(
+            ["git", "-C", str(root), "describe", "--always", "--dirty", "--abbrev=12"],
+            capture_output=True,
+            text=True,
+            timeout=10,
+        )
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    return desc.stdout.strip() if desc.returncode == 0 and desc.stdout.strip() else "unknown"
+
+
+def version_line() -> str:
+    """``tstarg --version``: the version (pyproject.toml, through the installed metadata) and
+    the commit."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        v = version("tstarg")  # what tstarg.refimpl.__version__ reads, without importing numpy
+    except PackageNotFoundError:
+        v = "unknown"
+    return f"tstarg {v} (commit {commit()})"
+
+
+class _Version(argparse.Action):
+    """``--version``: computed only when asked (the commit needs git)."""
+
+    def __init__(
+        self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None
+    ):
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(version_line())
+        parser.exit()
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="tstarg", description="Verification and reference oracles for omega_L on T*G."
+    )
+    p.add_argument(
+        "--version", action=_Version, help="print the version and the git commit, then exit"
     )
     sub = p.add_subparsers(dest="command", required=True)
     for name, mod in _modules():
@@ -40,6 +96,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
+    if list(sys.argv[1:] if argv is None else argv) == ["--version"]:
+        print(version_line())  # without importing every subcommand
+        return 0
     args = build_parser().parse_args(argv)
     return int(args._main(args) or 0)
 

@@ -26,8 +26,8 @@ module targets do not apply: they need the worker's main thread).
 
 from __future__ import annotations
 
-import json
 import math
+import os
 import shlex
 import shutil
 import sys
@@ -36,8 +36,11 @@ from pathlib import Path
 
 from tstarg.properties.profiles import PROFILES as _PROFILES
 
+from ._atomic import claim_output, write_text
+from ._certdoc import certificate_document, write_certificate_files
 from ._parallel import TaskError, add_parallel_arguments, describe, parallel_options
-from .junit import write_junit
+from ._supervise import Died, run_supervised
+from .environment import environment
 
 HELP = "certify an implementation (module, module:object or --cmd PROGRAM) against the reference"
 PROFILES = {name: p["certify_examples"] for name, p in _PROFILES.items()}  # properties.profiles
@@ -67,7 +70,7 @@ BUDGETS = {
 
 def add_arguments(p) -> None:
     p.add_argument(
-        "target", nargs="?", help="module or module:object implementing the protocol (DESIGN.md)"
+        "target", nargs="?", help="module[:object] implementing the protocol (docs/design.md)"
     )
     p.add_argument(
         "--cmd", help='an external program speaking JSON lines, e.g. --cmd "julia impl.jl"'
@@ -146,15 +149,14 @@ def _fail(msg: str) -> int:
 
 
 def main(args) -> int:
-    from threadpoolctl import threadpool_limits
-
-    from ._guard import NotAnImplementation, materialize
-    from .jsonl import ProgramFailure, check_timeout
-
-    threadpool_limits(1)
+    """The harness (this process) validates the arguments, locks the output folder, runs the
+    target in a supervised child (:mod:`reports._supervise`: a hard wall at ``--budget``, every
+    process it started killed at the end) and writes the certificate, whatever the child did."""
     if bool(args.target) == bool(args.cmd):
         return _fail("give exactly one of TARGET (module or module:object) or --cmd")
     try:
+        from .jsonl import check_timeout
+
         timeout = check_timeout(args.timeout, "--timeout")
         startup = check_timeout(args.startup_timeout, "--startup-timeout")
         prof = BUDGETS[args.profile]
@@ -184,75 +186,177 @@ def main(args) -> int:
             raise ValueError(
                 f"--check {unknown[0]!r}: unknown check id (known: {', '.join(CHECKS)})"
             )
+        if args.target:
+            _check_target_name(args.target)
+        replay = _read_replay(args.replay) if args.replay else None
     except (ValueError, OSError) as exc:
         return _fail(str(exc))
-    out = Path(args.out)
+    if replay is not None and not replay:
+        print(f"--replay {args.replay}: no failing example stored; nothing to replay")
+        return 0
     spec = (
         {"cmd": args.cmd, "timeout": timeout, "startup_timeout": startup}
         if args.cmd
         else args.target
     )
     target = f"--cmd {args.cmd!r}" if args.cmd else args.target
-    # pre-flight in this process: a clear error before any worker starts
-    try:
-        impl = materialize(spec, call_timeout=timeout)
-    except (NotAnImplementation, ProgramFailure, ImportError, ValueError, OSError) as exc:
-        return _fail(f"cannot certify {target}: {type(exc).__name__}: {exc}")
-    provided = impl.provided
-    impl.close()
-    if args.replay:
-        return _replay(args, spec, target, budget)
     n = args.max_examples or PROFILES[args.profile]
-    print(
-        f"tstarg certify {target}: {n} examples per check, seed {args.seed}; {describe(**par)}; "
-        f"provides {', '.join(provided)}; per call {timeout:g} s, per example {budget['example_seconds']:g} s, "
-        f"per check {budget['check_seconds']:g} s, run budget {run_budget:g} s; BLAS pinned to 1 thread",
-        flush=True,
-    )
+    job = {
+        "spec": spec,
+        "target": target,
+        "par": par,
+        "budget": budget,
+        "run_budget": run_budget,
+        "replay": replay,
+        "seed": args.seed,
+        "kw": {
+            "max_examples": n,
+            "seed": args.seed,
+            "skips": skips,
+            "xfails": xfails,
+            "target": target,
+            "checks": args.check,
+            **({"shrink": False} if getattr(args, "verdict_only", False) else {}),
+        },
+    }
+    if replay is not None:
+        return _replay_result(run_supervised(CHILD, job, wall=run_budget), run_budget)
+    try:
+        out = claim_output(args.out)
+    except (OSError, RuntimeError) as exc:
+        return _fail(f"--out {args.out}: {exc}")
     stderr_dir = None
     if args.cmd:
         stderr_dir = out / "program-stderr.parts"
         shutil.rmtree(stderr_dir, ignore_errors=True)
         stderr_dir.mkdir(parents=True, exist_ok=True)
-        spec = dict(spec, stderr_dir=str(stderr_dir))
-    budget["deadline"] = time.time() + run_budget
-    kw = {"max_examples": n, "seed": args.seed, "skips": skips, "xfails": xfails, "target": target}
-    if getattr(args, "verdict_only", False):
-        kw["shrink"] = False
-    cert = _run(spec, par, budget, dict(kw, checks=args.check, provided=provided))
-    if cert is None:
-        return 1
+        job["spec"] = dict(spec, stderr_dir=str(stderr_dir))
+    result = run_supervised(CHILD, job, wall=run_budget)
+    if isinstance(result, dict) and result.get("kind") == "error":
+        if stderr_dir is not None:
+            shutil.rmtree(stderr_dir, ignore_errors=True)
+        return _fail(result["message"])
+    cert = (
+        result["cert"]
+        if isinstance(result, dict) and result.get("kind") == "cert"
+        else _broken_certificate(
+            target, args.seed, n, result.reason if isinstance(result, Died) else str(result)
+        )
+    )
     cert.command = (
         "tstarg " + " ".join(shlex.quote(a) for a in sys.argv[2:])
         if len(sys.argv) > 2
         else cert.command
     )
     _require_a_run(cert)
-    replay = (
+    replay_cmd = (
         f"tstarg certify {shlex.quote(args.target) if args.target else '--cmd ' + shlex.quote(args.cmd)} "
         f"--replay {shlex.quote(str(out / 'certificate.json'))}"
     )
     for c in cert.checks:
         if not c.passed and "example" in c.extra:
-            c.extra["example"]["replay"] = replay
-    from .certification import write_certificate
-
-    write_certificate(cert, out)
+            c.extra["example"]["replay"] = replay_cmd
+    env = result.get("environment") if isinstance(result, dict) else None
+    doc = certificate_document(
+        cert,
+        environment=env or environment(),
+        target=target,
+        cmd=args.cmd,
+        pythonpath=_pythonpath(),
+        cwd=os.getcwd(),
+        out=out,
+    )
+    tail = ""
     if stderr_dir is not None:
         _merge_stderr(stderr_dir, out / "program-stderr.log")
-        _append_incident_tails(cert, out)
-    write_junit(cert.to_json(), out / "certificate.junit.xml")
+        tail = _incident_tails(cert)
+    write_certificate_files(cert, doc, out, tail)
     print(cert.summary())
     for c in cert.checks:
         if not c.passed and c.falsifying_example:
             print(f"\n{c.name}:\n{c.falsifying_example}")
     if any(not c.passed and "example" in c.extra for c in cert.checks):
-        print(f"\nreplay the failing examples: {replay}")
+        print(f"\nreplay the failing examples: {replay_cmd}")
     print(f"certificate: {out / 'certificate.md'}")
     return 0 if cert.passed else 1
 
 
+CHILD = "tstarg.reports.cmd_certify:_child"
+"""The function the supervised child runs (:func:`reports._supervise.run_supervised`)."""
+
+
+def _check_target_name(name: str) -> None:
+    """A module target is a dotted module name (``module`` or ``module:object``), never a path."""
+    mod, _, obj = name.partition(":")
+    ok = all(part.isidentifier() for part in mod.split(".")) and (
+        not obj or all(part.isidentifier() for part in obj.split("."))
+    )
+    if not ok or name.count(":") > 1:
+        hint = " (a path: put its folder on PYTHONPATH and name the module)" if "/" in name else ""
+        raise ValueError(
+            f"target {name!r} is not 'module' or 'module:object' with dotted Python names{hint}"
+        )
+
+
+def _child(job: dict):
+    """In the supervised child: load the target (the pre-flight: a clear error before any worker
+    starts), then run the battery or the replay. Returns ``{"kind": "error"|"cert"|"replay", ...}``."""
+    from threadpoolctl import threadpool_limits
+
+    from ._guard import NotAnImplementation, materialize
+    from .jsonl import ProgramFailure
+
+    threadpool_limits(1)
+    spec, target, budget, run_budget = job["spec"], job["target"], job["budget"], job["run_budget"]
+    try:
+        impl = materialize(spec, call_timeout=budget["call_timeout"])
+    except (NotAnImplementation, ProgramFailure, ImportError, ValueError, OSError) as exc:
+        return {"kind": "error", "message": f"cannot certify {target}: {type(exc).__name__}: {exc}"}
+    provided = impl.provided
+    impl.close()
+    # the checks stop drawing before the hard wall, so that the run can still hand back its results
+    budget["deadline"] = time.time() + max(
+        0.5 * run_budget, run_budget - min(30.0, 0.2 * run_budget)
+    )
+    if job["replay"] is not None:
+        return {"kind": "replay", "exit": _replay(job["replay"], spec, target, budget, job["seed"])}
+    par, kw = job["par"], job["kw"]
+    print(
+        f"tstarg certify {target}: {kw['max_examples']} examples per check, seed {kw['seed']}; "
+        f"{describe(**par)} (supervised); provides {', '.join(provided)}; per call "
+        f"{budget['call_timeout']:g} s, per example {budget['example_seconds']:g} s, per check "
+        f"{budget['check_seconds']:g} s, run budget {run_budget:g} s (a hard wall); BLAS pinned to 1 thread",
+        flush=True,
+    )
+    cert = _run(spec, par, budget, dict(kw, provided=provided))
+    if isinstance(cert, str):
+        return {"kind": "broken", "message": cert}
+    return {"kind": "cert", "cert": cert, "environment": environment()}
+
+
+def _broken_certificate(target: str, seed, n: int, reason: str):
+    """A failed certificate for a run that handed back no result."""
+    from tstarg.properties.runner import CheckResult
+
+    from .certification import Certificate
+
+    cert = Certificate(
+        implementation=target, version="unknown", target=target, seed=seed, max_examples=n
+    )
+    cert.checks.append(
+        CheckResult(
+            name="harness.run",
+            equations="-",
+            passed=False,
+            worst_ratio=math.inf,
+            detail=f"nothing certified: {reason}",
+        )
+    )
+    return cert
+
+
 def _run(spec, par, budget, kw):
+    """The battery (in the supervised child); a broken run returns its reason as a string."""
     from ._guard import certify_target
 
     try:
@@ -268,16 +372,9 @@ def _run(spec, par, budget, kw):
                 runner.PROGRESS.pop()
         return certify_target(spec, **par, budget=budget, **kw)
     except TaskError as exc:
-        print(
-            f"tstarg certify: a worker failed on check task {exc.index}; no certificate.\n{exc.text[-3000:]}",
-            file=sys.stderr,
-        )
+        return f"a worker failed on check task {exc.index}: {exc.text[-3000:]}"
     except Exception as exc:  # noqa: BLE001 - a broken run is a failure with its reason, never a pass
-        print(
-            f"tstarg certify: the run broke ({type(exc).__name__}: {exc}); no certificate",
-            file=sys.stderr,
-        )
-    return None
+        return f"the run broke ({type(exc).__name__}: {exc})"
 
 
 def _require_a_run(cert) -> None:
@@ -297,16 +394,17 @@ def _require_a_run(cert) -> None:
 
 
 def _merge_stderr(parts: Path, log: Path) -> None:
-    with open(log, "w", encoding="utf-8") as fh:
-        for part in sorted(parts.glob("*.log")):
-            text = part.read_text(encoding="utf-8", errors="replace")
-            fh.write(f"===== program stderr while running {part.stem} =====\n{text}")
-            if text and not text.endswith("\n"):
-                fh.write("\n")
+    chunks = []
+    for part in sorted(parts.glob("*.log")):
+        text = part.read_text(encoding="utf-8", errors="replace")
+        chunks.append(f"===== program stderr while running {part.stem} =====\n{text}")
+        if text and not text.endswith("\n"):
+            chunks.append("\n")
+    write_text(log, "".join(chunks))
     shutil.rmtree(parts, ignore_errors=True)
 
 
-def _append_incident_tails(cert, out: Path) -> None:
+def _incident_tails(cert) -> str:
     lines = [
         "",
         "## Program stderr",
@@ -325,31 +423,64 @@ def _append_incident_tails(cert, out: Path) -> None:
                 "  ```",
                 "",
             ]
-    with open(out / "certificate.md", "a", encoding="utf-8") as fh:
-        fh.write("\n".join(lines) + "\n")
+    return "\n".join(lines) + "\n"
 
 
-def _replay(args, spec, target, budget) -> int:
+def _pythonpath() -> list[str]:
+    """What the target's import needs: the current folder (imported first, as ``python -m``
+    does) and the ``PYTHONPATH`` of this run."""
+    extra = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+    return [os.getcwd(), *(str(Path(p).resolve()) for p in extra)]
+
+
+def _read_replay(path: str) -> dict:
+    """The failing examples stored in a certificate (read in the harness, before anything runs)."""
     from tstarg.properties import runner
 
-    from ._guard import certify_target
+    from .regression import read_json_file
 
     try:
-        data = json.loads(Path(args.replay).read_text())
+        data = read_json_file(path, what="--replay")
+        if not {"implementation", "target", "checks"} <= set(data):
+            raise KeyError("a certificate has 'implementation', 'target' and 'checks'")
+        checks = data["checks"]
+        if not isinstance(checks, list) or not all(
+            isinstance(c, dict)
+            and isinstance(c.get("name"), str)
+            and isinstance(c.get("passed"), bool)
+            for c in checks
+        ):
+            raise TypeError(
+                "'checks' must be a list of objects with a string name and a boolean passed"
+            )
         examples = {
             c["name"]: runner.decode(c["extra"]["example"]["values"])
             for c in data.get("checks", [])
             if not c.get("passed", True) and "example" in c.get("extra", {})
         }
-    except (OSError, ValueError, KeyError, TypeError) as exc:
-        return _fail(
-            f"--replay {args.replay}: not a certificate with stored examples ({type(exc).__name__}: {exc})"
-        )
-    if not examples:
-        print(f"--replay {args.replay}: no failing example stored; nothing to replay")
-        return 0
+    except (KeyError, TypeError, AttributeError) as exc:
+        raise ValueError(
+            f"--replay {path}: not a certificate with stored examples ({type(exc).__name__}: {exc})"
+        ) from None
+    return examples
+
+
+def _replay_result(result, wall: float) -> int:
+    if isinstance(result, dict) and result.get("kind") == "replay":
+        return int(result["exit"])
+    if isinstance(result, dict) and result.get("kind") == "error":
+        return _fail(result["message"])
+    reason = result.reason if isinstance(result, Died) else str(result)
+    print(f"tstarg certify --replay: FAIL: {reason}", file=sys.stderr)
+    return 1
+
+
+def _replay(examples: dict, spec, target, budget, seed) -> int:
+    from tstarg.properties import runner
+
+    from ._guard import certify_target
+
     ids = sorted({name.split("[", 1)[0] for name in examples})
-    budget["deadline"] = time.time() + 3600.0
     runner.REPLAY.update(examples)
     try:
         cert = certify_target(
@@ -358,7 +489,7 @@ def _replay(args, spec, target, budget) -> int:
             budget=budget,
             checks=ids,
             max_examples=1,
-            seed=args.seed,
+            seed=seed,
             target=target,
         )
     finally:

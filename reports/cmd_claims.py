@@ -2,7 +2,7 @@
 formula (labelled or not) and every mathematical sentence.
 
 Runs every check named by the registries (oracles.claims for the labels, oracles.claims_unlabelled
-for the displays and sentences indexed by oracles.paper_index from ``../shared/paper.tex``), prints
+for the displays and sentences of the paper's index shipped with the package, oracles.paper_index), prints
 the table and the coverage (items of the paper vs entries), writes ``claims.md`` (default
 ``reports/claims.md``), the GNH worked examples, the qutip comparisons with their measured errors,
 and Bloch-sphere figures of classical and quantum trajectories (``reports/figures/bloch_*.png``).
@@ -18,6 +18,7 @@ import sys
 from pathlib import Path
 
 from . import _progress
+from ._atomic import claim_output
 from ._atomic import write_text as atomic_write_text
 
 HELP = "the paper's claims and errata (every display and mathematical sentence): run the checks, write claims.md"
@@ -177,9 +178,8 @@ def main(args) -> int:
 def _run(args, display, claims, evaluate, render_markdown):
     """Every check of the registries, one progress step per labelled claim; returns the
     Markdown, the contradicted labels and the items without an entry."""
-    from tstarg.oracles.claim_checks import paper_path
     from tstarg.oracles.claims_unlabelled import coverage, evaluate_entries, render_entries_markdown
-    from tstarg.oracles.paper_index import index_paper
+    from tstarg.oracles.paper_index import shipped_index
 
     cache: dict = {}  # each named check runs once across the claims
     obs = []
@@ -201,30 +201,29 @@ def _run(args, display, claims, evaluate, render_markdown):
         f"{sum(o.verdict == 'erratum confirmed' for o in obs)} errata confirmed, "
         f"{sum(o.verdict == 'not checkable' for o in obs)} not checkable, {len(bad)} contradicted {bad}"
     )
-    p = paper_path()
-    missing: list[str] = []
-    if p is None:
-        md += "\n## Coverage\n\npaper.tex not found (set TSTARG_PAPER): displays and sentences not indexed.\n"
-        print("paper.tex not found: displays and sentences not indexed")
+    # the index ships with the package (oracles/paper_index.json): paper.tex is needed only to re-index
+    index = shipped_index()
+    cov = coverage(index)
+    missing: list[str] = cov["missing"] + cov["misanchored"]
+    if missing:
+        print(f"items of the paper without a (well-anchored) entry: {missing}")
     else:
-        display.phase("indexing the paper's displays and sentences")
-        index = index_paper(p.read_text())
-        cov = coverage(index)
-        missing = cov["missing"] + cov["misanchored"]
-        if missing:
-            print(f"items of the paper without a (well-anchored) entry: {missing}")
-        else:
-            display.phase(f"checking {cov['entries']} entries of the displays and sentences")
-            eobs = evaluate_entries(index)
-            md += "\n" + render_entries_markdown(index, eobs)
-            ebad = [o.item.id for o in eobs if o.verdict == "CONTRADICTED"]
-            bad += ebad
-            print(
-                f"coverage: {cov['displays']} displayed formulas + {cov['sentences']} mathematical "
-                f"sentences = {cov['items']} items; {cov['entries']} entries; contradicted {ebad}"
-            )
+        display.phase(f"checking {cov['entries']} entries of the displays and sentences")
+        eobs = evaluate_entries(index)
+        md += "\n" + render_entries_markdown(index, eobs)
+        ebad = [o.item.id for o in eobs if o.verdict == "CONTRADICTED"]
+        bad += ebad
+        print(
+            f"coverage: {cov['displays']} displayed formulas + {cov['sentences']} mathematical "
+            f"sentences = {cov['items']} items; {cov['entries']} entries; contradicted {ebad}"
+        )
     md += "\n".join(_gnh_section(display)) + "\n"
     out, figures = _destinations(args)
+    if not getattr(args, "write", False) and not getattr(args, "figures", None):
+        folder = claim_output(
+            out.parent
+        )  # the lock of verify: a concurrent run gets its own folder
+        out, figures = folder / out.name, folder / "figures"
     if not args.no_quantum:
         md += "\n".join(_quantum_section(figures, display)) + "\n"
     display.phase(f"writing {out}")

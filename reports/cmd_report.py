@@ -74,6 +74,7 @@ def main(args) -> int:
                 f"(not written: {folder} is the committed baseline; give --out FOLDER to write report.md)"
             )
             return 0
+        folder = claim_output(folder)  # the lock of verify: a run writing there keeps its folder
         if rep.get("comparison"):
             regression.plot(rep["comparison"], folder / "figures" / "compare.png")
         write_text(folder / "report.md", md)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import io
 import sys
+import textwrap
 from pathlib import Path
 
 from . import _progress
@@ -30,14 +31,17 @@ def _plot(out: dict, path: Path, title: str) -> None:
     import numpy as np
 
     t = out["times"]
-    fig, axes = plt.subplots(2, 1, figsize=(8, 7), constrained_layout=True)
+    # constrained layout keeps the wrapped title and the legends (right of the axes, off the
+    # data) inside the canvas; tests/test_figures.py checks both
+    fig, axes = plt.subplots(2, 1, figsize=(9, 7), constrained_layout=True)
+    outside = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0), "borderaxespad": 0.0}
     pi = out["pi"][:, 0, :]
     for a in range(pi.shape[1]):
         axes[0].plot(t, pi[:, a], label=f"pi_{a}")
     axes[0].set_xlabel("t")
     axes[0].set_ylabel("body momenta (trajectory 0)")
-    axes[0].legend(loc="upper right")
-    axes[0].set_title(title)
+    axes[0].legend(**outside)
+    axes[0].set_title(textwrap.fill(title, 80), fontsize=10)
     drawn = False
     for key, v in out.items():
         if key == "energy" or key.startswith("casimir") or key == "momentum_map":
@@ -53,7 +57,7 @@ def _plot(out: dict, path: Path, title: str) -> None:
     axes[1].set_xlabel("t")
     axes[1].set_ylabel("|I(t) - I(0)| (worst trajectory)")
     if drawn:
-        axes[1].legend(loc="lower right")
+        axes[1].legend(**outside)
     save_figure(fig, path, dpi=110)
     plt.close(fig)
 

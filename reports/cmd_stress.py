@@ -278,7 +278,7 @@ def _plot_sweep(sweep: dict, path: Path, tol: float, d64: float) -> None:
     finite = [r["param"] for r in rows if math.isfinite(r["param"])]
     edge = (max(finite) * 30) if finite else 1.0
     xs = [r["param"] if math.isfinite(r["param"]) else edge for r in rows]
-    fig, ax = plt.subplots(figsize=(7.5, 4.6), constrained_layout=True)
+    fig, ax = plt.subplots(figsize=(9.5, 4.6), constrained_layout=True)
     ax.plot(
         xs,
         [r["lost_predicted"] for r in rows],
@@ -320,7 +320,7 @@ def _plot_sweep(sweep: dict, path: Path, tol: float, d64: float) -> None:
     ax.set_xlabel(sweep["param"])
     ax.set_ylabel("digits lost (of 15.95)")
     ax.set_title(f"{sweep['name']}: {sweep['title']}", fontsize=10)
-    ax.legend(fontsize=7, loc="upper left")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     save_figure(fig, path, dpi=100)
     plt.close(fig)
 
@@ -333,7 +333,7 @@ def _plot_brouwer(b: dict, path: Path) -> None:
     import numpy as np
 
     t, rms = np.asarray(b["t"]), np.asarray(b["rms"])
-    fig, ax = plt.subplots(figsize=(7.5, 4.6), constrained_layout=True)
+    fig, ax = plt.subplots(figsize=(10, 4.6), constrained_layout=True)
     ax.loglog(
         t,
         rms,
@@ -356,7 +356,7 @@ def _plot_brouwer(b: dict, path: Path) -> None:
     ax.set_xlabel("t")
     ax.set_ylabel("RMS |H(t) - H(0)| (exact evaluation)")
     ax.set_title("Long integration: round-off in the energy against Brouwer's law", fontsize=10)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     save_figure(fig, path, dpi=100)
     plt.close(fig)
 

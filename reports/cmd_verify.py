@@ -196,18 +196,11 @@ class Progress:
             )
 
 
-def expected_checks(specs, baseline=None) -> tuple[int | None, float | None]:
-    """How many checks the providers ``specs`` ran in the baseline report, and its wall time
-    (``(None, None)`` without a readable baseline): the progress display's total, and the
-    expected duration printed in the header."""
-    from .regression import BASELINE
-
-    path = Path(baseline) if baseline else BASELINE
-    if path.is_dir():
-        path = path / "report.json"
-    try:
-        base = json.loads(path.read_text())
-    except (OSError, ValueError):
+def expected_checks(specs, base: dict | None) -> tuple[int | None, float | None]:
+    """How many checks the providers ``specs`` ran in the baseline report ``base`` (as read by
+    :func:`_load_baseline`), and its wall time (``(None, None)`` without a baseline): the progress
+    display's total, and the expected duration printed in the header."""
+    if not base:
         return None, None
     n = sum(
         1
@@ -306,6 +299,7 @@ def render_markdown(report: dict) -> str:
             + ("" if cmp["same_sampling"] else "; different samples, digits not enforced")
             + "). "
             "Full table: [compare.md](compare.md).",
+            *(["", f"**{cmp['stale_note']}**"] if cmp.get("stale") else []),
             "",
             "![base vs this run](figures/compare.png)",
             "",
@@ -406,7 +400,12 @@ def main(args) -> int:
         if spec.count(":") != 1:
             raise ValueError(f"--provider must be 'module:function', got {spec!r}")
     budget = _budget(args)
-    n_expected, base_seconds = expected_checks(specs, getattr(args, "baseline", None))
+    try:  # the baseline is read FIRST: a corrupt one stops the run before any check (issue 30)
+        baseline = _load_baseline(args)
+    except (ValueError, OSError) as exc:
+        print(f"tstarg verify: --baseline: {exc}", file=sys.stderr)
+        return 2
+    n_expected, base_seconds = expected_checks(specs, baseline)
     print(
         f"tstarg verify: profile {args.profile}, {max_examples} examples per check, seed {args.seed}; "
         f"budgets: example {budget['example_seconds']:g} s, check {budget['check_seconds']:g} s, "
@@ -427,13 +426,13 @@ def main(args) -> int:
         display.phase("comparing with the baseline and writing the report")
         total = time.perf_counter() - t0
         out, failed, slowest, over = _write_report(
-            args, results, status, total, max_examples, budget
+            args, results, status, total, max_examples, budget, baseline
         )
     print(render_table(results))
     return _finish(results, status, out, failed, slowest, over, total)
 
 
-def _write_report(args, results, status, total, max_examples, budget):
+def _write_report(args, results, status, total, max_examples, budget, baseline=None):
     """Compare with the baseline and write report.json, report.md, the junit file (and the
     baseline with ``--write-baseline``); returns ``(out, failed, slowest, over)``."""
     slowest = max(results, key=lambda r: r.seconds, default=None)
@@ -455,7 +454,7 @@ def _write_report(args, results, status, total, max_examples, budget):
         "command": " ".join(["tstarg"] + sys.argv[1:]),
     }
     out = claim_output(Path(args.out))  # issue 15: a concurrent run gets its own folder and says so
-    _compare_with_baseline(args, report, results, out)
+    _compare_with_baseline(args, report, results, out, baseline)
     failed = [r for r in results if not r.passed]
     report.update(passed=not failed, n_failed=len(failed))
     write_text(out / "report.json", json.dumps(report, indent=2))
@@ -493,7 +492,20 @@ def _finish(results, status, out, failed, slowest, over, total) -> int:
     return 1 if failed else 0
 
 
-def _compare_with_baseline(args, report: dict, results: list, out: Path) -> None:
+def _load_baseline(args) -> dict | None:
+    """The baseline report (None: ``--no-baseline``, or no committed baseline); read before any
+    check runs, so that a corrupt one costs nothing."""
+    from . import regression
+
+    if getattr(args, "no_baseline", False):
+        return None
+    path = getattr(args, "baseline", None) or regression.BASELINE
+    if getattr(args, "baseline", None) is None and not Path(path).exists():
+        return None
+    return regression.load_report(path)
+
+
+def _compare_with_baseline(args, report: dict, results: list, out: Path, base=None) -> None:
     """Compare with the baseline (unless ``--no-baseline``): add the two regression rows to
     ``results`` and ``report``, write ``compare.md`` and ``figures/compare.png``."""
     from . import regression
@@ -502,7 +514,7 @@ def _compare_with_baseline(args, report: dict, results: list, out: Path) -> None
         report["baseline_note"] = "not compared (--no-baseline)"
         return
     path = getattr(args, "baseline", None) or regression.BASELINE
-    if getattr(args, "baseline", None) is None and not Path(path).exists():
+    if base is None:
         report["baseline_note"] = f"no baseline at {path}: not compared"
         print(f"no baseline at {path}: not compared")
         return
@@ -510,7 +522,6 @@ def _compare_with_baseline(args, report: dict, results: list, out: Path) -> None
     slack = regression.DIGITS_SLACK if slack is None else slack
     factor = getattr(args, "speed_factor", None)
     factor = regression.SPEED_FACTOR if factor is None else factor
-    base = regression.load_report(path)
     cmp = regression.compare(
         base, dict(report, _path=str(out / "report.json")), digits_slack=slack, speed_factor=factor
     )
@@ -528,3 +539,5 @@ def _compare_with_baseline(args, report: dict, results: list, out: Path) -> None
             else ""
         )
     )
+    if cmp.get("stale"):
+        print(cmp["stale_note"])

@@ -1,4 +1,4 @@
-"""Implementations in any language, spoken to over JSON lines (DESIGN.md, certification).
+"""Implementations in any language, spoken to over JSON lines (docs/design.md, certification).
 
 The program reads one request per line on stdin and writes one reply per line on stdout:
 
@@ -30,7 +30,7 @@ After ``max_failures`` incidents in a row without one good reply the program is 
 broken: every further request raises :class:`ProgramBroken` at once, which ends the check
 without shrinking (so a program that never answers costs ``max_failures * timeout``
 seconds, not one timeout per example). The program runs in its own process group
-(session); :meth:`CommandImplementation.close` kills the whole group (children a program
+(inside the harness's session, :mod:`reports._supervise`); :meth:`CommandImplementation.close` kills the whole group (children a program
 forked included) and reaps it. Its stderr goes to ``stderr_log`` (a file) when given.
 """
 
@@ -171,6 +171,7 @@ class CommandImplementation:
         self._next_id = 0
         self._lines: queue.Queue = queue.Queue()
         self._missing: set[str] = set()
+        self._expired: set[int] = set()  # ids of requests that timed out (late replies skipped)
         self._tail: collections.deque = collections.deque(maxlen=STDERR_TAIL)
         self._log = (
             open(stderr_log, "a", encoding="utf-8", errors="replace") if stderr_log else None
@@ -194,7 +195,7 @@ class CommandImplementation:
                 text=True,
                 bufsize=1,
                 errors="replace",
-                start_new_session=True,
+                process_group=0,  # its own group (killed whole), in the harness's session
             )
         except OSError as exc:
             raise ProgramFailure(
@@ -305,11 +306,15 @@ class CommandImplementation:
                     raise queue.Empty
                 reply = self._lines.get(timeout=left)
             except queue.Empty:
+                self._expired.add(rid)
                 raise ProgramFailure(
                     self._incident(rid, method, "hang", f"no reply within {wait:g} s", restart=True)
                 ) from None
-            if reply is None:
-                code = self._proc.wait()
+            if reply is None:  # stdout closed: the program exited, or is about to (or never will)
+                try:
+                    code = self._proc.wait(timeout=min(2.0, max(left, 0.1)))
+                except subprocess.TimeoutExpired:
+                    code = "none (it closed its stdout and kept running)"
                 raise ProgramFailure(
                     self._incident(
                         rid, method, "crash", f"the program exited with code {code}", restart=True
@@ -325,8 +330,19 @@ class CommandImplementation:
                         rid, method, "garbage", f"not a JSON object: {reply[:200]!r}", restart=False
                     )
                 )
-            if msg.get("id") != rid:
-                continue  # a late reply to an earlier, timed-out request (the deadline still runs)
+            got = msg.get("id")
+            if got != rid or type(got) is not type(rid):
+                if type(got) is int and got in self._expired:
+                    continue  # a late reply to an earlier, timed-out request (the deadline runs on)
+                raise ProgramFailure(
+                    self._incident(
+                        rid,
+                        method,
+                        "garbage",
+                        f"reply id {got!r} answers no pending request (expected {rid!r})",
+                        restart=True,
+                    )
+                )
             self._last_reply = msg
             try:
                 try:

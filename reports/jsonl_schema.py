@@ -9,7 +9,7 @@ Rules the schemas encode:
 
 1. a request is ``{"id", "method", "args"}`` (optionally ``"protocol_version": "1.x"``), with
    ``method`` one of ``capabilities``, ``poisson_tensor``, ``hamiltonian_vector_field``, ``flow``
-   and ``args`` holding exactly that method's protocol parameters by name (DESIGN.md); arrays
+   and ``args`` holding exactly that method's protocol parameters by name (docs/design.md); arrays
    are nested lists of numbers;
 2. a reply is ``{"id", "result"}`` or ``{"id", "error"}`` (never both, nothing else), ``error`` a
    non-empty string; ``"unknown method ..."`` means not provided, ``"ValueError: ..."`` is a
@@ -185,7 +185,7 @@ def build_schema(kind: str) -> dict:
         return {
             **head,
             "title": f"tstarg JSON-lines protocol {SCHEMA_VERSION}: a request (one JSON object per line on the program's stdin)",
-            "description": "The harness (tstarg certify --cmd) sends one request per line and waits for the reply with the same id. Arrays are nested JSON lists of float64 numbers; conventions are those of CONVENTIONS.md (f[m][a][b] = f^m_ab, z = (x, pi), body momenta). Methods follow the implementation protocol (refimpl/_protocol.py, the spec); 'capabilities' asks the program for its declared domain.",
+            "description": "The harness (tstarg certify --cmd) sends one request per line and waits for the reply with the same id. Arrays are nested JSON lists of float64 numbers; conventions are those of docs/conventions.md (f[m][a][b] = f^m_ab, z = (x, pi), body momenta). Methods follow the implementation protocol (refimpl/_protocol.py, the spec); 'capabilities' asks the program for its declared domain.",
             "x-tstarg-protocol-version": SCHEMA_VERSION,
             "type": "object",
             "required": ["id", "method", "args"],

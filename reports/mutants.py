@@ -7,7 +7,7 @@ planted against it (``Check.mutants``, :data:`reports.certification.MUTANT_CHECK
 need more than a switch of this shared implementation are defined beside their check.
 
 :class:`Plain` is a straightforward per-point numpy implementation of the protocol,
-written from CONVENTIONS.md independently of refimpl.fast; with ``mutation=None`` it is
+written from docs/conventions.md independently of refimpl.fast; with ``mutation=None`` it is
 correct, and each name in :data:`MUTATIONS` switches on exactly one mistake.
 """
 

@@ -36,9 +36,14 @@ from scipy.integrate import solve_ivp
 
 from tstarg.properties.runner import CheckResult, announce, finished
 from tstarg.refimpl import su2, su3
-from tstarg.refimpl._flow_fast import scalar_rhs
 from tstarg.refimpl.fast import implementation as fast
-from tstarg.refimpl.flows import METHODS, NumpyModel, integrate_fast, reference_trajectory
+from tstarg.refimpl.flows import (
+    METHODS,
+    NumpyModel,
+    integrate_fast,
+    reference_trajectory,
+    scalar_rhs,
+)
 
 from .mutants import Plain
 

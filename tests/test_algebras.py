@@ -114,7 +114,7 @@ def test_killing_forms_published():
 
 
 def test_structure_constants_su2_and_su3_textbook():
-    """su(2) has f = epsilon (CONVENTIONS.md); su(3) has f_123 = 1, f_147 = 1/2, f_458 = sqrt(3)/2."""
+    """su(2) has f = epsilon (docs/conventions.md); su(3) has f_123 = 1, f_147 = 1/2, f_458 = sqrt(3)/2."""
     f = su2().f
     assert f[2, 0, 1] == 1 and f[0, 1, 2] == 1 and f[1, 2, 0] == 1 and f[2, 1, 0] == -1
     g = su3().f_exact  # 0-based: f^c_ab

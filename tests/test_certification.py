@@ -58,3 +58,29 @@ def test_xfail_keeps_the_verdict_green():
         shrink=False,
     )
     assert any(not c.passed for c in cert.checks) and cert.passed
+
+
+def test_a_rejected_example_is_not_a_failure():
+    """A body that draws again (hypothesis.reject) is not failing: it must not start the shrinking
+    clock (the check passed all its examples, then stopped at the shrinking budget as a FAIL with
+    'UnsatisfiedAssumption' as its reason: seen on flow.reference's work-limit redraws)."""
+    import time
+
+    from hypothesis import reject
+    from hypothesis import strategies as st
+
+    from tstarg.properties.runner import run_property
+
+    seen = []
+
+    def body(ex):
+        seen.append(ex)
+        if len(seen) == 1:
+            reject()
+        time.sleep(0.02)
+        return 0.5, None
+
+    res = run_property(
+        "rejects once", "-", body, st.integers(0, 100), max_examples=8, seed=0, shrink_seconds=0.01
+    )
+    assert res.passed and res.examples >= 5, (res.detail, res.examples)

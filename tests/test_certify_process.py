@@ -132,7 +132,7 @@ def test_a_module_is_a_valid_target(tmp_path):
         ("garbage", "garbage"),
         ("exit", "crash"),
         ("silent", "hang"),
-        ("flood", "hang"),
+        ("flood", "garbage"),  # replies with an id no request has: refused at once
         ("abc", "malformed"),
         ("noresult", "malformed"),
     ],
@@ -225,3 +225,23 @@ def test_implementation_using_the_whole_example_budget_fails(tmp_path):
     )
     c = by_name(cert, "poisson_tensor.degenerate")
     assert rc == 1 and not c["passed"] and "still running when the example's budget" in c["detail"]
+
+
+# ------------------------------------------------------------------ one run-and-merge
+def test_one_run_and_merge_for_in_process_guarded_and_parallel_runs():
+    """certify_target is the one run-and-merge: unguarded over two workers it gives the serial
+    certify's checks (names, example counts, verdicts); guarded in-process on an object it gives
+    them too."""
+    from tstarg.refimpl.fast import implementation as fast
+    from tstarg.reports._guard import certify_target
+    from tstarg.reports.certification import certify as serial
+
+    kw = {"max_examples": 2, "seed": 0, "checks": ["poisson_tensor.antisymmetry", "flow.order"]}
+    want = serial(fast, **kw)
+    par = certify_target("tstarg.refimpl.fast:implementation", workers=2, guard=False, **kw)
+    obj = certify_target(fast, workers=1, **kw)
+
+    def key(c):
+        return [(r.name, r.examples, r.passed) for r in c.checks], sorted(c.skipped)
+
+    assert key(par) == key(want) == key(obj)

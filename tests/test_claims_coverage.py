@@ -20,21 +20,20 @@ from tstarg.oracles.claims_unlabelled import (
     entries_for,
     evaluate_entries,
 )
-from tstarg.oracles.paper_index import index_paper
+from tstarg.oracles.paper_index import index_paper, shipped_index
 
 PAPER = pc.paper_path()
-needs_paper = pytest.mark.skipif(
-    PAPER is None, reason="paper.tex not found (../shared/paper.tex or $TSTARG_PAPER)"
-)
+needs_paper = pytest.mark.skipif(PAPER is None, reason="paper.tex not found (set TSTARG_PAPER)")
 
 
 @pytest.fixture(scope="module")
 def index():
-    return index_paper(PAPER.read_text())
+    """The paper's index as shipped with the package (tests/test_paper_index.py checks it equals
+    a fresh index of paper.tex whenever the source is at hand)."""
+    return shipped_index()
 
 
 # ------------------------------------------------------------------ coverage of the real paper
-@needs_paper
 def test_every_item_of_the_paper_has_an_entry(index):
     """Displays (labelled or not) and mathematical sentences in the paper == entries: none missing,
     none anchored to text that is not there, none naming an item the paper does not have."""
@@ -64,7 +63,6 @@ def test_index_finds_every_label_and_every_display_kind(index):
     assert len(ids) == len(set(ids))
 
 
-@needs_paper
 def test_issue_sentences_are_indexed(index):
     """The sentences the issue names are among the mathematical sentences."""
     text = " ".join(s.text for s in index.sentences)
@@ -83,9 +81,7 @@ def test_issue_sentences_are_indexed(index):
 
 def test_labelled_registry_is_used_for_labelled_displays():
     """Labelled displays take their entry from the labelled registry (66 labels, drie12 included)."""
-    if PAPER is None:
-        pytest.skip("paper.tex not found")
-    ix = index_paper(PAPER.read_text())
+    ix = shipped_index()
     pairs = [(item, e) for item, e in entries_for(ix) if getattr(item, "labels", ())]
     got = [lab for _, e in pairs for lab in e.labels]
     assert got == list(LABELS)

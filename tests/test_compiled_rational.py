@@ -319,9 +319,9 @@ def test_full_state_meets_gauss6_and_is_the_default(T):
 
     f, th, U, inertia, pot = _modified_top()
     m = NumpyModel(f, th, U, inertia, pot)
-    from tstarg.refimpl._flow_fast import _default_method
+    from tstarg.refimpl.flows import choose
 
-    assert _default_method(m, full=True).name == "taylor-rational"
+    assert choose(m, full=True).name == "taylor-rational"
     x0 = np.array([[0.1, 0.2, 0.0], [0.3, -0.2, 0.4]])
     pi0 = np.array([[0.3, 0.2, 1.0], [-0.2, 0.5, 0.7]])
     tol = 1e-9

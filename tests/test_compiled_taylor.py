@@ -39,7 +39,7 @@ THETA = -np.einsum("k,kab->ab", XI, SU2.f)
 GRAV = {"kind": "gravity", "L": np.array([0.1, -0.2, 1.0]), "gamma": np.array([0.0, 0.0, -1.0])}
 I_OFF = np.array([[1.0, 0.1, 0.0], [0.1, 1.3, -0.05], [0.0, -0.05, 0.5]])
 SIGMA = np.array([[[0, 1], [1, 0]], [[0, -1j], [1j, 0]], [[1, 0], [0, -1]]])
-E = -0.5j * SIGMA  # E_a = -(i/2) sigma_a, [E_a, E_b] = eps_abc E_c (CONVENTIONS.md)
+E = -0.5j * SIGMA  # E_a = -(i/2) sigma_a, [E_a, E_b] = eps_abc E_c (docs/conventions.md)
 
 MODELS = {
     "gyrostat heavy, off-diagonal I": lambda: NumpyModel(SU2, THETA, Z, I_OFF, GRAV),
@@ -337,7 +337,7 @@ def test_model_cache_keys_on_values_not_identity():
     """Models A, B, A through the same refilled caller arrays (a cache keyed on ``id`` or on the shape
     would return A's flow for B): each flow equals the flow of a freshly built, uncached model, and a
     list input gives the flow of the equal array."""
-    from tstarg.refimpl._flow_fast import cached_model
+    from tstarg.refimpl.flows import cached_model
 
     I = np.diag([1.0, 1.3, 0.5])
     x0, pi0 = np.array([0.3, -0.2, 0.5]), np.array([0.4, -0.3, 1.2])

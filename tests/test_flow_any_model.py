@@ -21,16 +21,16 @@ from tstarg.properties.strategies import cocycles, lie_algebras, points, upsilon
 from tstarg.refimpl import LieAlgebra, _flow_reference
 from tstarg.refimpl._catalogue import bianchi, su2, su3
 from tstarg.refimpl._cohomology import cocycle_basis
-from tstarg.refimpl._flow_fast import fast_flow, fast_trajectory
 from tstarg.refimpl._flow_reference import reference_flow, reference_trajectory
 from tstarg.refimpl._representation import representation_for
+from tstarg.refimpl.flows import fast_flow, fast_trajectory
 
 EPS = np.finfo(float).eps
 FAST_TOL = 1e-10  # fast_flow's default tolerance (refimpl.fast.Fast.flow_tolerance)
 
 
 def _digits(a, b) -> float:
-    """Correct significant digits of a against b: -log10(max |a - b| / max(|b|, 1)) (CONVENTIONS.md)."""
+    """Correct significant digits of a against b: -log10(max |a - b| / max(|b|, 1)) (docs/conventions.md)."""
     a = np.asarray(a, dtype=object).ravel()
     b = np.asarray(b, dtype=object).ravel()
     with mpmath.workdps(80):

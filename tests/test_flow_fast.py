@@ -121,7 +121,7 @@ def _su2_heavy_rhs(model, y):
 def test_generated_rhs_equals_hand_written_and_generic():
     """Three routes to the Euler-Poisson field agree: generated straight-line code, the hand-written
     su(2) cross products, and the generic einsum formulas of vier10/vier11 (error model 8 eps * scale^2)."""
-    from tstarg.refimpl._flow_fast import numpy_rhs
+    from tstarg.refimpl.flows import numpy_rhs
 
     model = NumpyModel(F, THETA, np.zeros((3, 3)), I, POT)
     y = np.random.default_rng(5).normal(size=(6, 40))
@@ -152,7 +152,7 @@ def test_rebased_x_recovered_through_representation_non_compact():
 def test_scalar_rhs_list_and_array_equal_numpy_rhs():
     """The generated scalar rhs (for scipy baselines) gives the same field for a list and for an ndarray
     argument (converted to Python floats), equal to the numpy rows version (error model 8 eps * scale^2)."""
-    from tstarg.refimpl._flow_fast import numpy_rhs, scalar_rhs
+    from tstarg.refimpl.flows import numpy_rhs, scalar_rhs
 
     model = NumpyModel(F, THETA, np.zeros((3, 3)), I, POT)
     y = np.random.default_rng(8).normal(size=6)

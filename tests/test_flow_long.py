@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from tstarg.refimpl._catalogue import su2
-from tstarg.refimpl._flow_fast import fast_trajectory
 from tstarg.refimpl._flow_reference import reference_trajectory
 from tstarg.refimpl._invariants import momentum_map
+from tstarg.refimpl.flows import fast_trajectory
 
 pytestmark = pytest.mark.slow
 EPS = np.finfo(float).eps

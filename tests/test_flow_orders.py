@@ -19,8 +19,9 @@ import mpmath
 import numpy as np
 import pytest
 
-from tstarg.refimpl import su2
+from tstarg.refimpl import State, su2
 from tstarg.refimpl.flows import METHODS, NumpyModel, integrate_fast, reference_trajectory
+from tstarg.refimpl.flows.integrators.taylor import TaylorIntegrator
 
 ALG = su2()
 I = np.diag([1.0, 1.3, 0.5])
@@ -60,15 +61,20 @@ def _fit(errs, hs):
     return float(np.polyfit(np.log(hs), np.log(errs), 1)[0])
 
 
+def _applies(name, label):
+    model = NumpyModel(ALG, THETA, UPS if label == "U!=0" else np.zeros((3, 3)), I, POT)
+    return METHODS[name].applies(model)[0]
+
+
 CASES = [
     (name, lab)
     for name in METHODS
     for lab in ("U=0", "U!=0")
-    if not (lab == "U!=0" and METHODS[name].kind in ("splitting", "scalar", "taylor"))
-    and METHODS[name].kind not in ("taylor", "taylor-adaptive")
+    if _applies(name, lab)
+    and not isinstance(METHODS[name], TaylorIntegrator)  # fitted in mpmath below
     and not METHODS[name].adaptive  # adaptive methods take a tolerance, not a step size
 ]
-TAYLOR = [name for name in METHODS if METHODS[name].kind == "taylor"]
+TAYLOR = [name for name in METHODS if isinstance(METHODS[name], TaylorIntegrator)]
 
 
 @pytest.mark.parametrize("name,label", CASES)
@@ -174,3 +180,47 @@ def test_fitted_order_taylor_high_precision(name, label, exact_references):
     # error must stay far above both
     assert min(errs) > 1e-80, errs
     assert abs(_fit(errs, 1.0 / np.array(Ns)) - meth.order) <= 0.3, errs
+
+
+KUTTA38 = '''"""Kutta's 3/8 rule: an explicit RK method of order 4 (the worked example of a new integrator)."""
+
+import numpy as np
+
+from tstarg.refimpl._integrators import ExplicitRK
+from tstarg.refimpl.flows.integrators.rk import ExplicitRKIntegrator
+
+A = np.zeros((4, 4))
+A[1, 0] = 1 / 3
+A[2, 0], A[2, 1] = -1 / 3, 1.0
+A[3, 0], A[3, 1], A[3, 2] = 1.0, -1.0, 1.0
+TABLEAU = (A, np.array([1.0, 3.0, 3.0, 1.0]) / 8, np.array([0.0, 1 / 3, 2 / 3, 1.0]))
+
+INTEGRATORS = [ExplicitRKIntegrator("kutta38", ExplicitRK("kutta38", TABLEAU, 4))]
+'''
+
+
+def test_new_integrator_is_one_file_with_its_order(tmp_path, monkeypatch, references):
+    """A new integrator is one module in the integrators package: planted in a package of its own, the
+    registry finds it and its fitted order is the declared 4 (Kutta's 3/8 rule)."""
+    import importlib
+    import sys
+
+    from tstarg.refimpl.flows.registry import _discover
+
+    pkg = tmp_path / "planted_integrators"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "kutta38.py").write_text(KUTTA38)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    found = _discover(importlib.import_module("planted_integrators"))
+    assert list(found) == ["kutta38"]
+    meth = found["kutta38"]
+    model = NumpyModel(ALG, THETA, np.zeros((3, 3)), I, POT)
+    Ns = (16, 32, 64)
+    errs = []
+    for N in Ns:
+        out = meth.integrate(model, State(X0[:, None], PI0[:, None]), 2.0, steps=N, system="body")
+        y = np.concatenate([out.pi[:, 0], out.Gamma[:, 0]])
+        errs.append(np.max(np.abs(y - references["U=0"])))
+    sys.modules.pop("planted_integrators.kutta38", None)
+    assert abs(_fit(errs, 2.0 / np.array(Ns)) - meth.order) <= 0.3, errs

@@ -292,21 +292,25 @@ def test_nan_in_a_failed_row_is_unknown_not_a_pass(tmp_path):
 def test_a_zero_byte_baseline_stops_verify_with_a_clear_error(tmp_path, monkeypatch, capsys):
     base = _write(tmp_path / "baseline" / "report.json", "")
     monkeypatch.syspath_prepend(str(tmp_path))
-    with pytest.raises(ValueError, match="not valid JSON"):
-        cli.main(
-            [
-                "verify",
-                "--provider",
-                _fake_provider(tmp_path),
-                "--baseline",
-                str(base),
-                "--out",
-                str(tmp_path / "run"),
-                "--quiet",
-                "--max-examples",
-                "1",
-            ]
-        )
+    rc = cli.main(
+        [
+            "verify",
+            "--provider",
+            _fake_provider(tmp_path),
+            "--baseline",
+            str(base),
+            "--out",
+            str(tmp_path / "run"),
+            "--quiet",
+            "--max-examples",
+            "1",
+        ]
+    )
+    out, err = capsys.readouterr()
+    # the baseline is checked first: one line, exit 2, no check ran, nothing written
+    assert rc == 2 and "not valid JSON" in err and err.strip().count("\n") == 0
+    assert "Traceback" not in err and "ran 1 checks" not in out
+    assert not (tmp_path / "run").exists()
 
 
 # ------------------------------------------------------------------ the comparison plot

@@ -1,4 +1,4 @@
-"""Both implementations satisfy the implementation protocol of DESIGN.md: shapes, batch axes,
+"""Both implementations satisfy the implementation protocol of docs/design.md: shapes, batch axes,
 exact inputs, fixed import names, and agreement with each other through the protocol."""
 
 from __future__ import annotations

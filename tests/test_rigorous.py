@@ -7,7 +7,7 @@ What a ball must satisfy (refimpl/rigorous.py):
   so the reference's own error is far below the radii and containment is a real test, not a tolerance;
 * the reference at dps 50 agrees with the ball to its promise: the distance from the 50-digit value
   to the ball is at most ``10^-50 * cond * scale`` (``cond`` the sensitivity of the point,
-  ``||Phi^-1|| (1 + ||S|| ||Upsilon||)``, CONVENTIONS.md; ``scale = max(1, max|P|)``);
+  ``||Phi^-1|| (1 + ||S|| ||Upsilon||)``, docs/conventions.md; ``scale = max(1, max|P|)``);
 * it is tight: radius <= ``1e-45 * scale`` at 200 bits, and a value moved by twice the radius
   (plus ``1e-62 scale``) lies outside (negative control).
 """
@@ -33,6 +33,7 @@ from tstarg.refimpl.fast import implementation as fast
 from tstarg.refimpl.reference import Reference
 from tstarg.refimpl.rigorous import (
     Balls,
+    ChartError,
     DegeneratePointError,
     Rigorous,
     UndecidedError,
@@ -281,13 +282,15 @@ def test_degenerate_point_is_decided():
     assert q0["Delta"].balls.item().is_exact() and q0["Delta"].mid.item() == 1.0
 
 
-def test_chart_boundary_is_undecidable_not_wrong():
-    """At |x| = 2 pi exactly (sympy pi) phi1(-ad_x) is singular: no ball inverse exists at any precision."""
+def test_chart_boundary_is_refused_not_wrong():
+    """At |x| = 2 pi exactly (sympy pi) phi1(-ad_x) is singular: refused by the shared chart rule (the fast
+    path's, float64 accuracy) before any ball work, as within float64 rounding of the edge."""
     Z = np.zeros((3, 3))
-    with pytest.raises(UndecidedError, match="chart"):
-        Rigorous(64, 256).poisson_tensor_balls(
-            su2(), Z, Z, np.array([2 * sympy.pi, 0, 0], dtype=object), [1, 2, 3]
-        )
+    for x0 in (2 * sympy.pi, 2 * sympy.pi - sympy.Rational(1, 10**40)):
+        with pytest.raises(ChartError, match="chart"):
+            Rigorous(64, 256).poisson_tensor_balls(
+                su2(), Z, Z, np.array([x0, 0, 0], dtype=object), [1, 2, 3]
+            )
 
 
 def test_protocol_midpoints_are_the_rounded_reference():

@@ -173,7 +173,7 @@ def test_heavy_top_t10(top):
 
 def test_printed_twee17_sign_is_excluded():
     """Negative control: the same method on the printed twee17 (dGamma/dt with the opposite sign, the
-    erratum of CONVENTIONS.md) gives an enclosure that excludes the reference, which the corrected
+    erratum of docs/conventions.md) gives an enclosure that excludes the reference, which the corrected
     law's enclosure contains: the containment tests can tell the two laws apart."""
     with workprec(128):
         F, n = body_field(su2(), Z, ISSUE_TOP, GRAV)

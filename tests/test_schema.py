@@ -45,8 +45,17 @@ PROXY = textwrap.dedent("""
 
 def test_schemas_are_valid_draft_2020_12_and_versioned():
     files = sorted(SCHEMA_DIR.glob("*.schema.json"))
-    assert {p.name for p in files} == {"request.schema.json", "reply.schema.json"}
+    assert {p.name for p in files} == {
+        "request.schema.json",
+        "reply.schema.json",
+        "certificate.schema.json",
+    }
+    Draft202012Validator.check_schema(
+        json.loads((SCHEMA_DIR / "certificate.schema.json").read_text())
+    )
     for p in files:
+        if p.name == "certificate.schema.json":
+            continue
         schema = json.loads(p.read_text())
         Draft202012Validator.check_schema(schema)
         assert schema["$schema"] == "https://json-schema.org/draft/2020-12/schema"
@@ -295,7 +304,7 @@ def test_every_consumer_reads_the_spec():
 
 
 def test_implementation_base_class_provides_any_subset():
-    """DESIGN.md: an implementation provides any subset. A subclass overriding only flow provides
+    """docs/design.md: an implementation provides any subset. A subclass overriding only flow provides
     only flow (the base's methods are placeholders), and the guard exposes only that."""
     from tstarg.refimpl import Implementation, provided_methods, provides
     from tstarg.reports._guard import Guarded

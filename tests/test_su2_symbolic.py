@@ -1,4 +1,4 @@
-"""Section cinq (SU(2)) symbolically: the printed objects equal those built from CONVENTIONS.md's W."""
+"""Section cinq (SU(2)) symbolically: the printed objects equal those built from docs/conventions.md's W."""
 
 from __future__ import annotations
 

@@ -110,7 +110,7 @@ def test_integrate_fast_dispatch_and_observer():
     """integrate_fast with a Taylor method: one trajectory (scalar code) and the same trajectory inside a
     batch larger than TAYLOR_SCALAR_MAX (numpy kernel) agree to rounding (64 eps per step), observers see
     every step."""
-    from tstarg.refimpl._flow_fast import TAYLOR_SCALAR_MAX
+    from tstarg.refimpl.flows.integrators.taylor import TAYLOR_SCALAR_MAX
 
     model = MODELS["su2 gyrostat heavy, off-diagonal I"]()
     meth = METHODS["taylor16"]

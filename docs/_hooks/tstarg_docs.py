@@ -9,6 +9,7 @@
 
 from __future__ import annotations
 
+import html
 from pathlib import Path
 
 from mkdocs.structure.files import File
@@ -36,8 +37,10 @@ def _errata_markdown() -> str:
 
     lines = []
     for c in ERRATA:
+        # the texts are plain ASCII mathematics: <dV|e_m> must be shown, not taken for an HTML tag
+        claim, erratum = html.escape(c.claim, quote=False), html.escape(c.erratum, quote=False)
         lines.append(
-            f"- **{c.label}** ({c.section}): {c.claim}. *Erratum:* {c.erratum} "
+            f"- **{c.label}** ({c.section}): {claim}. *Erratum:* {erratum} "
             f"(checks: printed form `{', '.join(c.literal) or '-'}` must fail, "
             f"corrected `{', '.join(c.checks) or '-'}` must pass)"
         )

@@ -7,7 +7,7 @@ certification checks. Certify it from a clone of tstarg::
 
     PYTHONPATH=examples/jaxlie_su2:${PYTHONPATH:-} tstarg certify su2_jaxlie:implementation --max-examples 10
 
-The mathematics (CONVENTIONS.md of tstarg):
+The mathematics (docs/conventions.md of tstarg):
 
 * jaxlie stores an SO(3) element as a unit quaternion ``(w, v)`` and does not fold it to ``w >= 0``:
   it *is* the SU(2) element ``w - i v.sigma = exp(x^a E_a)``, ``E_a = -(i/2) sigma_a``, and

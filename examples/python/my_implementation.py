@@ -5,7 +5,7 @@ Certify it from a clone of tstarg::
     PYTHONPATH=examples/python:${PYTHONPATH:-} tstarg certify my_implementation:implementation --max-examples 10
 
 It provides ``poisson_tensor`` only (the other checks are skipped, with the reason, in the
-certificate). The mathematics is that of CONVENTIONS.md and the paper's vier9:
+certificate). The mathematics is that of docs/conventions.md and the paper's vier9:
 ``L(g, e) = phi1(-ad_x)^-1`` with ``phi1(A) = (e^A - 1)/A`` (Van Loan: the top-right block of
 ``expm([[A, 1], [0, 0]])``), ``S = pi.f - Theta``, ``Phi = 1 + S Upsilon``, ``Psi = Phi^T``,
 ``-W^-1 = [[-Upsilon Phi^-1, Psi^-1], [-Phi^-1, -S Psi^-1]]`` and ``P = T (-W^-1) T^T``,

@@ -1,9 +1,9 @@
-"""Certification of implementations of the protocol (DESIGN.md) against independent judges.
+"""Certification of implementations of the protocol (docs/design.md) against independent judges.
 
 A package: each check is one object in one file of ``checks/`` (:class:`check.Check`: its id, the
 methods it needs, its budget, its builder and the planted mutants that prove it), found through one
 registry (:mod:`.registry`); the float64 judge and the error models sit with the oracles
-(:mod:`tstarg.oracles.float_judge`). Adding a check: ``docs/tutorials/maintainer.md``.
+(:mod:`tstarg.oracles.float_judge`). Adding a check: one file in ``checks/`` (:mod:`.registry`).
 
 Public API:
 
@@ -71,7 +71,7 @@ are drawn); ``"max_abs_t"``: the largest ``|t|`` of its flows; ``"negative_t"``:
 and stated in the certificate). ``batched`` stays the protocol's attribute. The certification
 draws only inside the domain, says so in the certificate, and checks refusal outside it.
 
-Error model (every check; CONVENTIONS.md "Errors and tolerances"):
+Error model (every check; docs/conventions.md "Errors and tolerances"):
 ``tol = C * n * eps_impl * kappa * frame * scale`` at the point, with ``C = 8``,
 ``kappa = max(cond_phi, cond_data)`` (``cond_phi = ||Phi||_F ||Phi^-1||_F / n``,
 ``cond_data = ||Phi^-1||_F (1 + ||S||_F ||U||_F) / sqrt(n)``), ``frame = 1/(1 - r)``,

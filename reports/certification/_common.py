@@ -4,6 +4,7 @@ The float64 judge and the error models live in :mod:`tstarg.oracles.float_judge`
 
 from __future__ import annotations
 
+import functools
 import inspect
 import math
 from collections import OrderedDict
@@ -14,9 +15,13 @@ from hypothesis import target as hyp_target
 
 from tstarg.oracles.float_judge import (
     FloatJudge,
+    compare_state,
     conditioning,
+    max_err,
     reference_work,
+    sensitivity_at,
 )
+from tstarg.properties.runner import note
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue
 from tstarg.refimpl.reference import Reference
 from tstarg.refimpl.rigorous import Rigorous
@@ -27,7 +32,11 @@ _JUDGE = Rigorous(200)
 
 JUDGE = (
     "brackets: refimpl.rigorous (Arb balls, 200 bits; errors are proven upper bounds, digits proven "
-    "digits); vector fields and flows: refimpl.reference (mpmath, 30 digits and above)"
+    "digits); vector fields and flow.reference: refimpl.reference (mpmath, 25-30 digits); flow.long, "
+    "flow.order and the flows of protocol.inputs: oracles.float_judge.FloatJudge (scipy DOP853 at "
+    "rtol 1e-13 on the body system, on the flow's group; its error estimated by a run at rtol 1e-12, "
+    "examples where it exceeds a tenth of the tolerance drawn again; the worst estimate per check "
+    "is in the notes)"
 )
 
 FLOW_T_MAX = 10.0
@@ -186,6 +195,116 @@ def _judge_group(f, theta, ups, inertia, pot, x, pi, t):
         lambda: FloatJudge(f, theta, ups, inertia, pot, group=True).judged(x, pi, t),
     )
     return out if len(out) == 3 else (*out, None)
+
+
+def _judge_on(group, f, theta, ups, inertia, pot, x, pi, times):
+    """The float64 judge carrying ``G = rho(g)`` on ``group`` (a :class:`MatrixGroup`) at every time
+    of ``times`` (one sign) from one integration: ``(states, Gs, errors, sensitivities)`` (see
+    :meth:`FloatJudge.judged_at` and :func:`sensitivity_at`), cached by value."""
+    times = [float(t) for t in times]
+
+    def compute():
+        judge = FloatJudge(f, theta, ups, inertia, pot, rep=group)
+        states, groups, errs = judge.judged_at(x, pi, times)
+        return states, groups, errs, sensitivity_at(judge, x, pi, times, states, groups)
+
+    gkey = ("none",) if group is None else (group.name, group.mats.tobytes())
+    return _FLOW_CACHE.get(
+        ("judge-on", *gkey, tuple(times)) + _key(f, theta, ups, inertia, pot, x, pi), compute
+    )
+
+
+def _judged_state_ratio(impl, f, t, got, want, tol, judge_err, G, group) -> float:
+    """The worst error/tolerance of a flow's ``(x(t), pi(t))`` against the judge's state ``want =
+    (x or None, pi, Ad)`` and ``G = rho(g(t))`` on ``group``. A failure is raised here with what
+    it means: a state right up to ``Ad(g)`` but wrong on the group is a flow on another group (the
+    SU(2) sheet lost: ``x = log_SO(3)``), which must declare it."""
+    gx, gp = got
+    ratio = compare_state(impl, f, gx, gp, *want, tol, judge_err, ref_G=G, rep=group)
+    if ratio <= 1.0:
+        return ratio
+    note(t=t, ratio=ratio)
+    if G is not None and group is not None:
+        blind = compare_state(impl, f, gx, gp, None, want[1], want[2], tol, judge_err)
+        if blind <= 1.0:
+            err = max_err(group.exp(gx), G)
+            raise AssertionError(
+                f"flow at t = {t:g}: x(t) = {np.asarray(gx).tolist()} is right up to Ad(g) (pi and "
+                f"the adjoint group agree) but not on the group it is judged on, {group.name}: "
+                f"rho(exp(x)) is off by {err:.3g} (ratio {ratio:.3g}). A flow on another group "
+                "with this algebra (e.g. SO(3) for su(2), x = log_SO(3)(R) with |x| <= pi) must "
+                "declare it: group = 'SO(3)' (CONVENTIONS.md, 'Which group')"
+            )
+    raise AssertionError(
+        f"flow at t = {t:g}: (x(t), pi(t)) off the judge by error/tolerance ratio {ratio:.3g}"
+    )
+
+
+REFERENCE_DPS = 25
+"""Working digits of the mpmath reference flow of ``flow.reference`` (its error, ~1e-20, is far
+below any float64 tolerance)."""
+
+
+def _reference_cache_dir():
+    import os
+    from pathlib import Path
+
+    root = os.environ.get("TSTARG_CACHE_DIR") or os.path.join(
+        os.path.expanduser("~"), ".cache", "tstarg"
+    )
+    return Path(root) / "reference-flows"
+
+
+@functools.lru_cache(maxsize=1)
+def _reference_source() -> str:
+    """A digest of the reference flow's source: a changed reference never reads stale runs."""
+    import hashlib
+    from pathlib import Path
+
+    from tstarg.refimpl import _flow_reference
+
+    return hashlib.sha256(Path(_flow_reference.__file__).read_bytes()).hexdigest()[:16]
+
+
+def _reference_state(f, theta, ups, inertia, pot, x, pi, t):
+    """The mpmath reference flow's ``(x(t), pi(t))`` rounded to float64 (None where the reference
+    cannot continue: the chart), cached in memory and on disk (``$TSTARG_CACHE_DIR/reference-flows``,
+    keyed by the exact bytes of the inputs and the working digits): a re-certification, shrinking
+    and ``--replay`` reuse reference runs instead of repeating them."""
+    import hashlib
+    import json
+
+    from tstarg.refimpl.flows import reference_flow
+
+    from .._atomic import write_text
+
+    key = ("ref", REFERENCE_DPS, _reference_source()) + _key(
+        f, theta, ups, inertia, pot, x, pi, float(t)
+    )
+    digest = hashlib.sha256(repr(key).encode()).hexdigest()
+    path = _reference_cache_dir() / digest[:2] / f"{digest}.json"
+
+    def compute():
+        try:
+            data = json.loads(path.read_text())
+            return None if data is None else (np.array(data["x"]), np.array(data["pi"]))
+        except (OSError, ValueError, KeyError, TypeError):
+            pass
+        try:
+            xr, pr = reference_flow(f, theta, ups, inertia, pot, x, pi, float(t), dps=REFERENCE_DPS)
+            out = (np.asarray(xr, dtype=float), np.asarray(pr, dtype=float))
+        except ValueError:
+            out = None
+        try:
+            write_text(
+                path,
+                json.dumps(None if out is None else {"x": out[0].tolist(), "pi": out[1].tolist()}),
+            )
+        except OSError:
+            pass  # a read-only cache: computed again next time
+        return out
+
+    return _FLOW_CACHE.get(key, compute)
 
 
 def _catalogue_rep(f) -> bool:

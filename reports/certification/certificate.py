@@ -28,6 +28,7 @@ class Certificate:
     domain: str = "the whole model space (no domain declared)"
     notes: list = field(default_factory=list)
     judge: str = JUDGE
+    group: str = ""
 
     def _is_xfail(self, check_name: str) -> bool:
         return check_name.split("[", 1)[0] in self.xfailed
@@ -84,6 +85,7 @@ class Certificate:
                 f"{'PASS' if self.passed else 'FAIL'}"
             ),
             f"  certified for: {self.domain}",
+            *([f"  group: {self.group}"] if self.group else []),
             f"  judge: {self.judge}",
         ]
         for c in self.checks:
@@ -98,6 +100,8 @@ class Certificate:
             )
             if not c.passed:
                 lines.append("    " + c.detail.replace("\n", "\n    ")[:800])
+                if c.extra.get("smallest failing example"):
+                    lines.append(f"    example shown: {c.extra['smallest failing example']}")
         for k, why in self.skipped.items():
             lines.append(f"  {k:38s} skipped: {why}")
         for note in self.notes + self.structure():
@@ -115,6 +119,7 @@ class Certificate:
             f"- target: `{self.target}`",
             f"- verdict: **{'PASS' if self.passed else 'FAIL'}**",
             f"- certified for: {self.domain}",
+            *([f"- group: {self.group}"] if self.group else []),
             f"- judge: {self.judge}",
             f"- seed: {self.seed}, max examples per check: {self.max_examples}, time: {self.seconds:.1f} s",
             f"- reproduce: `{self.reproduce}`",

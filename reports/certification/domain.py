@@ -59,7 +59,17 @@ class Domain:
         return ", ".join(parts)
 
 
-_DOMAIN_KEYS = {"algebras", "theta", "upsilon", "gravity", "max_abs_t", "negative_t", "batched"}
+_DOMAIN_KEYS = {
+    "algebras",
+    "theta",
+    "upsilon",
+    "gravity",
+    "max_abs_t",
+    "negative_t",
+    "batched",
+    "group",
+}
+"""``group``: the group the flows live on (:mod:`.group`; also an attribute ``group``)."""
 
 
 def declared_domain(impl) -> Domain:

@@ -3,6 +3,8 @@ declared domain, inertias, potentials."""
 
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numpy as np
 import scipy.linalg
 from hypothesis import reject
@@ -18,6 +20,10 @@ from tstarg.properties.strategies import (
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue
 
 from .domain import Domain
+
+Hamiltonian = namedtuple("Hamiltonian", "model inertia potential")
+"""A drawn Hamiltonian: the model ``(algebra, f, Theta, Upsilon, x, pi)``, the inertia and the
+potential (None or gravity); a failing example labels each field."""
 
 _LARGE_CATALOGUE = tuple(n for n in CATALOGUE_NAMES if catalogue(n).dim > 6)
 
@@ -81,7 +87,7 @@ def _potentials(draw, n: int, dom: Domain):
 def _hamiltonians(draw, regime: str, dom: Domain):
     model = draw(_models(regime, dom))
     n = model[1].shape[0]
-    return model, draw(_inertias(n)), draw(_potentials(n, dom))
+    return Hamiltonian(model, draw(_inertias(n)), draw(_potentials(n, dom)))
 
 
 _BATCH_SHAPES = (

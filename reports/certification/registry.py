@@ -2,7 +2,34 @@
 that defines ``CHECK`` (a :class:`~reports.certification.check.Check`), in their ``order``.
 
 A new check is one new file in ``checks/``; nothing else changes (the certificate, ``--check``,
-skips files, the parallel runner and the mutation kill rate read this registry)."""
+skips files, the parallel runner and the mutation kill rate read this registry). For example, a
+time-reversal check ``checks/flow_reversal.py``::
+
+    from hypothesis import strategies as st
+    from tstarg.oracles.float_judge import conditioning, flow_tol, max_err
+    from .._common import _finite_array, _flow_call
+    from ..check import Check, Mutant
+    from ..models import _hamiltonians
+
+    def _build(impl, dom, stats):
+        def body(ex):
+            ((_name, f, theta, ups, x, pi), inertia, pot), t = ex
+            args = (f, theta, ups, inertia, pot)
+            x1, p1 = _flow_call(impl, dom, stats, (*args, x, pi), t)
+            x0, p0 = _flow_call(impl, dom, stats, (*args, x1, p1), -t)
+            cond, frame = conditioning(f, theta, ups, x, pi)
+            tol = 2 * flow_tol(impl, f.shape[0], cond, frame) * max(1.0, abs(pi).max())
+            return max(max_err(x0, x), max_err(p0, pi)) / tol, None
+
+        return body, st.tuples(_hamiltonians("generic", dom), st.floats(0.1, 1.0))
+
+    CHECK = Check(
+        id="flow.reversal", needs=("flow",), equations="vier10, vier11", build=_build,
+        order=85, budget=lambda k: k,
+        mutants={"abs_time": Mutant("integrates to |t|", lambda: AbsTimeFlow())},
+    )
+
+It then runs in ``tstarg certify``, is listed by ``--check``, and its mutant joins the kill rate."""
 
 from __future__ import annotations
 

@@ -5,12 +5,21 @@ from __future__ import annotations
 
 import time
 
-from tstarg.properties.runner import CheckResult, announce, finished, run_property
+from hypothesis.errors import UnsatisfiedAssumption
+
+from tstarg.properties.runner import (
+    LIMITS,
+    CheckResult,
+    announce,
+    finished,
+    run_property,
+)
 
 from .._imports import resolve
 from ._common import _has
 from .certificate import Certificate, reproduce_command
 from .domain import Domain, declared_domain
+from .group import declared_group, describe_group
 from .registry import CHECKS, MUTANT_CHECKS, MUTATIONS, REGISTRY, mutant
 
 
@@ -30,8 +39,14 @@ def certify(
     checks: list[str] | None = None,
     shrink: bool = True,
     stop_on_failure: bool = False,
+    announce: bool | None = None,
 ) -> Certificate:
     """Run every check ``impl``'s methods allow; missing methods are skipped with the reason.
+
+    ``announce``: print the verdict (FAIL) on stdout the moment a check finds its first failing
+    example, before shrinking it (``tstarg certify`` knows the verdict within a minute and then
+    shrinks within its stated budget). ``None``: when run under the command line's budgets
+    (:func:`properties.runner.limits` with a shrinking budget).
 
     ``stop_on_failure=True`` skips the remaining checks after the first failure (enough
     for a verdict); with ``shrink=False`` too, a failing check also stops at its first failing
@@ -60,6 +75,8 @@ def certify(
             target=target,
             checks=checks,
             stop_on_failure=stop_on_failure,
+            shrink=shrink,
+            announce=LIMITS.shrink_seconds is not None if announce is None else announce,
         )
     finally:
         if not shrink:
@@ -79,8 +96,9 @@ def _applicable(impl, cid: str, dom: Domain) -> str | None:
 
 def _note_stats(cert, cid: str, stats: dict, dom) -> None:
     for k, v in stats.items():
-        if k.startswith(("redrawn", "negative t refused")) or "refused past" in k:
-            cert.notes.append(f"{cid}: {k}: {v}")
+        if k in ("refusal message", "negative t judged"):
+            continue
+        cert.notes.append(f"{cid}: {k}: {v}")
     if stats.get("negative t judged"):
         cert.notes.append(
             f"{cid}: flow at negative times judged on {stats['negative t judged']} examples"
@@ -93,8 +111,70 @@ def _note_stats(cert, cid: str, stats: dict, dom) -> None:
         )
 
 
+_ANNOUNCED: list = []
+"""The checks this process announced as failing (the verdict line is printed once per process)."""
+
+
+def _announcing(body, name: str, t0: float, announce: bool):
+    """``body``, printing the verdict once when it first fails (an exception or a ratio above 1)."""
+    if not announce:
+        return body
+    said = []
+
+    def say():
+        if said:
+            return
+        said.append(True)
+        if _ANNOUNCED:
+            print(f"tstarg certify: {name} fails too (shrinking it)", flush=True)
+            return
+        _ANNOUNCED.append(name)
+        shrink = LIMITS.shrink_seconds
+        print(
+            f"tstarg certify: verdict FAIL: {name} found a failing example after "
+            f"{time.perf_counter() - t0:.1f} s; shrinking it"
+            + (f" (at most {shrink:g} s)" if shrink is not None else "")
+            + ", then the certificate with the smallest failing example found",
+            flush=True,
+        )
+
+    def wrapped(example):
+        try:
+            out = body(example)
+        except UnsatisfiedAssumption:
+            raise  # reject(): drawn again, not a failure
+        except Exception:
+            say()
+            raise
+        if out is not None and not float(out[0]) <= 1.0:
+            say()
+        return out
+
+    return wrapped
+
+
+def _minimality(res, shrink: bool) -> str:
+    if not shrink:
+        return "not shrunk (shrink=False, --verdict-only): the first failing example found"
+    if "shrinking stopped" in (res.detail or ""):
+        return "not minimal: shrinking stopped at its time budget (the smallest found by then)"
+    if res.extra.get("replayed"):
+        return "the stored example, replayed"
+    return "minimal: shrunk by Hypothesis until no smaller example failed"
+
+
 def _certify(
-    impl, *, max_examples, seed, skips, xfails, target, checks, stop_on_failure=False
+    impl,
+    *,
+    max_examples,
+    seed,
+    skips,
+    xfails,
+    target,
+    checks,
+    stop_on_failure=False,
+    shrink=True,
+    announce=False,
 ) -> Certificate:
     t0 = time.perf_counter()
     dom = declared_domain(impl)
@@ -107,6 +187,7 @@ def _certify(
         xfailed=dict(xfails or {}),
         command=reproduce_command(target, seed, max_examples),
         domain=dom.describe(),
+        group=describe_group(declared_group(impl)),
     )
     skips = dict(skips or {})
     for cid, check in REGISTRY.items():
@@ -135,12 +216,14 @@ def _certify(
             res = run_property(
                 name,
                 variant.equations or check.equations,
-                body,
+                _announcing(body, name, t0, announce),
                 strat,
                 max_examples=variant.factor * check.budget(max_examples),
                 seed=seed,
             )
             res.extra.update(stats)
+            if not res.passed and res.falsifying_example:
+                res.extra["smallest failing example"] = _minimality(res, shrink)
             if check.extra is not None:
                 res.extra.update(check.extra(impl))
             cert.checks.append(res)
@@ -158,7 +241,7 @@ def _materialize(spec):
     if isinstance(spec, str):
         return load_target(spec)
     if isinstance(spec, dict) and "cmd" in spec:
-        from .jsonl import CommandImplementation
+        from ..jsonl import CommandImplementation
 
         return CommandImplementation(spec["cmd"], timeout=float(spec.get("timeout", 10.0)))
     raise ValueError(
@@ -199,7 +282,7 @@ def certify_parallel(
     one except for timings (``tests/test_parallel.py``). ``workers=1`` without a scheduler
     runs in this process.
     """
-    from ._parallel import map_tasks
+    from .._parallel import map_tasks
 
     t0 = time.perf_counter()
     ids = [c for c in CHECKS if checks is None or c in checks]
@@ -224,6 +307,7 @@ def certify_parallel(
         xfailed=dict(xfails or {}),
         command=first.command,
         domain=first.domain,
+        group=first.group,
     )
     for part in parts:
         cert.checks.extend(part.checks)
@@ -323,7 +407,7 @@ def kill_rate(
     by default, ``workers=1`` in this process, or a Dask ``scheduler``).
     Returns ``{"killed": [...], "survived": [...], "rate": float, "correct_passes": bool}``.
     """
-    from ._parallel import map_tasks
+    from .._parallel import map_tasks
 
     names = list(MUTATIONS) + [None]
     passed = map_tasks(

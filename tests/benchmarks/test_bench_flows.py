@@ -22,8 +22,13 @@ from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
 from tstarg.refimpl import su2
-from tstarg.refimpl._flow_fast import scalar_rhs
-from tstarg.refimpl.flows import METHODS, NumpyModel, integrate_fast, reference_trajectory
+from tstarg.refimpl.flows import (
+    METHODS,
+    NumpyModel,
+    integrate_fast,
+    reference_trajectory,
+    scalar_rhs,
+)
 from tstarg.reports.speed_checks import race
 
 pytestmark = pytest.mark.slow

@@ -30,6 +30,20 @@ def main() -> None:
 
     from tstarg.refimpl.fast import implementation as fast
 
+    # warm the kernels before the first request: their first call (numba cache load) must fall
+    # in the start-up time, not in a 2 s per-request timeout on a loaded machine
+    eps = np.zeros((3, 3, 3))
+    eps[0, 1, 2], eps[0, 2, 1], eps[1, 2, 0], eps[1, 0, 2], eps[2, 0, 1], eps[2, 1, 0] = (
+        1,
+        -1,
+        1,
+        -1,
+        1,
+        -1,
+    )
+    z, e = np.zeros((3, 3)), np.eye(3)
+    fast.poisson_tensor(eps, z, z, np.full(3, 0.1), np.ones(3))
+    fast.hamiltonian_vector_field(eps, z, z, e, None, np.full(3, 0.1), np.ones(3))
     count = int(open(a.state).read() or 0) if a.state and os.path.exists(a.state) else 0
     for line in sys.stdin:
         count += 1

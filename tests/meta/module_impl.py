@@ -1,4 +1,4 @@
-"""A module as a certification target (DESIGN.md: an implementation is an instance or a module)."""
+"""A module as a certification target (docs/design.md: an implementation is an instance or a module)."""
 
 from tstarg.refimpl.fast import implementation as _fast
 

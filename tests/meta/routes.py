@@ -1,4 +1,4 @@
-"""Independent correct float64 routes to the Poisson tensor, written from CONVENTIONS.md (not from
+"""Independent correct float64 routes to the Poisson tensor, written from docs/conventions.md (not from
 tstarg's code): the certification must accept every one of them (issue 26, never reject correct
 code). Each differs from the others in how it computes the frame ``J = phi1(-ad_x)`` and how it
 inverts omega_L:

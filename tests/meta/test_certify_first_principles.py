@@ -21,7 +21,7 @@ from .routes import ROUTES, VanLoanInverse
 class FirstPrinciples:
     """``omega_L = 1/2 theta^T ^ W theta`` in the frame ``theta = (eps_L, dpi)`` with
     ``W = [[S, 1], [-1, Upsilon]]`` (vier3); in holonomic coordinates ``eps_L = A dx`` with
-    ``A = phi1(-ad_x)`` (CONVENTIONS.md), so ``W_h = T^T W T`` with ``T = diag(A, 1)``, and
+    ``A = phi1(-ad_x)`` (docs/conventions.md), so ``W_h = T^T W T`` with ``T = diag(A, 1)``, and
     ``P = -W_h^-1``. Nothing symmetrised, nothing special-cased."""
 
     name, version = "first-principles", "test"

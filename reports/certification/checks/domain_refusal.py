@@ -4,6 +4,7 @@ wrong number fails)."""
 from __future__ import annotations
 
 import math
+from typing import ClassVar
 
 import numpy as np
 from hypothesis import reject
@@ -16,7 +17,7 @@ from tstarg.oracles.float_judge import (
 from .._common import (
     _call,
 )
-from ..check import ANY_METHOD, Check, planted
+from ..check import ANY_METHOD, Check, Mutant, planted
 from ..domain import Domain
 from ..models import _hamiltonians
 
@@ -102,6 +103,20 @@ def _applies(impl, dom):
     return None if dom.declared else "no domain declared (the whole model space is certified)"
 
 
+class FlowOnlyIgnoresDomain:
+    """Only ``flow`` (refimpl.fast's), declaring the su(2)-only domain, never refusing outside it:
+    it returns numbers for every algebra, Theta and Upsilon (issue 26's false PASS)."""
+
+    name, version = "flow-only, su(2) declared, never refuses", "test"
+    flow_tolerance = 1e-10  # refimpl.fast's
+    domain: ClassVar[dict] = {"algebras": ["su(2)"], "theta": False, "upsilon": False}
+
+    def flow(self, f, theta, upsilon, inertia, potential, x0, pi0, t):
+        from tstarg.refimpl.fast import implementation as fast
+
+        return fast.flow(f, theta, upsilon, inertia, potential, x0, pi0, t)
+
+
 CHECK = Check(
     id="domain.refusal",
     needs=ANY_METHOD,
@@ -110,5 +125,12 @@ CHECK = Check(
     order=120,
     budget=lambda k: max(4, k // 2),
     applies=_applies,
-    mutants=planted("domain_ignored"),
+    mutants={
+        **planted("domain_ignored"),
+        "domain_ignored_flow_only": Mutant(
+            "a flow-only implementation declaring the su(2)-only domain (Theta = Upsilon = 0) that "
+            "never refuses outside it",
+            FlowOnlyIgnoresDomain,
+        ),
+    },
 )

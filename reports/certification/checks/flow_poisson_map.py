@@ -5,6 +5,7 @@ the reference)."""
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 from hypothesis import reject
@@ -75,7 +76,12 @@ def _flow_poisson_map(impl, dom, stats):
         tol = 1e-8 * scale * max(1.0, float(np.max(np.abs(D)))) ** 2
         return err / tol, _digits(err, scale)
 
-    return body, st.tuples(_hamiltonians("generic", dom), st.sampled_from([2, 4]))
+    return body, st.builds(
+        PoissonMapExample, _hamiltonians("generic", dom), st.sampled_from([2, 4])
+    )
+
+
+PoissonMapExample = namedtuple("PoissonMapExample", "hamiltonian steps")
 
 
 def _applies(impl, dom):

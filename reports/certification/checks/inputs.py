@@ -6,6 +6,7 @@ different models through the *same* caller buffers (refilled in place) each agre
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 from hypothesis import strategies as st
@@ -33,7 +34,7 @@ from .._common import (
     _odd_layout,
 )
 from ..check import ANY_METHOD, Check, planted
-from ..models import _inertias, _models, _potentials
+from ..models import Hamiltonian, _inertias, _models, _potentials
 
 
 def _inputs(impl, dom, stats):
@@ -228,10 +229,10 @@ def _inputs(impl, dom, stats):
         pots = (draw(_potentials(n, dom)), draw(_potentials(n, dom)))
         if (pots[0] is None) != (pots[1] is None):
             pots = (pots[0], pots[0])
-        return (
+        return InputsExample(
             draw(st.sampled_from([0.1, 0.3]), label="t"),
-            (A, draw(_inertias(n)), pots[0]),
-            (B, draw(_inertias(n)), pots[1]),
+            Hamiltonian(A, draw(_inertias(n)), pots[0]),
+            Hamiltonian(B, draw(_inertias(n)), pots[1]),
         )
 
     return body, strat()
@@ -248,3 +249,7 @@ CHECK = Check(
         "mutates_input", "stale_cache", "lists_rejected", "float32_output", "layout_assumed"
     ),
 )
+
+
+InputsExample = namedtuple("InputsExample", "t model_A model_B")
+"""Two models of one dimension called in turn through the same caller buffers (A, B, A)."""

@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numpy as np
 from hypothesis import strategies as st
 
@@ -37,7 +39,13 @@ def _poisson_degenerate(impl, dom, stats):
         return 0.0, None
 
     small = st.floats(-2, 2, allow_nan=False)
-    return body, st.tuples(small, small, st.lists(st.floats(-1, 1), min_size=3, max_size=3))
+    return body, st.builds(
+        DegenerateExample, small, small, st.lists(st.floats(-1, 1), min_size=3, max_size=3)
+    )
+
+
+DegenerateExample = namedtuple("DegenerateExample", "pi_1 pi_2 x")
+"""su(2) with ``tau = (0, 0, 1/2)``: ``pi = (pi_1, pi_2, 2)`` lies on Pi_1."""
 
 
 def _applies(impl, dom):

@@ -1,12 +1,23 @@
 """Flows of ``H = K(pi) + V(g)`` under omega_L: reference trajectories, fast integrators, invariants.
 
-Public face of :mod:`refimpl._flow_reference` (mpmath, any precision),
-:mod:`refimpl._flow_fast` (numpy, batched), :mod:`refimpl._integrators`,
-:mod:`refimpl._invariants` and :mod:`refimpl.scenes`. This module only re-exports: the
-implementations (:mod:`refimpl.fast`, :mod:`refimpl.reference`) import the integrator modules
-below them, never this one.
+The flows wing. This package's face re-exports; the pieces:
 
-Protocol method 3 (DESIGN.md), with the signature
+* :mod:`refimpl.flows.base` -- the integrator interface (:class:`Integrator`, :class:`FixedStep`,
+  :class:`Adaptive`) and the typed :class:`FlowResult`;
+* :mod:`refimpl.flows.integrators` -- one file per integrator class (RK, scalar RK, Gauss-Legendre,
+  fixed and adaptive Taylor, rational Taylor, splitting), found by :mod:`refimpl.flows.registry`
+  (:data:`METHODS`, :func:`method`, :func:`choose`);
+* :mod:`refimpl.flows.step_doubling` -- the wrapper that makes a fixed-step method meet a tolerance;
+  the two-run control of the compiled Taylor flows is :mod:`refimpl._flow_compiled`;
+* :mod:`refimpl.flows._fast` -- the protocol flow :func:`fast_flow` (validate, choose, integrate) and
+  :func:`fast_trajectory`;
+* beside them: the reference flow :mod:`refimpl._flow_reference` (mpmath, any precision), the
+  invariants :mod:`refimpl._invariants`, the scenes :mod:`refimpl.scenes`.
+
+Adding an integrator: one module in ``refimpl/flows/integrators/`` (see :mod:`refimpl.flows.base`
+for the contract) and its order test.
+
+Protocol method 3 (docs/design.md), with the signature
 ``flow(f, theta, upsilon, inertia, potential, x0, pi0, t) -> (x, pi)``:
 
 * :func:`reference_flow` (``dps=50``): the full state of vier10/vier11 by
@@ -16,7 +27,7 @@ Protocol method 3 (DESIGN.md), with the signature
   the number of steps is doubled until two runs agree to ``tol`` on every
   trajectory (worst trajectory, not an average).
 
-Body systems only (no configuration; ``integrate_fast(..., system="body")``
+Body systems only (no configuration; ``integrate(..., system="body")``
 or ``fast_trajectory(..., system="body")``): ``dop853-scalar`` and the
 Taylor-series methods ``taylor12/16/20/24`` (:mod:`refimpl._taylor`: Cauchy-
 product recurrences for the quadratic field of ``Upsilon = 0``): the fastest
@@ -51,30 +62,28 @@ Invariants (:func:`energy`, :func:`casimirs`, :func:`momentum_map`):
 
 from __future__ import annotations
 
-from ._flow_fast import (
-    METHODS,
-    Method,
-    NumpyModel,
-    check_tolerance,
-    fast_flow,
-    fast_trajectory,
-    integrate_fast,
-    method,
-    qmul,
-    quat_to_x,
-    x_to_quat,
-)
-from ._flow_reference import (
+from .._flow_checks import check_time
+from .._flow_compiled import quat_to_x, x_to_quat
+from .._flow_reference import (
     ModelMP,
     ReferenceTrajectory,
-    check_time,
     euler_top_closed_form,
     reference_flow,
     reference_trajectory,
 )
-from ._integrators import DOP853, RK4, ExplicitRK, GaussLegendre, gbs_mp, triple_jump_weights
-from ._invariants import casimirs, energy, momentum_map
-from .scenes import OUTPUTS, Plan, Scene, load_scene, parse_scene, plan, run_scene
+from .._integrators import DOP853, RK4, ExplicitRK, GaussLegendre, gbs_mp, triple_jump_weights
+from .._invariants import casimirs, energy, momentum_map
+
+# the scenes last: refimpl.scenes imports the flows above
+from ..scenes import OUTPUTS, Plan, Scene, load_scene, parse_scene, plan, run_scene  # noqa: E402, I001
+from ._common import numpy_rhs, qmul, scalar_rhs
+from ._fast import NumpyModel, cached_model, fast_flow, fast_trajectory, integrate_fast
+from .base import Adaptive, FixedStep, FlowResult, Integrator, check_tolerance
+from .registry import METHODS, choose, method
+from .step_doubling import StepDoubling
+
+Method = Integrator
+"""The old name of :class:`Integrator`."""
 
 __all__ = [
     "reference_flow",
@@ -85,9 +94,16 @@ __all__ = [
     "fast_flow",
     "fast_trajectory",
     "NumpyModel",
+    "cached_model",
     "METHODS",
     "Method",
+    "Integrator",
+    "FixedStep",
+    "Adaptive",
+    "FlowResult",
+    "StepDoubling",
     "method",
+    "choose",
     "integrate_fast",
     "energy",
     "casimirs",
@@ -101,6 +117,8 @@ __all__ = [
     "gbs_mp",
     "triple_jump_weights",
     "qmul",
+    "numpy_rhs",
+    "scalar_rhs",
     "quat_to_x",
     "x_to_quat",
     "Scene",

@@ -3,24 +3,20 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from ..._compiled_rational import rational_taylor_body
+from ..._flow_compiled import compiled_taylor_flow
+from ..base import Adaptive, FlowResult
 
-from .base import Method
-
-__all__ = ["INTEGRATORS", "RationalTaylorMethod"]
+__all__ = ["INTEGRATORS", "RationalTaylor"]
 
 
-@dataclass(frozen=True)
-class RationalTaylorMethod(Method):
+class RationalTaylor(Adaptive):
     """Adaptive order and step from a tolerance (Jorba-Zou) on the body system ``(pi[, Gamma])`` with
     ``Upsilon != 0``, and on su(2)/so(3) the full state ``(pi, [Gamma,] q)`` under the two-run control
     of :mod:`refimpl._flow_compiled`; raises :class:`refimpl._errors.DegeneratePointError` on the
     degenerate set."""
 
-    kind: str = "taylor-rational"
-    adaptive: bool = True
-
-    def applies(self, model) -> tuple[bool, str]:
+    def applies(self, model):
         if model.upsilon_zero:
             return (
                 False,
@@ -33,5 +29,15 @@ class RationalTaylorMethod(Method):
             )
         return True, "body system (pi, Gamma), and the full state with the quaternion (su(2)/so(3))"
 
+    def _run(self, model, x0, pi0, t, *, tol, system) -> FlowResult:
+        if system == "body":
+            return FlowResult(**rational_taylor_body(model, x0, pi0, t, tol=tol))
+        if not model.su2:
+            raise ValueError(
+                f"method {self.name} integrates the full state on su(2)/so(3) only (the "
+                "configuration as a quaternion); use system='body' or a re-basing method"
+            )
+        return FlowResult(**compiled_taylor_flow(model, x0, pi0, t, tol))
 
-INTEGRATORS = [RationalTaylorMethod("taylor-rational", 0)]
+
+INTEGRATORS = [RationalTaylor("taylor-rational", 0, rank=60)]

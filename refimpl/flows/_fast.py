@@ -1,0 +1,355 @@
+"""The protocol flow (method 3) and sampled trajectories: validate, choose, integrate.
+
+:func:`fast_flow` validates the request once (the time, the tolerance, the model through
+:class:`refimpl.model.Model`, cached on the bytes of its inputs; the points), chooses a method
+(:func:`refimpl.flows.registry.choose`, or the one named) and integrates: an adaptive method at
+``tol`` directly, a fixed-step one under :class:`refimpl.flows.step_doubling.StepDoubling` (or at the
+given ``steps``). State layout inside is components-first: ``(d, N)`` for ``N`` trajectories.
+:func:`integrate_fast` is the older entry point ``(model, method, x0, pi0, t, nsteps)``, the same
+``integrate`` call.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import _fast_kernels as _fast
+from .._algebra import LieAlgebra
+from .._flow_checks import check_time
+from .._flow_compiled import compiled_taylor_samples, quat_to_x
+from .._lru import LRU
+from .._validate import (
+    StepBudget,
+    check_flow_rates,
+    check_flow_request,
+    check_points,
+    within_boundary,
+)
+from ..model import Model, State
+from ._common import quat_matrix, x_to_quat
+from .base import FlowResult, Integrator, check_tolerance
+from .registry import METHODS, choose, method
+from .step_doubling import StepDoubling
+
+__all__ = ["NumpyModel", "cached_model", "fast_flow", "fast_trajectory", "integrate_fast"]
+
+NumpyModel = Model
+"""The validated float64 model (:class:`refimpl.model.Model`; the old name, kept)."""
+
+
+def integrate_fast(
+    model: Model,
+    meth: Integrator,
+    x0,
+    pi0,
+    t,
+    nsteps: int | None,
+    *,
+    system: str,
+    observe=None,
+    tol: float | None = None,
+) -> FlowResult:
+    """``meth.integrate(model, State(x0, pi0), t, steps=nsteps, tol=tol, system=system, observe=observe)``:
+    ``N`` trajectories (``x0``, ``pi0`` of shape (n, N)) to time ``t`` (the adaptive methods take
+    ``tol``: a local tolerance on the body system, the global one on the full state)."""
+    steps = None if meth.adaptive else nsteps
+    return meth.integrate(
+        model, State(x0, pi0), t, tol=tol, steps=steps, system=system, observe=observe
+    )
+
+
+_MODELS = LRU(
+    64
+)  # validated models kept (keyed on the bytes of the inputs), least recently used dropped
+
+
+def _numeric_key(a):
+    """``(dtype, shape, bytes)`` of a plain numeric array-like, or None (not cacheable: object arrays,
+    LieAlgebra instances, strings; those take the uncached route through full validation)."""
+    if isinstance(a, LieAlgebra):
+        return None
+    try:
+        arr = np.asarray(a)
+    except Exception:  # noqa: BLE001 - anything odd is validated (and refused by name) uncached
+        return None
+    if arr.dtype.kind not in "fiub":
+        return None
+    return (arr.dtype.str, arr.shape, arr.tobytes())
+
+
+def _potential_key(potential):
+    if potential is None:
+        return ("none",)
+    if not (isinstance(potential, dict) and set(potential) == {"kind", "L", "gamma"}):
+        return None
+    kind, L, gamma = (
+        potential["kind"],
+        _numeric_key(potential["L"]),
+        _numeric_key(potential["gamma"]),
+    )
+    if not isinstance(kind, str) or L is None or gamma is None:
+        return None
+    return (kind, L, gamma)
+
+
+def cached_model(f, theta, upsilon, inertia, potential) -> NumpyModel:
+    """The validated :class:`NumpyModel`, cached on the bytes (dtype, shape, values) of the inputs.
+
+    Validation is a function of the values alone, so a model whose inputs carry the same bytes as an
+    earlier one is that model: the second call skips validation and preparation (inverse inertia,
+    su(2) detection, compiled fields). Inputs that are not plain numeric arrays are validated afresh
+    every time. The caller's arrays are only read (their bytes copied into the key)."""
+    keys = [_numeric_key(a) for a in (f, theta, upsilon, inertia)] + [_potential_key(potential)]
+    if any(k is None for k in keys):
+        return NumpyModel(f, theta, upsilon, inertia, potential)
+    return _MODELS.get(tuple(keys), lambda: Model(f, theta, upsilon, inertia, potential))
+
+
+def _points(x0, pi0, n: int):
+    """:func:`check_points` (batched), with a shortcut for float64 arrays of the right shape whose
+    entries are all finite (nothing to convert or report; anything else gets the full check and its
+    messages). The arrays are returned as given: callers copy before writing."""
+    if (
+        type(x0) is np.ndarray
+        and type(pi0) is np.ndarray
+        and x0.dtype == np.float64
+        and pi0.dtype == np.float64
+        and x0.shape == pi0.shape
+        and x0.shape[-1:] == (n,)
+        and within_boundary(x0)  # issue 30: finite and |v| <= MAX_MAGNITUDE (refimpl._validate)
+        and within_boundary(pi0)
+    ):
+        return x0, pi0
+    return check_points(x0, pi0, n, batched=True)
+
+
+def _check_rates(model: NumpyModel, pa, tv: float) -> None:
+    """:func:`check_flow_rates` on the cached model: its inputs ``||I^-1||_2`` and ``max|f|`` are
+    computed once per model; the check itself runs (and raises, naming the point) only when the same
+    bound, evaluated here on ``max |pi|`` over the batch, could exceed the budget."""
+    c = model.rate_const
+    size = float(np.max(np.abs(pa))) * math.sqrt(model.n) if pa.size else 0.0
+    if not abs(tv) * c * max(1.0, size) <= 0.5 * 2.0**14 * (2 + abs(tv)):  # half the budget: margin
+        check_flow_rates(model.f, model.inertia, pa, tv)
+
+
+def fast_flow(
+    f,
+    theta,
+    upsilon,
+    inertia,
+    potential,
+    x0,
+    pi0,
+    t,
+    *,
+    method_name: str | None = None,
+    steps: int | None = None,
+    tol: float = 1e-10,
+    return_group: bool = False,
+):
+    """Protocol method 3, batched: ``(x, pi)`` at time ``t`` for every initial point.
+
+    ``method_name``: a key of :data:`METHODS` (default on su(2)/so(3) when numba is importable: the
+    compiled adaptive Taylor method, ``taylor`` for ``Upsilon = 0`` and ``taylor-rational`` otherwise --
+    its two-run control keeps every trajectory's error in ``pi`` and ``Ad(g)`` below ``tol``, see
+    :mod:`refimpl._flow_compiled` -- else ``dop853``, or ``gauss6`` when ``Upsilon != 0``). ``steps``: a fixed step count; by
+    default steps are doubled from ``8 + 4 t`` until the runs with ``N`` and
+    ``2N`` steps differ by at most ``tol * (2^p - 1)`` (Richardson: the
+    error of the finer run is then below ``tol``) on every trajectory.
+    ``t`` may be negative (the flow backwards). ``x(t)`` always exists: the chart is re-based through
+    the algebra's faithful representation (:mod:`refimpl._representation`) and ``x(t)`` is the
+    logarithm of ``g(t)`` documented there (principal where it exists). ``return_group=True`` also
+    returns ``g(t)`` as matrices of that representation, shape batch + ``(r, r)``
+    (:func:`refimpl._representation.representation_for` gives the representation).
+    Raises ``ValueError`` for bad ``t``/``tol`` (NaN, infinite, non-real), starting points on the
+    degenerate set (naming them), trajectories that reach it, and algebras whose representation
+    cannot be built (:class:`refimpl._representation.RepresentationError`).
+    """
+    # plain float t: the exact conversion of check_time is the identity (the same checks, no mpmath)
+    tv = float(t) if type(t) in (float, np.float64) and math.isfinite(t) else None
+    tv = check_time(t, allow_negative=True) if tv is None else tv
+    tol = check_tolerance(tol)
+    check_flow_request(tv, tol, steps, method_name, METHODS)  # issue 15 hook: the stated budget
+    model = cached_model(f, theta, upsilon, inertia, potential)
+    n = model.n
+    xa, pa = _points(x0, pi0, n)
+    if steps is None:  # issue 15 hook: refuse points too fast for the step-doubling budget
+        _check_rates(model, pa, tv)
+    shape = xa.shape[:-1]
+    X = np.ascontiguousarray(xa.reshape(-1, n).T)
+    P = np.ascontiguousarray(pa.reshape(-1, n).T)
+    _check_start(model, P)
+    meth = method(method_name) if method_name is not None else choose(model, full=steps is None)
+    if tv == 0:
+        if return_group:
+            g0 = _group_of(model, X)
+            return xa.copy(), pa.copy(), g0.reshape(shape + g0.shape[1:])
+        return xa.copy(), pa.copy()
+    if meth.adaptive and steps is not None:
+        raise ValueError(f"method {meth.name} is adaptive: give tol, not steps")
+    if steps is not None and (not isinstance(steps, (int, np.integer)) or steps < 1):
+        raise ValueError(f"steps must be a positive int, got {steps!r}")
+    budget = StepBudget("fast_flow")  # issue 30: a count budget holds in time (refimpl._validate)
+    doing = f"{meth.name} on {X.shape[1]} trajectories to t = {tv:g}"
+    if not meth.adaptive:
+        N0 = int(steps) if steps is not None else int(8 + 4 * np.ceil(abs(tv)))
+        if N0 * X.shape[1] > 2**16:  # a first run that could be long: time a short probe of it
+            with np.errstate(all="ignore"):
+                budget.calibrate(
+                    lambda k: meth.integrate(
+                        model, State(X, P), tv * k / N0, steps=k, system="full"
+                    ),
+                    16,
+                )
+        if steps is not None:
+            budget.before(int(steps), doing)
+        else:
+            meth = StepDoubling(meth, budget=budget)
+    out = meth.integrate(model, State(X, P), tv, tol=tol, steps=steps, system="full")
+    bad_pi = ~np.all(np.isfinite(out["pi"]), axis=0)
+    if np.any(bad_pi):
+        raise ValueError(
+            f"fast_flow: trajectories {np.flatnonzero(bad_pi)[:10].tolist()} became non-finite before t = {tv} "
+            "(they reached the degenerate set Pi_1, vier12, or diverged); no point is dropped"
+        )
+    x = out["x"]
+    if np.any(~np.isfinite(x)):
+        bad = np.argwhere(~np.all(np.isfinite(x), axis=0)).ravel()
+        raise ValueError(
+            f"fast_flow: no logarithm x(t) of g(t) found for trajectories {bad[:10].tolist()}"
+        )
+    xs, ps = x.T.reshape(shape + (n,)), out["pi"].T.reshape(shape + (n,))
+    if return_group:
+        g = out.get("g")
+        if g is None:  # the compiled su(2) paths carry the quaternion: g is its SU(2) matrix
+            g = quat_matrix(out["quat"]) if out.get("quat") is not None else _group_of(model, x)
+        return xs, ps, g.reshape(shape + g.shape[1:])
+    return xs, ps
+
+
+def _group_of(model, X):
+    """``rho(exp(x))`` for X (n, N): (N, r, r) in the representation the flows use."""
+    if model.su2:
+        return quat_matrix(x_to_quat(X))
+    return model.representation.exp(X.T)
+
+
+def _check_start(model: NumpyModel, P: np.ndarray) -> None:
+    """Starting points on the degenerate set (``Delta = 0`` to float64 accuracy, vier12) are refused."""
+    if model.upsilon_zero:
+        return
+    res = _fast.FastCore().poisson_batch_validated(
+        model.f, model.theta, model.upsilon, np.zeros_like(P.T), P.T
+    )
+    if np.any(res.degenerate):
+        idx = np.argwhere(res.degenerate).ravel()
+        raise ValueError(
+            f"initial point(s) {idx[:10].tolist()} lie on the degenerate set Pi_1 (Delta = det Phi = 0 to float64 "
+            f"accuracy, vier12): no flow exists there"
+        )
+
+
+def fast_trajectory(
+    f,
+    theta,
+    upsilon,
+    inertia,
+    potential,
+    x0,
+    pi0,
+    t_end,
+    samples: int,
+    steps_per_sample: int,
+    *,
+    method_name=None,
+    system: str = "full",
+    progress=None,
+    tol: float | None = None,
+):
+    """A batch ``(N, n)`` sampled at ``samples`` equally spaced times in ``[0, t_end]``.
+
+    Returns a dict: ``times`` (T,), ``pi`` (T, N, n), ``Gamma`` (T, N, n) or
+    None, ``x`` (T, N, n) with ``exp(x) = g`` (the logarithm of :mod:`refimpl._representation`)
+    or None for ``system="body"``, ``g`` (T, N, r, r): ``g(t)`` in the algebra's faithful
+    representation (None for ``system="body"``), and the method used. ``t_end`` may be negative.
+    """
+    tv = check_time(t_end, "t_end", allow_negative=True)
+    if tv == 0:
+        raise ValueError("t_end must be non-zero for a trajectory")
+    adaptive = method_name in METHODS and METHODS[method_name].adaptive
+    if samples < 2 or (steps_per_sample < 1 and not adaptive):
+        raise ValueError(
+            f"samples must be >= 2 and steps_per_sample >= 1, got {samples}, {steps_per_sample}"
+        )
+    model = cached_model(f, theta, upsilon, inertia, potential)
+    n = model.n
+    xa, pa = check_points(x0, pi0, n, batched=True)
+    X = np.ascontiguousarray(np.atleast_2d(xa).reshape(-1, n).T)
+    P = np.ascontiguousarray(np.atleast_2d(pa).reshape(-1, n).T)
+    _check_start(model, P)
+    meth = METHODS[method_name] if method_name else choose(model)
+    if meth.adaptive:  # steps from the tolerance, per trajectory; steps_per_sample is not used
+        if tol is None:
+            raise ValueError(
+                f"method {meth.name} is adaptive: give tol (a tolerance), not a step count"
+            )
+        ok, why = meth.applies(model)
+        if not ok:
+            raise ValueError(f"method {meth.name} does not apply: {why}")
+        full = system == "full"
+        times = np.linspace(0, tv, samples)
+        res = compiled_taylor_samples(
+            model, X, P, times, check_tolerance(tol), full=full, progress=progress
+        )
+        xs = g = None
+        if full:
+            q = res["quat"]  # (T, 4, N)
+            xs = np.stack([quat_to_x(q[k]).T for k in range(samples)])
+            g = np.stack([quat_matrix(q[k]) for k in range(samples)])
+        return {
+            "times": times,
+            "pi": np.transpose(res["pi"], (0, 2, 1)).copy(),
+            "method": meth,
+            "path": res["path"],
+            "Gamma": None if res["Gamma"] is None else np.transpose(res["Gamma"], (0, 2, 1)).copy(),
+            "x": xs,
+            "g": g,
+            "error_estimate": res["error_estimate"],
+        }
+    nsteps = (samples - 1) * steps_per_sample
+    rec = {"pi": [], "Gamma": [], "x": []}
+
+    def observe(k, pi, G, x):
+        if k % steps_per_sample == 0:
+            rec["pi"].append(pi.T.copy())
+            if G is not None:
+                rec["Gamma"].append(G.T.copy())
+            if x is not None:
+                rec["x"].append(np.asarray(x).T.copy())
+            if progress is not None:
+                progress(k // steps_per_sample, samples - 1)
+
+    G0 = None
+    if model.gravity:
+        adx = np.einsum("aN,mab->Nmb", X, model.f)
+        G0 = np.einsum("Nmb,m->bN", _fast._expm_batch(adx, su2=model.su2), model.gamma).T
+    observe(0, P, None if G0 is None else G0.T, X if system == "full" else None)
+    integrate_fast(model, meth, X, P, tv, nsteps, system=system, observe=observe)
+    xs = np.stack(rec["x"]) if rec["x"] else None
+    g = None
+    if xs is not None:
+        T_, N_ = xs.shape[:2]
+        g = _group_of(model, xs.reshape(-1, n).T)
+        g = g.reshape((T_, N_) + g.shape[1:])
+    return {
+        "times": np.linspace(0, tv, samples),
+        "pi": np.stack(rec["pi"]),
+        "method": meth,
+        "path": "numpy",
+        "Gamma": np.stack(rec["Gamma"]) if rec["Gamma"] else None,
+        "x": xs,
+        "g": g,
+    }

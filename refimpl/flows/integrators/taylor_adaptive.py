@@ -1,0 +1,36 @@
+"""The compiled adaptive Taylor method for the polynomial body systems (``Upsilon = 0``): Jorba-Zou
+order and step from a tolerance, per trajectory (:mod:`refimpl._compiled_taylor`); on su(2)/so(3) the
+full state carries the group element as a quaternion under the two-run control of
+:mod:`refimpl._flow_compiled`."""
+
+from __future__ import annotations
+
+from ..._flow_compiled import compiled_taylor_body, compiled_taylor_flow, supports_full
+from ..base import Adaptive, FlowResult
+
+__all__ = ["INTEGRATORS", "AdaptiveTaylor"]
+
+
+class AdaptiveTaylor(Adaptive):
+    """Body system at the *local* tolerance ``tol``; the su(2) full state at the global one."""
+
+    def applies(self, model):
+        if not model.upsilon_zero:
+            return (
+                False,
+                "the Taylor recurrences need the quadratic polynomial body system (Upsilon = 0)",
+            )
+        return True, ""
+
+    def _run(self, model, x0, pi0, t, *, tol, system) -> FlowResult:
+        if system == "body":
+            return FlowResult(**compiled_taylor_body(model, x0, pi0, t, tol=tol))
+        if not supports_full(model):
+            raise ValueError(
+                f"method {self.name} integrates the full state on su(2)/so(3) only; "
+                "use system='body' or a re-basing method"
+            )
+        return FlowResult(**compiled_taylor_flow(model, x0, pi0, t, tol))
+
+
+INTEGRATORS = [AdaptiveTaylor("taylor", 0, rank=40)]

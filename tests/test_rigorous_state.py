@@ -1,0 +1,219 @@
+"""Rigorous enclosures of the whole state (refimpl/_rigorous_state.py) against independent routes.
+
+* first principles, cheap: on the enclosure at ``t``, computed in ball arithmetic, the exact relations
+  between the separately carried parts must hold (their balls overlap): ``Gamma = Ad(g)^T gamma``
+  (twee15), ``Ad(g) = exp(ad_x)`` (the ``x`` of the Krawczyk test against the ``Ad`` carried by its own
+  ODE), ``rho(g)`` unitary on su(2), ``|Gamma|^2 = 1``; for a free body Noether's law
+  ``pi(t) = Ad(g(t))^T mu`` with the spatial momentum ``mu = Ad(g0)^-T pi0``;
+* the C^1 enclosure: for the free top ``|pi|^2`` is a Casimir, so ``d|pi(T)|^2 / d pi0 = 2 pi0``
+  exactly; the ball ``2 pi(T)^T J`` must contain it, and ``pi`` does not depend on ``g0`` (that block of
+  ``J`` contains 0);
+* slow: the mpmath reference trajectory (Gragg-Bulirsch-Stoer, refimpl.flows, 45 digits, re-based in
+  its representation) lies inside every ball of ``pi``, ``Gamma``, ``rho(g)`` and ``x``, and a value
+  moved by twice the radius lies outside; the issue's radius target at T = 10 and 200 bits.
+"""
+
+from __future__ import annotations
+
+import mpmath
+import numpy as np
+import pytest
+from flint import arb, arb_mat
+
+from tstarg.refimpl import catalogue, su2
+from tstarg.refimpl._arb import Balls, algebra_balls, workprec
+from tstarg.refimpl.flows import reference_trajectory
+from tstarg.refimpl.rigorous import full_state_enclosure, judge_flow
+
+Z3 = np.zeros((3, 3))
+GRAV = {"kind": "gravity", "L": np.array([0.0, 0.0, 1.0]), "gamma": np.array([0.0, 0.0, -1.0])}
+TOP = np.diag([1.0, 1.0, 0.5])
+X0, PI0 = np.array([0.1, 0.2, 0.0]), np.array([0.3, 0.2, 2.0])
+
+
+def _mat(B: Balls) -> arb_mat:
+    return arb_mat(B.shape[0], B.shape[1], list(B.balls.ravel()))
+
+
+def _col(B: Balls) -> arb_mat:
+    return arb_mat(B.shape[0], 1, list(B.balls.ravel()))
+
+
+def _overlap(a: arb_mat, b: arb_mat) -> bool:
+    return all(u.overlaps(v) for u, v in zip(a.entries(), b.entries()))
+
+
+def test_heavy_top_full_state_first_principles():
+    with workprec(128):
+        e = full_state_enclosure(
+            su2(), Z3, Z3, TOP, GRAV, X0, PI0, 1.0, prec_bits=128, want_ad=True
+        )
+        assert e.x is not None, e.x_note
+        assert e.max_rad() < 1e-30
+        Ad = _mat(e.Ad_g)
+        gam = arb_mat(3, 1, [0, 0, -1])
+        assert _overlap(Ad.transpose() * gam, _col(e.Gamma)), "Gamma != Ad(g)^T gamma"
+        G = sum((v * v for v in e.Gamma.balls), arb(0))
+        assert G.contains(1), "|Gamma|^2 != 1"
+        Fad, _, _ = algebra_balls(su2(), 128)
+        adx = arb_mat(3, 3, (Fad * _col(e.x)).entries())
+        assert _overlap(adx.exp(), Ad), "exp(ad_x) != Ad(g): x is not the configuration's logarithm"
+        # rho(g) in SU(2): G^* G = 1 (G = Gr + i Gi)
+        Gr, Gi = _mat(e.rho_g), _mat(e.rho_g_imag)
+        re = Gr.transpose() * Gr + Gi.transpose() * Gi
+        im = Gr.transpose() * Gi - Gi.transpose() * Gr
+        one = arb_mat([[1, 0], [0, 1]])
+        assert _overlap(re, one) and _overlap(im, arb_mat(2, 2)), "rho(g) is not unitary"
+        # negative control: Gamma moved by twice both radii (plus 1e-40) is no longer Ad(g)^T gamma
+        pred = (Ad.transpose() * gam)[2, 0]
+        moved = e.Gamma.balls[2] + 2 * (e.Gamma.rad[2] + float(pred.rad())) + 1e-40
+        assert not moved.overlaps(pred)
+
+
+@pytest.mark.parametrize(
+    ("name", "inertia"),
+    [("se(3)", np.diag([1.0, 2, 3, 1, 1.5, 2])), ("so(4)", np.diag([1.0, 2, 3, 1.5, 2.5, 1.2]))],
+)
+def test_free_body_noether(name, inertia):
+    """Free body, Theta = 0: the spatial momentum mu = Ad(g)^-T pi is conserved, so pi(t) = Ad(g(t))^T mu."""
+    alg = catalogue(name)
+    n = alg.f.shape[0]
+    rng = np.random.default_rng(3)
+    x0, pi0 = 0.3 * rng.normal(size=n), rng.normal(size=n)
+    Zn = np.zeros((n, n))
+    with workprec(128):
+        e0 = full_state_enclosure(
+            alg, Zn, Zn, inertia, None, x0, pi0, 0.0, prec_bits=128, want_ad=True
+        )
+        e = full_state_enclosure(
+            alg, Zn, Zn, inertia, None, x0, pi0, 0.5, prec_bits=128, want_ad=True
+        )
+        mu = _mat(e0.Ad_g).transpose().inv() * _col(e0.pi)
+        pred = _mat(e.Ad_g).transpose() * mu
+        assert _overlap(pred, _col(e.pi)), f"{name}: Noether's law fails on the enclosure"
+        assert e.max_rad() < 1e-30 and e.x is not None, e.x_note
+        # negative control: a momentum moved by 2 radii + 1e-40 breaks the law
+        k = int(np.argmax(np.abs(e.pi.mid)))
+        bad = e.pi.balls[k] + 2 * e.pi.rad[k] + 1e-40 + 2 * float(pred[k, 0].rad())
+        assert not bad.overlaps(pred[k, 0])
+
+
+def test_jacobian_of_the_flow_keeps_the_casimir():
+    """C^1: for the free top d|pi(T)|^2/d pi0 = 2 pi0 exactly, and pi(T) does not depend on g0."""
+    inertia = np.diag([1.0, 1.3, 0.5])
+    with workprec(128):
+        e = full_state_enclosure(
+            su2(), Z3, Z3, inertia, None, X0, PI0, 0.7, prec_bits=128, want_x=False, jacobian=True
+        )
+        J = e.jacobian.balls
+        grad = [sum((2 * e.pi.balls[i] * J[i, j] for i in range(3)), arb(0)) for j in range(3)]
+        for j in range(3):
+            assert grad[j].contains(arb(2 * PI0[j])), (
+                f"d|pi|^2/dpi0[{j}] = {grad[j]} != {2 * PI0[j]}"
+            )
+            assert grad[j].rad() < 1e-25
+        a, b = e.layout["G_r"]
+        assert all(J[i, k].contains(0) for i in range(3) for k in range(a, J.shape[1]))
+        # the Casimir drift bound: |pi(T)|^2 - |pi0|^2, proven, contains 0 and is tiny
+        drift = sum((v * v for v in e.pi.balls), arb(0)) - sum((arb(p) ** 2 for p in PI0), arb(0))
+        assert drift.contains(0) and float(abs(drift).upper()) < 1e-30
+
+
+def test_judge_flow_api_and_refusals():
+    out = judge_flow(su2(), Z3, Z3, TOP, GRAV, X0, PI0, 0.5)
+    assert out["prec_bits"] == 64 and out["x_note"] == ""
+    for k in ("pi", "x", "Gamma", "rho_g", "rho_g_imag"):
+        mid, rad = out[k]
+        assert np.all(np.isfinite(mid)) and np.all(rad < 1e-12), k
+    assert out["Ad_g"] is None
+    lo, hi = out["enclosure"].pi.error_bounds(out["pi"][0])
+    assert np.all(lo <= hi) and np.all(hi < 1e-12)
+    U = np.zeros((3, 3))
+    U[0, 1], U[1, 0] = 0.1, -0.1
+    with pytest.raises(ValueError, match="upsilon != 0"):
+        judge_flow(su2(), Z3, U, TOP, GRAV, X0, PI0, 0.5)
+    with pytest.raises(ValueError, match="t must be"):
+        judge_flow(su2(), Z3, Z3, TOP, GRAV, X0, PI0, -1.0)
+    with pytest.raises(ValueError, match="outside the chart"):
+        judge_flow(su2(), Z3, Z3, TOP, GRAV, np.array([7.0, 0, 0]), PI0, 0.5)
+    with pytest.raises(ValueError, match="pi0"):
+        judge_flow(su2(), Z3, Z3, TOP, GRAV, X0, PI0 * 1e301, 0.5)
+    with pytest.raises(ValueError, match="budget"):
+        judge_flow(su2(), Z3, Z3, TOP, GRAV, X0, PI0, 5.0, max_seconds=0.01)
+
+
+# ------------------------------------------------------------------ slow: against the reference trajectory
+def _ref_contained(B: Balls, ref, what: str) -> None:
+    ref = np.asarray(ref, dtype=object)
+    assert B.contains(ref).all(), f"{what}: reference outside, bounds {B.error_bounds(ref)}"
+    k = int(np.argmax(B.rad))
+    moved = ref.copy()
+    with mpmath.workdps(60):
+        moved.flat[k] = moved.flat[k] + mpmath.mpf(2 * B.rad.flat[k] + 1e-44)
+    assert not B.contains(moved).flat[k], f"{what}: not tight"
+
+
+def _split(gs):
+    g = np.asarray(gs, dtype=object)
+    re = np.vectorize(lambda v: mpmath.re(v), otypes=[object])(g)
+    im = np.vectorize(lambda v: mpmath.im(v), otypes=[object])(g)
+    return re, im
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("name", "theta_xi", "grav"),
+    [("su(2)", False, True), ("se(3)", True, False), ("su(3)", True, False)],
+)
+def test_full_state_contains_the_reference_trajectory(name, theta_xi, grav):
+    alg = catalogue(name)
+    n = alg.f.shape[0]
+    rng = np.random.default_rng(11)
+    theta = (
+        -np.einsum("k,kab->ab", 0.2 * rng.normal(size=n), alg.f) if theta_xi else np.zeros((n, n))
+    )
+    inertia = TOP if n == 3 else np.diag(np.linspace(1.0, 2.0, n))
+    pot = GRAV if grav else None
+    x0 = X0 if n == 3 else 0.3 * rng.normal(size=n)
+    pi0 = PI0 if n == 3 else rng.normal(size=n)
+    T = 1.0
+    e = full_state_enclosure(alg, theta, np.zeros((n, n)), inertia, pot, x0, pi0, T, prec_bits=128)
+    tr = reference_trajectory(alg, theta, np.zeros((n, n)), inertia, pot, x0, pi0, [0, T], dps=45)
+    _ref_contained(e.pi, tr.pi[-1], f"{name}: pi")
+    if grav:
+        _ref_contained(e.Gamma, tr.Gamma[-1], f"{name}: Gamma")
+    re, im = _split(tr.g[-1])
+    _ref_contained(e.rho_g, re, f"{name}: Re rho(g)")
+    if e.rho_g_imag is not None:
+        _ref_contained(e.rho_g_imag, im, f"{name}: Im rho(g)")
+    assert e.x is not None, e.x_note
+    _ref_contained(e.x, tr.x[-1], f"{name}: x")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["su(2)", "se(3)", "su(3)"])
+def test_radius_target_at_t10_200_bits(name):
+    """The issue's target: full-state radius <= 1e-25 at T = 10 at 200 bits (heavy top, se(3), su(3))."""
+    alg = catalogue(name)
+    n = alg.f.shape[0]
+    rng = np.random.default_rng(5)
+    inertia = TOP if n == 3 else np.diag(np.linspace(1.0, 2.0, n))
+    pot = GRAV if n == 3 else None
+    x0 = X0 if n == 3 else 0.3 * rng.normal(size=n)
+    pi0 = PI0 if n == 3 else rng.normal(size=n)
+    e = full_state_enclosure(
+        alg,
+        np.zeros((n, n)),
+        np.zeros((n, n)),
+        inertia,
+        pot,
+        x0,
+        pi0,
+        10.0,
+        prec_bits=200,
+        max_seconds=600,
+    )
+    print(
+        f"{name}: T = 10, 200 bits: radius {e.max_rad():.3g}, {e.steps} steps, {e.seconds:.1f} s; x: {e.x_note or 'proven'}"
+    )
+    assert e.max_rad() <= 1e-25
