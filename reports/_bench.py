@@ -170,8 +170,9 @@ def main(args) -> int:
             wp.flow_problem(name)
         method(args.batch_method)
         protocol = _protocol_names(args)
-        if getattr(args, "reuse", None) and not Path(args.reuse).is_file():
-            raise ValueError(f"--reuse {args.reuse!r}: no such report.json")
+        for path in getattr(args, "reuse", None) or []:
+            if not Path(path).is_file():
+                raise ValueError(f"--reuse {path!r}: no such report.json")
         contender = _load_contender(args)
     except ValueError as exc:
         print(f"tstarg bench: {exc}", file=sys.stderr)
@@ -399,8 +400,8 @@ def _main(args, problems, protocol, contender, t_start, display: Progress) -> in
                         f"{wp.fmt_time(r['per_traj'])}/traj, ratio to heyoka {r['ratio']:.3g}"
                     )
 
-    if getattr(args, "reuse", None):
-        _reuse(report, Path(args.reuse), out)
+    for path in getattr(args, "reuse", None) or []:
+        _reuse(report, Path(path), out)
     report["loadavg_end"] = list(os.getloadavg())
     report["seconds"] = time.perf_counter() - t_start
     display.phase("writing the report")
@@ -428,12 +429,12 @@ def _reuse(report: dict, path: Path, out: Path) -> None:
         raise ValueError(
             f"--reuse {str(path)!r}: cannot read an earlier report.json: {exc}"
         ) from None
-    reused = {}
+    reused = report.setdefault("reused", {})
     for key in REUSABLE:
         if report.get(key) or not old.get(key):
             continue
         report[key] = old[key]
-        reused[key] = {
+        reused[key] = old.get("reused", {}).get(key) or {  # a chain keeps the measuring run
             "command": old.get("command"),
             "git_commit": old.get("environment", {}).get("git_commit"),
             "loadavg_start": old.get("loadavg_start"),
@@ -447,9 +448,8 @@ def _reuse(report: dict, path: Path, out: Path) -> None:
             src, dst = path.parent / fig, out / fig
             if src.resolve() != dst.resolve() and src.exists():
                 dst.write_bytes(src.read_bytes())
-    if "flows" in reused and "compile" in old:
-        report["compile"] = old["compile"]
-    report["reused"] = reused
+        if key == "flows" and "compile" in old:
+            report["compile"] = old["compile"]
 
 
 def _argv(args) -> list[str]:
@@ -469,8 +469,9 @@ def _argv(args) -> list[str]:
         "reuse",
     ):
         v = getattr(args, k, None)
-        if v is not None and not (k == "batch_method" and v == "taylor20"):
-            parts += [f"--{k.replace('_', '-')}", str(v)]
+        for x in v if isinstance(v, list) else [v]:
+            if x is not None and not (k == "batch_method" and x == "taylor20"):
+                parts += [f"--{k.replace('_', '-')}", str(x)]
     for k in ("quick", "no_brackets", "no_batch", "no_heyoka"):
         if getattr(args, k, False):
             parts.append(f"--{k.replace('_', '-')}")

@@ -49,10 +49,12 @@ def add_arguments(p) -> None:
     )
     p.add_argument(
         "--reuse",
+        action="append",
         default=None,
         metavar="REPORT.json",
         help="take the sections this run leaves out (e.g. --problems none --no-brackets --no-batch) "
-        "from an earlier report.json, figures copied; the report names the run each came from",
+        "from an earlier report.json, figures copied; the report names the run each came from "
+        "(repeatable: the first file holding a section gives it)",
     )
     p.add_argument(
         "--methods",
