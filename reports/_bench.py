@@ -684,9 +684,15 @@ def _protocol(
         )
         display.start(f"protocol flow {name}: batch of {M}")
         compact = best["compact_mode"] if best else True
-        r["batch"] = bp.measure_batch(
-            name, quick, M, samples[i * K : (i + 1) * K], min(3, S["rounds"]), compact
-        )
+        try:
+            r["batch"] = bp.measure_batch(
+                name, quick, M, samples[i * K : (i + 1) * K], min(3, S["rounds"]), compact
+            )
+        except ValueError as exc:  # the flow refused the batch (e.g. its time budget): said so
+            r["batch"] = {"M": M, "refused": f"{type(exc).__name__}: {exc}"}
+            display.done(None, f"batch refused: {exc}")
+            out[name] = r
+            continue
         b = r["batch"]
         display.done(
             None,
@@ -704,6 +710,7 @@ def _protocol(
         "M": M,
         "sample": K,
         "kernel_cache": cache,
+        "time_budget_s": os.environ.get("TSTARG_TIME_BUDGET_S", "default"),
         "compile_heyoka": {
             f"{k[0]} {k[2]} tol={k[3]} {'compact' if k[4] else 'full'}"
             + (f" batch width {k[5]}" if k[5] else ""): v
@@ -1199,6 +1206,7 @@ def _protocol_markdown(pr: dict) -> list[str]:
             if "kernel_cache" in pr
             else "- kernel cache: not recorded"
         ),
+        f"- the flows' time budget per call (TSTARG_TIME_BUDGET_S): {pr.get('time_budget_s', 'default')}",
         "",
         "| problem | algebra (n) | T | ours: time, error | heyoka at equal error: time, tol, mode, error "
         f"| ratio | batch of {pr['M']}: ours per trajectory, worst sampled error | heyoka batch per "
@@ -1207,7 +1215,7 @@ def _protocol_markdown(pr: dict) -> list[str]:
     ]
     for name, r in pr["problems"].items():
         o, b, hb = r["ours"], r["batch"], r["heyoka_best"]
-        bb = b["heyoka_best"]
+        bb = b.get("heyoka_best")
         L.append(
             f"| {name} | {r['algebra']} ({r['n']}) | {r['T']:g} | {fmt_time(o['time'])}, "
             f"{fmt_err(o['error'])} | "
@@ -1217,12 +1225,16 @@ def _protocol_markdown(pr: dict) -> list[str]:
                 if hb
                 else f"{r['note']} | -"
             )
-            + f" | {fmt_time(b['ours']['per_traj'])}, {fmt_err(b['ours']['error'])} | "
             + (
-                f"{fmt_time(bb['time'] / b['M'])} (tol {bb['tol']:.2e}, width {bb['width']}) | "
-                f"{b['ratio']:.3g} |"
-                if bb
-                else "not reached | - |"
+                f" | refused by the flow ({b['refused'][:120]}) | - | - |"
+                if "refused" in b
+                else f" | {fmt_time(b['ours']['per_traj'])}, {fmt_err(b['ours']['error'])} | "
+                + (
+                    f"{fmt_time(bb['time'] / b['M'])} (tol {bb['tol']:.2e}, width {bb['width']}) | "
+                    f"{b['ratio']:.3g} |"
+                    if bb
+                    else "not reached | - |"
+                )
             )
         )
     L.append("")
@@ -1238,8 +1250,13 @@ def _protocol_markdown(pr: dict) -> list[str]:
             )
         L.append(
             f"- ours: {r['ours']['label']}; first call (compilation or cache load, and one run) "
-            f"{r['ours']['first_call']:.2f} s wall; batch first call {r['batch']['ours']['first_call']:.2f} s"
-            + (f" ({r['batch']['ours']['note']})" if r["batch"]["ours"].get("note") else "")
+            f"{r['ours']['first_call']:.2f} s wall"
+            + (
+                f"; batch refused: {r['batch']['refused']}"
+                if "refused" in r["batch"]
+                else f"; batch first call {r['batch']['ours']['first_call']:.2f} s"
+                + (f" ({r['batch']['ours']['note']})" if r["batch"]["ours"].get("note") else "")
+            )
         )
         L.append(
             "- heyoka's grid (compact mode, error per tolerance): "
