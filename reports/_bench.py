@@ -1210,8 +1210,8 @@ def _protocol_markdown(pr: dict) -> list[str]:
         "",
         "| problem | algebra (n) | T | ours: time, error | heyoka at equal error: time, tol, mode, error "
         f"| ratio | batch of {pr['M']}: ours per trajectory, worst sampled error | heyoka batch per "
-        "trajectory | batch ratio |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "trajectory | batch ratio | our first call (CPU; compile or cache load) |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for name, r in pr["problems"].items():
         o, b, hb = r["ours"], r["batch"], r["heyoka_best"]
@@ -1236,6 +1236,7 @@ def _protocol_markdown(pr: dict) -> list[str]:
                     else "not reached | - |"
                 )
             )
+            + f" {o.get('first_call_cpu', math.nan):.2f} s |"
         )
     L.append("")
     for name, r in pr["problems"].items():
@@ -1250,7 +1251,7 @@ def _protocol_markdown(pr: dict) -> list[str]:
             )
         L.append(
             f"- ours: {r['ours']['label']}; first call (compilation or cache load, and one run) "
-            f"{r['ours']['first_call']:.2f} s wall"
+            f"{r['ours']['first_call']:.2f} s wall, {r['ours'].get('first_call_cpu', math.nan):.2f} s CPU"
             + (
                 f"; batch refused: {r['batch']['refused']}"
                 if "refused" in r["batch"]

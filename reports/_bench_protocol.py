@@ -723,9 +723,9 @@ def measure_problem(name: str, quick: bool, ref: dict, rounds: int, modes=(False
     p = protocol_problem(name, quick)
     ref_ld = _ld(ref["values"])
     args = p.args()
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     x, pi = implementation.flow(*args)
-    first_call = time.perf_counter() - t0
+    first_call, first_cpu = time.perf_counter() - t0, time.process_time() - c0
     e_ours = ours_error(p, x, pi, ref_ld)
     y0 = p.y0()
 
@@ -768,6 +768,7 @@ def measure_problem(name: str, quick: bool, ref: dict, rounds: int, modes=(False
             "wall": tms[0]["wall"],
             "repeats": tms[0]["repeats"],
             "first_call": first_call,
+            "first_call_cpu": first_cpu,
         },
         "heyoka_grid": [
             {"tol": grid[k], "error": errs[k]} for k in sorted(errs)
