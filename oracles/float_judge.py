@@ -10,8 +10,10 @@ tolerances").
   trajectory ends on the degenerate set.
 
 Error model: ``tol = C * n * eps_impl * kappa * frame * scale`` at the point, with ``C = 8``,
-``kappa = max(cond_phi, cond_data)`` (``cond_phi = ||Phi||_F ||Phi^-1||_F / n``,
-``cond_data = ||Phi^-1||_F (1 + ||S||_F ||U||_F) / sqrt(n)``), ``frame = 1/(1 - r)``,
+``kappa = max(cond_phi, cond_data) + route`` (``cond_phi = ||Phi||_F ||Phi^-1||_F / n``,
+``cond_data = ||Phi^-1||_F (1 + ||S||_F ||U||_F) / sqrt(n)``; ``route = e^min(||ad_x||_1, 5.37) + s``
+the error factor of the standard routes to the frame ``phi1(-ad_x)``: series, expm with scaling and
+squaring, Van Loan's block; :func:`expm_route`), ``frame = 1/(1 - r)``,
 ``r >= ||ad_x||_2 / 2 pi``, ``scale = max(1, max|ref|)`` and
 ``eps_impl = 10^-precision_digits`` (float64's eps when absent). Antisymmetry uses in addition
 the condition of the holonomic omega_L matrix ``W_h`` (``P = -W_h^-1``): an inverse computed
@@ -112,12 +114,16 @@ def frame_route(f, x) -> float:
 
 
 def conditioning(f, theta, ups, x, pi) -> tuple[float, float]:
-    """``max(cond_phi, cond_data)`` and ``frame`` at a point, from float64 arithmetic on the inputs.
+    """``kappa`` and ``frame`` at a point, from float64 arithmetic on the inputs; every check's
+    tolerance is ``C n eps kappa frame scale``.
 
-    ``frame = route / (1 - r)``: the conditioning of the frame ``L(g, e) = phi1(-ad_x)^-1`` near the
-    chart edge (``r >= ||ad_x||_2 / 2 pi``), times the error factor :func:`frame_route` of the routes
-    to ``phi1(-ad_x)`` (series, or expm with scaling and squaring): every check's tolerance admits
-    every standard route to the frame."""
+    ``kappa = max(cond_phi, cond_data) + route``: the two sources of error add. Inverting ``Phi``
+    errs by ``eps`` times its conditioning; computing the frame ``phi1(-ad_x)`` errs by ``eps`` times
+    :func:`frame_route` (series, or expm with scaling and squaring), relative, and ``L = J^-1`` carries
+    that relative error into ``P`` unamplified by ``Phi`` (``P_{x pi} = L Psi^-1``: ``dP = dL Psi^-1``).
+    ``frame = 1 / (1 - r)`` (``r >= ||ad_x||_2 / 2 pi``) is the conditioning of ``L(g, e)`` near the
+    chart edge, which multiplies both. Every check's tolerance thus admits every standard route to
+    the frame without loosening the degenerate regime (where ``cond_phi`` dominates)."""
     n = f.shape[0]
     S = np.einsum("m,mab->ab", pi, f) - theta
     Phi = np.eye(n) + S @ ups
@@ -133,7 +139,7 @@ def conditioning(f, theta, ups, x, pi) -> tuple[float, float]:
         if A.any()
         else 0.0
     )
-    return cond, frame_route(f, x) / max(1e-300, 1.0 - min(r, 0.999999))
+    return cond + frame_route(f, x), 1.0 / max(1e-300, 1.0 - min(r, 0.999999))
 
 
 def cond_omega(f, theta, ups, x, pi) -> float:

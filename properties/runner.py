@@ -51,6 +51,7 @@ from typing import Any
 import mpmath
 import numpy as np
 from hypothesis import HealthCheck, given, settings
+from hypothesis import example as hyp_example
 from hypothesis import seed as hyp_seed
 from hypothesis import strategies as st
 from hypothesis.errors import Unsatisfiable, UnsatisfiedAssumption
@@ -465,8 +466,13 @@ def run_property(
     example_seconds: float | None = None,
     check_seconds: float | None = None,
     shrink_seconds: float | None = None,
+    explicit: tuple = (),
 ) -> CheckResult:
     """Run ``body`` over ``strategy`` with Hypothesis; a ratio above 1 is a failure, shrunk to a minimal example.
+
+    ``explicit``: examples run first, before any drawn one (Hypothesis' ``@example``): the cases a
+    check must always see whatever the seed and the example budget (they count in ``max_examples``'s
+    report like any other, and a failing one is reported as it is, unshrunk).
 
     ``body`` may return ``None`` to skip an example (e.g. a point exactly on the degenerate set).
     ``example_seconds`` / ``check_seconds`` default to :data:`LIMITS` (see the module docstring).
@@ -569,6 +575,8 @@ def run_property(
             raise _Stop(f"the shrinking budget of {sh_s:g} s")
         one(example)
 
+    for ex in reversed(tuple(explicit)):
+        inner = hyp_example(ex)(inner)
     if seed is not None:
         inner = hyp_seed(seed)(inner)
     buf = io.StringIO()

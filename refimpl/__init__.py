@@ -110,6 +110,7 @@ __all__ = [
 ]
 
 from ._version import __version__  # pyproject.toml's version, through importlib.metadata
+from .notebook import Trajectory, bracket, protocol_args, trajectory, vector_field
 from .rigorous import (
     Balls,
     Rigorous,
@@ -123,6 +124,11 @@ from .rigorous import (
 
 __all__ += [
     "__version__",
+    "Trajectory",
+    "bracket",
+    "protocol_args",
+    "trajectory",
+    "vector_field",
     "Balls",
     "Rigorous",
     "UndecidedError",

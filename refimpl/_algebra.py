@@ -26,9 +26,15 @@ from typing import Any, Sequence
 import numpy as np
 import sympy
 
-__all__ = ["LieAlgebra", "to_exact", "jacobi_residual"]
+from ._validate import (  # the boundary and the one number parser (issue 30)
+    EPS,
+    check_dimension,
+    check_jacobi,
+    exact_sympy,
+    parse_number,
+)
 
-EPS = np.finfo(float).eps
+__all__ = ["LieAlgebra", "to_exact", "jacobi_residual"]
 
 
 def to_exact(value: Any) -> sympy.Expr:
@@ -45,8 +51,6 @@ def to_exact(value: Any) -> sympy.Expr:
     if isinstance(value, Fraction):
         return sympy.Rational(value.numerator, value.denominator)
     if isinstance(value, str):
-        from ._validate import parse_number  # the one parser; _validate imports this module
-
         q = parse_number(value)
         return sympy.Rational(q.numerator, q.denominator)
     if isinstance(value, (float, np.floating)):
@@ -125,7 +129,6 @@ class LieAlgebra:
         arr = np.asarray(f, dtype=object)
         if arr.ndim != 3 or not (arr.shape[0] == arr.shape[1] == arr.shape[2]):
             raise ValueError(f"structure constants f must have shape (n, n, n), got {arr.shape}")
-        from ._validate import check_dimension  # issue 30 hook: the boundary, before any work
 
         check_dimension(arr.shape[0], exact=exact is not False, what=f"{name}: structure constants")
         all_exact = all(not isinstance(v, (float, np.floating)) for v in arr.flat)
@@ -160,7 +163,6 @@ class LieAlgebra:
         Solves ``[E_a, E_b] = f^m_ab E_m`` exactly; raises if the span is not
         closed under the commutator or the matrices are dependent.
         """
-        from ._validate import check_dimension, exact_sympy  # issue 30 hook: the boundary
 
         basis = list(basis)
         check_dimension(len(basis), exact=True, what=f"{name}: matrix basis")
@@ -193,7 +195,6 @@ class LieAlgebra:
     def _validate(self) -> None:
         n = self.dim
         f = self.f
-        from ._validate import check_dimension  # issue 30 hook: the dimension budget first
 
         check_dimension(n, exact=self.f_exact is not None, what=f"{self.name}: structure constants")
         if self.f_exact is not None:
@@ -226,7 +227,6 @@ class LieAlgebra:
                     f"{self.name}: structure constants are not antisymmetric in (a, b): "
                     f"|f[m,a,b] + f[m,b,a]| = {worst:.3g} at (m, a, b) = {idx}"
                 )
-            from ._validate import check_jacobi  # issue 30 hook: n^3 memory, no overflow
 
             # Error model: each Jacobi entry is a sum of 3n products of size
             # <= scale^2, each rounded once: |err| <= 3 n eps scale^2 (x4 slack).

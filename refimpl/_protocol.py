@@ -33,8 +33,9 @@ The obligations, in words (conventions of docs/conventions.md):
    ``t`` starting from ``(x0, pi0)`` at time 0 (optional keyword ``steps``).
 4. Arrays are numpy float64. With ``batched = True`` the methods accept leading batch axes on
    the point arguments and return the same leading axes.
-5. At a degenerate point (``Delta = det Phi = 0``, vier7) an implementation either returns a
-   flagged result or raises ``ValueError`` (or a subclass).
+5. At a degenerate point (``Delta = det Phi = 0``, vier7) an implementation raises
+   ``ValueError`` (or a subclass, e.g. ``DegeneratePointError``) naming the point; it never
+   returns finite numbers there (only the fast batch API flags and returns NaN).
 6. An implementation provides **any subset** of the methods; the optional attributes are
    listed in :data:`SPEC` (``ATTRIBUTES``).
 """
@@ -335,17 +336,8 @@ def method(name: str) -> Method:
 
 
 # ------------------------------------------------------------------ the class
-def _placeholder(m: Method):
-    def fn(self, *args, **kwargs):
-        raise NotImplementedError(f"{type(self).__name__} does not provide {m.name}")
-
-    fn.__name__ = m.name
-    fn.__qualname__ = f"Implementation.{m.name}"
-    sig = ", ".join(("self", *m.arg_names, *(f"{o}=None" for o in m.optional_names)))
-    fn.__doc__ = (
-        f"Protocol method ``{m.name}({sig[6:]})`` -> {m.symbol}: {m.doc.replace('`', '``')}.\n\n"
-        "Not provided unless a subclass overrides it (:func:`provides`)."
-    )
+def _placeholder(fn):
+    """Mark a method of :class:`Implementation` as not provided (:func:`provides`)."""
     fn.__tstarg_placeholder__ = True
     return fn
 
@@ -353,16 +345,53 @@ def _placeholder(m: Method):
 class Implementation:
     """Optional base class for implementations: a subclass overrides **any subset** of the
     methods (module docstring); the ones it does not override are not provided
-    (:func:`provides` is False, calling them raises ``NotImplementedError``)."""
+    (:func:`provides` is False, calling them raises ``NotImplementedError``). The methods and
+    their signatures are checked against :data:`SPEC` on import."""
 
     name: str = "unnamed"
     version: str = "0"
     batched: bool = False
 
+    @_placeholder
+    def poisson_tensor(self, f, theta, upsilon, x, pi):
+        """Obligation 1 of the module docstring: ``P``, ``(2n, 2n)``, ``P[i, j] = {z_i, z_j}``."""
+        raise NotImplementedError(f"{type(self).__name__} does not provide poisson_tensor")
 
-for _m in METHODS:
-    setattr(Implementation, _m.name, _placeholder(_m))
-del _m
+    @_placeholder
+    def hamiltonian_vector_field(self, f, theta, upsilon, inertia, potential, x, pi):
+        """Obligation 2 of the module docstring: ``(xdot, pidot)``."""
+        raise NotImplementedError(
+            f"{type(self).__name__} does not provide hamiltonian_vector_field"
+        )
+
+    @_placeholder
+    def flow(self, f, theta, upsilon, inertia, potential, x0, pi0, t, steps=None):
+        """Obligation 3 of the module docstring: ``(x, pi)`` at time ``t`` (optional ``steps``)."""
+        raise NotImplementedError(f"{type(self).__name__} does not provide flow")
+
+
+def _check_class_against_spec() -> None:
+    import inspect
+
+    for m in METHODS:
+        fn = getattr(Implementation, m.name, None)
+        if fn is None:
+            raise ValueError(f"protocol spec: Implementation lacks {m.name}")
+        params = list(inspect.signature(fn).parameters)[1:]
+        if params != [*m.arg_names, *m.optional_names]:
+            raise ValueError(
+                f"protocol spec: Implementation.{m.name}{params} differs from the spec"
+            )
+    extra = {
+        k
+        for k, v in vars(Implementation).items()
+        if getattr(v, "__tstarg_placeholder__", False) and k not in METHOD_NAMES
+    }
+    if extra:
+        raise ValueError(f"protocol spec: Implementation has methods outside the spec: {extra}")
+
+
+_check_class_against_spec()
 
 
 def provides(obj: Any, name: str) -> bool:

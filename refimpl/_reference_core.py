@@ -18,6 +18,7 @@ from ._validate import (
     TWO_PI,
     BudgetError,
     ad_chart_radius,
+    check_dimension,
     check_finite_result,
     check_inertia,
     check_potential,
@@ -25,6 +26,7 @@ from ._validate import (
     check_structure_constants,
     check_theta,
     check_upsilon,
+    degenerate_relative,
     parse_number,
 )
 from ._validate import MAX_MAGNITUDE as _MAX_MAGNITUDE_FLOAT
@@ -164,6 +166,9 @@ class ReferenceCore:
 
     def _model(self, f, theta, upsilon):
         """Validate (in float64, with error models) and convert to mpmath."""
+        shape = np.shape(f.f if isinstance(f, LieAlgebra) else f)
+        if len(shape) == 3 and shape[0] == shape[1] == shape[2]:
+            check_dimension(shape[0])  # the budget before n^3 conversions to mpf
         ff = f.f if isinstance(f, LieAlgebra) else _as_float(f, "structure constants f")
         ff = check_structure_constants(ff)
         n = ff.shape[0]
@@ -314,13 +319,13 @@ class ReferenceCore:
         ``n eps_work ||Phi||^n`` of a determinant computed with ``dps + GUARD_DIGITS`` digits."""
         n = Phi.rows
         scale = max(mpmath.mpf(1), mpmath.mnorm(Phi, 1)) ** n
-        if (
-            abs(Delta) <= 16 * n * mpmath.eps * scale
+        if degenerate_relative(
+            abs(Delta), max(mpmath.mpf(1), mpmath.mnorm(Phi, 1)), n, mpmath.eps
         ):  # relative to ||Phi||^n (Hadamard), not absolute
             what = (
                 f"Delta = det Phi is zero to working precision relative to the scale of Phi: "
                 f"|Delta| = {mpmath.nstr(abs(Delta), 5)} <= 16 n eps ||Phi||_1^n = "
-                f"{mpmath.nstr(16 * n * mpmath.eps * scale, 3)} at {self.dps} digits"
+                f"{mpmath.nstr(16 * n * mpmath.eps * scale, 3)} at {mpmath.mp.dps} working digits"
                 + (" (mpmath's LU met a pivot below ||Phi|| eps)" if Delta == 0 else "")
             )
             raise DegeneratePointError(
@@ -350,7 +355,8 @@ class ReferenceCore:
                 q = self.phi_psi_delta(F, theta, upsilon, pi)
                 n = q["Phi"].rows
                 scale = max(mpmath.mpf(1), mpmath.mnorm(q["Phi"], 1)) ** n
-                decided = abs(q["Delta"]) > 16 * n * mpmath.eps * scale
+                norm = max(mpmath.mpf(1), mpmath.mnorm(q["Phi"], 1))
+                decided = not degenerate_relative(abs(q["Delta"]), norm, n, mpmath.eps)
                 if decided:
                     lost = int(mpmath.ceil(mpmath.log10(scale / abs(q["Delta"]))))
                     need = base + max(lost, 0)

@@ -390,6 +390,7 @@ def body_flow_enclosure(
     tol: float | None = None,
     h0: float = 0.05,
     max_steps: int = 100000,
+    max_seconds: float | None = 600.0,
 ) -> FlowEnclosure:
     """Enclose the body state at time ``t`` of the Euler / Euler-Poisson system (module docstring).
 
@@ -398,26 +399,40 @@ def body_flow_enclosure(
     corrected, twee18), state ``(pi, Gamma)`` with ``Gamma(0) = Ad(exp x0)^T gamma``.
     ``order``: Taylor order of the point series; ``jac_order``: of the Jacobian series;
     ``tol``: the largest accepted remainder per step (default ``2^-(prec_bits - 16)``).
+    The inputs pass the rigorous boundary (magnitudes <= 1e300, precision cap, ``t <= MAX_FLOW_TIME``);
+    ``max_seconds`` bounds the CPU time, estimated from the first steps and refused with the estimate.
     Returns a :class:`FlowEnclosure` whose balls provably contain the exact state at ``t``.
     """
-    ff = check_structure_constants(float_view(f, "structure constants f"))
+    from ._rigorous_core import MAX_PREC_BITS, check_magnitudes
+    from ._rigorous_core import fview as _fview
+    from ._rigorous_core import point_view as _point_view
+    from ._validate import MAX_FLOW_TIME
+
+    def view(v, name):
+        return check_magnitudes(_fview(v, name), name)
+
+    ff = check_structure_constants(view(f, "structure constants f"))
     n = ff.shape[0]
-    check_theta(float_view(theta, "theta"), ff)
-    check_upsilon(float_view(upsilon, "upsilon"), n)
-    check_inertia(float_view(inertia, "inertia"), n)
+    check_theta(view(theta, "theta"), ff)
+    check_upsilon(view(upsilon, "upsilon"), n)
+    check_inertia(view(inertia, "inertia"), n)
     pot = (
         None
         if potential is None
         else check_potential(
-            {
-                k: (float_view(v, f"potential[{k!r}]") if k != "kind" else v)
-                for k, v in potential.items()
-            },
+            {k: (view(v, f"potential[{k!r}]") if k != "kind" else v) for k, v in potential.items()},
             n,
         )
     )
-    if not isinstance(prec_bits, int) or prec_bits < 53:
-        raise ValueError(f"prec_bits must be an int >= 53, got {prec_bits!r}")
+    _point_view(pi0, n, "pi0")
+    if pot is not None:
+        _point_view(x0, n, "x0")
+    if (
+        not isinstance(prec_bits, int)
+        or isinstance(prec_bits, bool)
+        or not 53 <= prec_bits <= MAX_PREC_BITS
+    ):
+        raise ValueError(f"prec_bits must be an int in [53, {MAX_PREC_BITS}], got {prec_bits!r}")
     if not (
         isinstance(order, int) and order >= 2 and isinstance(jac_order, int) and jac_order >= 1
     ):
@@ -425,8 +440,10 @@ def body_flow_enclosure(
             f"order must be an int >= 2 and jac_order an int >= 1, got {order!r}, {jac_order!r}"
         )
     tv = float(float_view(t, "t"))
-    if not math.isfinite(tv) or tv < 0:
-        raise ValueError(f"t must be a finite number >= 0, got {t!r}")
+    if not math.isfinite(tv) or not 0 <= tv <= MAX_FLOW_TIME:
+        raise ValueError(
+            f"t must be a finite number in [0, {MAX_FLOW_TIME:g}] (the flow budget), got {t!r}"
+        )
     tol = 2.0 ** -(prec_bits - 16) if tol is None else float(tol)
     if not tol > 0:
         raise ValueError(f"tol must be > 0, got {tol!r}")
@@ -467,6 +484,7 @@ def body_flow_enclosure(
             tol=tol,
             h0=h0,
             max_steps=max_steps,
+            max_seconds=max_seconds,
         )
     Gam = Balls(np.array(y[n:], dtype=object), prec_bits) if pot is not None else None
     return FlowEnclosure(

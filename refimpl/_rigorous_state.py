@@ -250,7 +250,7 @@ class _Log:
         return arb_mat(self.n, 1, self._vec(Dr, Di))
 
     def jacobian(self, X: arb_mat, prec: int) -> arb_mat:
-        from .rigorous import phi1_ball
+        from ._rigorous_core import phi1_ball
 
         n = self.n
         ad = arb_mat(n, n, (self.Fad * X).entries())
@@ -421,7 +421,8 @@ def _float_log(log: _Log, Gr: arb_mat, Gi: arb_mat | None) -> np.ndarray:
 def _strip_bound(log: _Log, X: arb_mat) -> bool:
     """Proof that every eigenvalue of ``rho(x)``, ``x`` in ``X``, has ``|Im| < pi`` (Bendixson: the imaginary
     parts lie in the spectrum of the Hermitian ``H = (M - M^*) / 2i``; bounded by Gershgorin's discs, else
-    by Arb's rigorous eigenvalue enclosures)."""
+    else by Gershgorin's discs of ``(Q D)^-1 rho(X) (Q D)`` (``Q`` a float Schur basis, ``D`` a diagonal
+    scaling: any similarity keeps the spectrum), else by Arb's eigenvalue enclosures of ``H``)."""
     from flint import acb, acb_mat
 
     n, m = log.n, log.m
@@ -438,7 +439,33 @@ def _strip_bound(log: _Log, X: arb_mat) -> bool:
     gersh = max(sum((abs(H[i, j]) for j in range(m)), arb(0)) for i in range(m))
     if gersh < pi_:
         return True
+    # Gershgorin on a similar matrix: the float Schur basis Q of rho(mid X), scaled by D = diag(delta^i)
+    # (eigenvalues are similarity invariant; Q^-1 is a ball inverse, so nothing assumes Q unitary)
+    M = acb_mat([[acb(Rm[i, j], Jm[i, j]) for j in range(m)] for i in range(m)])
+    Mf = np.array(
+        [
+            [complex(float(M[i, j].real.mid()), float(M[i, j].imag.mid())) for j in range(m)]
+            for i in range(m)
+        ]
+    )
+    _, Qf = scipy.linalg.schur(Mf, output="complex")
+    delta = 1e-3
+    D = np.diag([delta**i for i in range(m)])
+    Pf = Qf @ D
+    P = acb_mat(
+        [[acb(float(Pf[i, j].real), float(Pf[i, j].imag)) for j in range(m)] for i in range(m)]
+    )
     try:
+        T = P.inv() * M * P
+    except ZeroDivisionError:
+        return False
+    for i in range(m):
+        rad = sum((abs(T[i, j]) for j in range(m) if j != i), arb(0))
+        if not abs(T[i, i].imag) + rad < pi_:
+            break
+    else:
+        return True
+    try:  # Arb's rigorous eigenvalue enclosures of H (Bendixson) as a last resort
         ev = H.eig(multiple=True)
     except (ValueError, ZeroDivisionError):
         return False
@@ -525,6 +552,9 @@ def full_state_enclosure(
     (the Taylor order of the variational equation) to 8, or ``3/4 order`` with ``jacobian=True`` (the
     Jacobian's radius then matches the state's; at 8 it is ~1e-12).
     """
+    from ._rigorous_core import MAX_PREC_BITS, check_frames_budget, check_magnitudes
+    from ._rigorous_core import fview as _fview
+    from ._rigorous_core import point_view as _point_view
     from ._validate import (
         MAX_FLOW_TIME,
         check_inertia,
@@ -532,13 +562,6 @@ def full_state_enclosure(
         check_structure_constants,
         check_theta,
         check_upsilon,
-    )
-    from .rigorous import (
-        MAX_PREC_BITS,
-        _fview,
-        _point_view,
-        check_frames_budget,
-        check_magnitudes,
     )
 
     t_start = time.process_time()

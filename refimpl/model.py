@@ -55,7 +55,20 @@ _OMITTED: Any = (
 
 
 def _numbers(a: np.ndarray) -> str:
-    return ", ".join(f"{float(v):.6g}" for v in a)
+    return ", ".join(f"{float(v) + 0.0:.6g}" for v in a)  # + 0.0: no "-0"
+
+
+class _Su2:
+    """``Model.su2(xi=..., tau=..., ...)`` on the class builds an su(2) model with the paper's
+    names (:meth:`Model.from_catalogue`); ``model.su2`` on an instance says whether ``f`` is
+    su(2)'s ``epsilon`` exactly (the closed forms apply), computed once and cached."""
+
+    def __get__(self, obj, owner=None):
+        if obj is None:
+            return lambda **kw: owner.from_catalogue("su(2)", **kw)
+        value = bool(_is_su2(obj.f))
+        obj.__dict__["su2"] = value  # cached like a cached_property (the instance dict wins)
+        return value
 
 
 @dataclass(frozen=True, eq=False, repr=False, init=False)
@@ -112,8 +125,18 @@ class Model:
             inertia = f"diag({_numbers(np.diag(I))})"
         else:
             inertia = "[" + "; ".join(_numbers(row) for row in I) + "]"
-        th = "0" if self.theta_zero else f"<{np.count_nonzero(self.theta) // 2} entries>"
-        up = "0" if self.upsilon_zero else f"<{np.count_nonzero(self.upsilon) // 2} entries>"
+
+        def pairs(a):  # an antisymmetric matrix by its entries above the diagonal
+            k = int(np.count_nonzero(np.triu(a, 1)))
+            return f"<{k} entr{'y' if k == 1 else 'ies'} above the diagonal>"
+
+        if self.su2:  # the paper's names: Theta = -xi.f, Upsilon^mn = tau_l eps_lmn
+            th = "0" if self.theta_zero else f"-xi.f with xi=({_numbers(self.xi)})"
+            tau = np.array([self.upsilon[1, 2], self.upsilon[2, 0], self.upsilon[0, 1]])
+            up = "0" if self.upsilon_zero else f"tau.eps with tau=({_numbers(tau)})"
+        else:
+            th = "0" if self.theta_zero else pairs(self.theta)
+            up = "0" if self.upsilon_zero else pairs(self.upsilon)
         pot = (
             "None"
             if self.potential is None
@@ -159,10 +182,67 @@ class Model:
         """``gamma`` of the gravity potential (twee15), or None."""
         return None if self.potential is None else self.potential["gamma"]
 
-    @cached_property
-    def su2(self) -> bool:
-        """``f = epsilon`` exactly (su(2)/so(3) in the catalogue's basis): the closed forms apply."""
-        return bool(_is_su2(self.f))
+    su2 = _Su2()
+    """On an instance: ``f = epsilon`` exactly (su(2)/so(3) in the catalogue's basis), the closed
+    forms apply. On the class: ``Model.su2(xi=..., tau=..., inertia=..., potential=...)``, an su(2)
+    model with the paper's names (:meth:`from_catalogue`)."""
+
+    @classmethod
+    def from_catalogue(
+        cls,
+        name: str,
+        *,
+        theta=None,
+        xi=None,
+        upsilon=None,
+        tau=None,
+        inertia=None,
+        potential=None,
+    ) -> "Model":
+        """A model on the catalogue algebra ``name`` (``tstarg.refimpl.CATALOGUE_NAMES``), with the
+        paper's names: ``Theta`` as a matrix ``theta`` or through ``xi``, ``Theta_ab = -xi_k
+        f^k_ab`` (a coboundary, ``Theta = -xi.f``); ``Upsilon`` as a matrix ``upsilon`` or, on
+        su(2), through ``tau``, ``Upsilon^mn = tau_l eps_lmn`` (section cinq); ``inertia`` an
+        ``(n, n)`` matrix or its diagonal ``(n,)`` (the identity when left out); ``potential``
+        ``None`` or ``{"L": (n,), "gamma": (n,)}`` (gravity, twee15; ``"kind"`` optional).
+
+        >>> Model.su2(xi=[0.1, 0, 0], tau=[0, 0, 0.2], inertia=[1, 2, 3])
+        Model(su(2), n=3, inertia=diag(1, 2, 3), Theta=-xi.f with xi=(0.1, 0, 0), Upsilon=tau.eps with tau=(0, 0, 0.2), potential=None)
+        """
+        from ._catalogue import catalogue
+
+        alg = catalogue(name)
+        n, f = alg.dim, alg.f
+        if theta is not None and xi is not None:
+            raise ValueError("give theta (a matrix) or xi (Theta = -xi.f), not both")
+        if upsilon is not None and tau is not None:
+            raise ValueError("give upsilon (a matrix) or tau (su(2): Upsilon = tau.eps), not both")
+        if xi is not None:
+            xi = np.asarray(xi, dtype=float)
+            if xi.shape != (n,):
+                raise ValueError(f"xi must have shape ({n},) for {name}, got {xi.shape}")
+            theta = -np.einsum("k,kab->ab", xi, f)
+        if tau is not None:
+            tau = np.asarray(tau, dtype=float)
+            if n != 3 or not _is_su2(f) or tau.shape != (3,):
+                raise ValueError(
+                    f"tau (Upsilon^mn = tau_l eps_lmn) is for su(2) with shape (3,); got {name} "
+                    f"and shape {tau.shape}: give upsilon of shape ({n}, {n})"
+                )
+            eps = np.zeros((3, 3, 3))
+            for a, b, c in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+                eps[a, b, c], eps[a, c, b] = 1.0, -1.0
+            upsilon = np.einsum("l,lmn->mn", tau, eps)
+        if inertia is not None and np.ndim(inertia) == 1:
+            inertia = np.diag(np.asarray(inertia, dtype=float))
+        if potential is not None and "kind" not in potential:
+            potential = {"kind": "gravity", **potential}
+        kw = {
+            k: v
+            for k, v in (("theta", theta), ("upsilon", upsilon), ("inertia", inertia))
+            if v is not None
+        }
+        return cls(alg, potential=potential, **kw)
 
     @cached_property
     def xi(self) -> np.ndarray | None:

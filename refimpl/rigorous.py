@@ -34,12 +34,27 @@ Mathematics (docs/conventions.md; the paper's labels):
   ``xdot = L Omega``; gravity (twee15, twee16): ``Gamma = Ad(g)^T gamma``,
   ``dV_b = -Gamma_m f^m_bc L^c``.
 
+Boundary (issue 30; the reference's limits, imported from where the reference states them): inputs are
+finite with magnitude <= ``MAX_MAGNITUDE`` = 1e300 (:func:`check_magnitudes`), and so are the results (a
+vector field beyond 1e300, e.g. ``pidot ~ |pi|^2`` at ``|pi| ~ 1e200``, is refused by name rather than
+returned as infinities); ``x`` at or beyond the chart edge to float64 accuracy is refused with
+:class:`ChartError` (the fast path's rule, a superset of the reference's determinant test), and
+``||ad_x||_1 > MAX_AD_NORM`` = 400 as over the work budget (:func:`check_frames_budget`); ``prec_bits``
+and ``max_prec_bits`` are capped at :data:`MAX_PREC_BITS` = 16610 (the reference's 5000 digits). Where
+the reference's degeneracy test refuses a point of huge ``||Phi||`` whose ``Delta`` ball provably
+excludes 0, the balls are answered (tests/test_rigorous_boundary.py checks them against an independent
+120+-digit route).
+
+Flows: :func:`body_flow_enclosure` (pi, Gamma) and :func:`full_state_enclosure` (pi, Gamma, rho(g),
+Ad(g), x, and the C^1 enclosure), both ``Upsilon = 0``; :func:`judge_flow` is the flow judge
+(refimpl/_rigorous_state.py).
+
 Protocol (docs/design.md): ``poisson_tensor`` and ``hamiltonian_vector_field`` return float64
 midpoints (the evaluation is repeated at higher precision until every radius is below
 ``2^-60`` of the array's scale, so the midpoints are the correctly rounded doubles up to
 an ulp). The ``*_balls`` methods return :class:`Balls`. There is no ``flow`` method (the
-certification reports it as skipped); rigorous flows of the polynomial body systems are
-in :mod:`refimpl._rigorous_flow` (:func:`body_flow_enclosure`).
+certification reports it as skipped); rigorous flows are in :mod:`refimpl._rigorous_flow` and
+:mod:`refimpl._rigorous_state`.
 
 Judge API (for ``verify``/``certify``): :func:`judge_poisson`,
 :func:`judge_vector_field` return ``(midpoints, radii)``; :func:`distance_to_ball` and
@@ -58,7 +73,6 @@ with :func:`distance_to_ball` against the reference's own promise). Record the j
 
 from __future__ import annotations
 
-import math
 from functools import lru_cache
 from typing import Any
 
@@ -74,15 +88,23 @@ from ._arb import (
     mat_entries,
     to_arb,
     to_exact,
-    upper,
     workprec,
 )
 from ._errors import ChartError, DegeneratePointError
-from ._reference_core import MAX_AD_NORM, MAX_DPS, MAX_MAGNITUDE
+from ._reference_core import MAX_DPS
+from ._rigorous_core import (
+    _MAX_MAG,
+    MAX_PREC_BITS,
+    _eye,
+    check_frames_budget,
+    check_magnitudes,
+    phi1_ball,
+)
+from ._rigorous_core import fview as _fview
+from ._rigorous_core import point_view as _point_view
 from ._rigorous_flow import body_flow_enclosure
 from ._rigorous_state import full_state_enclosure, judge_flow
 from ._validate import (
-    check_chart,
     check_inertia,
     check_potential,
     check_structure_constants,
@@ -109,27 +131,6 @@ __all__ = [
 ]
 
 LOG2E = 1.4426950408889634
-MAX_PREC_BITS = math.ceil(MAX_DPS * math.log2(10))
-"""Precision cap in bits: the reference's cap of ``MAX_DPS`` = 5000 digits (16610 bits), for
-``prec_bits`` and ``max_prec_bits`` alike (beyond it one 8 x 8 inverse takes seconds)."""
-_MAX_MAG = float(MAX_MAGNITUDE)
-
-
-def check_magnitudes(arr: np.ndarray, name: str) -> np.ndarray:
-    """The shared magnitude boundary (the reference's ``MAX_MAGNITUDE`` = 1e300): finite numbers of
-    modulus at most 1e300, on the float64 view of an input; raises ``ValueError`` naming the input."""
-    a = np.asarray(arr, dtype=float)
-    with np.errstate(all="ignore"):
-        bad = ~(np.abs(a) <= _MAX_MAG)
-    if bad.any():
-        idx = tuple(int(i) for i in np.argwhere(bad)[0])
-        v = a[idx] if a.ndim else float(a)
-        why = "NaN or infinity" if not np.isfinite(v) else f"magnitude {abs(v):.3g} > {_MAX_MAG:g}"
-        raise ValueError(
-            f"{name}: {why} at index {idx} (inputs are real numbers of magnitude at most {_MAX_MAG:g}, "
-            "as for the reference)"
-        )
-    return a
 
 
 def _bounded(B: Balls, what: str) -> Balls:
@@ -144,22 +145,6 @@ def _bounded(B: Balls, what: str) -> Balls:
                 "(the float64 range with room): refused, as the reference refuses such inputs"
             )
     return B
-
-
-def check_frames_budget(ff: np.ndarray, xf: np.ndarray) -> None:
-    """The chart and the work budget of the frames at ``x`` (float64 view), shared with the fast path and
-    the reference: ``x`` at or beyond the chart edge to float64 accuracy is refused with
-    :class:`ChartError` (``check_chart(strict=True)``, the fast path's rule; it refuses every point the
-    reference's determinant test refuses), and ``||ad_x||_1 > MAX_AD_NORM`` (400, the reference's
-    budget) with ``ValueError``: the phi1 series needs ``~1.5 log2(e) ||ad_x||`` guard bits."""
-    check_chart(ff, xf[None, :], strict=True)
-    with np.errstate(all="ignore"):
-        norm = float(np.max(np.abs(np.einsum("a,mab->mb", xf, ff)).sum(axis=0), initial=0.0))
-    if not norm <= MAX_AD_NORM:
-        raise ValueError(
-            f"x = {np.array2string(xf, precision=6)}: ||ad_x||_1 = {norm:.5g} exceeds the work budget "
-            f"{MAX_AD_NORM:g} (the reference's; the frame series needs ~||ad_x|| guard bits and terms)"
-        )
 
 
 class UndecidedError(ValueError):
@@ -183,24 +168,6 @@ def _entries(v: Any, shape: tuple, name: str) -> list:
     if arr.shape != shape:
         raise ValueError(f"{name} must have shape {shape}, got {arr.shape}")
     return [to_arb(e, name) for e in arr.flat]
-
-
-def _fview(v: Any, name: str) -> np.ndarray:
-    """:func:`float_view`, with an exact number beyond the float64 range reported as a magnitude error."""
-    try:
-        return float_view(v, name)
-    except OverflowError:
-        raise ValueError(
-            f"{name}: a number beyond the float64 range (inputs have magnitude at most {_MAX_MAG:g})"
-        ) from None
-
-
-def _point_view(v: Any, n: int, name: str) -> np.ndarray:
-    """The float64 view of a point input of shape ``(n,)``: shape, finiteness and magnitude checked."""
-    a = _fview(v, name)
-    if a.shape != (n,):
-        raise ValueError(f"{name} must have shape ({n},), got {a.shape}")
-    return check_magnitudes(a, name)
 
 
 def _vec(v: Any, n: int, name: str) -> arb_mat:
@@ -240,59 +207,6 @@ def _reshape(v: arb_mat, n: int) -> arb_mat:
 
 def _is_exact_zero(M: arb_mat) -> bool:
     return all(e.is_zero() for e in M.entries())
-
-
-def _eye(n: int) -> arb_mat:
-    return arb_mat(n, n, [1 if i == j else 0 for i in range(n) for j in range(n)])
-
-
-def _norm_inf_upper(M: arb_mat) -> float:
-    """An upper bound of ``||M||_inf`` (largest row sum of moduli), rounded up."""
-    n, m = M.nrows(), M.ncols()
-    e = M.entries()
-    return max(
-        (math.fsum(upper(e[i * m + j]) for j in range(m)) for i in range(n)), default=0.0
-    ) * (1 + 1e-15)
-
-
-# ------------------------------------------------------------------ frames
-def _phi1_terms(nu: float, prec: int) -> int:
-    """The smallest ``N`` with ``N + 3 > 2 nu`` and ``nu^(N+1)/(N+2)! < 2^-(prec+4)`` (float estimate; the
-    bound itself is then computed rigorously)."""
-    target = -(prec + 4) * math.log(2)
-    N = max(1, int(2 * nu))
-    while (N + 1) * math.log(max(nu, 1e-300)) - math.lgamma(N + 3) > target:
-        N += 1
-    return N
-
-
-def phi1_ball(M: arb_mat, prec: int) -> arb_mat:
-    """``phi1(M) = sum_k M^k/(k+1)!`` as a ball matrix with a rigorous tail bound (module docstring).
-
-    Scaling and doubling: with ``B = M / 2^s`` (exact: a power of two), the truncated series
-    ``sum_{k<=N} B^k/(k+1)!`` is evaluated in ball arithmetic by Horner's scheme
-    ``I + B/2 (I + B/3 (I + ... (I + B/(N+1))))``, and the tail beyond ``N`` is enclosed by
-    ``t = nu^(N+1)/(N+2)! / (1 - nu/(N+3))`` (``nu >= ||B||_inf``), added to every entry's radius.
-    Then ``s`` exact doublings ``phi1(2B) = phi1(B) (2 + B phi1(B)) / 2`` (from
-    ``e^(2B) - 1 = (e^B - 1)(e^B + 1)`` and ``e^B = 1 + B phi1(B)``), in ball arithmetic.
-    """
-    n = M.nrows()
-    nuf = _norm_inf_upper(M)
-    s = max(0, math.ceil(math.log2(nuf)) + 4) if nuf > 0 else 0
-    B = M * arb(2) ** (-s) if s else M
-    nuf = nuf * 2.0**-s * (1 + 1e-15)
-    N = _phi1_terms(nuf, prec)
-    eye = _eye(n)
-    acc = eye
-    for k in range(N, 0, -1):
-        acc = eye + (B * acc) / (k + 1)
-    nu = arb(nuf)
-    tail = nu ** (N + 1) / arb.fac_ui(N + 2) / (1 - nu / (N + 3))
-    acc = acc + arb_mat(n, n, [arb(0, upper(tail))] * (n * n))
-    for _ in range(s):
-        acc = acc * (2 * eye + B * acc) / 2
-        B = 2 * B
-    return acc
 
 
 class Rigorous:

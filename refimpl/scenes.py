@@ -504,6 +504,45 @@ def _pilot_steps(model, meth, scene, system) -> int:
     return max(1, int(np.ceil(dt_sample / h)))
 
 
+def plot_trajectory(out: dict, title: str):
+    """The figure of a run (``run_scene``'s output, or any dict with ``times`` ``(T,)`` and ``pi``
+    ``(T, N, n)``, optionally ``energy``, ``casimir ...``, ``momentum_map``): the body momenta of
+    trajectory 0, and the drift ``|I(t) - I(0)|`` of every conserved quantity (worst trajectory,
+    log scale). Returns the matplotlib figure (``tstarg run`` saves it as ``trajectory.png``; a
+    notebook shows it). The title is wrapped and the legends sit beside the axes, off the data
+    (``tests/test_figures.py`` checks both)."""
+    import textwrap
+
+    import matplotlib.pyplot as plt  # heavy, and only for figures: imported when one is drawn
+
+    t = out["times"]
+    fig, axes = plt.subplots(2, 1, figsize=(9, 7), constrained_layout=True)
+    outside = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0), "borderaxespad": 0.0}
+    pi = np.asarray(out["pi"])[:, 0, :]
+    for a in range(pi.shape[1]):
+        axes[0].plot(t, pi[:, a], label=f"pi_{a}")
+    axes[0].set_xlabel("t")
+    axes[0].set_ylabel("body momenta (trajectory 0)")
+    axes[0].legend(**outside)
+    axes[0].set_title(textwrap.fill(title, 80), fontsize=10)
+    drawn = False
+    for key, v in out.items():
+        if key == "energy" or key.startswith("casimir") or key == "momentum_map":
+            arr = np.asarray(v)
+            d = np.abs(arr - arr[0])
+            d = d.reshape(d.shape[0], -1)
+            # NaN rows (outside the chart) are left out of the worst case
+            worst = np.max(np.where(np.isfinite(d), d, -np.inf), axis=1)
+            worst = np.where(np.isfinite(worst), worst, np.nan)
+            axes[1].semilogy(t, np.maximum(worst, 1e-17), label=key)
+            drawn = True
+    axes[1].set_xlabel("t")
+    axes[1].set_ylabel("|I(t) - I(0)| (worst trajectory)")
+    if drawn:
+        axes[1].legend(**outside)
+    return fig
+
+
 def describe_path(method: str, path: str) -> str:
     """What ran, for the ``path:`` line of ``tstarg run``: the ``path`` reported by the
     integrator (``"numba"``, ``"python"``, ``"numpy"``) and the method it ran."""

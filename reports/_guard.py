@@ -14,7 +14,8 @@
 * :func:`explain` adds, for a failed reference check whose body recorded no expected value,
   the worst entry (expected from the reference at 30 digits, got, error, tolerance = error /
   ratio) to the rendered example.
-* :func:`certify_target` runs :func:`reports.certification.certify` per check id (in worker
+* :func:`load` is the one target loader (guarded or bare); the run-and-merge that uses it is
+  :func:`reports.certification.run.certify_target` (one unit per check id, in worker
   processes by default), each worker on its own guarded copy of the target, with the run's
   budgets (:mod:`properties.runner` limits), and merges the partial certificates in check order.
 """
@@ -24,7 +25,6 @@ from __future__ import annotations
 import copy
 import math
 import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -39,7 +39,7 @@ from .jsonl import METHODS, CommandImplementation, check_timeout
 __all__ = [
     "Guarded",
     "NotAnImplementation",
-    "certify_target",
+    "close_target",
     "explain",
     "load",
     "materialize",
@@ -69,8 +69,36 @@ def _validate_attributes(target, label: str) -> None:
         raise NotAnImplementation("; ".join(problems))
 
 
+WARMUP_FACTOR = 6.0
+"""The first call of a method on a new model structure may take ``WARMUP_FACTOR`` times the per-call
+timeout: implementations that compile on first use (numba, JAX, heyoka, ...) pay it there, once
+per structure, and a hang is still bounded."""
+
+
+def structure_key(method: str, args: tuple) -> tuple:
+    """What a compiling implementation specialises on: the method, the dimension, which of Theta,
+    Upsilon and the potential are present, and the batch rank of the point."""
+    try:
+        f, theta, upsilon = (np.asarray(a, dtype=float) for a in args[:3])
+        point = args[3] if method == "poisson_tensor" else args[5]
+        potential = None if method == "poisson_tensor" else args[4]
+        return (
+            method,
+            f.shape,
+            bool(np.any(theta)),
+            bool(np.any(upsilon)),
+            potential is None,
+            np.ndim(point),
+        )
+    except Exception:  # noqa: BLE001 - a malformed call is judged elsewhere; key it by method
+        return (method,)
+
+
 class Guarded:
-    """An implementation under test, with a time limit per call and checked inputs and outputs."""
+    """An implementation under test, with a time limit per call and checked inputs and outputs.
+
+    The first call per :func:`structure_key` gets :data:`WARMUP_FACTOR` times the per-call timeout
+    (compilation on first use); every later call gets the per-call timeout itself."""
 
     def __init__(
         self, target, *, call_timeout: float = 10.0, label: str = "", max_timeouts: int = 3
@@ -84,6 +112,7 @@ class Guarded:
             )
         self.max_timeouts = int(max_timeouts)
         self._timeouts = 0
+        self._warm: set = set()  # structure keys already called once (compiled, if it compiles)
         self._own_incidents: list[dict] = []
         provided = provided_methods(target)
         if not provided:
@@ -127,7 +156,10 @@ class Guarded:
         saved = [copy.deepcopy(a) for a in args]
         t0 = time.perf_counter()
         try:
-            with time_limit(self.call_timeout, "call"):
+            key = structure_key(method, args)
+            limit = self.call_timeout * (1.0 if key in self._warm else WARMUP_FACTOR)
+            self._warm.add(key)
+            with time_limit(limit, "call"):
                 out = fn(*args, **kw)
         except TimeLimitExceeded as exc:
             if exc.what == "example":  # the implementation itself used the example's whole budget
@@ -142,11 +174,16 @@ class Guarded:
                     "id": len(self._own_incidents) + 1,
                     "method": method,
                     "kind": "hang",
-                    "detail": f"no return within the per-call timeout of {self.call_timeout:g} s",
+                    "detail": f"no return within the per-call timeout of {limit:g} s",
                 }
             )
             raise AssertionError(
-                f"{method} did not return within the per-call timeout of {self.call_timeout:g} s"
+                f"{method} did not return within the per-call timeout of {limit:g} s"
+                + (
+                    ""
+                    if limit == self.call_timeout
+                    else " (its first call on this model structure)"
+                )
             ) from None
         except SystemExit as exc:
             self._own_incidents.append(
@@ -331,41 +368,7 @@ def explain(check, *, seconds: float = 60.0) -> None:
     check.falsifying_example = check.falsifying_example + "\n" + line
 
 
-# ------------------------------------------------------------------ the run
-def _unit(item):
-    """Worker: one check id on a freshly loaded target (guarded unless ``guard`` is False), within
-    the run's budgets (none when ``budget`` is None)."""
-    from .certification import certify
-
-    spec, cid, kwargs, budget, guard = item
-    if isinstance(spec, dict) and spec.get("stderr_dir"):
-        spec = dict(spec, stderr_log=str(Path(spec["stderr_dir"]) / f"{cid}.log"))
-    if budget is None:
-        impl = load(spec, guard=guard, call_timeout=None)
-        try:
-            return certify(impl, checks=[cid], **kwargs)
-        finally:
-            _close(impl)
-    impl = load(spec, guard=guard, call_timeout=budget["call_timeout"])
-    left = budget["deadline"] - time.time()
-    check_s = max(1e-3, min(budget["check_seconds"], left))
-    try:
-        with runner.limits(
-            example_seconds=budget["example_seconds"],
-            check_seconds=check_s,
-            shrink_seconds=budget.get("shrink_seconds"),
-        ):
-            return certify(impl, checks=[cid], **kwargs)
-    finally:
-        _close(impl)
-
-
-def _close(impl) -> None:
-    close = getattr(impl, "close", None)
-    if callable(close) and isinstance(impl, (Guarded, CommandImplementation)):
-        close()
-
-
+# ------------------------------------------------------------------ targets, one loader
 def load(spec, *, guard: bool = True, call_timeout: float | None = 10.0):
     """The one target loader: ``"module"``, ``"module:object"``, ``{"cmd": ...}`` or an object
     (in-process runs); guarded (:func:`materialize`) unless ``guard`` is False."""
@@ -386,65 +389,7 @@ def load(spec, *, guard: bool = True, call_timeout: float | None = 10.0):
     return spec
 
 
-def certify_target(
-    spec,
-    *,
-    workers=None,
-    scheduler=None,
-    budget: dict | None = None,
-    checks=None,
-    provided=None,
-    guard: bool = True,
-    **kwargs,
-):
-    """The one run-and-merge, for in-process (``workers=1``; ``spec`` may then be an object),
-    guarded and parallel runs: the battery on ``spec`` with the budgets ``{"call_timeout",
-    "example_seconds", "check_seconds", "shrink_seconds", "deadline" (time.time())}`` (None: no
-    limits); one unit per check id (:func:`reports._parallel.map_tasks`), merged in check order.
-    Check ids listed in ``skips`` or needing a method outside ``provided`` (when given) get their
-    reason without starting a unit (no program started for nothing). ``guard=False`` runs the
-    battery on the bare target (no per-call limits, no input/output guard): what
-    ``certification.certify_parallel`` promises, the serial result split over workers."""
-    from ._parallel import map_tasks
-    from .certification import CHECKS, Certificate
-    from .certification.registry import missing
-
-    t0 = time.perf_counter()
-    ids = [c for c in CHECKS if checks is None or c in checks]
-    skips = dict(kwargs.get("skips") or {})
-    pre = {}
-    for cid in ids:
-        if cid in skips:
-            pre[cid] = skips[cid]
-        elif provided is not None and missing(cid, provided) is not None:
-            pre[cid] = missing(cid, provided)
-    run_ids = [c for c in ids if c not in pre] or ids[:1]
-    items = [(spec, cid, kwargs, budget, guard) for cid in run_ids]
-    if (workers == 1 or len(items) == 1) and scheduler is None:
-        parts = [_unit(it) for it in items]
-    else:
-        parts = map_tasks(_unit, items, workers=workers, scheduler=scheduler, wait=False)
-    first = parts[0]
-    cert = Certificate(
-        implementation=first.implementation,
-        version=first.version,
-        target=first.target,
-        seed=first.seed,
-        max_examples=first.max_examples,
-        xfailed=dict(kwargs.get("xfails") or {}),
-        command=first.command,
-        domain=first.domain,  # what was certified, and the notes on it, survive the merge
-        group=first.group,
-    )
-    for part in parts:
-        cert.checks.extend(part.checks)
-        cert.skipped.update(part.skipped)
-        cert.incidents.extend(part.incidents)
-        cert.notes.extend(n for n in part.notes if n not in cert.notes)
-    cert.skipped.update({k: v for k, v in pre.items() if k not in cert.skipped})
-    cert.skipped = {k: cert.skipped[k] for k in CHECKS if k in cert.skipped}
-    if guard:
-        for c in cert.checks:
-            explain(c)
-    cert.seconds = time.perf_counter() - t0
-    return cert
+def close_target(impl) -> None:
+    close = getattr(impl, "close", None)
+    if callable(close) and isinstance(impl, (Guarded, CommandImplementation)):
+        close()

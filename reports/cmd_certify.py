@@ -18,6 +18,16 @@ from the drawn values (algebra, Theta, Upsilon, point, t, worst entry) and store
 the JSON; ``tstarg certify TARGET --replay OUT/certificate.json`` re-runs exactly those
 examples.
 
+The harness owns time, signals and exit codes: this process validates the arguments, locks
+``--out`` (a concurrent run writes to ``--out/run-<pid>`` and says so), and runs the target in a
+supervised child (:mod:`reports._supervise`) under every worker setting. ``--budget`` is a hard
+wall: past it the child's whole session (workers, programs, their children) is killed. A child
+that ends without a result (``os._exit``, ``sys.exit``, ``KeyboardInterrupt``, a signal, at import
+or in a method) yields a FAIL certificate with the reason (check ``harness.run``), never exit 0.
+The certificate (:mod:`reports._certdoc`, schema ``reports/schema/certificate.schema.json``)
+carries the environment, per check the margin and the judge's own error, and per failure
+copy-paste reproducers; it is written atomically.
+
 The check ids run in parallel over local processes by default (each worker loads the
 target itself, or starts its own copy of the ``--cmd`` program); ``--workers 1`` runs them
 in this process, ``--scheduler ADDRESS`` on a Dask cluster (where per-call time limits of
@@ -152,6 +162,7 @@ def main(args) -> int:
     """The harness (this process) validates the arguments, locks the output folder, runs the
     target in a supervised child (:mod:`reports._supervise`: a hard wall at ``--budget``, every
     process it started killed at the end) and writes the certificate, whatever the child did."""
+    t_start = time.monotonic()  # the wall counts from here, the harness's own work included
     if bool(args.target) == bool(args.cmd):
         return _fail("give exactly one of TARGET (module or module:object) or --cmd")
     try:
@@ -221,6 +232,8 @@ def main(args) -> int:
     }
     if replay is not None:
         return _replay_result(run_supervised(CHILD, job, wall=run_budget), run_budget)
+    # the part of the budget left for the child (its checks stop drawing before the wall)
+    job["run_budget"] = wall = max(1.0, run_budget - (time.monotonic() - t_start))
     try:
         out = claim_output(args.out)
     except (OSError, RuntimeError) as exc:
@@ -231,7 +244,7 @@ def main(args) -> int:
         shutil.rmtree(stderr_dir, ignore_errors=True)
         stderr_dir.mkdir(parents=True, exist_ok=True)
         job["spec"] = dict(spec, stderr_dir=str(stderr_dir))
-    result = run_supervised(CHILD, job, wall=run_budget)
+    result = run_supervised(CHILD, job, wall=wall)
     if isinstance(result, dict) and result.get("kind") == "error":
         if stderr_dir is not None:
             shutil.rmtree(stderr_dir, ignore_errors=True)
@@ -357,7 +370,7 @@ def _broken_certificate(target: str, seed, n: int, reason: str):
 
 def _run(spec, par, budget, kw):
     """The battery (in the supervised child); a broken run returns its reason as a string."""
-    from ._guard import certify_target
+    from .certification import certify_target
 
     try:
         if par["workers"] == 1 and par["scheduler"] is None:
@@ -478,7 +491,7 @@ def _replay_result(result, wall: float) -> int:
 def _replay(examples: dict, spec, target, budget, seed) -> int:
     from tstarg.properties import runner
 
-    from ._guard import certify_target
+    from .certification import certify_target
 
     ids = sorted({name.split("[", 1)[0] for name in examples})
     runner.REPLAY.update(examples)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import csv
 import io
 import sys
-import textwrap
 from pathlib import Path
 
 from . import _progress
@@ -24,42 +23,19 @@ def add_arguments(parser) -> None:
 
 
 def _plot(out: dict, path: Path, title: str) -> None:
+    """``trajectory.png``: :func:`refimpl.scenes.plot_trajectory`, saved atomically."""
     import matplotlib
 
-    matplotlib.use("Agg")
+    matplotlib.use("Agg")  # a file, never a window
     import matplotlib.pyplot as plt
-    import numpy as np
 
-    t = out["times"]
-    # constrained layout keeps the wrapped title and the legends (right of the axes, off the
-    # data) inside the canvas; tests/test_figures.py checks both
-    fig, axes = plt.subplots(2, 1, figsize=(9, 7), constrained_layout=True)
-    outside = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0), "borderaxespad": 0.0}
-    pi = out["pi"][:, 0, :]
-    for a in range(pi.shape[1]):
-        axes[0].plot(t, pi[:, a], label=f"pi_{a}")
-    axes[0].set_xlabel("t")
-    axes[0].set_ylabel("body momenta (trajectory 0)")
-    axes[0].legend(**outside)
-    axes[0].set_title(textwrap.fill(title, 80), fontsize=10)
-    drawn = False
-    for key, v in out.items():
-        if key == "energy" or key.startswith("casimir") or key == "momentum_map":
-            arr = np.asarray(v)
-            d = np.abs(arr - arr[0])
-            d = d.reshape(d.shape[0], -1)
-            worst = np.max(
-                np.where(np.isfinite(d), d, -np.inf), axis=1
-            )  # NaN rows: outside the chart
-            worst = np.where(np.isfinite(worst), worst, np.nan)
-            axes[1].semilogy(t, np.maximum(worst, 1e-17), label=key)
-            drawn = True
-    axes[1].set_xlabel("t")
-    axes[1].set_ylabel("|I(t) - I(0)| (worst trajectory)")
-    if drawn:
-        axes[1].legend(**outside)
-    save_figure(fig, path, dpi=110)
-    plt.close(fig)
+    from tstarg.refimpl.scenes import plot_trajectory
+
+    fig = plot_trajectory(out, title)
+    try:
+        save_figure(fig, path, dpi=110)
+    finally:
+        plt.close(fig)
 
 
 def main(args) -> int:

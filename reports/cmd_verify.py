@@ -469,6 +469,10 @@ def _write_report(args, results, status, total, max_examples, budget, baseline=N
         )
         kept.pop("comparison", None)
         kept.pop("baseline_note", None)
+        kept_failed = [c["name"] for c in kept["checks"] if not c["passed"]]
+        kept.update(passed=not kept_failed, n_failed=len(kept_failed))  # its own checks' verdict
+        if kept_failed:
+            print(f"note: the baseline records failing checks: {', '.join(kept_failed)}")
         write_text(
             BASELINE, json.dumps(kept, indent=2)
         )  # atomic: the old baseline stays until this is whole

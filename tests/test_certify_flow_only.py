@@ -104,12 +104,12 @@ def test_flow_only_gets_inputs_and_domain_checks_through_the_command_line(tmp_pa
     assert "domain.refusal" not in data["skipped"] and "protocol.inputs" not in data["skipped"]
 
 
-def test_verdict_is_printed_before_shrinking_and_the_example_says_if_minimal(tmp_path, capsys):
+def test_verdict_is_printed_before_shrinking_and_the_example_says_if_minimal(tmp_path, capfd):
     out = tmp_path / "cert"
     argv = ["certify", "tests.meta.flow_only:loose_after_5", "--check", "flow.long"]
     argv += ["--max-examples", "4", "--workers", "1", "--shrink-seconds", "5"]
     assert main([*argv, "--out", str(out)]) == 1
-    text = capsys.readouterr().out
+    text = capfd.readouterr().out
     first = text.index("verdict FAIL: flow.long found a failing example")
     assert first < text.index("certificate for ")
     assert "shrinking it (at most 5 s)" in text

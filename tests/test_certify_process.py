@@ -233,8 +233,8 @@ def test_one_run_and_merge_for_in_process_guarded_and_parallel_runs():
     certify's checks (names, example counts, verdicts); guarded in-process on an object it gives
     them too."""
     from tstarg.refimpl.fast import implementation as fast
-    from tstarg.reports._guard import certify_target
     from tstarg.reports.certification import certify as serial
+    from tstarg.reports.certification.run import certify_target
 
     kw = {"max_examples": 2, "seed": 0, "checks": ["poisson_tensor.antisymmetry", "flow.order"]}
     want = serial(fast, **kw)

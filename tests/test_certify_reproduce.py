@@ -61,7 +61,7 @@ def _skips(tmp_path):
     return p
 
 
-def test_replay_fails_the_broken_target_and_passes_the_fixed_one(tmp_path, capsys):
+def test_replay_fails_the_broken_target_and_passes_the_fixed_one(tmp_path, capfd):
     """``--replay`` both ways (issue 26): the stored failing examples of tests/meta/targets.py:planted
     (P[0, n] off by 1e-6 relative) fail again on ``planted`` and pass on ``fixed`` (the same target
     with the bug fixed). Replay runs the check bodies outside a Hypothesis test: a body that steers
@@ -75,12 +75,12 @@ def test_replay_fails_the_broken_target_and_passes_the_fixed_one(tmp_path, capsy
     stored = json.loads((out / "certificate.json").read_text())
     failed = [c["name"] for c in stored["checks"] if not c["passed"]]
     assert failed
-    capsys.readouterr()
+    capfd.readouterr()
     replay = ["--replay", str(out / "certificate.json"), "--workers", "1"]
     assert main(["certify", "tests.meta.targets:planted", *replay]) == 1
-    text = capsys.readouterr().out
+    text = capfd.readouterr().out
     assert text.count("FAIL on the stored example") == len(failed), text
     assert main(["certify", "tests.meta.targets:fixed", *replay]) == 0
-    text = capsys.readouterr().out
+    text = capfd.readouterr().out
     assert text.count("PASS on the stored example") == len(failed), text
     assert "InvalidArgument" not in text

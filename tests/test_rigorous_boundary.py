@@ -350,3 +350,24 @@ def test_random_draws_are_contained_or_refused_1000():
             print(f"[{seed - 999}/1000] {counts}", flush=True)
     print("containment run:", counts)
     assert counts.get("contained", 0) >= 300
+
+
+def test_flow_enclosures_keep_the_boundary(within_a_second):
+    """The rigorous flows refuse what the implementations refuse: magnitudes, the precision cap, the flow
+    time budget, and a run whose estimated CPU time exceeds ``max_seconds`` (refused with the estimate)."""
+    from tstarg.refimpl.rigorous import body_flow_enclosure, full_state_enclosure
+
+    top, grav = (
+        np.diag([1.0, 1.0, 0.5]),
+        {"kind": "gravity", "L": [0, 0, 1.0], "gamma": [0, 0, -1.0]},
+    )
+    x0, pi0 = np.array([0.1, 0.2, 0.0]), np.array([0.3, 0.2, 2.0])
+    for fn in (body_flow_enclosure, full_state_enclosure):
+        with pytest.raises(ValueError, match="pi0"):
+            fn(su2(), Z, Z, top, grav, x0, pi0 * 1e301, 1.0)
+        with pytest.raises(ValueError, match="prec_bits"):
+            fn(su2(), Z, Z, top, grav, x0, pi0, 1.0, prec_bits=10**9)
+        with pytest.raises(ValueError, match="flow budget"):
+            fn(su2(), Z, Z, top, grav, x0, pi0, 1e5)
+        with pytest.raises(ValueError, match="max_seconds"):
+            fn(su2(), Z, Z, top, grav, x0, pi0, 1e3, prec_bits=64, max_seconds=0.05)

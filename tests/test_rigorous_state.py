@@ -217,3 +217,156 @@ def test_radius_target_at_t10_200_bits(name):
         f"{name}: T = 10, 200 bits: radius {e.max_rad():.3g}, {e.steps} steps, {e.seconds:.1f} s; x: {e.x_note or 'proven'}"
     )
     assert e.max_rad() <= 1e-25
+
+
+# ------------------------------------------------------------------ randomized containment of flows
+SMALL = [
+    nm
+    for nm in (
+        "su(2)",
+        "so(3)[other basis]",
+        "sl(2,R)",
+        "h(3)",
+        "Bianchi III",
+        "Bianchi VI_h(h=-1/4)",
+        "Bianchi VII_h(h=1/9)",
+        "aff(1)",
+        "se(2)",
+        "R^3",
+    )
+]
+
+
+def _flow_draw(seed: int):
+    rng = np.random.default_rng(seed)
+    name = SMALL[rng.integers(len(SMALL))]
+    alg = catalogue(name)
+    n = alg.f.shape[0]
+    theta = (
+        -np.einsum("k,kab->ab", 0.3 * rng.normal(size=n), alg.f)
+        if rng.random() < 0.5
+        else np.zeros((n, n))
+    )
+    inertia = np.diag(rng.uniform(0.5, 2.0, size=n))
+    pot = None
+    if rng.random() < 0.4:
+        pot = {"kind": "gravity", "L": rng.normal(size=n), "gamma": rng.normal(size=n)}
+    x0 = 0.5 * rng.normal(size=n)
+    pi0 = rng.normal(size=n)
+    T = float(rng.uniform(0.1, 0.4))
+    return name, alg, theta, inertia, pot, x0, pi0, T
+
+
+def _flow_check(seed: int, dps: int) -> str:
+    """The enclosure (128 bits) contains the mpmath reference trajectory at ``dps`` digits, and a value
+    moved by twice the radius (plus the reference's own error) lies outside. x: where the reference's x
+    is another branch than the principal logarithm, rho(g) decides (it must be contained)."""
+    name, alg, theta, inertia, pot, x0, pi0, T = _flow_draw(seed)
+    n = alg.f.shape[0]
+    what = f"seed {seed}: {name}, T = {T:.3g}, gravity {pot is not None}"
+    e = full_state_enclosure(alg, theta, np.zeros((n, n)), inertia, pot, x0, pi0, T, prec_bits=128)
+    tr = reference_trajectory(alg, theta, np.zeros((n, n)), inertia, pot, x0, pi0, [0, T], dps=dps)
+    err = 10.0 ** (-dps + 8)
+
+    def check(B, ref, part):
+        ref = np.asarray(ref, dtype=object)
+        dist = B.error_bounds(ref)[0]
+        assert dist.max() <= err, f"{what}: {part}: the reference is {dist.max():.3g} outside"
+        k = int(np.argmax(B.rad))
+        moved = ref.copy()
+        with mpmath.workdps(dps + 10):
+            moved.flat[k] = moved.flat[k] + mpmath.mpf(2 * B.rad.flat[k] + 2 * err)
+        assert B.error_bounds(moved)[0].flat[k] > 0, f"{what}: {part}: moved value still inside"
+
+    check(e.pi, tr.pi[-1], "pi")
+    if pot is not None:
+        check(e.Gamma, tr.Gamma[-1], "Gamma")
+    re, im = _split(tr.g[-1])
+    check(e.rho_g, re, "Re rho(g)")
+    if e.rho_g_imag is not None:
+        check(e.rho_g_imag, im, "Im rho(g)")
+    if e.x is None:
+        return "x refused"
+    xr = np.array(tr.x[-1], dtype=float)
+    if np.max(np.abs(xr - e.x.mid)) < 1e-8:
+        check(e.x, tr.x[-1], "x")
+        return "contained"
+    return "x: another branch"
+
+
+@pytest.mark.parametrize("seed", [0])
+def test_random_flow_is_contained(seed):
+    assert _flow_check(seed, 30) in ("contained", "x refused", "x: another branch")
+
+
+@pytest.mark.slow
+def test_random_flows_are_contained_60_digits():
+    counts: dict = {}
+    for k, seed in enumerate(range(100, 124)):
+        out = _flow_check(seed, 60)
+        counts[out] = counts.get(out, 0) + 1
+        print(f"[{k + 1}/24] seed {seed}: {out}", flush=True)
+    print("flow containment run:", counts)
+    assert counts.get("contained", 0) >= 12
+
+
+def test_the_flow_is_a_poisson_map_on_the_c1_enclosure():
+    """C^1: a Hamiltonian flow is a Poisson map, J P(pi0) J^T = P(pi(T)) with the Lie-Poisson tensor
+    P(pi) = -S(pi) = -(pi.f - Theta) of the body momenta (vier9, Upsilon = 0) and J = d pi(T)/d pi0;
+    the ball of the left side must contain the right side's ball, and miss it once moved by 2 radii."""
+    xi = np.array([0.25, -0.5, 0.125])
+    theta = -np.einsum("k,kab->ab", xi, su2().f)
+    inertia = np.diag([1.0, 1.3, 0.5])
+    with workprec(128):
+        e = full_state_enclosure(
+            su2(),
+            theta,
+            Z3,
+            inertia,
+            None,
+            X0,
+            PI0,
+            0.6,
+            prec_bits=128,
+            want_x=False,
+            jacobian=True,
+        )
+        J = arb_mat([[e.jacobian.balls[i, j] for j in range(3)] for i in range(3)])
+
+        def P(p):
+            f = su2().f
+            return arb_mat(
+                [
+                    [
+                        -(sum((p[m] * f[m, a, b] for m in range(3)), arb(0)) - theta[a, b])
+                        for b in range(3)
+                    ]
+                    for a in range(3)
+                ]
+            )
+
+        lhs = J * P([arb(v) for v in PI0]) * J.transpose()
+        rhs = P(list(e.pi.balls))
+        assert _overlap(lhs, rhs), "the flow map is not Poisson on the enclosure"
+        assert max(float(v.rad()) for v in lhs.entries()) < 1e-20  # ~5e-25 at 128 bits
+        k = (0, 1)
+        moved = rhs[k] + 2 * (float(rhs[k].rad()) + float(lhs[k].rad())) + 1e-40
+        assert not moved.overlaps(lhs[k])
+
+
+def test_judge_flow_judges_the_fast_flow():
+    """The judge on a real float64 answer: the fast path's flow (its own error model: an adaptive method at
+    the protocol's default tolerance, errors far below 1e-8 at t = 0.5) gets a proven error bound hi below
+    1e-8 on x and pi; the same answer moved by 1e-9 gets a proven error lo >= 1e-9 - radius > 0."""
+    from tstarg.refimpl.fast import implementation as fast
+
+    x, p = fast.flow(su2().f, Z3, Z3, TOP, GRAV, X0, PI0, 0.5)
+    e = judge_flow(su2(), Z3, Z3, TOP, GRAV, X0, PI0, 0.5, prec_bits=80)["enclosure"]
+    for part, val in (("x", x), ("pi", p)):
+        B = getattr(e, part)
+        lo, hi = B.error_bounds(np.asarray(val).reshape(3))
+        assert np.all(hi < 1e-8), f"{part}: proven error bound {hi.max():.3g}"
+        lo2, _ = B.error_bounds(np.asarray(val).reshape(3) + 1e-9)
+        assert np.all(lo2 > 0.5e-9), (
+            f"{part}: a wrong answer was not proven wrong ({lo2.min():.3g})"
+        )

@@ -3,6 +3,8 @@
 * ``on_files``: the committed figures under ``reports/`` (``reports/figures``, ``reports/bench``,
   ``reports/stress``) join the site at the same paths, so pages link them as
   ``reports/bench/heavy_top_wp.png`` without copies that could go stale;
+* ``on_pre_page``: one log line per page as it is built (the API pages take seconds each: the
+  build says where it is instead of going quiet);
 * ``on_page_markdown``: the placeholder ``<!-- tstarg:errata -->`` becomes the list of errata of
   the claims registry (``tstarg.oracles.ERRATA``), so the site shows the registry as it is.
 """
@@ -10,11 +12,13 @@
 from __future__ import annotations
 
 import html
+import logging
 from pathlib import Path
 
 from mkdocs.structure.files import File
 
 ROOT = Path(__file__).resolve().parents[2]
+LOG = logging.getLogger("mkdocs.hooks.tstarg")
 FIGURE_DIRS = ("reports/figures", "reports/bench", "reports/stress")
 
 
@@ -45,6 +49,11 @@ def _errata_markdown() -> str:
             f"corrected `{', '.join(c.checks) or '-'}` must pass)"
         )
     return "\n".join(lines)
+
+
+def on_pre_page(page, config, files):
+    LOG.info("building %s", page.file.src_uri)
+    return page
 
 
 def on_page_markdown(markdown, page, config, files):

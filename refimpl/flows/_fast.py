@@ -196,7 +196,9 @@ def fast_flow(
     doing = f"{meth.name} on {X.shape[1]} trajectories to t = {tv:g}"
     if not meth.adaptive:
         N0 = int(steps) if steps is not None else int(8 + 4 * np.ceil(abs(tv)))
-        if N0 * X.shape[1] > 2**16:  # a first run that could be long: time a short probe of it
+        if (
+            N0 * X.shape[1] > 2**10
+        ):  # a first run that could be long: time a short probe (2 x 16 steps)
             with np.errstate(all="ignore"):
                 budget.calibrate(
                     lambda k: meth.integrate(

@@ -73,8 +73,10 @@ draws only inside the domain, says so in the certificate, and checks refusal out
 
 Error model (every check; docs/conventions.md "Errors and tolerances"):
 ``tol = C * n * eps_impl * kappa * frame * scale`` at the point, with ``C = 8``,
-``kappa = max(cond_phi, cond_data)`` (``cond_phi = ||Phi||_F ||Phi^-1||_F / n``,
-``cond_data = ||Phi^-1||_F (1 + ||S||_F ||U||_F) / sqrt(n)``), ``frame = 1/(1 - r)``,
+``kappa = max(cond_phi, cond_data) + route`` (``cond_phi = ||Phi||_F ||Phi^-1||_F / n``,
+``cond_data = ||Phi^-1||_F (1 + ||S||_F ||U||_F) / sqrt(n)``; ``route = e^min(||ad_x||_1, 5.37) + s``
+the error factor of the standard routes to the frame ``phi1(-ad_x)``: series, expm with scaling and
+squaring, Van Loan's block; :func:`expm_route`), ``frame = 1/(1 - r)``,
 ``r >= ||ad_x||_2 / 2 pi``, ``scale = max(1, max|ref|)`` and
 ``eps_impl = 10^-precision_digits`` (float64's eps when absent). Antisymmetry uses in addition
 the condition of the holonomic omega_L matrix ``W_h`` (``P = -W_h^-1``): an inverse computed
@@ -106,7 +108,14 @@ from .certificate import Certificate, _read_ids, reproduce_command, write_certif
 from .check import Check, Mutant, Variant
 from .domain import Domain, declared_domain
 from .registry import CHECKS, MUTANT_CHECKS, MUTATIONS, REGISTRY
-from .run import certificate_checks, certify, certify_parallel, kill_rate, load_target
+from .run import (
+    certificate_checks,
+    certify,
+    certify_parallel,
+    certify_target,
+    kill_rate,
+    load_target,
+)
 
 __all__ = [
     "ALLOW_CHART_REFUSAL",
@@ -137,6 +146,7 @@ __all__ = [
     "certificate_checks",
     "certify",
     "certify_parallel",
+    "certify_target",
     "declared_domain",
     "kill_rate",
     "load_target",

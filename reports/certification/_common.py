@@ -22,7 +22,7 @@ from tstarg.oracles.float_judge import (
     sensitivity_at,
 )
 from tstarg.properties.runner import note
-from tstarg.refimpl import CATALOGUE_NAMES, catalogue
+from tstarg.refimpl import CATALOGUE_NAMES, catalogue, provides
 from tstarg.refimpl.reference import Reference
 from tstarg.refimpl.rigorous import Rigorous
 
@@ -233,7 +233,7 @@ def _judged_state_ratio(impl, f, t, got, want, tol, judge_err, G, group) -> floa
                 f"the adjoint group agree) but not on the group it is judged on, {group.name}: "
                 f"rho(exp(x)) is off by {err:.3g} (ratio {ratio:.3g}). A flow on another group "
                 "with this algebra (e.g. SO(3) for su(2), x = log_SO(3)(R) with |x| <= pi) must "
-                "declare it: group = 'SO(3)' (CONVENTIONS.md, 'Which group')"
+                "declare it: group = 'SO(3)' (docs/conventions.md, 'Which group')"
             )
     raise AssertionError(
         f"flow at t = {t:g}: (x(t), pi(t)) off the judge by error/tolerance ratio {ratio:.3g}"
@@ -353,4 +353,4 @@ def _flow_call(impl, dom, stats, args, t):
 
 
 def _has(impl, method) -> bool:
-    return callable(getattr(impl, method, None))
+    return provides(impl, method)  # the protocol spec: a placeholder is not provided

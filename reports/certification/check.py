@@ -69,6 +69,9 @@ class Check:
     variants: Callable | None = None
     extra: Callable | None = None
     mutants: dict = field(default_factory=dict)
+    sentinels: Callable | None = None
+    """``sentinels(impl, dom) -> [example, ...]``: examples of the check's own type run first, before
+    any drawn one, under every seed and budget (the cases it must never miss; each inside ``dom``)."""
 
     @property
     def method(self) -> str:

@@ -1,4 +1,4 @@
-"""Which group a flow's ``x`` lives on (CONVENTIONS.md, "Which group").
+"""Which group a flow's ``x`` lives on (docs/conventions.md, "Which group").
 
 The structure constants fix the algebra, not the group. While ``x(t)`` stays inside the chart it is
 fixed by the algebra alone; past it, a flow re-bases and takes a logarithm, and the answer depends

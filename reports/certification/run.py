@@ -1,12 +1,14 @@
 """Running the battery: :func:`certify` over the registry's checks, in this process or spread over
-workers (:func:`certify_parallel`), and the mutation kill rate."""
+workers (:mod:`.parallel`), and the mutation kill rate."""
 
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 from hypothesis.errors import UnsatisfiedAssumption
 
+from tstarg.properties import runner
 from tstarg.properties.runner import (
     LIMITS,
     CheckResult,
@@ -15,17 +17,19 @@ from tstarg.properties.runner import (
     run_property,
 )
 
-from .._imports import resolve
+from .._guard import close_target, explain, load
+from .._parallel import map_tasks
 from ._common import _has
 from .certificate import Certificate, reproduce_command
 from .domain import Domain, declared_domain
 from .group import declared_group, describe_group
-from .registry import CHECKS, MUTANT_CHECKS, MUTATIONS, REGISTRY, mutant
+from .registry import CHECKS, MUTANT_CHECKS, MUTATIONS, REGISTRY, missing, mutant
 
 
 def load_target(spec: str):
-    """``"package.module:object"`` (object may be dotted) to the object."""
-    return resolve(spec)
+    """``"package.module:object"`` (object may be dotted) to the object (the one loader,
+    :func:`reports._guard.load`, unguarded)."""
+    return load(spec, guard=False)
 
 
 def certify(
@@ -101,7 +105,8 @@ def _note_stats(cert, cid: str, stats: dict, dom) -> None:
         cert.notes.append(f"{cid}: {k}: {v}")
     if stats.get("negative t judged"):
         cert.notes.append(
-            f"{cid}: flow at negative times judged on {stats['negative t judged']} examples"
+            f"{cid}: flow at negative times judged on {stats['negative t judged']} example"
+            + ("s" if stats["negative t judged"] != 1 else "")
             + (" (negative_t declared: a refusal fails)" if dom.negative_t else "")
         )
     if "negative t refused (ValueError)" in stats and not any("t < 0" in n for n in cert.notes):
@@ -111,12 +116,9 @@ def _note_stats(cert, cid: str, stats: dict, dom) -> None:
         )
 
 
-_ANNOUNCED: list = []
-"""The checks this process announced as failing (the verdict line is printed once per process)."""
-
-
 def _announcing(body, name: str, t0: float, announce: bool):
-    """``body``, printing the verdict once when it first fails (an exception or a ratio above 1)."""
+    """``body``, printing the verdict when it first fails (an exception or a ratio above 1): one
+    line per failing check, the first of them is the verdict."""
     if not announce:
         return body
     said = []
@@ -125,10 +127,6 @@ def _announcing(body, name: str, t0: float, announce: bool):
         if said:
             return
         said.append(True)
-        if _ANNOUNCED:
-            print(f"tstarg certify: {name} fails too (shrinking it)", flush=True)
-            return
-        _ANNOUNCED.append(name)
         shrink = LIMITS.shrink_seconds
         print(
             f"tstarg certify: verdict FAIL: {name} found a failing example after "
@@ -220,6 +218,7 @@ def _certify(
                 strat,
                 max_examples=variant.factor * check.budget(max_examples),
                 seed=seed,
+                explicit=() if check.sentinels is None else tuple(check.sentinels(impl, dom)),
             )
             res.extra.update(stats)
             if not res.passed and res.falsifying_example:
@@ -235,29 +234,90 @@ def _certify(
     return cert
 
 
-def _materialize(spec):
-    """A certification target from its picklable description: ``"module:object"`` or
-    ``{"cmd": "PROGRAM ARGS", "timeout": seconds}`` (a fresh program per worker)."""
-    if isinstance(spec, str):
-        return load_target(spec)
-    if isinstance(spec, dict) and "cmd" in spec:
-        from ..jsonl import CommandImplementation
-
-        return CommandImplementation(spec["cmd"], timeout=float(spec.get("timeout", 10.0)))
-    raise ValueError(
-        f"certification target must be 'module:object' or {{'cmd': ...}}, got {spec!r}"
-    )
-
-
-def _certify_unit(item) -> Certificate:
-    """Worker of :func:`certify_parallel`: one check id (all its regimes) on a freshly loaded target."""
-    spec, cid, kwargs = item
-    impl = _materialize(spec)
+def _unit(item):
+    """Worker: one check id on a freshly loaded target (guarded unless ``guard`` is False), within
+    the run's budgets (none when ``budget`` is None)."""
+    spec, cid, kwargs, budget, guard = item
+    if isinstance(spec, dict) and spec.get("stderr_dir"):
+        spec = dict(spec, stderr_log=str(Path(spec["stderr_dir"]) / f"{cid}.log"))
+    if budget is None:
+        impl = load(spec, guard=guard, call_timeout=None)
+        try:
+            return certify(impl, checks=[cid], **kwargs)
+        finally:
+            close_target(impl)
+    impl = load(spec, guard=guard, call_timeout=budget["call_timeout"])
+    left = budget["deadline"] - time.time()
+    check_s = max(1e-3, min(budget["check_seconds"], left))
     try:
-        return certify(impl, checks=[cid], **kwargs)
+        with runner.limits(
+            example_seconds=budget["example_seconds"],
+            check_seconds=check_s,
+            shrink_seconds=budget.get("shrink_seconds"),
+        ):
+            return certify(impl, checks=[cid], **kwargs)
     finally:
-        if hasattr(impl, "close"):
-            impl.close()
+        close_target(impl)
+
+
+def certify_target(
+    spec,
+    *,
+    workers=None,
+    scheduler=None,
+    budget: dict | None = None,
+    checks=None,
+    provided=None,
+    guard: bool = True,
+    **kwargs,
+):
+    """The one run-and-merge, for in-process (``workers=1``; ``spec`` may then be an object),
+    guarded and parallel runs: the battery on ``spec`` with the budgets ``{"call_timeout",
+    "example_seconds", "check_seconds", "shrink_seconds", "deadline" (time.time())}`` (None: no
+    limits); one unit per check id (:func:`reports._parallel.map_tasks`), merged in check order.
+    Check ids listed in ``skips`` or needing a method outside ``provided`` (when given) get their
+    reason without starting a unit (no program started for nothing). ``guard=False`` runs the
+    battery on the bare target (no per-call limits, no input/output guard): what
+    ``certification.certify_parallel`` promises, the serial result split over workers."""
+    t0 = time.perf_counter()
+    ids = [c for c in CHECKS if checks is None or c in checks]
+    skips = dict(kwargs.get("skips") or {})
+    pre = {}
+    for cid in ids:
+        if cid in skips:
+            pre[cid] = skips[cid]
+        elif provided is not None and missing(cid, provided) is not None:
+            pre[cid] = missing(cid, provided)
+    run_ids = [c for c in ids if c not in pre] or ids[:1]
+    items = [(spec, cid, kwargs, budget, guard) for cid in run_ids]
+    if (workers == 1 or len(items) == 1) and scheduler is None:
+        parts = [_unit(it) for it in items]
+    else:
+        parts = map_tasks(_unit, items, workers=workers, scheduler=scheduler, wait=False)
+    first = parts[0]
+    cert = Certificate(
+        implementation=first.implementation,
+        version=first.version,
+        target=first.target,
+        seed=first.seed,
+        max_examples=first.max_examples,
+        xfailed=dict(kwargs.get("xfails") or {}),
+        command=first.command,
+        domain=first.domain,  # what was certified, and the notes on it, survive the merge
+        group=first.group,
+    )
+    for part in parts:
+        cert.checks.extend(part.checks)
+        cert.skipped.update(part.skipped)
+        cert.incidents.extend(part.incidents)
+        cert.notes.extend(n for n in part.notes if n not in cert.notes)
+    cert.skipped.update({k: v for k, v in pre.items() if k not in cert.skipped})
+    cert.skipped = {k: cert.skipped[k] for k in CHECKS if k in cert.skipped}
+    if guard:
+        for c in cert.checks:
+            explain(c)
+    cert.seconds = time.perf_counter() - t0
+    return cert
 
 
 def certify_parallel(
@@ -273,7 +333,8 @@ def certify_parallel(
     shrink: bool = True,
     checks: list[str] | None = None,
 ) -> Certificate:
-    """:func:`certify` with the check ids spread over worker processes or a Dask cluster.
+    """:func:`certify` with the check ids spread over worker processes or a Dask cluster: the bare
+    (unguarded) run of :func:`certify_target`, the one run-and-merge.
 
     ``spec`` names the target so that each worker can load it (``"module:object"``, or
     ``{"cmd": ..., "timeout": ...}`` for a JSON-lines program: one program per worker).
@@ -282,40 +343,19 @@ def certify_parallel(
     one except for timings (``tests/test_parallel.py``). ``workers=1`` without a scheduler
     runs in this process.
     """
-    from .._parallel import map_tasks
-
-    t0 = time.perf_counter()
-    ids = [c for c in CHECKS if checks is None or c in checks]
-    kwargs = {
-        "max_examples": max_examples,
-        "seed": seed,
-        "skips": skips,
-        "xfails": xfails,
-        "target": target,
-        "shrink": shrink,
-    }
-    parts = map_tasks(
-        _certify_unit, [(spec, cid, kwargs) for cid in ids], workers=workers, scheduler=scheduler
-    )
-    first = parts[0] if parts else _certify_unit((spec, None, kwargs))
-    cert = Certificate(
-        implementation=first.implementation,
-        version=first.version,
-        target=first.target,
-        seed=seed,
+    return certify_target(
+        spec,
+        workers=workers,
+        scheduler=scheduler,
+        guard=False,
+        checks=checks,
         max_examples=max_examples,
-        xfailed=dict(xfails or {}),
-        command=first.command,
-        domain=first.domain,
-        group=first.group,
+        seed=seed,
+        skips=skips,
+        xfails=xfails,
+        target=target,
+        shrink=shrink,
     )
-    for part in parts:
-        cert.checks.extend(part.checks)
-        cert.skipped.update(part.skipped)
-        cert.incidents.extend(part.incidents)
-        cert.notes.extend(n for n in part.notes if n not in cert.notes)
-    cert.seconds = time.perf_counter() - t0
-    return cert
 
 
 def certificate_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:

@@ -25,7 +25,7 @@ from hypothesis import reject
 from hypothesis import strategies as st
 
 from tstarg.oracles.float_judge import conditioning, flow_tol, reference_work
-from tstarg.refimpl import su2
+from tstarg.refimpl import catalogue, su2
 
 from .._common import (
     FLOW_T_MAX,
@@ -136,6 +136,26 @@ FlowLongExample = namedtuple("FlowLongExample", "hamiltonian fraction_of_reach s
 """One example of ``flow.long``: judged at ``t = sign reach fraction`` and ``t = sign reach``."""
 
 
+def _sentinels(impl, dom) -> list:
+    """The cases ``flow.long`` judges first under every seed (each only where ``dom`` admits it):
+    an asymmetric su(2) top with a non-diagonal inertia whose ``x(t)`` passes ``|x| = pi`` and whose
+    reach is the certified ``|t|`` (both signs), and a body on h(3), whose centre a flow that
+    re-bases through ``Ad(g)`` alone loses (judged through ``rho(g)``) once ``|t| >= 1``."""
+    z3 = np.zeros((3, 3))
+    inertia = np.array([[1.0, 0.1, 0.0], [0.1, 1.3, 0.05], [0.0, 0.05, 0.6]])
+    cases = [
+        (su2().f, np.array([0.1, 0.2, 0.0]), np.array([0.8, -0.6, 2.0]), 0.5, 1.0),
+        (su2().f, np.array([0.0, 0.3, 0.1]), np.array([-0.5, 0.9, 1.8]), 0.3, -1.0),
+        (catalogue("h(3)").f, np.array([0.1, 0.2, 0.3]), np.array([0.5, -0.3, 0.8]), 0.5, 1.0),
+    ]
+    out = []
+    for f, x, pi, frac, sign in cases:
+        if dom.admits(f) and _time_ok(dom, sign):
+            model = ("sentinel", np.array(f, dtype=float), z3, z3, x, pi)
+            out.append(FlowLongExample(Hamiltonian(model, inertia, None), frac, sign))
+    return out
+
+
 # ------------------------------------------------------------------ planted mutants
 def _so3_log(f, x):
     """su(2)'s x mapped to SO(3)'s principal logarithm (|x| <= pi): the same rotation Ad(g), the
@@ -188,6 +208,7 @@ CHECK = Check(
     equations="vier10, vier11, twee16",
     build=_flow_long,
     order=65,
+    sentinels=_sentinels,
     mutants={
         **planted("flow_fixed_steps", "centre_lost"),
         "so3_undeclared": Mutant(

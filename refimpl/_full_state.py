@@ -1,0 +1,475 @@
+"""The full state of every model through the faithful representation: a compiled adaptive Taylor flow.
+
+The state (``Upsilon = 0``)
+    ``y = (pi, [Gamma,] G, [s])`` with ``G = rho(g)`` the group element in the algebra's faithful
+    matrix representation (:func:`refimpl._representation.representation_for`, ``rho(e_a) = E_a``),
+    complex entries split into real and imaginary parts. The left-trivialised kinematics
+    ``g^-1 dg/dt = Omega`` (vier10) read ``dG/dt = G rho(Omega)``, ``Omega = I^-1 pi``: bilinear in
+    ``(G, pi)``, so the whole state is a quadratic polynomial field and the Taylor recurrences of
+    Jorba and Zou integrate it exactly as they do the body system -- no chart, no re-basing, no
+    ``exp``/``log`` along the way. The body block is :func:`refimpl._taylor.quadratic_field`'s
+    (Euler twee14/drie6, Euler-Poisson twee17 sign-corrected/twee18 with ``dV`` of twee16, Theta terms):
+
+        pidot_a     = -f^m_ab pi_m Omega_b + Theta_ab Omega_b + (G_L)_am Gamma_m,
+        Gammadot_mu = f^a_{b mu} Omega_b Gamma_a,
+        dG_ij/dt    = sum_k G_ik M_kj,     M = rho(Omega) = Omega_b E_b.
+
+    ``s = p(x)``, the abelian part of ``x`` on exponential algebras (:class:`refimpl.flows._common.
+    _AbelianPart`: ``p`` is a homomorphism onto an abelian algebra, so ``ds/dt = P Omega``), rides along
+    as a linear integral (used by the logarithm, never by the step control).
+
+The recurrence
+    ``Omega_k = I^-1 pi_k`` and ``M_k = rho(Omega_k)`` are linear in the coefficients (computed once per
+    order, through the nonzero patterns of ``I^-1`` and of the ``E_b``), and every bilinear term is a
+    Cauchy product ``sum_{a<=k} u_a v_{k-a}`` of two such series; a factor whose field vanishes
+    identically (a constant entry of ``G``, e.g. the last row of an affine matrix) keeps its ``a = 0``
+    term only. So a step costs ``(#products) P^2 / 2`` multiply-adds with ``#products`` counted on the
+    sparsity of ``f`` and of ``rho`` (``r nnz(M)`` for ``G``, not ``r^2 n``).
+
+What is compiled
+    One module per *structure*: the source is generated from the dimension, the nonzero patterns of
+    ``f``, ``I^-1``, ``Theta``, ``G_L``, ``E_b`` and which entries of ``G`` vary; the numbers are one
+    array argument ``c`` (read once per call into locals), the order ``P`` an argument. Files live under
+    :func:`refimpl._compiled_taylor.cache_dir`, named by the hash of the source, compiled with
+    ``cache=True``.
+
+The output
+    ``Ad(g)`` from ``G``: ``G E_b G^-1 = Ad(g)_ab E_a`` (projected on the ``E_a``); ``x`` by the
+    project's logarithm :meth:`refimpl._representation.Representation.log` of ``G`` (principal in
+    ``rho``, else through ``Ad(g)`` and the centre; the choice the mpmath reference makes whenever its
+    chart was re-based, and equal to the chart coordinate where it never was), on exponential algebras
+    with its abelian part replaced by the integrated ``s`` (:class:`refimpl.flows._common._AbelianPart`).
+
+Error control
+    The two runs of :mod:`refimpl._flow_compiled` (a checking run ``A`` and the answer ``B``, local
+    tolerances from :func:`refimpl._flow_compiled.local_tolerances`), the estimate measured where the
+    user reads the result: ``max(|pi_A - pi_B|, |Ad_A - Ad_B|)`` per trajectory.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import _compiled_taylor as _ct
+from . import _full_state_kernel as _fk
+from ._flow_compiled import EPS_FLOOR, PROP, PROP_MIN_A, PROP_MIN_B, _eps_b, local_tolerances
+from .codegen import import_source
+from .codegen.full_state import full_state_source
+
+__all__ = ["FullState", "applies", "full_state", "full_state_flow"]
+
+EPS = np.finfo(float).eps
+GENERATED_MIN_WORK = 64.0
+"""``N |t|`` (trajectories times the time span) from which a flow runs the kernel generated for its
+structure (:func:`refimpl.codegen.full_state.full_state_source`, about 2.2x faster per step: every product unrolled in one loop over the
+terms) instead of the one compiled for every structure (:mod:`refimpl._full_state_kernel`); the
+generated one costs 4-9 s of compilation per structure before the disk cache has it, repaid only by
+long batched flows (the rule of ``BATCH_MIN`` in :mod:`refimpl._compiled_taylor`), and kept out of
+single protocol calls (certification's per-call time budget counts a cold compile). A function of
+the call's inputs, so a call's result never depends on what ran before it."""
+
+
+def applies(model) -> bool:
+    """The compiled full state covers ``Upsilon = 0`` on every algebra whose representation exists."""
+    return bool(_ct.HAVE_NUMBA and model.upsilon_zero and not model.su2)
+
+
+class FullState:
+    """One model's full-state field: variables, the generated kernel source and its numbers."""
+
+    def __init__(self, model, rep, abelian_P=None):
+        n = model.n
+        self.n = n
+        self.rep = rep
+        mats = np.asarray(rep.mats)
+        cplx = np.iscomplexobj(mats)
+        self.cplx = cplx
+        r = mats.shape[-1]
+        self.r = r
+        parts = [mats.real] + ([mats.imag] if cplx else [])
+        Mpat = [np.any(p != 0, axis=0) for p in parts]  # (r, r) per part
+        # reachable pattern of G = rho(g): closure of the identity under right multiplication by M
+        Gp = [np.eye(r, dtype=bool)] + ([np.zeros((r, r), bool)] if cplx else [])
+        while True:
+            new = [g.copy() for g in Gp]
+            for pa, g in enumerate(Gp):
+                for pb, m in enumerate(Mpat):
+                    prod = (g.astype(int) @ m.astype(int)) > 0
+                    new[(pa + pb) % 2 if cplx else 0] |= prod
+            if all(np.array_equal(a, b) for a, b in zip(new, Gp)):
+                break
+            Gp = new
+        self.Gpat = Gp
+        grav = bool(model.gravity)
+        self.gravity = grav
+        coef: list[float] = []
+
+        def cidx(v) -> int:
+            coef.append(float(v))
+            return len(coef) - 1
+
+        names: list[str] = []  # variable names, state first
+        # state layout
+        pi = [f"pi{a}" for a in range(n)]
+        ga = [f"ga{a}" for a in range(n)] if grav else []
+        gvars = []  # (part, i, j)
+        for pa in range(len(Gp)):
+            for i in range(r):
+                for j in range(r):
+                    if Gp[pa][i, j]:
+                        gvars.append((pa, i, j))
+        gname = {gv: f"g{gv[0]}_{gv[1]}_{gv[2]}" for gv in gvars}
+        self.gvars = gvars
+        ab = [] if abelian_P is None else [f"s{ell}" for ell in range(abelian_P.shape[0])]
+        names = pi + ga + [gname[g] for g in gvars] + ab
+        self.d = len(names)
+        self.n_ab = len(ab)
+        # derived (linear) variables: Omega, M entries
+        Ii = model.Iinv
+        om = {}  # b -> list of (coef index, pi name)
+        for b in range(n):
+            om[b] = [(cidx(Ii[b, c]), pi[c]) for c in range(n) if Ii[b, c] != 0]
+        mv = {}  # (part, k, j) -> list of (coef index, b)
+        for pa, part in enumerate(parts):
+            for k in range(r):
+                for j in range(r):
+                    terms = [(cidx(part[b, k, j]), b) for b in range(n) if part[b, k, j] != 0]
+                    if terms:
+                        mv[(pa, k, j)] = terms
+        # field: per state variable, linear terms (coef, var) and product terms (coef or sign, u, v)
+        lin: dict[str, list] = {v: [] for v in names}
+        quad: dict[str, list] = {v: [] for v in names}
+        f = model.f
+        for m, a, b in np.argwhere(f != 0):
+            quad[pi[a]].append((cidx(-f[m, a, b]), pi[m], f"om{b}"))
+        if not model.theta_zero:
+            for a in range(n):
+                for b in range(n):
+                    if model.theta[a, b] != 0:
+                        lin[pi[a]].append((cidx(model.theta[a, b]), f"om{b}"))
+        if grav:
+            GL = model.G_L
+            for a in range(n):
+                for m in range(n):
+                    if GL[a, m] != 0:
+                        lin[pi[a]].append((cidx(GL[a, m]), ga[m]))
+            for a, b, mu in np.argwhere(f != 0):  # f^a_{b mu} Omega_b Gamma_a
+                quad[ga[mu]].append((cidx(f[a, b, mu]), f"om{b}", ga[a]))
+        # dG_ij = sum_k G_ik M_kj (complex: re = Gr Mr - Gi Mi, im = Gr Mi + Gi Mr)
+        for pa, i, k in gvars:
+            for (pb, kk, j), _ in mv.items():
+                if kk != k:
+                    continue
+                tgt_part = (pa + pb) % 2 if cplx else 0
+                sign = -1.0 if (pa == 1 and pb == 1) else 1.0
+                tgt = (tgt_part, i, j)
+                if tgt not in gname:  # cannot happen: the pattern is closed
+                    raise AssertionError("full state: G pattern not closed")
+                quad[gname[tgt]].append((sign, gname[(pa, i, k)], f"m{pb}_{kk}_{j}"))
+        if abelian_P is not None:
+            for ell in range(abelian_P.shape[0]):
+                for b in range(n):
+                    if abelian_P[ell, b] != 0:
+                        lin[ab[ell]].append((cidx(abelian_P[ell, b]), f"om{b}"))
+        # constant variables: state variables whose field vanishes identically (a state variable whose
+        # field has terms is never constant, even when all their factors are)
+        const = {v for v in names if not lin[v] and not quad[v]}
+        self.names, self.const = names, const
+        self.om, self.mv, self.lin, self.quad = om, mv, lin, quad
+        self.coef = np.array(coef, dtype=float)
+        self.step_vars = [v for v in pi + ga + [gname[g] for g in gvars] if v not in const]
+        self.var = [v for v in names if v not in const]
+        self.source = full_state_source(self)
+        self._mod = None
+
+    # ------------------------------------------------------------------ kernel
+    def module(self):
+        if self._mod is None:
+            self._mod = import_source(self.source, "fullstate_")
+        return self._mod
+
+    def tables(self):
+        """The sparse tables of :mod:`refimpl._full_state_kernel` (built once)."""
+        tb = getattr(self, "_tables", None)
+        if tb is not None:
+            return tb
+        n, names, const, coef = self.n, self.names, self.const, self.coef
+        idx = {v: i for i, v in enumerate(names)}
+        dnames = [f"om{b}" for b in range(n)] + [f"m{pa}_{k}_{j}" for (pa, k, j) in self.mv]
+        for v in dnames:
+            idx[v] = len(idx)
+        dconst = {f"om{b}" for b in range(n) if all(p in const for _, p in self.om[b])}
+        dconst |= {
+            f"m{pa}_{k}_{j}"
+            for (pa, k, j), t in self.mv.items()
+            if all(f"om{b}" in dconst for _, b in t)
+        }
+        allc = const | dconst
+        drow, dptr, didx, dcoef = [], [0], [], []
+        for b in range(n):
+            drow.append(idx[f"om{b}"])
+            for ci, p in self.om[b]:
+                didx.append(idx[p])
+                dcoef.append(coef[ci])
+            dptr.append(len(didx))
+        for (pa, k, j), t in self.mv.items():
+            drow.append(idx[f"m{pa}_{k}_{j}"])
+            for ci, b in t:
+                didx.append(idx[f"om{b}"])
+                dcoef.append(coef[ci])
+            dptr.append(len(didx))
+        prods: dict = {}
+        pu, pw, pcls = [], [], []
+        for v in names:
+            for _, u, w in self.quad[v]:
+                if (u, w) in prods:
+                    continue
+                prods[(u, w)] = len(pu)
+                pu.append(idx[u])
+                pw.append(idx[w])
+                cu, cw = u in allc, w in allc
+                pcls.append(3 if cu and cw else 1 if cu else 2 if cw else 0)
+        order = sorted(range(len(pu)), key=lambda p: pcls[p] != 0)  # general products first
+        rank = {p: i for i, p in enumerate(order)}
+        prods = {key: rank[p] for key, p in prods.items()}
+        pu, pw, pcls = [pu[p] for p in order], [pw[p] for p in order], [pcls[p] for p in order]
+        ng = sum(1 for c in pcls if c == 0)
+        pad = (-ng) % 4  # groups of four general products; the padding multiplies the zero row
+        zero = len(idx)
+        pu[ng:ng] = [zero] * pad
+        pw[ng:ng] = [zero] * pad
+        pcls[ng:ng] = [5] * pad  # class 5: the zero product (never read by the state rows)
+        prods = {key: (p + pad if p >= ng else p) for key, p in prods.items()}
+        vrow, qptr, qprod, qcoef, lptr, lvar, lcoef, lcon = [], [0], [], [], [0], [], [], []
+        for v in self.var:
+            vrow.append(idx[v])
+            for c, u, w in self.quad[v]:
+                qprod.append(prods[(u, w)])
+                qcoef.append(c if isinstance(c, float) else coef[c])
+            qptr.append(len(qprod))
+            for ci, u in self.lin[v]:
+                lvar.append(idx[u])
+                lcoef.append(coef[ci])
+                lcon.append(u in allc)
+            lptr.append(len(lvar))
+        i64 = lambda a: np.array(a, dtype=np.int64)  # noqa: E731
+        f64 = lambda a: np.array(a, dtype=float)  # noqa: E731
+        srow = i64([idx[v] for v in self.step_vars])
+        self._tables = tb = (
+            len(idx),
+            i64(drow),
+            i64(dptr),
+            i64(didx),
+            f64(dcoef),
+            i64(pu),
+            i64(pw),
+            i64(pcls),
+            i64(vrow),
+            i64(qptr),
+            i64(qprod),
+            f64(qcoef),
+            i64(lptr),
+            i64(lvar),
+            f64(lcoef),
+            np.array(lcon, dtype=np.bool_),
+            srow,
+        )
+        return tb
+
+    def run(
+        self,
+        y0,
+        T: float,
+        tol: float,
+        order: int | None = None,
+        max_steps: int = 10_000_000,
+        generated: bool = False,
+    ):
+        """``(y(T), steps)`` for the rows of ``y0`` (N, d) at the local tolerance ``tol``."""
+        P = default_order(tol) if order is None else int(order)
+        y = np.ascontiguousarray(y0, dtype=float)
+        out = np.empty_like(y)
+        steps = np.zeros(y.shape[0], dtype=np.int64)
+        if generated:
+            self.module().adaptive(
+                y, float(T), float(tol), P, int(max_steps), self.coef, out, steps
+            )
+        else:
+            _fk.adaptive(y, float(T), float(tol), P, int(max_steps), *self.tables(), out, steps)
+        return out, steps
+
+
+ORDER_BIAS = (
+    4  # above Jorba-Zou's order: measured cheaper (se(3), T = 10: 0.95x at 1e-8, 0.94x at 1e-13)
+)
+
+
+def default_order(tol: float) -> int:
+    return _ct.adaptive_order(tol) + ORDER_BIAS
+
+
+# ---------------------------------------------------------------------- the flow
+def full_state(model, abelian=None) -> FullState:
+    """The full-state field of ``model``, kept on the (cached, immutable) model. ``abelian``: the class
+    :class:`refimpl.flows._common._AbelianPart` (passed in by the flows, which own it), used on
+    exponential algebras."""
+    fs = model.__dict__.get("_full_state")
+    if fs is None or (fs.abelian is None and abelian is not None and fs.rep.exponential):
+        rep = model.representation
+        ab = abelian.of(model.f, 1) if (rep.exponential and abelian is not None) else None
+        fs = FullState(model, rep, None if ab is None else ab.P)
+        fs.abelian = ab
+        fs.mats = np.ascontiguousarray(rep.mats, dtype=complex if fs.cplx else float)
+        fs.proj = np.ascontiguousarray(_projector(rep.mats))
+        gv = np.array(fs.gvars, dtype=np.int64).reshape(-1, 3)
+        fs.unit = 1j if fs.cplx else 0.0
+        fs.gidx = (
+            np.ascontiguousarray(gv[:, 0]),
+            np.ascontiguousarray(gv[:, 1]),
+            np.ascontiguousarray(gv[:, 2]),
+            fs.n * (2 if fs.gravity else 1),
+        )
+        model.__dict__["_full_state"] = fs
+    return fs
+
+
+def _projector(mats) -> np.ndarray:
+    """``Pinv`` (n, r^2 or 2 r^2) with ``x = Pinv vec(rho(x))`` (real and imaginary parts stacked)."""
+    mats = np.asarray(mats)
+    B = mats.real.reshape(mats.shape[0], -1)
+    if np.iscomplexobj(mats):
+        B = np.concatenate([B, mats.imag.reshape(mats.shape[0], -1)], axis=1)
+    return np.linalg.pinv(B.T)
+
+
+def _pack(fs: FullState, pi, Gamma, G, s) -> np.ndarray:
+    """Rows ``(pi, [Gamma,] G entries, [s])`` (N, d) from pi (n, N), Gamma (n, N), G (N, r, r), s (k, N)."""
+    N = pi.shape[1]
+    y = np.empty((N, fs.d))
+    n = fs.n
+    y[:, :n] = pi.T
+    if fs.gravity:
+        y[:, n : 2 * n] = Gamma.T
+    _fk.pack_G(G, *fs.gidx, y)
+    if fs.n_ab:
+        y[:, fs.d - fs.n_ab :] = s.T
+    return y
+
+
+def _unpack_G(fs: FullState, y) -> np.ndarray:
+    G = np.empty((y.shape[0], fs.r, fs.r), dtype=fs.mats.dtype)
+    _fk.unpack_G(y, *fs.gidx, G, fs.unit)
+    return G
+
+
+def _ad_of(fs: FullState, G) -> np.ndarray:
+    """``Ad(g)`` (N, n, n) from ``G = rho(g)``: ``G E_b G^-1 = Ad_ab E_a`` projected on the ``E_a``."""
+    out = np.empty((G.shape[0], fs.n, fs.n))
+    _fk.ad_batch(np.ascontiguousarray(G, dtype=fs.mats.dtype), fs.mats, fs.proj, fs.cplx, out)
+    return out
+
+
+ABELIAN_RTOL = (
+    1e-13  # the log's abelian part is kept when it matches the integrated one this closely
+)
+
+
+def _x_of(fs: FullState, G, Ad, s) -> np.ndarray:
+    """``x`` (n, N) with ``exp(x) = g``: the principal logarithm of ``G`` when it lies in the algebra
+    (compiled, :func:`refimpl._full_state_kernel.log_batch`), else :meth:`Representation.log`; on
+    exponential algebras the abelian part from ``s`` when the log's differs from it
+    (:class:`refimpl.flows._common._AbelianPart`)."""
+    N = G.shape[0]
+    xs = np.empty((N, fs.n))
+    ok = np.zeros(N, dtype=np.bool_)
+    G = np.ascontiguousarray(G, dtype=fs.mats.dtype)
+    _fk.log_batch(G, fs.mats, fs.proj, fs.cplx, xs, ok)
+    for j in np.flatnonzero(~ok):
+        xs[j] = fs.rep.log(G[j], Ad[j])
+    if fs.abelian is not None:
+        P = fs.abelian.P
+        for j in range(N):
+            sj = s[:, j]
+            if np.max(np.abs(P @ xs[j] - sj)) > ABELIAN_RTOL * max(1.0, float(np.max(np.abs(sj)))):
+                xs[j] = fs.abelian.refine(fs.rep, G[j], xs[j], sj)
+    return xs.T.copy()
+
+
+def _run(fs: FullState, y0, t, eps, generated=False):
+    y, steps = fs.run(y0, t, eps, generated=generated)
+    if steps.min() < 0:
+        raise ValueError(
+            f"compiled Taylor flow: trajectories {np.flatnonzero(steps < 0)[:10].tolist()} became "
+            f"non-finite before t = {t} (diverged); no point is dropped"
+        )
+    return y, steps
+
+
+def _estimate(fs: FullState, A, B):
+    """``(max(|pi_A - pi_B|, |Ad_A - Ad_B|), G_B, Ad_B)`` per trajectory (compiled)."""
+    N = A.shape[0]
+    GB = np.empty((N, fs.r, fs.r), dtype=fs.mats.dtype)
+    AdB = np.empty((N, fs.n, fs.n))
+    est = np.empty(N)
+    _fk.estimate(A, B, fs.n, *fs.gidx, fs.unit, fs.mats, fs.proj, fs.cplx, GB, AdB, est)
+    return est, GB, AdB
+
+
+def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None) -> dict:
+    """Full state ``(x, pi)`` of ``N`` trajectories (``x0``, ``pi0`` of shape (n, N)) at time ``t`` with
+    the global tolerance ``tol`` (max-norm over ``pi`` and ``Ad(g)`` per trajectory, two runs).
+
+    Returns ``pi``, ``Gamma``, ``x``, ``g`` (``rho(g)``, (N, r, r)), ``Ad``, ``rebases`` (zeros: no
+    chart), ``steps``, ``error_estimate`` and ``path``."""
+    fs = full_state(model, abelian)
+    n, N = pi0.shape
+    G0 = np.empty((N, fs.r, fs.r), dtype=fs.mats.dtype)
+    _fk.exp_batch(np.ascontiguousarray(x0.T), fs.mats, G0)
+    Gamma0 = None
+    if fs.gravity:
+        Ad0 = _ad_of(fs, G0)
+        Gamma0 = np.einsum("Nmb,m->bN", Ad0, model.gamma)
+    s0 = None if fs.abelian is None else fs.abelian.P @ x0
+    y0 = _pack(fs, pi0, Gamma0, G0, s0)
+    eps_a, eps_b = local_tolerances(tol)
+    gen = N * abs(t) >= GENERATED_MIN_WORK
+    todo = None  # every trajectory (the first pair of runs), then those over the tolerance
+    for _ in range(6):
+        yt = y0 if todo is None else y0[todo]
+        A, _s = _run(fs, yt, t, eps_a, gen)
+        B, sB = _run(fs, yt, t, eps_b, gen)
+        d, GB, AdB = _estimate(fs, A, B)
+        prop = eps_a >= PROP_MIN_A and eps_b >= PROP_MIN_B
+        e = np.minimum(d, PROP * (eps_b / eps_a) * d) if prop else d
+        if todo is None:
+            res, Adres, G, est, steps = B, AdB, GB, e, sB
+            todo = np.arange(N)
+        else:
+            res[todo], Adres[todo], G[todo], est[todo], steps[todo] = B, AdB, GB, e, sB
+        over = todo[e > tol]
+        if over.size == 0:
+            break
+        new = max(eps_a * min(tol / float(np.max(est[over])) / 10, 0.1), EPS_FLOOR)
+        if new >= eps_a:
+            break
+        eps_a, eps_b, todo = new, _eps_b(new), over
+    over = np.flatnonzero(est > tol)
+    if over.size:
+        raise ValueError(
+            f"compiled Taylor flow: tolerance {tol} not reached on trajectories {over[:10].tolist()} "
+            f"(estimated errors {est[over][:3].tolist()}) at the float64 floor of the local tolerance"
+        )
+    s = None if fs.abelian is None else res[:, fs.d - fs.n_ab :].T
+    x = _x_of(fs, G, Adres, s)
+    return {
+        "pi": res[:, :n].T.copy(),
+        "Gamma": res[:, n : 2 * n].T.copy() if fs.gravity else None,
+        "x": x,
+        "g": G,
+        "Ad": Adres,
+        "quat": None,
+        "rebases": np.zeros(N, dtype=int),
+        "steps": steps,
+        "error_estimate": est,
+        "path": _ct.PATH,
+    }

@@ -1,0 +1,506 @@
+"""The compiled kernel of :mod:`refimpl._full_state`: one machine-code function for every structure.
+
+The field is given as sparse tables (arguments, never literals), so numba compiles this module once
+per argument types -- once in total -- and ``cache=True`` keeps the machine code on disk: a new
+algebra, inertia or representation costs no compilation at all.
+
+Tables (all ``int64`` unless said otherwise; ``V`` is the ``(nv, P + 1)`` array of Taylor coefficients,
+rows ``0..d-1`` the state, then the derived rows):
+
+``drow, dptr, didx, dcoef``
+    derived (linear) rows in dependency order: ``V[drow[r], k] = sum_t dcoef[t] V[didx[t], k]``,
+    ``t`` in ``dptr[r]..dptr[r+1]`` (``Omega = I^-1 pi``, then ``M = rho(Omega)``);
+``pu, pw, pcls``
+    the Cauchy products ``p = sum_{a<=k} V[pu, a] V[pw, k - a]``; ``pcls`` 0 general, 1 ``pu``
+    constant (only ``a = 0``), 2 ``pw`` constant, 3 both constant, 4 a square (half the terms twice);
+``vrow, qptr, qprod, qcoef, lptr, lvar, lcoef, lcon``
+    per non-constant state row ``vrow[c]``: ``V[vrow[c], k+1] = (sum qcoef p[qprod] + sum lcoef
+    V[lvar, k]) / (k + 1)`` (``lcon``: the linear factor is constant, its ``k >= 1`` terms vanish);
+``srow``
+    the rows whose last two coefficients set the step (Jorba-Zou), and whose size scales the tolerance.
+
+The step: Jorba and Zou's, as :mod:`refimpl._compiled_taylor` (``h = e^(-0.7/(P-1)) min((eps s /
+||Y_{P-1}||)^(1/(P-1)), (eps s / ||Y_P||)^(1/P))``, ``s = max(1, ||y||)``), the update by Horner's rule
+added with Kahan's compensation.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+try:
+    from numba import njit
+except ImportError:  # pragma: no cover - the plain-Python path
+
+    def njit(*a, **kw):
+        return (lambda fn: fn) if not a else a[0]
+
+
+@njit(cache=True, nogil=True, fastmath={"contract"})
+def coefficients(V, P, drow, dptr, didx, dcoef, pu, pw, pcls, pr, vrow, qptr, qprod, qcoef, lptr, lvar, lcoef, lcon):  # fmt: skip
+    """The Taylor coefficients ``V[:, 1..P]`` of the state from ``V[:, 0]`` (the recurrence). The
+    general products come first in ``pu``/``pw`` (``pcls`` 0), padded to a multiple of :data:`GROUP`
+    with products of the zero row ``V[-1]``; each group's sums run side by side (independent chains,
+    each summed in the order ``a = 0..k``), then the products with a constant factor."""
+    nd = drow.shape[0]
+    npr = pu.shape[0]
+    ng = 0
+    while ng < npr and pcls[ng] == 0:
+        ng += 1
+    nvar = vrow.shape[0]
+    for k in range(P):
+        for r in range(nd):
+            acc = 0.0
+            for t in range(dptr[r], dptr[r + 1]):
+                acc += dcoef[t] * V[didx[t], k]
+            V[drow[r], k] = acc
+        for p in range(0, ng, 4):
+            u0, u1, u2, u3 = pu[p], pu[p + 1], pu[p + 2], pu[p + 3]
+            w0, w1, w2, w3 = pw[p], pw[p + 1], pw[p + 2], pw[p + 3]
+            s0 = 0.0
+            s1 = 0.0
+            s2 = 0.0
+            s3 = 0.0
+            for a in range(k + 1):
+                b = k - a
+                s0 += V[u0, a] * V[w0, b]
+                s1 += V[u1, a] * V[w1, b]
+                s2 += V[u2, a] * V[w2, b]
+                s3 += V[u3, a] * V[w3, b]
+            pr[p] = s0
+            pr[p + 1] = s1
+            pr[p + 2] = s2
+            pr[p + 3] = s3
+        for p in range(ng, npr):
+            c = pcls[p]
+            if c == 1:
+                pr[p] = V[pu[p], 0] * V[pw[p], k]
+            elif c == 2:
+                pr[p] = V[pu[p], k] * V[pw[p], 0]
+            elif c == 3:
+                pr[p] = V[pu[p], 0] * V[pw[p], 0] if k == 0 else 0.0
+            else:
+                pr[p] = 0.0
+        ik = 1.0 / (k + 1)
+        for c in range(nvar):
+            acc = 0.0
+            for t in range(qptr[c], qptr[c + 1]):
+                acc += qcoef[t] * pr[qprod[t]]
+            for t in range(lptr[c], lptr[c + 1]):
+                if lcon[t]:
+                    if k == 0:
+                        acc += lcoef[t] * V[lvar[t], 0]
+                else:
+                    acc += lcoef[t] * V[lvar[t], k]
+            V[vrow[c], k + 1] = acc * ik
+
+
+@njit(cache=True, nogil=True, fastmath={"contract"})
+def adaptive(y0, T, tol, P, max_steps, nv, drow, dptr, didx, dcoef, pu, pw, pcls, vrow, qptr, qprod, qcoef, lptr, lvar, lcoef, lcon, srow, out, nsteps):  # fmt: skip
+    """Adaptive Taylor over ``[0, T]`` for every row of ``y0`` (N, d): ``out`` the end states,
+    ``nsteps`` the steps (negative: -1 non-finite, -3 step budget, -4 no positive step)."""
+    N, d = y0.shape
+    V = np.zeros((nv + 1, P + 1))
+    pr = np.zeros(max(pu.shape[0], 1))
+    nvar = vrow.shape[0]
+    comp = np.zeros(max(nvar, 1))
+    sgn = 1.0 if T >= 0 else -1.0
+    Tabs = abs(T)
+    damp = math.exp(-0.7 / (P - 1))
+    e1 = 1.0 / (P - 1)
+    e2 = 1.0 / P
+    for it in range(N):
+        for q in range(d):
+            V[q, 0] = y0[it, q]
+        for q in range(nvar):
+            comp[q] = 0.0
+        t = 0.0
+        nst = 0
+        status = 0
+        while t < Tabs:
+            coefficients(V, P, drow, dptr, didx, dcoef, pu, pw, pcls, pr, vrow, qptr, qprod, qcoef, lptr, lvar, lcoef, lcon)  # fmt: skip
+            xn = 0.0
+            a1 = 0.0
+            a2 = 0.0
+            for q in range(srow.shape[0]):
+                s_ = srow[q]
+                xn = max(xn, abs(V[s_, 0]))
+                a1 = max(a1, abs(V[s_, P - 1]))
+                a2 = max(a2, abs(V[s_, P]))
+            s = tol * max(1.0, xn)
+            h = np.inf
+            if a1 > 0.0:
+                h = (s / a1) ** e1
+            if a2 > 0.0:
+                h = min(h, (s / a2) ** e2)
+            h *= damp
+            if not (h > 0.0):
+                status = -4
+                break
+            if t + h >= Tabs:
+                h = Tabs - t
+                t = Tabs
+            else:
+                t += h
+            hs = sgn * h
+            fin = True
+            for c in range(nvar):
+                i = vrow[c]
+                z = V[i, P]
+                for kk in range(P - 1, 0, -1):
+                    z = z * hs + V[i, kk]
+                z = z * hs - comp[c]
+                w = V[i, 0] + z
+                comp[c] = (w - V[i, 0]) - z
+                V[i, 0] = w
+                if not math.isfinite(w):
+                    fin = False
+            nst += 1
+            if not fin:
+                status = -1
+                break
+            if nst > max_steps:
+                status = -3
+                break
+        for q in range(d):
+            out[it, q] = V[q, 0] if status == 0 else np.nan
+        nsteps[it] = nst if status == 0 else status
+
+
+# ---------------------------------------------------------------------- group-level helpers
+# Small dense matrices of the representation (r <= ~10), real or complex: the exponential of rho(x0), the
+# adjoint Ad(g) from G = rho(g), and the principal logarithm by inverse scaling and squaring -- the same
+# mathematics as scipy's expm/logm used by refimpl._representation, without their per-call overhead
+# (~0.1-5 ms on a 4 x 4 matrix; these run in microseconds). The caller falls back to
+# Representation.log wherever the principal logarithm is not accepted (see _full_state._x_of).
+
+
+@njit(cache=True, nogil=True)
+def _matmul(A, B, C):
+    r = A.shape[0]
+    for i in range(r):
+        for j in range(r):
+            acc = A[i, 0] * B[0, j]
+            for k in range(1, r):
+                acc += A[i, k] * B[k, j]
+            C[i, j] = acc
+
+
+@njit(cache=True, nogil=True)
+def _inverse(A, Ainv):
+    """Gauss-Jordan with partial pivoting; False when a pivot vanishes."""
+    r = A.shape[0]
+    M = np.zeros((r, 2 * r), dtype=A.dtype)
+    for i in range(r):
+        for j in range(r):
+            M[i, j] = A[i, j]
+        M[i, r + i] = 1.0
+    for c in range(r):
+        p = c
+        for i in range(c + 1, r):
+            if abs(M[i, c]) > abs(M[p, c]):
+                p = i
+        if not (abs(M[p, c]) > 0.0):
+            return False
+        if p != c:
+            for j in range(2 * r):
+                tmp = M[c, j]
+                M[c, j] = M[p, j]
+                M[p, j] = tmp
+        piv = 1.0 / M[c, c]
+        for j in range(2 * r):
+            M[c, j] *= piv
+        for i in range(r):
+            if i != c:
+                g = M[i, c]
+                if g != 0.0:
+                    for j in range(2 * r):
+                        M[i, j] -= g * M[c, j]
+    for i in range(r):
+        for j in range(r):
+            Ainv[i, j] = M[i, r + j]
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _norm1(A):
+    r = A.shape[0]
+    m = 0.0
+    for j in range(r):
+        s = 0.0
+        for i in range(r):
+            s += abs(A[i, j])
+        m = max(m, s)
+    return m
+
+
+@njit(cache=True, nogil=True)
+def expm(X, E):
+    """``E = exp(X)``: Taylor series of ``X / 2^s`` (``||X / 2^s||_1 <= 1/2``, summed until the terms
+    fall below ``1e-18`` of the sum), squared ``s`` times."""
+    r = X.shape[0]
+    nrm = _norm1(X)
+    s = 0
+    while nrm > 0.5:
+        nrm *= 0.5
+        s += 1
+    sc = 0.5**s
+    T = np.zeros_like(X)
+    W = np.zeros_like(X)
+    for i in range(r):
+        for j in range(r):
+            E[i, j] = 0.0
+            T[i, j] = 0.0
+        E[i, i] = 1.0
+        T[i, i] = 1.0
+    for k in range(1, 40):
+        _matmul(T, X, W)
+        tmax = 0.0
+        for i in range(r):
+            for j in range(r):
+                T[i, j] = W[i, j] * (sc / k)
+                E[i, j] += T[i, j]
+                tmax = max(tmax, abs(T[i, j]))
+        if tmax <= 1e-18:
+            break
+    for _ in range(s):
+        _matmul(E, E, W)
+        for i in range(r):
+            for j in range(r):
+                E[i, j] = W[i, j]
+
+
+@njit(cache=True, nogil=True)
+def _sqrtm(A, Y):
+    """Principal square root by the Denman-Beavers iteration; False when it does not converge (an
+    eigenvalue on or near the closed negative real axis)."""
+    r = A.shape[0]
+    Z = np.zeros_like(A)
+    Yi = np.zeros_like(A)
+    Zi = np.zeros_like(A)
+    for i in range(r):
+        for j in range(r):
+            Y[i, j] = A[i, j]
+            Z[i, j] = 0.0
+        Z[i, i] = 1.0
+    for _ in range(60):
+        if not _inverse(Y, Yi) or not _inverse(Z, Zi):
+            return False
+        d = 0.0
+        ny = 0.0
+        for i in range(r):
+            for j in range(r):
+                yn = 0.5 * (Y[i, j] + Zi[i, j])
+                d = max(d, abs(yn - Y[i, j]))
+                ny = max(ny, abs(yn))
+                Y[i, j] = yn
+                Z[i, j] = 0.5 * (Z[i, j] + Yi[i, j])
+        if d <= 1e-15 * ny:
+            return True
+    return False
+
+
+@njit(cache=True, nogil=True)
+def logm(G, L):
+    """Principal logarithm: square roots until ``||G^(1/2^s) - 1||_1 <= 0.2``, then
+    ``log A = 2 atanh(Z)``, ``Z = (A - 1)(A + 1)^-1`` (the series ``2 (Z + Z^3/3 + ...)``), times ``2^s``.
+    False when a square root fails or more than 40 are needed."""
+    r = G.shape[0]
+    A = G.copy()
+    B = np.zeros_like(G)
+    s = 0
+    while True:
+        d = 0.0
+        for j in range(r):
+            c = 0.0
+            for i in range(r):
+                c += abs(A[i, j] - (1.0 if i == j else 0.0))
+            d = max(d, c)
+        if d <= 0.2:
+            break
+        if s >= 40 or not _sqrtm(A, B):
+            return False
+        for i in range(r):
+            for j in range(r):
+                A[i, j] = B[i, j]
+        s += 1
+    Am = A.copy()
+    Ap = A.copy()
+    for i in range(r):
+        Am[i, i] -= 1.0
+        Ap[i, i] += 1.0
+    Api = np.zeros_like(A)
+    if not _inverse(Ap, Api):
+        return False
+    Z = np.zeros_like(A)
+    _matmul(Am, Api, Z)
+    Z2 = np.zeros_like(A)
+    _matmul(Z, Z, Z2)
+    T = Z.copy()
+    W = np.zeros_like(A)
+    for i in range(r):
+        for j in range(r):
+            L[i, j] = Z[i, j]
+    for k in range(1, 60):
+        _matmul(T, Z2, W)
+        tmax = 0.0
+        for i in range(r):
+            for j in range(r):
+                T[i, j] = W[i, j]
+                L[i, j] += W[i, j] / (2 * k + 1)
+                tmax = max(tmax, abs(W[i, j]))
+        if tmax <= 1e-18:
+            break
+    f = 2.0 * 2.0**s
+    for i in range(r):
+        for j in range(r):
+            L[i, j] *= f
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _project(X, proj, cplx, out):
+    """``out = proj @ vec(X)`` (real parts, then imaginary parts when ``cplx``)."""
+    r = X.shape[0]
+    n = proj.shape[0]
+    for a in range(n):
+        acc = 0.0
+        for i in range(r):
+            for j in range(r):
+                acc += proj[a, i * r + j] * X[i, j].real
+                if cplx:
+                    acc += proj[a, r * r + i * r + j] * X[i, j].imag
+        out[a] = acc
+
+
+@njit(cache=True, nogil=True)
+def exp_batch(x, mats, out):
+    """``out[N] = exp(rho(x[N]))``, ``rho(x) = x^a mats[a]``."""
+    N, n = x.shape
+    r = mats.shape[1]
+    X = np.zeros((r, r), dtype=mats.dtype)
+    E = np.zeros((r, r), dtype=mats.dtype)
+    for it in range(N):
+        for i in range(r):
+            for j in range(r):
+                acc = 0.0 * mats[0, i, j]
+                for a in range(n):
+                    acc += x[it, a] * mats[a, i, j]
+                X[i, j] = acc
+        expm(X, E)
+        for i in range(r):
+            for j in range(r):
+                out[it, i, j] = E[i, j]
+
+
+@njit(cache=True, nogil=True)
+def ad_batch(G, mats, proj, cplx, out):
+    """``out[N] = Ad(g)``: ``G E_b G^-1 = Ad_ab E_a`` projected on the ``E_a``; NaN when G is singular."""
+    N, r, _ = G.shape
+    n = mats.shape[0]
+    Gi = np.zeros((r, r), dtype=G.dtype)
+    W = np.zeros((r, r), dtype=G.dtype)
+    X = np.zeros((r, r), dtype=G.dtype)
+    col = np.zeros(n)
+    for it in range(N):
+        Gt = G[it]
+        if not _inverse(Gt, Gi):
+            for a in range(n):
+                for b in range(n):
+                    out[it, a, b] = np.nan
+            continue
+        for b in range(n):
+            _matmul(Gt, mats[b], W)
+            _matmul(W, Gi, X)
+            _project(X, proj, cplx, col)
+            for a in range(n):
+                out[it, a, b] = col[a]
+
+
+@njit(cache=True, nogil=True)
+def log_batch(G, mats, proj, cplx, out, ok):
+    """``out[N]``: the coordinates of the principal logarithm of ``G[N]`` on the ``E_a``; ``ok[N]``
+    when it exists and ``exp(rho(x)) = G`` to ``1e3 eps cond max(1, |G|) r`` (``cond = exp(||rho(x)||_1)``,
+    the acceptance test of Representation._accept)."""
+    N, r, _ = G.shape
+    n = mats.shape[0]
+    L = np.zeros((r, r), dtype=G.dtype)
+    X = np.zeros((r, r), dtype=G.dtype)
+    E = np.zeros((r, r), dtype=G.dtype)
+    x = np.zeros(n)
+    eps = 2.220446049250313e-16
+    for it in range(N):
+        ok[it] = False
+        Gt = G[it]
+        if not logm(Gt, L):
+            continue
+        _project(L, proj, cplx, x)
+        for i in range(r):
+            for j in range(r):
+                acc = 0.0 * mats[0, i, j]
+                for a in range(n):
+                    acc += x[a] * mats[a, i, j]
+                X[i, j] = acc
+        expm(X, E)
+        err = 0.0
+        gmax = 0.0
+        for i in range(r):
+            for j in range(r):
+                err = max(err, abs(E[i, j] - Gt[i, j]))
+                gmax = max(gmax, abs(Gt[i, j]))
+        cond = math.exp(min(50.0, _norm1(X)))
+        good = err <= 1e3 * eps * cond * max(1.0, gmax) * r
+        for a in range(n):
+            out[it, a] = x[a]
+            if not math.isfinite(x[a]):
+                good = False
+        ok[it] = good
+
+
+@njit(cache=True, nogil=True)
+def pack_G(G, gpart, gi, gj, off, y):
+    """``y[:, off + v] = Re/Im G[:, gi[v], gj[v]]`` (``gpart[v]`` 0 real, 1 imaginary)."""
+    for it in range(G.shape[0]):
+        for v in range(gpart.shape[0]):
+            z = G[it, gi[v], gj[v]]
+            y[it, off + v] = z.real if gpart[v] == 0 else z.imag
+
+
+@njit(cache=True, nogil=True)
+def unpack_G(y, gpart, gi, gj, off, G, unit):
+    """The inverse of :func:`pack_G` (entries outside the pattern zero); ``unit``: ``1j`` for a complex
+    ``G`` (0.0 for a real one, whose entries are all real parts)."""
+    N, r, _ = G.shape
+    for it in range(N):
+        for i in range(r):
+            for j in range(r):
+                G[it, i, j] = 0.0
+        for v in range(gpart.shape[0]):
+            if gpart[v] == 0:
+                G[it, gi[v], gj[v]] += y[it, off + v]
+            else:
+                G[it, gi[v], gj[v]] += unit * y[it, off + v]
+
+
+@njit(cache=True, nogil=True)
+def estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est):
+    """Per row: ``est = max(|pi_A - pi_B|, |Ad(g_A) - Ad(g_B)|)`` (inf when not finite); ``GB``, ``AdB``
+    the group element and ``Ad`` of ``B``."""
+    N = A.shape[0]
+    r = mats.shape[1]
+    GA = np.zeros((N, r, r), dtype=mats.dtype)
+    AdA = np.zeros((N, n, n))
+    unpack_G(A, gpart, gi, gj, off, GA, unit)
+    unpack_G(B, gpart, gi, gj, off, GB, unit)
+    ad_batch(GA, mats, proj, cplx, AdA)
+    ad_batch(GB, mats, proj, cplx, AdB)
+    for it in range(N):
+        m = 0.0
+        for a in range(n):
+            m = max(m, abs(A[it, a] - B[it, a]))
+        for a in range(n):
+            for b in range(n):
+                m = max(m, abs(AdA[it, a, b] - AdB[it, a, b]))
+        est[it] = m if math.isfinite(m) else np.inf

@@ -1,0 +1,297 @@
+"""The protocol flow off su(2) against heyoka at equal error (issue 25), as a script.
+
+    python tests/benchmarks/full_state_vs_heyoka.py [--problems se3,so4,...] [--repeats 5]
+
+Method (the issue's):
+* heyoka integrates ``(pi, R = Ad(g))`` with ``dR/dt = R ad(Omega)``, ``Omega = I^-1 pi`` (and
+  ``Gamma = R^T gamma`` with gravity); the reference is heyoka in long double at tol 1e-19;
+* error = ``max(|pi - pi_ref|, |Ad(exp x) - R_ref|)``;
+* tstarg runs ``tstarg.refimpl.fast.implementation.flow`` at its default accuracy (the whole protocol
+  call: validation, model, flow, logarithm);
+* heyoka is charged its cheapest tolerance on a quarter-decade grid whose error is at or below ours;
+* CPU time (``time.process_time``), best of ``--repeats``, the contenders interleaved; compilation
+  excluded (each integrator built and run once before timing). BLAS on one thread.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+import scipy.linalg  # noqa: E402
+
+from tstarg.refimpl._catalogue import bianchi, catalogue, su2  # noqa: E402
+from tstarg.refimpl._cohomology import cocycle_basis  # noqa: E402
+from tstarg.refimpl.fast import implementation as FAST  # noqa: E402
+
+
+def problems() -> dict:
+    """name -> (algebra, Theta, Upsilon, inertia, potential, x0, pi0, T)."""
+    out = {}
+    # Kirchhoff's body in an ideal fluid: an ellipsoid (semi-axes 1, 0.6, 0.4, density of the fluid
+    # 1, body density 1.2) with Lamb's added masses and moments; pi = (angular, linear) impulse
+    se3 = catalogue("se(3)")
+    J = np.array([0.33, 0.45, 0.62]) * 1.2 + np.array([0.10, 0.21, 0.27])
+    M = 1.2 * 1.0 + np.array([0.25, 0.70, 1.35])
+    inertia = np.diag(np.concatenate([J, M]))
+    z6 = np.zeros((6, 6))
+    out["se3"] = (
+        se3,
+        z6,
+        z6,
+        inertia,
+        None,
+        np.array([0.1, -0.2, 0.15, 0.3, 0.1, -0.2]),
+        np.array([0.6, -0.4, 0.9, 1.0, 0.5, -0.7]),
+        10.0,
+    )
+    # Manakov's free top on so(4): M = J Omega + Omega J, so I(e_ij) = J_i + J_j in the basis e_ij
+    so4 = catalogue("so(4)")
+    Jm = np.array([1.0, 1.7, 2.3, 3.1])
+    pairs = [(i, j) for i in range(4) for j in range(i + 1, 4)]
+    out["so4"] = (
+        so4,
+        z6,
+        z6,
+        np.diag([Jm[i] + Jm[j] for i, j in pairs]),
+        None,
+        np.array([0.2, -0.1, 0.3, 0.05, -0.2, 0.1]),
+        np.array([1.0, -0.6, 0.8, 0.5, -0.9, 0.7]),
+        10.0,
+    )
+    rng = np.random.default_rng(25)
+    A = rng.standard_normal((8, 8))
+    z8 = np.zeros((8, 8))
+    out["su3"] = (
+        catalogue("su(3)"),
+        z8,
+        z8,
+        A @ A.T / 8 + np.eye(8),
+        None,
+        0.2 * rng.standard_normal(8),
+        rng.standard_normal(8),
+        10.0,
+    )
+    b3 = bianchi("III")
+    basis = cocycle_basis(b3, exact=False)
+    theta = np.asarray(sum(c * b for c, b in zip([0.5, -0.3, 0.2], basis)), float)
+    out["bianchi3_cocycle"] = (
+        b3,
+        theta,
+        np.zeros((3, 3)),
+        np.array([[1.0, 0.2, 0.0], [0.2, 1.5, -0.1], [0.0, -0.1, 2.0]]),
+        None,
+        np.array([0.3, -0.2, 0.1]),
+        np.array([1.5, -0.8, 1.1]),
+        10.0,
+    )
+    z3 = np.zeros((3, 3))
+    out["su2_asymmetric_heavy_top_T100"] = (
+        su2(),
+        z3,
+        z3,
+        np.diag([1.0, 1.3, 0.6]),
+        {"kind": "gravity", "L": np.array([0.2, 0.1, 1.0]), "gamma": np.array([0.0, 0.0, -1.0])},
+        np.array([0.1, 0.2, 0.0]),
+        np.array([0.3, 0.2, 2.0]),
+        100.0,
+    )
+    return out
+
+
+def heyoka_system(alg, theta, inertia, pot):
+    """``(pi, R)`` with ``dR/dt = R ad(Omega)``; gravity through ``Gamma = R^T gamma``."""
+    import heyoka as hy
+
+    f = np.asarray(alg.f, float)
+    n = f.shape[0]
+    Ii = np.linalg.inv(inertia)
+    pi = hy.make_vars(*[f"p{a}" for a in range(n)])
+    R = [[hy.make_vars(f"R{i}_{j}") for j in range(n)] for i in range(n)]
+
+    def lin(terms):
+        terms = [(c, e) for c, e in terms if c != 0]
+        if not terms:
+            return hy.expression(0.0)
+        return hy.sum([float(c) * e for c, e in terms])
+
+    om = [lin([(Ii[b, c], pi[c]) for c in range(n)]) for b in range(n)]
+    Gam = None
+    if pot is not None:
+        Gam = [lin([(pot["gamma"][m], R[m][b]) for m in range(n)]) for b in range(n)]
+        GL = np.einsum("mbc,c->bm", f, pot["L"])
+    sys_ = []
+    for a in range(n):
+        terms = [(-f[m, a, b], pi[m] * om[b]) for m in range(n) for b in range(n) if f[m, a, b]]
+        terms += [(theta[a, b], om[b]) for b in range(n) if theta[a, b]]
+        if Gam is not None:
+            terms += [(GL[a, m], Gam[m]) for m in range(n) if GL[a, m]]
+        sys_.append((pi[a], lin(terms)))
+    adO = [[lin([(f[k, b, j], om[b]) for b in range(n)]) for j in range(n)] for k in range(n)]
+    for i in range(n):
+        for j in range(n):
+            sys_.append((R[i][j], hy.sum([R[i][k] * adO[k][j] for k in range(n)])))
+    return sys_
+
+
+def y0_of(alg, x0, pi0):
+    n = len(x0)
+    R0 = scipy.linalg.expm(np.einsum("a,mab->mb", x0, np.asarray(alg.f, float)))
+    return np.concatenate([pi0, R0.ravel()]), n
+
+
+def err_of(alg, x, pi, yref, n):
+    Ad = scipy.linalg.expm(np.einsum("a,mab->mb", np.asarray(x, float), np.asarray(alg.f, float)))
+    ref = np.asarray(yref, float)
+    return max(float(np.max(np.abs(pi - ref[:n]))), float(np.max(np.abs(Ad.ravel() - ref[n:]))))
+
+
+def cpu_best(fn, repeats: int, inner: int) -> float:
+    best = np.inf
+    for _ in range(repeats):
+        t0 = time.process_time()
+        for _ in range(inner):
+            fn()
+        best = min(best, (time.process_time() - t0) / inner)
+    return best
+
+
+def main(argv=None) -> int:
+    import heyoka as hy
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--problems", default=",".join(problems()))
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument(
+        "--generated",
+        action="store_true",
+        help="run the kernel generated per structure on every call (GENERATED_MIN_WORK = 0)",
+    )
+    ap.add_argument(
+        "--batch",
+        type=int,
+        default=0,
+        help="instead: M trajectories of se3 through the protocol against taylor_adaptive_batch "
+        "at the tolerance of the single-trajectory comparison (5.6e-13)",
+    )
+    args = ap.parse_args(argv)
+    if args.batch:
+        return batch(args.batch, args.repeats)
+    if args.generated:
+        from tstarg.refimpl import _full_state
+
+        _full_state.GENERATED_MIN_WORK = 0.0
+    probs = problems()
+    rows = []
+    for name in args.problems.split(","):
+        alg, theta, ups, inertia, pot, x0, pi0, T = probs[name]
+        print(f"[{name}] building heyoka systems ...", flush=True)
+        sys_ = heyoka_system(alg, theta, inertia, pot)
+        y0, n = y0_of(alg, x0, pi0)
+        compact = n >= 8
+        ref = hy.taylor_adaptive(
+            sys_,
+            list(y0.astype(np.longdouble)),
+            tol=np.longdouble(1e-19),
+            fp_type=np.longdouble,
+            compact_mode=True,
+        )
+        ref.propagate_until(np.longdouble(T))
+        yref = np.array(ref.state, dtype=np.longdouble)
+
+        def ours():
+            return FAST.flow(alg.f, theta, ups, inertia, pot, x0, pi0, T)
+
+        t0 = time.process_time()
+        x, pi = ours()
+        first = time.process_time() - t0
+        e_ours = err_of(alg, x, pi, yref, n)
+        print(f"[{name}] tstarg first call {first:.1f} s CPU, error {e_ours:.2e}", flush=True)
+        chosen = None
+        k0 = max(16, int(np.floor(-4 * np.log10(e_ours))) - 6)  # from 10^1.5 above our error down
+        for k in range(k0, 70):  # tol = 10^(-k/4) on the quarter-decade grid
+            tol = 10.0 ** (-k / 4)
+            ta = hy.taylor_adaptive(sys_, y0, tol=tol, compact_mode=compact)
+            ta.propagate_until(T)
+            e = max(
+                float(np.max(np.abs(np.asarray(ta.state)[:n] - np.asarray(yref[:n], float)))),
+                float(np.max(np.abs(np.asarray(ta.state)[n:] - np.asarray(yref[n:], float)))),
+            )
+            if e <= e_ours:
+                chosen = (tol, ta, e)
+                break
+        if chosen is None:
+            print(f"[{name}] heyoka never reached {e_ours:.2e}", flush=True)
+            continue
+        tol, ta, e_hy = chosen
+
+        def hey():
+            ta.time = 0.0
+            ta.state[:] = y0
+            ta.propagate_until(T)
+
+        inner_o = max(1, int(0.05 / max(cpu_best(ours, 1, 1), 1e-6)))
+        inner_h = max(1, int(0.05 / max(cpu_best(hey, 1, 1), 1e-6)))
+        t_o, t_h = np.inf, np.inf
+        for _ in range(args.repeats):  # interleaved
+            t_o = min(t_o, cpu_best(ours, 1, inner_o))
+            t_h = min(t_h, cpu_best(hey, 1, inner_h))
+        rows.append((name, t_o, e_ours, tol, t_h, e_hy, t_o / t_h))
+        print(
+            f"[{name}] tstarg {t_o * 1e3:.3f} ms (error {e_ours:.1e}) | heyoka tol {tol:.1e} "
+            f"{t_h * 1e3:.3f} ms (error {e_hy:.1e}) | ratio {t_o / t_h:.2f}",
+            flush=True,
+        )
+    print("\n| problem | tstarg flow (default accuracy) | heyoka at equal error | ratio |")
+    print("|---|---|---|---|")
+    for name, t_o, e_o, tol, t_h, e_h, r in rows:
+        print(
+            f"| {name} | {t_o * 1e3:.3f} ms, error {e_o:.1e} | {t_h * 1e3:.3f} ms "
+            f"(tol {tol:.1e}, error {e_h:.1e}) | **{r:.2f}** |"
+        )
+    return 0
+
+
+def batch(M: int, repeats: int) -> int:
+    """se(3): M trajectories (x0, pi0 perturbed by 1e-2 normal noise) through the protocol flow against
+    heyoka's ``taylor_adaptive_batch`` (its recommended SIMD width) at tol 5.6e-13."""
+    import heyoka as hy
+
+    alg, theta, ups, inertia, pot, x0, pi0, T = problems()["se3"]
+    rng = np.random.default_rng(0)
+    X0 = x0 + 1e-2 * rng.standard_normal((M, 6))
+    P0 = pi0 + 1e-2 * rng.standard_normal((M, 6))
+    sys_ = heyoka_system(alg, theta, inertia, pot)
+    W = hy.recommended_simd_size()
+    Y0 = np.stack([y0_of(alg, X0[i], P0[i])[0] for i in range(M)], axis=1)  # (d, M)
+    ta = hy.taylor_adaptive_batch(sys_, np.ascontiguousarray(Y0[:, :W]), tol=5.6e-13)
+
+    def hey():
+        for lo in range(0, M - M % W, W):
+            ta.set_time(0.0)
+            ta.state[:] = Y0[:, lo : lo + W]
+            ta.propagate_until(T)
+
+    def ours():
+        FAST.flow(alg.f, theta, ups, inertia, pot, X0, P0, T)
+
+    ours()
+    hey()
+    t_o = t_h = np.inf
+    for _ in range(repeats):
+        t_o = min(t_o, cpu_best(ours, 1, 1))
+        t_h = min(t_h, cpu_best(hey, 1, 1) * M / (M - M % W))
+    print(
+        f"batch se3 M = {M}: tstarg {t_o:.3f} s, heyoka batch (width {W}) {t_h:.3f} s, ratio {t_o / t_h:.2f}"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

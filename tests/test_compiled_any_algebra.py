@@ -1,0 +1,211 @@
+"""The compiled full-state Taylor flow on every Lie algebra (issue 25; refimpl._full_state).
+
+Definition checked: with ``Upsilon = 0`` the state ``(pi, [Gamma,] G = rho(g))`` obeys a quadratic field
+(``dG/dt = G rho(I^-1 pi)``), integrated by the compiled Taylor kernel; ``x(t)`` is the project's
+logarithm of ``g(t)``. It is the default of the protocol's fast ``flow`` off su(2) (``Upsilon = 0``).
+
+Independent routes: the mpmath reference flow (its own field in the chart ``(x, pi)`` with re-basing,
+Gragg-Bulirsch-Stoer at ``dps`` digits, its own logarithm at that precision) and, for the group-level
+helpers, scipy's ``expm``/``logm``.
+
+Error model of a flow against the reference: the two-run control promises ``tol`` per trajectory on
+``pi`` and ``Ad(g)`` (its estimate ``|A - B|`` or the proportional form with the safety factor 30);
+the comparison allows ``K tol max(1, |ref|)`` with ``K = 100`` (the estimate is an estimate, not a
+bound: Shampine's proportionality holds to a factor of a few) plus the rounding of the starting point
+amplified by the flow, ``C n eps`` with ``C = 10^3`` over the short times used here. ``x`` is compared
+to 9 significant digits: ``log`` of a group element with error ``e`` moves by ``cond(log) e``, and
+``cond(log) <= 10`` away from the cut locus on these trajectories.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+from tstarg.refimpl import _full_state as fs_mod
+from tstarg.refimpl import _full_state_kernel as fk
+from tstarg.refimpl._catalogue import bianchi, catalogue
+from tstarg.refimpl._cohomology import cocycle_basis
+from tstarg.refimpl._representation import representation_for
+from tstarg.refimpl.fast import implementation as FAST
+from tstarg.refimpl.flows import cached_model, fast_flow, reference_flow
+from tstarg.refimpl.flows.registry import choose as _default_method
+
+EPS = np.finfo(float).eps
+K = 100.0
+needs_numba = pytest.mark.skipif(not fs_mod._ct.HAVE_NUMBA, reason="numba not importable")
+
+
+def _inertia(n, seed):
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((n, n))
+    return A @ A.T / n + np.eye(n)
+
+
+def _model(name, seed=0):
+    """(algebra, Theta, Upsilon, inertia, potential, x0, pi0)."""
+    if name == "Bianchi III + cocycle":
+        alg = bianchi("III")
+        theta = np.asarray(
+            sum(c * b for c, b in zip([0.5, -0.3, 0.2], cocycle_basis(alg, exact=False))), float
+        )
+    else:
+        alg = catalogue(name)
+        theta = None
+    n = alg.f.shape[0]
+    rng = np.random.default_rng(seed + 11)
+    z = np.zeros((n, n))
+    return (
+        alg,
+        z if theta is None else theta,
+        z,
+        _inertia(n, seed),
+        None,
+        0.2 * rng.standard_normal(n),
+        rng.standard_normal(n),
+    )
+
+
+ALGEBRAS = ["se(3)", "so(4)", "su(3)", "Bianchi III + cocycle", "h(3)", "sl(2,R)", "sl(3,R)"]
+CHEAP = [
+    "se(3)",
+    "so(4)",
+    "Bianchi III + cocycle",
+    "h(3)",
+    "sl(2,R)",
+]  # the reference is cheap at n <= 6
+
+
+def _ad(f, x):
+    return scipy.linalg.expm(np.einsum("a,mab->mb", np.asarray(x, float), np.asarray(f, float)))
+
+
+def _check_against_reference(args, T, tol, dps=15):
+    alg, theta, ups, inertia, pot, x0, pi0 = args
+    f = alg.f
+    n = f.shape[0]
+    x, pi = fast_flow(alg, theta, ups, inertia, pot, x0, pi0, T, tol=tol)
+    xr, pir = reference_flow(alg, theta, ups, inertia, pot, x0, pi0, T, dps=dps)
+    xr, pir = np.asarray(xr, float), np.asarray(pir, float)
+    floor = 1e3 * n * EPS
+    assert np.all(np.isfinite(x)) and np.all(np.isfinite(pi))
+    assert np.max(np.abs(pi - pir)) <= (K * tol + floor) * max(1.0, np.max(np.abs(pir))), (pi, pir)
+    Ad, Adr = _ad(f, x), _ad(f, xr)
+    assert np.max(np.abs(Ad - Adr)) <= (K * tol + floor) * max(1.0, np.max(np.abs(Adr))), (x, xr)
+    assert np.max(np.abs(x - xr)) <= 1e-9 * max(1.0, np.max(np.abs(xr))), (x, xr)
+
+
+@needs_numba
+@pytest.mark.parametrize("name", ALGEBRAS)
+def test_default_flow_is_the_compiled_full_state(name):
+    """Off su(2) with Upsilon = 0 the protocol's default full-state method is the compiled Taylor flow."""
+    alg, theta, ups, inertia, pot, x0, pi0 = _model(name)
+    model = cached_model(alg, theta, ups, inertia, pot)
+    assert fs_mod.applies(model)
+    assert _default_method(model, full=True).name == "taylor"
+
+
+@needs_numba
+@pytest.mark.parametrize("name", CHEAP)
+def test_full_state_against_reference_short(name):
+    """T = 0.3 at tol 1e-11 against the reference at 15 digits: pi, Ad(g) and x."""
+    _check_against_reference(_model(name), 0.3, 1e-11)
+
+
+@pytest.mark.slow
+@needs_numba
+@pytest.mark.parametrize("name", ["su(3)", "sl(3,R)"])
+def test_full_state_against_reference_dim8_slow(name):
+    """Dimension 8 (su(3) complex 3 x 3, sl(3,R) real 3 x 3): T = 0.5 against the reference."""
+    _check_against_reference(_model(name), 0.5, 1e-11)
+
+
+@needs_numba
+def test_gravity_on_se3_against_reference():
+    """A heavy body on se(3) (twee15: V(g) = <L, Ad(g)^T gamma>), Gamma integrated with the state."""
+    alg, theta, ups, inertia, _, x0, pi0 = _model("se(3)", seed=3)
+    pot = {
+        "kind": "gravity",
+        "L": np.array([0.1, -0.2, 0.3, 0.0, 0.05, 0.0]),
+        "gamma": np.array([0.0, 0.0, 0.0, 0.0, 0.0, -1.0]),
+    }
+    _check_against_reference((alg, theta, ups, inertia, pot, x0, pi0), 0.3, 1e-11)
+
+
+@needs_numba
+def test_protocol_flow_backwards_and_batched():
+    """The protocol call (default tolerance) on so(4): a batch equals its rows one by one (each row its
+    own control), and flowing back from the end returns to the start within the tolerance."""
+    alg, theta, ups, inertia, pot, x0, pi0 = _model("so(4)", seed=5)
+    X0 = np.stack([x0, 0.5 * x0, -x0])
+    P0 = np.stack([pi0, 2 * pi0, pi0[::-1]])
+    X, P = FAST.flow(alg.f, theta, ups, inertia, pot, X0, P0, 1.5)
+    for i in range(3):
+        xi, pii = FAST.flow(alg.f, theta, ups, inertia, pot, X0[i], P0[i], 1.5)
+        np.testing.assert_array_equal(xi, X[i])
+        np.testing.assert_array_equal(pii, P[i])
+    xb, pb = FAST.flow(alg.f, theta, ups, inertia, pot, X[0], P[0], -1.5)
+    tol = FAST.flow_tolerance
+    assert np.max(np.abs(pb - pi0)) <= 2 * K * tol * max(1.0, np.max(np.abs(pi0)))
+    assert np.max(np.abs(_ad(alg.f, xb) - _ad(alg.f, x0))) <= 2 * K * tol
+
+
+@needs_numba
+@pytest.mark.parametrize("name", ["se(3)", "su(3)", "h(3)", "sl(3,R)"])
+def test_group_helpers_against_scipy(name):
+    """exp, Ad and the principal log of the compiled helpers against scipy's expm/logm."""
+    alg = catalogue(name)
+    rep = representation_for(alg)
+    mats = np.ascontiguousarray(rep.mats, dtype=complex if np.iscomplexobj(rep.mats) else float)
+    cplx = bool(np.iscomplexobj(mats))
+    n = alg.f.shape[0]
+    rng = np.random.default_rng(4)
+    x = 0.7 * rng.standard_normal((5, n))
+    G = np.empty((5,) + mats.shape[1:], dtype=mats.dtype)
+    fk.exp_batch(x, mats, G)
+    Gs = scipy.linalg.expm(np.einsum("Na,aij->Nij", x, mats))
+    # expm's error: c eps exp(|X|_1) |G|, c = 100 (both routes)
+    for j in range(5):
+        cond = np.exp(np.linalg.norm(np.einsum("a,aij->ij", x[j], mats), 1))
+        assert np.max(np.abs(G[j] - Gs[j])) <= 100 * EPS * cond * max(1, np.max(np.abs(Gs[j])))
+    proj = np.ascontiguousarray(fs_mod._projector(mats))
+    Ad = np.empty((5, n, n))
+    fk.ad_batch(G, mats, proj, cplx, Ad)
+    for j in range(5):
+        Adr = _ad(alg.f, x[j])
+        assert np.max(np.abs(Ad[j] - Adr)) <= 1e3 * EPS * max(1, np.max(np.abs(Adr))) ** 2
+    xs = np.empty((5, n))
+    ok = np.zeros(5, dtype=np.bool_)
+    fk.log_batch(G, mats, proj, cplx, xs, ok)
+    for j in range(5):
+        L = scipy.linalg.logm(G[j])
+        if ok[j]:  # the principal log lies in the algebra: the same matrix as scipy's
+            assert np.max(np.abs(np.einsum("a,aij->ij", xs[j], mats) - L)) <= 1e-10 * max(
+                1, np.max(np.abs(L))
+            )
+        else:  # refused only when scipy's principal log is not in the algebra either
+            xl, res = rep._project(L, rep.mats)
+            assert res > 1e-8 or not rep._accept(xl, G[j])
+    assert ok.sum() >= 3  # |x| ~ 0.7 sqrt(n): mostly inside the principal strip
+
+
+@needs_numba
+def test_structure_counts_follow_sparsity():
+    """se(3): G's last row is constant (0, 0, 0, 1) and no state variable is kept for G's zero block;
+    the products counted on the sparsity of rho (r nnz(M)), not r^2 n."""
+    alg, theta, ups, inertia, pot, x0, pi0 = _model("se(3)")
+    model = cached_model(alg, theta, ups, inertia, pot)
+    fs = fs_mod.full_state(model)
+    assert fs.d == 6 + 12 + 1  # pi, the 3 x 4 varying block of G, and the constant G_33
+    assert len(fs.gvars) == 13
+    nprod = len({(u, w) for v in fs.names for _, u, w in fs.quad[v]})
+    assert nprod <= 3 * 9 + 36  # G: 3 rows x 9 nonzero entries of M; body: pairs (m, b) of f
+
+
+@pytest.mark.slow
+@needs_numba
+@pytest.mark.parametrize("name", ALGEBRAS)
+def test_full_state_against_reference_T10_slow(name):
+    """T = 10 (re-based many times in the reference) at the protocol's default tolerance."""
+    _check_against_reference(_model(name, seed=1), 10.0, 1e-10, dps=20)
