@@ -22,11 +22,31 @@ Pareto front: a point ``p`` is dominated when another point ``q`` has ``time_q <
 
 from __future__ import annotations
 
+import inspect
 import math
+import textwrap
 import time
 from dataclasses import dataclass, field
 
+import mpmath
 import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.linalg import expm
+
+from tstarg.refimpl import catalogue
+from tstarg.refimpl._taylor import quadratic_field
+from tstarg.refimpl.fast import Fast
+from tstarg.refimpl.flows import (
+    METHODS,
+    NumpyModel,
+    euler_top_closed_form,
+    integrate_fast,
+    reference_trajectory,
+    scalar_rhs,
+)
+from tstarg.refimpl.reference import Reference
+
+from .jsonl import CommandImplementation
 
 __all__ = [
     "ERROR_TARGETS",
@@ -55,8 +75,11 @@ __all__ = [
     "ladder_task",
     "own_front",
     "pareto_front",
+    "batch_figure",
+    "heyoka_version",
     "plot_batch",
     "plot_work_precision",
+    "work_precision_figure",
     "reference_task",
     "run_fast",
     "run_scipy",
@@ -169,8 +192,6 @@ class FlowProblem:
     notes: list = field(default_factory=list)
 
     def arrays(self):
-        from tstarg.refimpl import catalogue
-
         alg = catalogue(self.algebra)
         n = alg.f.shape[0]
         theta = (
@@ -195,15 +216,11 @@ class FlowProblem:
         return alg, theta, up, np.array(self.inertia, dtype=float), pot
 
     def model(self):
-        from tstarg.refimpl.flows import NumpyModel
-
         alg, th, up, inertia, pot = self.arrays()
         return NumpyModel(alg, th, up, inertia, pot)
 
     def y0(self) -> np.ndarray:
         """The body state at t = 0: ``pi0`` and, with gravity, ``Gamma0 = Ad(exp(x0))^T gamma`` (twee16)."""
-        from scipy.linalg import expm
-
         alg, _, _, _, pot = self.arrays()
         pi0 = np.array(self.pi0, dtype=float)
         if pot is None:
@@ -287,10 +304,6 @@ def reference_task(item) -> dict:
 
     Returns the components as decimal strings at the reference precision and, for GBS, the digits
     on which a second run at ``dps + 15`` digits agrees (``check``)."""
-    import mpmath
-
-    from tstarg.refimpl.flows import euler_top_closed_form, reference_trajectory
-
     name, quick, dps, check = item
     p = flow_problem(name, quick)
     alg, th, up, inertia, pot = p.arrays()
@@ -330,8 +343,6 @@ def fast_methods(model) -> tuple[list[str], dict[str, str]]:
     Picked up dynamically: a method whose ``applies(model)`` is False is skipped with its reason;
     an RKMK variant is skipped on the body system because there it is the same computation as its
     base Runge-Kutta method (the Munthe-Kaas re-basing acts on the configuration only)."""
-    from tstarg.refimpl.flows import METHODS
-
     names, skipped = [], {}
     for name, meth in METHODS.items():
         ok, why = meth.applies(model)
@@ -362,6 +373,15 @@ def tol_ladder(quick: bool) -> list[float]:
     return list(TOL_LADDER_QUICK if quick else TOL_LADDER)
 
 
+def heyoka_version() -> str | None:
+    """heyoka's version, or None when it is not importable."""
+    try:
+        import heyoka  # optional contender (the bench extra)
+    except ImportError:
+        return None
+    return str(heyoka.__version__)
+
+
 def have_heyoka() -> bool:
     try:
         import heyoka  # noqa: F401 - optional contender (the bench extra)
@@ -380,8 +400,6 @@ def heyoka_integrator(problem: FlowProblem, model, tol: float):
     field of :func:`heyoka_rational_rhs` (vier10/vier11 through the adjugate and determinant of Psi).
     The compile time is recorded in :data:`HEYOKA_COMPILE`, apart from the run times."""
     import heyoka as hy  # optional contender
-
-    from tstarg.refimpl._taylor import quadratic_field
 
     key = (problem.name, problem.T, float(tol))
     if key in _HEYOKA:
@@ -540,8 +558,6 @@ def heyoka_batch_integrator(problem: FlowProblem, model, tol: float, width: int 
     :data:`HEYOKA_COMPILE` under ``(name, T, tol, "batch")``). Returns ``(ta, width)``."""
     import heyoka as hy  # optional contender
 
-    from tstarg.refimpl._taylor import quadratic_field
-
     width = int(width or hy.recommended_simd_size())
     key = (problem.name, problem.T, float(tol), "batch", width)
     if key in _HEYOKA:
@@ -587,8 +603,6 @@ def run_heyoka_batch(problem: FlowProblem, model, tol: float, Y0: np.ndarray) ->
 def run_fast(problem: FlowProblem, model, name: str, nsteps, y0=None) -> np.ndarray:
     """End state(s) ``(d, N)`` of the fast method ``name`` with ``nsteps`` fixed steps (for an adaptive
     method: ``nsteps`` is its tolerance)."""
-    from tstarg.refimpl.flows import METHODS, integrate_fast
-
     n = model.n
     if y0 is None:
         x0 = np.array(problem.x0, dtype=float)[:, None]
@@ -612,8 +626,6 @@ def scipy_rhs(model):
     """The right-hand side handed to scipy: the generated scalar body field (``Upsilon = 0``), else the
     numpy body field."""
     if model.upsilon_zero:
-        from tstarg.refimpl.flows import scalar_rhs
-
         return scalar_rhs(model), "generated scalar Python body field (refimpl.flows.scalar_rhs)"
     F = model.body_rhs()
     return (lambda t, y: F(y[:, None])[:, 0]), "numpy body field (NumpyModel.body_rhs)"
@@ -621,8 +633,6 @@ def scipy_rhs(model):
 
 def run_scipy(problem: FlowProblem, rhs, solver: str, rtol: float, y0=None):
     """``solve_ivp`` with ``rtol = atol``; Radau without a Jacobian (scipy's finite differences)."""
-    from scipy.integrate import solve_ivp
-
     y0 = problem.y0() if y0 is None else y0
     with np.errstate(over="ignore", invalid="ignore"):
         return solve_ivp(rhs, (0.0, problem.T), y0, method=solver, rtol=rtol, atol=rtol)
@@ -649,8 +659,6 @@ def ladder_task(item) -> dict:
     ``nfev_cap``, and for fast methods when the declared order predicts that even the last rung
     cannot reach ``target_cap`` (``e_N (N / N_max)^order > target_cap``).
     """
-    from tstarg.refimpl.flows import METHODS
-
     name, quick, kind, meth, ladder, ref, floor, nfev_cap, target_cap = item
     p = flow_problem(name, quick)
     model = p.model()
@@ -715,6 +723,7 @@ def time_points(
     max_rounds: int = 7,
     slow: float = 1.0,
     medium: float = 0.1,
+    warmed=(),
 ) -> list[dict]:
     """Best run time of each zero-argument callable, serially in this process.
 
@@ -728,14 +737,15 @@ def time_points(
     Two clocks per run: ``time.process_time`` (CPU time of this process: the runs are single
     threaded with BLAS pinned to one thread, so on an idle machine it equals the wall time, and
     on a shared machine it leaves out the time other processes hold the core) and
-    ``time.perf_counter`` (wall). Returns ``{"time": min CPU, "wall": min wall, "repeats"}``.
+    ``time.perf_counter`` (wall). ``warmed``: indices of calls the caller has already run once (their
+    groups get no warm-up here). Returns ``{"time": min CPU, "wall": min wall, "repeats"}``.
     """
     groups = list(range(len(calls))) if groups is None else list(groups)
     if len(groups) != len(calls):
         raise ValueError(
             f"groups must name one group per call: {len(groups)} groups for {len(calls)} calls"
         )
-    seen = set()
+    seen = {groups[i] for i in warmed}  # groups whose code already ran once (the caller's warm-up)
     for g, fn in zip(groups, calls):
         if g not in seen:
             seen.add(g)
@@ -761,9 +771,6 @@ def bracket_cases(quick: bool = False) -> list[dict]:
     """Poisson-tensor problems: su(2) and se(3) with a coboundary Theta = -xi.f (zeven3), a random
     antisymmetric Upsilon and random points away from the degenerate set (cond(Phi) < 1e3).
     Deterministic (``default_rng`` with fixed seeds)."""
-    from tstarg.refimpl import catalogue
-    from tstarg.refimpl.fast import Fast
-
     out = []
     for seed, name in enumerate(("su(2)", "se(3)")):
         alg = catalogue(name)
@@ -789,8 +796,6 @@ def bracket_cases(quick: bool = False) -> list[dict]:
 
 
 def _ref_P(alg, th, U, x, pi, dps, route):
-    from tstarg.refimpl.reference import Reference
-
     R = Reference(dps)
     P = R.poisson_tensor_mp(alg.f, th, U, x, pi, route=route)
     return P
@@ -800,11 +805,6 @@ def bracket_error_task(item) -> float:
     """Task: ``max_ij |P_ij - Pref_ij| / max_ij |Pref_ij|`` at one point, ``Pref`` at ``high`` digits.
 
     ``item = (case index, quick, point index, kind, dps, route, high)``; kind ``"fast"`` or ``"reference"``."""
-    import mpmath
-
-    from tstarg.refimpl import catalogue
-    from tstarg.refimpl.fast import Fast
-
     ci, quick, pj, kind, dps, route, high = item
     case = bracket_cases(quick)[ci]
     alg = catalogue(case["algebra"])
@@ -826,10 +826,6 @@ def bracket_error_task(item) -> float:
 
 def bracket_call(case: dict, kind: str, dps: int | None, route: str):
     """A zero-argument callable evaluating the Poisson tensor at every point of ``case`` (for timing)."""
-    from tstarg.refimpl import catalogue
-    from tstarg.refimpl.fast import Fast
-    from tstarg.refimpl.reference import Reference
-
     alg = catalogue(case["algebra"])
     th, U, X, Pi = case["theta"], case["upsilon"], case["x"], case["pi"]
     if kind == "fast":
@@ -869,8 +865,6 @@ def batch_error_task(item) -> dict:
     Worst trajectory of the batch against a run with 4x the steps (its own error is ``4^-order``
     times smaller: Richardson), trajectory 0 against the mpmath reference, and scipy DOP853 at
     ``rtol`` on the first ``sub`` trajectories against the same fine run."""
-    from tstarg.refimpl.flows import METHODS
-
     name, quick, meth, steps, M, seed, ref, rtol, sub = item
     p = flow_problem(name, quick)
     model = p.model()
@@ -896,8 +890,6 @@ def batch_error_task(item) -> dict:
 
 def scipy_initial(problem: FlowProblem, x0, pi0, count: int) -> np.ndarray:
     """Body initial states ``(d, count)`` for scipy: ``pi0`` and ``Gamma0 = Ad(exp(x0))^T gamma``."""
-    from scipy.linalg import expm
-
     alg, _, _, _, pot = problem.arrays()
     if pot is None:
         return pi0[:, :count].copy()
@@ -910,12 +902,26 @@ def scipy_initial(problem: FlowProblem, x0, pi0, count: int) -> np.ndarray:
 
 # ------------------------------------------------------------------ figures
 def _plt():
-    import matplotlib
+    import matplotlib  # heavy and only for figures: loaded when one is drawn
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def _finish(fig, ax, title: str, width_chars: int) -> None:
+    """Title and legend placed so that nothing is cut or covers data: the title is the figure's
+    (wrapped to the canvas width, laid out inside it by constrained layout), the legend sits in its
+    own column right of the axes."""
+    fig.suptitle(textwrap.fill(title, width_chars), fontsize=10)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
+
+
+def _save(fig, path) -> None:
+    plt = _plt()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
 
 
 def plot_work_precision(
@@ -927,9 +933,16 @@ def plot_work_precision(
     targets=ERROR_TARGETS,
 ) -> None:
     """Error against time, log-log, one line per method (tstarg solid, scipy dashed), the Pareto
-    front circled and joined by a grey staircase."""
+    front circled and joined by a grey staircase (:func:`work_precision_figure`), saved to ``path``."""
+    _save(work_precision_figure(points, title, xlabel=xlabel, targets=targets), path)
+
+
+def work_precision_figure(
+    points: list[dict], title: str, *, xlabel: str = "CPU time per run [s]", targets=ERROR_TARGETS
+):
+    """The figure of :func:`plot_work_precision` (returned open, for tests of its layout)."""
     plt = _plt()
-    fig, ax = plt.subplots(figsize=(9, 6.2), constrained_layout=True)
+    fig, ax = plt.subplots(figsize=(11, 6.2), layout="constrained")
     methods = list(dict.fromkeys(p["method"] for p in points))
     colors = plt.get_cmap("tab10").colors
     others = plt.get_cmap("Dark2").colors
@@ -974,28 +987,29 @@ def plot_work_precision(
         ax.axhline(tgt, color="0.8", lw=0.8, ls=":")
     ax.set_xlabel(xlabel)
     ax.set_ylabel("error (worst component vs mpmath reference)")
-    import textwrap
 
-    ax.set_title(textwrap.fill(title, 100), fontsize=10)
     ax.grid(True, which="major", alpha=0.3)
-    ax.legend(fontsize=7, ncol=2, loc="best")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _finish(fig, ax, title, 110)
+    return fig
 
 
 def plot_batch(rows: list[dict], path, title: str) -> None:
+    """Time per trajectory against the batch size, ours and scipy's (:func:`batch_figure`)."""
+    _save(batch_figure(rows, title), path)
+
+
+def batch_figure(rows: list[dict], title: str):
+    """The figure of :func:`plot_batch` (returned open, for tests of its layout)."""
     plt = _plt()
-    fig, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)
+    fig, ax = plt.subplots(figsize=(10, 4.5), layout="constrained")
     Ms = [r["M"] for r in rows]
     ax.loglog(Ms, [r["ours_per_traj"] for r in rows], "o-", label=rows[0]["ours_label"])
     ax.loglog(Ms, [r["scipy_per_traj"] for r in rows], "s--", label=rows[0]["scipy_label"])
     ax.set_xlabel("trajectories in the batch")
     ax.set_ylabel("CPU time per trajectory [s]")
-    ax.set_title(title, fontsize=10)
     ax.grid(True, which="major", alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _finish(fig, ax, title, 100)
+    return fig
 
 
 def fmt_err(e) -> str:
@@ -1022,10 +1036,6 @@ def impl_flow_setting(impl) -> str:
     when it takes the protocol's optional ``steps=`` keyword (docs/design.md: a fixed step count; a
     JSON-lines program is asked for ``steps`` only when its ``capabilities`` declare an ``order``),
     ``"tol"`` when it takes a ``tol=`` keyword, else ``"default"``: one point at its own accuracy."""
-    import inspect
-
-    from .jsonl import CommandImplementation
-
     if isinstance(impl, CommandImplementation):
         return "steps" if getattr(impl, "order", None) is not None else "default"
     try:
@@ -1058,8 +1068,6 @@ def impl_flow_call(impl, problem: FlowProblem, setting_name: str, setting):
 def impl_body_state(problem: FlowProblem, x, pi) -> np.ndarray:
     """The protocol's full state ``(x, pi)`` at ``T`` as the body state the error is judged on:
     ``pi`` and, with gravity, ``Gamma = Ad(exp(x))^T gamma`` (twee16, as :meth:`FlowProblem.y0`)."""
-    from scipy.linalg import expm
-
     alg, _, _, _, pot = problem.arrays()
     pi = np.asarray(pi, dtype=float).reshape(-1)
     if pot is None:
@@ -1121,10 +1129,6 @@ def bracket_error_of_task(item) -> float:
 
     ``item = (case index, quick, point index, P as nested lists, high)``; ``P`` non-finite or of the
     wrong shape gives ``inf``."""
-    import mpmath
-
-    from tstarg.refimpl import catalogue
-
     ci, quick, pj, P, high = item
     case = bracket_cases(quick)[ci]
     alg = catalogue(case["algebra"])
@@ -1147,8 +1151,6 @@ def bracket_error_of_task(item) -> float:
 def impl_bracket_calls(impl, case: dict, batched: bool) -> list[tuple[str, int, object]]:
     """``(label suffix, points, callable)`` for the implementation's ``poisson_tensor`` on a bracket
     case: one call per point, and (``batched``) one call on the whole batch."""
-    from tstarg.refimpl import catalogue
-
     f = np.array(catalogue(case["algebra"]).f, dtype=float)
     th, U, X, Pi = case["theta"], case["upsilon"], case["x"], case["pi"]
     out = [
