@@ -131,8 +131,9 @@ class Model:
             return f"<{k} entr{'y' if k == 1 else 'ies'} above the diagonal>"
 
         if self.su2:  # the paper's names: Theta = -xi.f, Upsilon^mn = tau_l eps_lmn
-            assert self.xi is not None  # su(2): Theta = -xi.f always has its xi
-            th = "0" if self.theta_zero else f"-xi.f with xi=({_numbers(self.xi)})"
+            th = "0" if self.theta_zero else pairs(self.theta)
+            if not self.theta_zero and self.xi is not None:
+                th = f"-xi.f with xi=({_numbers(self.xi)})"
             tau = np.array([self.upsilon[1, 2], self.upsilon[2, 0], self.upsilon[0, 1]])
             up = "0" if self.upsilon_zero else f"tau.eps with tau=({_numbers(tau)})"
         else:

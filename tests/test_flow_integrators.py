@@ -92,12 +92,14 @@ def test_step_doubling_meets_its_tolerance_against_a_finer_run():
 
 
 def test_default_choice():
-    """The protocol's choice: the compiled Taylor methods on the su(2) full state, else DOP853 or
-    Gauss6 by Upsilon."""
+    """The protocol's choice: the compiled Taylor methods on the full state (su(2): quaternion,
+    ``taylor-rational`` with Upsilon; every other algebra with Upsilon = 0: G = rho(g)), else DOP853
+    (the body system) or Gauss6 (Upsilon != 0 off su(2))."""
     ups = np.einsum("l,lmn->mn", np.array([0.05, 0.02, -0.03]), SU2.f)
     b3 = catalogue("Bianchi III")
     z3 = np.zeros((3, 3))
-    assert choose(Model(b3, z3, z3, I, None), full=True).name == "dop853"
+    assert choose(Model(b3, z3, z3, I, None), full=True).name == "taylor"
+    assert choose(Model(b3, z3, z3, I, None), full=False).name == "dop853"
     assert choose(Model(b3, z3, ups, I, None), full=True).name == "gauss6"
     assert choose(Model(SU2, Z, Z, I, None), full=False).name == "dop853"
 

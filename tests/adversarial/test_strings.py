@@ -62,7 +62,6 @@ ALLOWED = {
     ("oracles/closed_forms.py", "integral_rates", "lambdify"): (
         "the gradient of an integral, a sympy expression built from HEAVY_TOPS' numbers"
     ),
-    ("reports/cmd_bench.py", "_main", "__import__"): "the literal module name 'heyoka'",
     ("refimpl/_rigorous_state.py", "_rep_balls", "sympify"): (
         "entries of rep.exact, the faithful representation's exact matrices built by "
         "refimpl._representation (never a caller's string)"
