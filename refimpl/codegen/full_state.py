@@ -11,6 +11,7 @@ structure, same recurrence; this one unrolls the products: about 2.2x faster per
 
 from __future__ import annotations
 
+from .rational import adaptive_step_lines
 from .taylor import _JIT, tree_sum
 
 __all__ = ["full_state_source"]
@@ -97,26 +98,7 @@ def full_state_source(fs) -> str:
             e = f"max({e}, abs({V(v, k)}))"
         return e
 
-    step = [
-        f"s = tol * max(1.0, {amax(0)})",
-        f"a1 = {amax('P - 1')}",
-        f"a2 = {amax('P')}",
-        "h = np.inf",
-        "if a1 > 0.0:",
-        I1 + "h = (s / a1) ** e1",
-        "if a2 > 0.0:",
-        I1 + "h = min(h, (s / a2) ** e2)",
-        "h *= damp",
-        "if not (h > 0.0):",
-        I1 + "status = -4",
-        I1 + "break",
-        "if t + h >= Tabs:",
-        I1 + "h = Tabs - t",
-        I1 + "t = Tabs",
-        "else:",
-        I1 + "t += h",
-        "hs = sgn * h",
-    ]
+    step = adaptive_step_lines(amax, I1, "h > 0.0")
     for ci, v in enumerate(fs.var):
         i = idx[v]
         step += [

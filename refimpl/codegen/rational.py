@@ -179,28 +179,9 @@ def kernel_source(rf) -> str:
             e = f"max({e}, abs({r}[{c}, {k}]))"
         return e
 
-    step = [
-        f"s = tol * max(1.0, {amax(0)})",
-        f"a1 = {amax('P - 1')}",
-        f"a2 = {amax('P')}",
-        "h = np.inf",
-        "if a1 > 0.0:",
-        I1 + "h = (s / a1) ** e1",
-        "if a2 > 0.0:",
-        I1 + "h = min(h, (s / a2) ** e2)",
-        "h *= damp",
-        # no step (the coefficients overflowed) or a step collapsed below float64's resolution of t:
-        # a real singularity of the field ahead (vier12); the caller checks the state is finite
-        "if not (h > stall * t):",
-        I1 + "status = -4",
-        I1 + "break",
-        "if t + h >= Tabs:",
-        I1 + "h = Tabs - t",
-        I1 + "t = Tabs",
-        "else:",
-        I1 + "t += h",
-        "hs = sgn * h",
-    ]
+    # no step (the coefficients overflowed) or a step collapsed below float64's resolution of t:
+    # a real singularity of the field ahead (vier12); the caller checks the state is finite
+    step = adaptive_step_lines(amax, I1, "h > stall * t")
     for c, (r, i) in enumerate(rows):
         step += [
             f"z = {r}[{i}, P]",
@@ -273,3 +254,30 @@ def kernel_source(rf) -> str:
     ]
     del I4, I5
     return "\n".join(src) + "\n"
+
+
+def adaptive_step_lines(amax, I1: str, accept: str) -> list[str]:
+    """The Jorba-Zou step of :mod:`refimpl._compiled_taylor` (from ``max|y_0|`` and the norms of the
+    last two coefficients, ``amax(k)`` the expression of ``max_c |Y_{k,c}|``) with the time
+    bookkeeping of the adaptive loops: ``status = -4`` and stop unless ``accept`` holds, the last step
+    clipped to ``Tabs``, ``hs`` the signed step. Shared by the rational and the full-state kernels."""
+    return [
+        f"s = tol * max(1.0, {amax(0)})",
+        f"a1 = {amax('P - 1')}",
+        f"a2 = {amax('P')}",
+        "h = np.inf",
+        "if a1 > 0.0:",
+        I1 + "h = (s / a1) ** e1",
+        "if a2 > 0.0:",
+        I1 + "h = min(h, (s / a2) ** e2)",
+        "h *= damp",
+        f"if not ({accept}):",
+        I1 + "status = -4",
+        I1 + "break",
+        "if t + h >= Tabs:",
+        I1 + "h = Tabs - t",
+        I1 + "t = Tabs",
+        "else:",
+        I1 + "t += h",
+        "hs = sgn * h",
+    ]
