@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
+import sympy
 
 from . import _compiled_tensors as _ctens
 from ._errors import ChartError, DegeneratePointError
@@ -106,7 +107,6 @@ def _is_su2(f: np.ndarray) -> bool:
 @lru_cache(maxsize=8)
 def _bernoulli_even(k_max: int) -> np.ndarray:
     """``b_k = B_2k / (2k)!`` for ``k = 1..k_max`` (exact rationals rounded once)."""
-    import sympy
 
     return np.array(
         [float(sympy.bernoulli(2 * k) / sympy.factorial(2 * k)) for k in range(1, k_max + 1)]

@@ -7,7 +7,10 @@ from __future__ import annotations
 
 import math
 
+import mpmath
 import numpy as np
+
+from ._reference_core import _to_mpf
 
 __all__ = ["check_time"]
 
@@ -28,10 +31,6 @@ def check_time(t, name: str = "t", *, allow_negative: bool = False) -> float:
         except OverflowError:  # an int beyond float64
             raise ValueError(f"{name} must be {cond}, got {t!r}") from None
     else:
-        import mpmath
-
-        from ._reference_core import _to_mpf
-
         try:
             with mpmath.workdps(30):
                 tv = float(_to_mpf(t))  # exact inputs accepted: Fraction, "1/2", mpf, sympy

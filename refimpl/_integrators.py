@@ -30,6 +30,7 @@ from typing import Callable, Sequence
 
 import mpmath
 import numpy as np
+from scipy.integrate._ivp import dop853_coefficients as d
 
 __all__ = [
     "gbs_mp",
@@ -130,8 +131,6 @@ def gbs_mp(
 
 # ------------------------------------------------------------------- numpy
 def _dop853_tableau():
-    from scipy.integrate._ivp import dop853_coefficients as d
-
     s = d.N_STAGES
     return (
         np.array(d.A[:s, :s], dtype=float),

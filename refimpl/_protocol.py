@@ -42,6 +42,7 @@ The obligations, in words (conventions of docs/conventions.md):
 
 from __future__ import annotations
 
+import inspect
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -371,8 +372,6 @@ class Implementation:
 
 
 def _check_class_against_spec() -> None:
-    import inspect
-
     for m in METHODS:
         fn = getattr(Implementation, m.name, None)
         if fn is None:

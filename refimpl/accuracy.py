@@ -15,6 +15,7 @@ from typing import Any
 
 import mpmath
 import numpy as np
+import sympy
 
 __all__ = ["to_mpf", "max_abs", "max_abs_diff", "correct_digits", "digits_of_agreement"]
 
@@ -30,8 +31,6 @@ def to_mpf(v: Any) -> mpmath.mpf:
     if isinstance(v, (complex, np.complexfloating, mpmath.mpc)):
         raise TypeError(f"expected a real number, got the complex value {v!r}")
     try:  # sympy numbers and other objects that mpmath understands
-        import sympy
-
         if isinstance(v, sympy.Basic):
             return mpmath.mpf(sympy.N(v, mpmath.mp.dps + 5))
     except ImportError:  # pragma: no cover - sympy is a dependency

@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from numbers import Integral, Real
 
+import numpy as np
 import sympy as sp
 
 from ._validate import parse_number
@@ -472,7 +473,6 @@ def lie_poisson_model(
     ``primary`` defaults to the distinct irreducible factors of the numerator of ``Delta``
     that involve the momenta (vier12).
     """
-    import numpy as np
 
     F = np.array(f, dtype=object)
     if F.ndim != 3 or F.shape[0] != F.shape[1] or F.shape[1] != F.shape[2]:

@@ -33,6 +33,7 @@ import numpy as np
 from . import _compiled_rational as _cr
 from . import _compiled_taylor as _ct
 from ._algebra import LieAlgebra
+from ._catalogue import catalogue
 from ._fast_kernels import _is_su2, _su2_theta_to_xi
 from ._representation import Representation, representation_for
 from ._taylor import QuadraticField, quadratic_field, quadratic_field_su2_full
@@ -210,7 +211,6 @@ class Model:
         >>> Model.su2(xi=[0.1, 0, 0], tau=[0, 0, 0.2], inertia=[1, 2, 3])
         Model(su(2), n=3, inertia=diag(1, 2, 3), Theta=-xi.f with xi=(0.1, 0, 0), Upsilon=tau.eps with tau=(0, 0, 0.2), potential=None)
         """
-        from ._catalogue import catalogue
 
         alg = catalogue(name)
         n, f = alg.dim, alg.f

@@ -33,14 +33,17 @@ from __future__ import annotations
 
 import os
 import stat
+import textwrap
 import tomllib
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import _compiled_taylor
 from ._catalogue import catalogue
 from ._fast_kernels import FastCore
 from ._flow_checks import check_time
+from ._flow_compiled import supports_full
 from ._validate import MAX_FLOW_TIME, MIN_FLOW_TOL, as_float_array, check_flow_rates, check_inertia
 from .flows._fast import NumpyModel, fast_trajectory, integrate_fast
 from .flows.base import check_tolerance
@@ -472,8 +475,6 @@ def plan(scene: Scene) -> Plan:
 def _adaptive_taylor_applies(model, system: str) -> bool:
     """The compiled adaptive Taylor method covers the body systems with ``Upsilon = 0`` and the su(2)
     full state (:func:`refimpl._flow_compiled.supports_full`), when numba is importable."""
-    from . import _compiled_taylor
-    from ._flow_compiled import supports_full
 
     if not (_compiled_taylor.HAVE_NUMBA and model.upsilon_zero):
         return False
@@ -483,7 +484,6 @@ def _adaptive_taylor_applies(model, system: str) -> bool:
 def _rational_taylor_applies(model, system: str) -> bool:
     """The compiled rational Taylor method covers the body systems with ``Upsilon != 0`` and the su(2)
     full state, when numba is importable."""
-    from . import _compiled_taylor
 
     return _compiled_taylor.HAVE_NUMBA and (system == "body" or bool(model.su2))
 
@@ -511,7 +511,6 @@ def plot_trajectory(out: dict, title: str):
     log scale). Returns the matplotlib figure (``tstarg run`` saves it as ``trajectory.png``; a
     notebook shows it). The title is wrapped and the legends sit beside the axes, off the data
     (``tests/test_figures.py`` checks both)."""
-    import textwrap
 
     import matplotlib.pyplot as plt  # heavy, and only for figures: imported when one is drawn
 

@@ -15,6 +15,7 @@
 from __future__ import annotations
 
 import contextlib
+import io
 import os
 import re
 import tempfile
@@ -101,7 +102,6 @@ def write_text(path, text: str, encoding: str = "utf-8") -> Path:
 
 def save_figure(fig, path, **kwargs) -> Path:
     """``fig.savefig`` into a temporary file, then atomically onto ``path`` (format from its suffix)."""
-    import io
 
     path = Path(path)
     buf = io.BytesIO()

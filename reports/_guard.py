@@ -32,6 +32,7 @@ import numpy as np
 from tstarg.properties import runner
 from tstarg.properties.runner import CheckAborted, TimeLimitExceeded, note, time_limit
 from tstarg.refimpl import PROTOCOL, check_attributes, provided_methods, provides
+from tstarg.refimpl.reference import Reference
 
 from ._imports import import_module, resolve
 from .jsonl import METHODS, CommandImplementation, check_timeout
@@ -327,7 +328,6 @@ def explain(check, *, seconds: float = 60.0) -> None:
     call = runner.decode(ex.get("notes", {}).get("call"))
     if not isinstance(call, dict) or "result" not in call:
         return
-    from tstarg.refimpl.reference import Reference
 
     a, method = call["args"], call["method"]
     spec = PROTOCOL.by_name.get(method)

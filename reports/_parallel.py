@@ -23,8 +23,10 @@ from __future__ import annotations
 
 import os
 import traceback
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Any, Callable, Iterable, Sequence
+
+from threadpoolctl import threadpool_limits
 
 __all__ = [
     "map_tasks",
@@ -56,8 +58,6 @@ def _pin_blas() -> None:
     os.environ["OMP_NUM_THREADS"] = "1"
     os.environ["MKL_NUM_THREADS"] = "1"
     try:
-        from threadpoolctl import threadpool_limits
-
         threadpool_limits(1)
     except Exception:  # noqa: BLE001 - pinning is best effort in a worker
         pass
@@ -92,7 +92,6 @@ def _collect(items: Sequence, outcomes: Iterable, on_result=None) -> list:
 def _as_they_arrive(pool, guarded, items, on_result) -> list:
     """Submit every item; call ``on_result(index, value)`` in the order results arrive (the
     parent's progress display); return the results in the order of ``items``."""
-    from concurrent.futures import as_completed
 
     futures = {pool.submit(guarded, it): i for i, it in enumerate(items)}
     out: list = [None] * len(items)

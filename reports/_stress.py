@@ -57,6 +57,12 @@ from dataclasses import dataclass, field
 
 import mpmath
 import numpy as np
+import sympy
+
+from tstarg.refimpl import catalogue, su2
+from tstarg.refimpl.escalate import poisson_within, vector_field_within
+from tstarg.refimpl.flows import METHODS, NumpyModel, integrate_fast
+from tstarg.refimpl.reference import DegeneratePointError, Reference
 
 from ._imports import resolve
 
@@ -107,7 +113,6 @@ HEAVY_TOP = {
 
 def _su2_degenerate_points(ks) -> list[dict]:
     """``pi' = pi + xi`` with ``pi'.tau = 1 - delta`` plus a part orthogonal to tau; ``Delta = C1^2``."""
-    from tstarg.refimpl import su2
 
     f = su2().f
     d = SU2_TAU / (SU2_TAU @ SU2_TAU)
@@ -172,8 +177,6 @@ def _singular_direction(alg, seed: int):
 
 
 def _generic_degenerate_points(name: str, ks, seed: int = 0) -> list[dict]:
-    from tstarg.refimpl import catalogue
-
     alg = catalogue(name)
     n = alg.dim
     U, v, sstar, rng = _singular_direction(alg, seed)
@@ -198,8 +201,6 @@ def _generic_degenerate_points(name: str, ks, seed: int = 0) -> list[dict]:
 
 
 def _momenta_points(name: str, ks) -> list[dict]:
-    from tstarg.refimpl import catalogue
-
     alg = catalogue(name)
     n = alg.dim
     rng = np.random.default_rng(11)
@@ -228,8 +229,6 @@ def _momenta_points(name: str, ks) -> list[dict]:
 
 
 def _upsilon_points(name: str, ks) -> list[dict]:
-    from tstarg.refimpl import catalogue
-
     alg = catalogue(name)
     n = alg.dim
     rng = np.random.default_rng(12)
@@ -259,9 +258,6 @@ def _upsilon_points(name: str, ks) -> list[dict]:
 
 def _basis_points(ks, upsilon: bool = True, kind: str = "poisson") -> list[dict]:
     """su(2) in an ill-conditioned exact rational basis (det C = 2 eps); Upsilon = 0 when not ``upsilon``."""
-    import sympy
-
-    from tstarg.refimpl import su2
 
     base = su2()
     theta0, U0 = _xi_theta(SU2_XI), _tau_matrix(SU2_TAU)
@@ -298,8 +294,6 @@ def _basis_points(ks, upsilon: bool = True, kind: str = "poisson") -> list[dict]
 
 
 def _rat(a):
-    import sympy
-
     a = np.asarray(a, dtype=float)
     return (
         [[sympy.Rational(float(v)) for v in row] for row in a]
@@ -329,7 +323,6 @@ def _chart_points(name: str, quick: bool) -> list[dict]:
     """``x = s u`` with ``rho(u) = max |Im eig ad_u| = 1`` and ``s = 2 pi c``, ``c`` from
     :data:`CHART_EDGE_FRACTIONS` (inside) and :data:`CHART_OUTSIDE` (at or past the edge); Upsilon and
     Theta nonzero, so the whole formula (vier9) is exercised."""
-    from tstarg.refimpl import catalogue
 
     alg = catalogue(name)
     n = alg.dim
@@ -520,7 +513,6 @@ def load_implementation(spec: str):
 
 def _judge(item: dict, dps: int):
     """The reference values (flat list of mpf) at ``dps`` digits, or None on the degenerate set / off chart."""
-    from tstarg.refimpl.reference import DegeneratePointError, Reference
 
     ref = Reference(dps)
     try:
@@ -594,7 +586,6 @@ def _lost(err: float, scale: float) -> float:
 
 def point_task(item: dict) -> dict:
     """Run one sweep point: escalate.py at the requested tolerance, then judge it. Deterministic in ``item``."""
-    from tstarg.refimpl.escalate import poisson_within, vector_field_within
 
     t0 = time.perf_counter()
     impl = load_implementation(item["implementation"])
@@ -715,7 +706,6 @@ def _judge_agreement(a, b, dps: int) -> tuple[float, float]:
 # ------------------------------------------------------------ Brouwer's law
 def brouwer_model():
     """The free rigid body on su(2) (Upsilon = 0, Theta = 0, I = diag(1, 2, 3)): energy is conserved."""
-    from tstarg.refimpl import su2
 
     return su2().f, np.zeros((3, 3)), np.zeros((3, 3)), np.diag([1.0, 2.0, 3.0])
 
@@ -735,7 +725,6 @@ def _energy_exact(pi: np.ndarray, inertia: np.ndarray, dps: int = 40) -> list:
 
 def brouwer_task(item: dict) -> dict:
     """One chunk of trajectories: energy errors at the sample steps (exact evaluation of the float states)."""
-    from tstarg.refimpl.flows import METHODS, NumpyModel, integrate_fast
 
     f, th, up, inertia = brouwer_model()
     model = NumpyModel(f, th, up, inertia, None)

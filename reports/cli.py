@@ -12,6 +12,7 @@ import importlib
 import os
 import subprocess
 import sys
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -58,7 +59,6 @@ def commit() -> str:
 def version_line() -> str:
     """``tstarg --version``: the version (pyproject.toml, through the installed metadata) and
     the commit."""
-    from importlib.metadata import PackageNotFoundError, version
 
     try:
         v = version("tstarg")  # what tstarg.refimpl.__version__ reads, without importing numpy

@@ -15,6 +15,8 @@ import sys
 from importlib import metadata
 from pathlib import Path
 
+from threadpoolctl import threadpool_info
+
 __all__ = ["environment", "git_commit", "tstarg_version"]
 
 _LIBRARIES = ("numpy", "scipy", "numba", "mpmath", "sympy", "hypothesis", "python-flint")
@@ -53,10 +55,6 @@ def git_commit() -> str | None:
 
 def _blas() -> list[dict]:
     try:
-        import numpy  # noqa: F401 - loads the BLAS threadpoolctl reports
-        import scipy.linalg  # noqa: F401
-        from threadpoolctl import threadpool_info
-
         return [
             {
                 "api": i.get("internal_api"),

@@ -24,6 +24,7 @@ Every value goes through :func:`_xml_text`, which drops the characters XML 1.0 f
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import re
@@ -248,7 +249,6 @@ def write_junit(certificate_or_report: dict, path: str | Path) -> Path:
 def main(argv: list[str] | None = None) -> int:
     """``python -m tstarg.reports.junit certificate.json [out.xml]``: convert a written certificate
     or report; the exit status is 0 when it passed, 1 otherwise."""
-    import argparse
 
     ap = argparse.ArgumentParser(prog="python -m tstarg.reports.junit", description=main.__doc__)
     ap.add_argument("json", help="certificate.json or report.json")

@@ -37,6 +37,7 @@ import math
 import sys
 from pathlib import Path
 
+from tstarg.properties.runner import CheckResult
 from tstarg.refimpl.scenes import MAX_NESTING, nesting_depth, read_regular_file
 
 from ._atomic import save_figure
@@ -451,7 +452,6 @@ def _plot(cmp: dict, path) -> Path:
 def regression_checks(cmp: dict):
     """Two verify rows: ``regression.accuracy`` and ``regression.speed``. Their worst ratio is
     (digits lost / slack) and (slowdown / factor): above 1 fails, like every other row."""
-    from tstarg.properties.runner import CheckResult
 
     acc_rows = [r for r in cmp["rows"] if r["digits_lost"] is not None]
     spd_rows = [r for r in cmp["rows"] if r["speed_factor"] is not None]

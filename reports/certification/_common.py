@@ -5,9 +5,13 @@ The float64 judge and the error models live in :mod:`tstarg.oracles.float_judge`
 from __future__ import annotations
 
 import functools
+import hashlib
 import inspect
+import json
 import math
+import os
 from collections import OrderedDict
+from pathlib import Path
 
 import numpy as np
 from hypothesis import currently_in_test_context
@@ -23,8 +27,12 @@ from tstarg.oracles.float_judge import (
 )
 from tstarg.properties.runner import note
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue, provides
+from tstarg.refimpl.flows import reference as _flow_reference
+from tstarg.refimpl.flows import reference_flow
 from tstarg.refimpl.reference import Reference
 from tstarg.refimpl.rigorous import Rigorous
+
+from .._atomic import write_text
 
 _REF = Reference(30)
 
@@ -246,9 +254,6 @@ below any float64 tolerance)."""
 
 
 def _reference_cache_dir():
-    import os
-    from pathlib import Path
-
     root = os.environ.get("TSTARG_CACHE_DIR") or os.path.join(
         os.path.expanduser("~"), ".cache", "tstarg"
     )
@@ -258,10 +263,6 @@ def _reference_cache_dir():
 @functools.lru_cache(maxsize=1)
 def _reference_source() -> str:
     """A digest of the reference flow's source: a changed reference never reads stale runs."""
-    import hashlib
-    from pathlib import Path
-
-    from tstarg.refimpl.flows import reference as _flow_reference
 
     return hashlib.sha256(Path(_flow_reference.__file__).read_bytes()).hexdigest()[:16]
 
@@ -271,12 +272,6 @@ def _reference_state(f, theta, ups, inertia, pot, x, pi, t):
     cannot continue: the chart), cached in memory and on disk (``$TSTARG_CACHE_DIR/reference-flows``,
     keyed by the exact bytes of the inputs and the working digits): a re-certification, shrinking
     and ``--replay`` reuse reference runs instead of repeating them."""
-    import hashlib
-    import json
-
-    from tstarg.refimpl.flows import reference_flow
-
-    from .._atomic import write_text
 
     key = ("ref", REFERENCE_DPS, _reference_source()) + _key(
         f, theta, ups, inertia, pot, x, pi, float(t)

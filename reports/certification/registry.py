@@ -37,6 +37,7 @@ import importlib
 import pkgutil
 
 from ..mutants import MUTATIONS as _PLAIN_MUTATIONS
+from ..mutants import Plain
 from . import checks as _checks_pkg
 from .check import Check, Mutant
 
@@ -96,7 +97,6 @@ def missing(cid: str, provided) -> str | None:
 
 def mutant(name: str):
     """A fresh instance of the planted mutant ``name`` (None: the correct plain implementation)."""
-    from ..mutants import Plain
 
     if name is None or name in _PLAIN_MUTATIONS:
         return Plain(name)

@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from tstarg.oracles.float_judge import (
     conditioning,
 )
+from tstarg.refimpl.fast import implementation as fast
 
 from .._common import (
     _call,
@@ -112,8 +113,6 @@ class FlowOnlyIgnoresDomain:
     domain: ClassVar[dict] = {"algebras": ["su(2)"], "theta": False, "upsilon": False}
 
     def flow(self, f, theta, upsilon, inertia, potential, x0, pi0, t):
-        from tstarg.refimpl.fast import implementation as fast
-
         return fast.flow(f, theta, upsilon, inertia, potential, x0, pi0, t)
 
 
