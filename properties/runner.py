@@ -12,7 +12,7 @@ call (after shrinking: the minimal example) and renders them itself -- algebra n
 structure constants, Theta, Upsilon, the point, t, and whatever the body or the
 implementation guard recorded with :func:`note` (the worst entry: expected vs got, error,
 tolerance, ratio) -- in ``falsifying_example`` (text) and ``extra["example"]`` (data, exact
-floats: enough to replay the example, see :data:`REPLAY`). Nothing of Hypothesis' own report
+floats: enough to replay the example, see :func:`replaying`). Nothing of Hypothesis' own report
 is pasted there (its wording changes between releases: 6.170 attaches the example as an
 exception note, and its shrink-time-limit warning is not an example); that text is kept,
 marked as such, in ``extra["hypothesis_output"]``.
@@ -31,11 +31,20 @@ marked as such, in ``extra["hypothesis_output"]``.
 
 Interruption uses ``SIGALRM`` (:func:`time_limit`), so it applies in the main thread of a
 process on POSIX; elsewhere only the between-examples budget applies.
+
+**The runner's state is explicit.** What a run of checks shares -- the budgets, the examples to
+replay, the progress listeners -- is one immutable :class:`RunState`, held in a
+:class:`contextvars.ContextVar` and changed only for the extent of a ``with`` block:
+:func:`limits`, :func:`replaying`, :func:`listening` and :func:`silenced`; :func:`current` reads
+it. Nothing outside this module assigns to it, and leaving a block restores what was there
+(also on an exception). The one process-wide piece is the ``SIGALRM`` timer of
+:func:`time_limit` (a process has one), kept private here.
 """
 
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import io
 import math
 import re
@@ -44,8 +53,9 @@ import struct
 import threading
 import time
 import traceback
-from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import asdict, dataclass, field, replace
+from types import MappingProxyType
 from typing import Any
 
 import mpmath
@@ -58,18 +68,21 @@ from hypothesis.errors import Unsatisfiable, UnsatisfiedAssumption
 from hypothesis.reporting import with_reporter
 
 __all__ = [
-    "LIMITS",
-    "PROGRESS",
-    "REPLAY",
     "CheckAborted",
     "CheckResult",
     "Limits",
+    "RunState",
     "TimeLimitExceeded",
+    "advance",
     "announce",
+    "current",
     "decode",
     "encode",
     "finished",
     "limits",
+    "listening",
+    "replaying",
+    "silenced",
     "note",
     "render_example",
     "run_property",
@@ -175,7 +188,7 @@ def time_limit(seconds: float | None, what: str):
             signal.signal(signal.SIGALRM, _OLD_HANDLER.pop())
 
 
-@dataclass
+@dataclass(frozen=True)
 class Limits:
     """Time budgets of :func:`run_property` (seconds; ``None``: unlimited)."""
 
@@ -185,8 +198,46 @@ class Limits:
     deadline: float | None = None  # time.time() after which no check draws another example
 
 
-LIMITS = Limits()
-"""The budgets used when :func:`run_property` is not given its own (set with :func:`limits`)."""
+@dataclass(frozen=True)
+class RunState:
+    """What the checks of one run share (see the module docstring): ``limits``, the budgets used
+    when :func:`run_property` is not given its own; ``replay``, check name -> drawn example
+    (decoded) -- while non-empty, :func:`run_property` runs a named check on exactly that example
+    (no search, no shrinking) and leaves other checks out (``extra["not_replayed"]``); and
+    ``listeners``, the progress listeners, callables ``(event, name, done, total, result=None)``
+    with ``event`` in ``"start"``, ``"example"``, ``"done"``.
+
+    >>> current() == RunState()  # outside any block: no budget, nothing to replay, no listener
+    True
+    >>> with limits(check_seconds=5.0):
+    ...     current().limits.check_seconds
+    5.0
+    >>> current().limits.check_seconds is None  # restored when the block ends
+    True
+    """
+
+    limits: Limits = Limits()
+    replay: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
+    listeners: tuple[Callable[..., Any], ...] = ()
+
+
+_STATE: contextvars.ContextVar[RunState] = contextvars.ContextVar(
+    "tstarg_run_state", default=RunState()
+)
+
+
+def current() -> RunState:
+    """The state the checks run under now."""
+    return _STATE.get()
+
+
+@contextlib.contextmanager
+def _entered(state: RunState) -> Iterator[RunState]:
+    token = _STATE.set(state)
+    try:
+        yield state
+    finally:
+        _STATE.reset(token)
 
 
 @contextlib.contextmanager
@@ -195,11 +246,18 @@ def limits(
     check_seconds: float | None = None,
     shrink_seconds: float | None = None,
     run_seconds: float | None = None,
-):
+) -> Iterator[Limits]:
     """Run the enclosed checks with these budgets (``tstarg verify`` / ``certify`` set them per profile);
     ``run_seconds``: a budget for everything inside the block (checks started after it is used
-    up stop at once and report that nothing was verified)."""
-    new = {
+    up stop at once and report that nothing was verified). Yields the budgets in force.
+
+    >>> with limits(example_seconds=0):
+    ...     pass
+    Traceback (most recent call last):
+    ...
+    ValueError: example_seconds must be a positive number of seconds, got 0
+    """
+    new: dict[str, float | None] = {
         "example_seconds": example_seconds,
         "check_seconds": check_seconds,
         "shrink_seconds": shrink_seconds,
@@ -209,27 +267,50 @@ def limits(
     for what, v in new.items():
         if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
             raise ValueError(f"{what} must be a positive number of seconds, got {v!r}")
-    old = {k: getattr(LIMITS, k) for k in new}
     if run_seconds is not None:
         new["deadline"] = time.time() + run_seconds
-    for k, v in new.items():
-        setattr(LIMITS, k, v)
-    try:
-        yield LIMITS
-    finally:
-        for k, v in old.items():
-            setattr(LIMITS, k, v)
+    state = current()
+    with _entered(replace(state, limits=replace(state.limits, **new))) as entered:
+        yield entered.limits
+
+
+@contextlib.contextmanager
+def replaying(examples: Mapping[str, Any]) -> Iterator[RunState]:
+    """Run the enclosed checks on exactly these examples (check name -> decoded drawn example;
+    :attr:`RunState.replay`): ``tstarg certify ... --replay certificate.json``."""
+    frozen = MappingProxyType(dict(examples))
+    with _entered(replace(current(), replay=frozen)) as state:
+        yield state
+
+
+@contextlib.contextmanager
+def listening(*listeners: Callable[..., Any]) -> Iterator[RunState]:
+    """Also tell these progress listeners about the enclosed checks (``tstarg verify`` registers
+    its progress display)."""
+    state = current()
+    with _entered(replace(state, listeners=state.listeners + listeners)) as entered:
+        yield entered
+
+
+@contextlib.contextmanager
+def silenced() -> Iterator[RunState]:
+    """No progress listener for the enclosed checks (the mutants' checks fail by design: they stay
+    out of any display)."""
+    with _entered(replace(current(), listeners=())) as state:
+        yield state
 
 
 # ------------------------------------------------------------------ what a failing example was
-_CURRENT: list[dict] = []  # the notes of the example being run (a one-element stack)
+_NOTES: contextvars.ContextVar[dict | None] = contextvars.ContextVar("tstarg_notes", default=None)
+"""The notes of the example being run (None outside a check)."""
 
 
 def note(**data) -> None:
     """Record facts about the example being run (``expected=``, ``got=``, ``tolerance=``,
     ``error=``, ``call=`` ...); shown with the example if it fails. No-op outside a check."""
-    if _CURRENT:
-        _CURRENT[-1].update(data)
+    notes = _NOTES.get()
+    if notes is not None:
+        notes.update(data)
 
 
 def encode(v: Any) -> Any:
@@ -434,12 +515,6 @@ def render_example(
     return "\n".join(lines)
 
 
-REPLAY: dict[str, Any] = {}
-"""Check name -> drawn example (decoded). While non-empty, :func:`run_property` runs a named
-check on exactly that example (no search, no shrinking) and leaves other checks out
-(``extra["not_replayed"]``): ``tstarg certify ... --replay certificate.json``."""
-
-
 # ------------------------------------------------------------------ the runner
 class _Stop(BaseException):
     """The check's budget is used up: end the Hypothesis run now (not a failure by itself)."""
@@ -475,15 +550,18 @@ def run_property(
     report like any other, and a failing one is reported as it is, unshrunk).
 
     ``body`` may return ``None`` to skip an example (e.g. a point exactly on the degenerate set).
-    ``example_seconds`` / ``check_seconds`` default to :data:`LIMITS` (see the module docstring).
+    ``example_seconds`` / ``check_seconds`` default to the budgets of :func:`current` (see the
+    module docstring).
     """
     res = CheckResult(name=name, equations=equations, extra=dict(extra or {}))
-    ex_s = example_seconds if example_seconds is not None else LIMITS.example_seconds
-    ck_s = check_seconds if check_seconds is not None else LIMITS.check_seconds
-    if LIMITS.deadline is not None:
-        left = max(1e-3, LIMITS.deadline - time.time())
+    state_now = current()
+    lim, replay = state_now.limits, state_now.replay
+    ex_s = example_seconds if example_seconds is not None else lim.example_seconds
+    ck_s = check_seconds if check_seconds is not None else lim.check_seconds
+    if lim.deadline is not None:
+        left = max(1e-3, lim.deadline - time.time())
         ck_s = left if ck_s is None else min(ck_s, left)
-    sh_s = shrink_seconds if shrink_seconds is not None else LIMITS.shrink_seconds
+    sh_s = shrink_seconds if shrink_seconds is not None else lim.shrink_seconds
     t0 = time.perf_counter()
     state = {
         "failure": None,
@@ -493,14 +571,14 @@ def run_property(
         "first_failure": None,
         "kind": None,
     }
-    if REPLAY and name not in REPLAY:
+    if replay and name not in replay:
         res.extra["not_replayed"] = True
         return res
     _report("start", name, 0, max_examples)
 
     def one(example):
         notes: dict = {}
-        _CURRENT.append(notes)
+        token = _NOTES.set(notes)
         ratio = None
         try:
             try:
@@ -541,12 +619,12 @@ def run_property(
                 raise AssertionError(f"the check called sys.exit({exc.code!r})") from exc  # noqa: TRY004
             raise
         finally:
-            _CURRENT.pop()
+            _NOTES.reset(token)
 
-    if name in REPLAY:
+    if name in replay:
         res.extra["replayed"] = True
         try:
-            one(REPLAY[name])
+            one(replay[name])
         except (KeyboardInterrupt, _Stop):
             raise
         except BaseException as exc:  # noqa: BLE001 - the verdict
@@ -649,13 +727,8 @@ def _finish(
     return res
 
 
-PROGRESS: list = []
-"""Progress listeners: callables ``(event, name, done, total, result=None)`` with ``event`` in
-``"start"``, ``"example"``, ``"done"``. ``tstarg verify`` registers its progress bar here."""
-
-
 def _report(event, name, done, total, result=None) -> None:
-    for listener in list(PROGRESS):  # noqa: PERF101 - a listener may remove itself
+    for listener in current().listeners:
         listener(event, name, done, total, result)
 
 
@@ -663,6 +736,11 @@ def announce(name: str, total: int = 1) -> None:
     """A check that does not go through :func:`run_property` (a single computation, a speed
     row, a certificate) starts: the progress listeners show it as the current step."""
     _report("start", name, 0, total)
+
+
+def advance(name: str, done: int, total: int) -> None:
+    """The check announced by :func:`announce` has done ``done`` of its ``total`` steps."""
+    _report("example", name, done, total)
 
 
 def finished(result: CheckResult, total: int | None = None) -> CheckResult:

@@ -268,11 +268,8 @@ def _run(spec, par, budget, kw):
 
     try:
         if par["workers"] == 1 and par["scheduler"] is None:
-            runner.PROGRESS.append(Progress())
-            try:
+            with runner.listening(Progress()):
                 return certify_target(spec, workers=1, budget=budget, **kw)
-            finally:
-                runner.PROGRESS.pop()
         return certify_target(spec, **par, budget=budget, **kw)
     except TaskError as exc:
         return f"a worker failed on check task {exc.index}: {exc.text[-3000:]}"
@@ -376,8 +373,7 @@ def _replay_result(result, wall: float) -> int:
 
 def _replay(examples: dict, spec, target, budget, seed) -> int:
     ids = sorted({name.split("[", 1)[0] for name in examples})
-    runner.REPLAY.update(examples)
-    try:
+    with runner.replaying(examples):
         cert = certify_target(
             spec,
             workers=1,
@@ -387,8 +383,6 @@ def _replay(examples: dict, spec, target, budget, seed) -> int:
             seed=seed,
             target=target,
         )
-    finally:
-        runner.REPLAY.clear()
     bad = 0
     for c in cert.checks:
         if c.extra.get("not_replayed"):

@@ -83,7 +83,7 @@ def _load_provider(spec: str):
 
 
 class Progress:
-    """The listener of :data:`properties.runner.PROGRESS` that drives a display of
+    """The progress listener (:func:`properties.runner.listening`) that drives a display of
     :mod:`reports._progress`: a check that starts is the current step (its examples counted),
     a check that is done prints one kept line ``N ex  T s  PASS``.
 
@@ -247,9 +247,8 @@ def run_providers(specs, max_examples: int, seed, progress=None, optional=PROVID
     a missing requested provider, or one that raises, becomes a failed :class:`CheckResult`."""
 
     results, status = [], {}
-    if progress is not None:
-        runner.PROGRESS.append(progress)
-    try:
+    listeners = () if progress is None else (progress,)
+    with runner.listening(*listeners):
         for spec in specs:
             if hasattr(progress, "phase"):
                 progress.phase(f"loading {spec}")
@@ -289,9 +288,6 @@ def run_providers(specs, max_examples: int, seed, progress=None, optional=PROVID
                     )
             results.extend(got)
             status[spec] = f"ran {len(got)} checks in {time.perf_counter() - t0:.1f} s"
-    finally:
-        if progress is not None:
-            runner.PROGRESS.remove(progress)
     return results, status
 
 

@@ -6,16 +6,17 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+from hypothesis import Phase, settings
 from hypothesis.errors import UnsatisfiedAssumption
 
 from tstarg.properties import runner
 from tstarg.properties.runner import (
-    LIMITS,
     CheckResult,
     announce,
     finished,
     run_property,
 )
+from tstarg.refimpl.fast import implementation as fast
 
 from .._guard import close_target, explain, load
 from .._parallel import map_tasks
@@ -59,7 +60,6 @@ def certify(
     ``shrink=False`` reports the first failing example as found (no shrinking, no
     explanation phase): much faster when only the verdict matters (mutation tests).
     """
-    from hypothesis import Phase, settings
 
     previous = settings.default
     if not shrink:
@@ -80,7 +80,9 @@ def certify(
             checks=checks,
             stop_on_failure=stop_on_failure,
             shrink=shrink,
-            announce=LIMITS.shrink_seconds is not None if announce is None else announce,
+            announce=runner.current().limits.shrink_seconds is not None
+            if announce is None
+            else announce,
         )
     finally:
         if not shrink:
@@ -127,7 +129,7 @@ def _announcing(body, name: str, t0: float, announce: bool):
         if said:
             return
         said.append(True)
-        shrink = LIMITS.shrink_seconds
+        shrink = runner.current().limits.shrink_seconds
         print(
             f"tstarg certify: verdict FAIL: {name} found a failing example after "
             f"{time.perf_counter() - t0:.1f} s; shrinking it"
@@ -362,7 +364,6 @@ def certificate_checks(max_examples: int, seed: int | None = 0) -> list[CheckRes
     """``tstarg verify`` provider: the certificate of the fast implementation (dogfood) and the
     mutation kill rate (every mutant of :mod:`reports.mutants` must be rejected, the correct
     ``Plain`` accepted). Both at a budget of ``max(4, max_examples // 3)`` examples per check."""
-    from tstarg.refimpl.fast import implementation as fast
 
     k = max(4, max_examples // 3)
     t0 = time.perf_counter()
@@ -399,26 +400,22 @@ def certificate_checks(max_examples: int, seed: int | None = 0) -> list[CheckRes
 
 def _kill_progress():
     """The progress of :func:`kill_rate` inside ``tstarg verify``: the mutants certified so far."""
-    from tstarg.properties import runner as _checks
 
     count = [0]
 
     def on_result(index, value):
         count[0] += 1
-        _checks._report("example", "mutation_kill_rate", count[0], len(MUTATIONS) + 1)
+        runner.advance("mutation_kill_rate", count[0], len(MUTATIONS) + 1)
 
     return on_result
 
 
 def _certify_mutant(item) -> bool:
     """Worker of :func:`kill_rate`: does the mutant ``name`` (``None``: the correct ``Plain``) pass?"""
-    from tstarg.properties import runner as _checks
 
     name, max_examples, seed = item
     # The mutants' own checks fail by design: keep them out of any progress display.
-    listeners = list(_checks.PROGRESS)
-    _checks.PROGRESS.clear()
-    try:
+    with runner.silenced():
         cert = certify(
             mutant(name),
             max_examples=max_examples,
@@ -428,8 +425,6 @@ def _certify_mutant(item) -> bool:
             stop_on_failure=name is not None,
         )
         return cert.passed
-    finally:
-        _checks.PROGRESS[:] = listeners
 
 
 def kill_rate(
@@ -447,7 +442,6 @@ def kill_rate(
     by default, ``workers=1`` in this process, or a Dask ``scheduler``).
     Returns ``{"killed": [...], "survived": [...], "rate": float, "correct_passes": bool}``.
     """
-    from .._parallel import map_tasks
 
     names = list(MUTATIONS) + [None]
     passed = map_tasks(
