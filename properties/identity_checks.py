@@ -17,7 +17,10 @@ from __future__ import annotations
 
 import importlib.util
 import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from fractions import Fraction
+from typing import Any
 
 import numpy as np
 from hypothesis import assume, reject
@@ -41,7 +44,15 @@ from .strategies import (
     upsilons,
 )
 
-__all__ = ["identity_checks", "IMPLEMENTATIONS", "model_points", "darboux_examples"]
+__all__ = [
+    "CHECKS",
+    "CHECKS_BY_NAME",
+    "IdentityCheck",
+    "identity_checks",
+    "IMPLEMENTATIONS",
+    "model_points",
+    "darboux_examples",
+]
 
 EPS = idn.EPS
 
@@ -478,187 +489,238 @@ def _h2_nonzero_algebras(draw):
     )
 
 
-# -------------------------------------------------------------------- provider
-def identity_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
-    """Every identity of :mod:`properties.identities` over the strategies, plus negative controls.
+# -------------------------------------------------------------------- the registry
+@dataclass(frozen=True)
+class IdentityCheck:
+    """One registered check: ``body`` over the examples of ``strategy()``, ``budget`` saying how
+    many (``"float"``: the run's ``max_examples``; ``"mp"``: a third of it, at least 3, for the
+    mpmath-driven ones; ``"flow"``: a twelfth, at least 1; ``"flow_negative"``: a thirtieth, and
+    only when that is at least 1 -- about 20 s per example); ``needs_flows``: only when
+    :mod:`refimpl.flows` exists. ``extra`` is recorded in the result (the tolerance's error
+    model, ``expects="failure"`` for a negative control)."""
 
-    Budget: ``max_examples`` for cheap exact/float checks, a third of it (>= 3) for the
-    mpmath-driven ones (closedness_mp, jacobi[reference], darboux[reference]).
-    """
-    k = max_examples
-    k_mp = max(3, k // 3)
+    name: str
+    equations: str
+    body: Callable[[Any], Any]
+    strategy: Callable[[], st.SearchStrategy]
+    budget: str = "float"
+    needs_flows: bool = False
+    extra: dict = field(default_factory=dict)
+
+    def examples(self, max_examples: int) -> int:
+        """Examples this check draws in a run whose budget is ``max_examples`` (0: it is left out).
+
+        >>> c = CHECKS_BY_NAME["closedness[mp]"]
+        >>> c.examples(20), c.examples(3)
+        (6, 3)
+        """
+        k = max_examples
+        return {
+            "float": k,
+            "mp": max(3, k // 3),
+            "flow": max(1, k // 12),
+            "flow_negative": k // 30,
+        }[self.budget]
+
+    def applies(self, max_examples: int) -> bool:
+        return self.examples(max_examples) > 0 and (not self.needs_flows or _flows_available())
+
+    def run(self, max_examples: int, seed: int | None = 0) -> CheckResult:
+        """The check's verdict (:func:`properties.runner.run_property`)."""
+        n = self.examples(max_examples)
+        return run_property(
+            self.name,
+            self.equations,
+            self.body,
+            self.strategy(),
+            max_examples=n,
+            seed=seed,
+            extra=dict(self.extra),
+        )
+
+
+def _tensor_blocks_checks() -> list[IdentityCheck]:
     out = []
-
-    def add(name, eqs, body, strategy, n, **extra):
-        out.append(run_property(name, eqs, body, strategy, max_examples=n, seed=seed, extra=extra))
-
-    add(
-        "closedness[exact]",
-        "vier2, vier3, zeven1",
-        closedness_exact_example,
-        model_points(max_dim=5),
-        k,
-        tolerance="0 (sympy, pi symbolic, x = 0)",
-    )
-    add(
-        "closedness[mp]",
-        "vier2, vier3",
-        closedness_mp_example,
-        model_points(max_dim=3, nontrivial=True),
-        k_mp,
-        tolerance="3e-21 max(|Omega|, |dOmega|) at 25 digits",
-    )
-    add(
-        "antisymmetry[exact]",
-        "vier6, vier7",
-        antisymmetry_example,
-        model_points(max_dim=5, rational=True),
-        k,
-        tolerance="0 (sympy rationals)",
-    )
-    for impl in ("reference", "fast"):
-        for regime in ("generic", "near_degenerate"):
-            if impl == "reference" and regime != "generic":
-                continue
-            add(
+    for impl, regime in (
+        ("reference", "generic"),
+        ("fast", "generic"),
+        ("fast", "near_degenerate"),
+    ):
+        out.append(
+            IdentityCheck(
                 f"tensor_blocks[{impl},{regime}]",
                 "vier7, vier9",
                 tensor_blocks_example(impl),
-                model_points(max_dim=4, exact_point=False, regime=regime),
-                k if impl == "fast" else k_mp,
-                tolerance="8n(|Phi| 2n|A|^2 e + n eps |Phi||B|), e = entry error bound of P",
+                lambda regime=regime: model_points(max_dim=4, exact_point=False, regime=regime),
+                "float" if impl == "fast" else "mp",
+                extra={
+                    "tolerance": "8n(|Phi| 2n|A|^2 e + n eps |Phi||B|), e = entry error bound of P"
+                },
             )
-    add(
+        )
+    return out
+
+
+CHECKS: tuple[IdentityCheck, ...] = (
+    IdentityCheck(
+        "closedness[exact]",
+        "vier2, vier3, zeven1",
+        closedness_exact_example,
+        lambda: model_points(max_dim=5),
+        extra={"tolerance": "0 (sympy, pi symbolic, x = 0)"},
+    ),
+    IdentityCheck(
+        "closedness[mp]",
+        "vier2, vier3",
+        closedness_mp_example,
+        lambda: model_points(max_dim=3, nontrivial=True),
+        "mp",
+        extra={"tolerance": "3e-21 max(|Omega|, |dOmega|) at 25 digits"},
+    ),
+    IdentityCheck(
+        "antisymmetry[exact]",
+        "vier6, vier7",
+        antisymmetry_example,
+        lambda: model_points(max_dim=5, rational=True),
+        extra={"tolerance": "0 (sympy rationals)"},
+    ),
+    *_tensor_blocks_checks(),
+    IdentityCheck(
         "jacobi[exact]",
         "vier9",
         jacobi_exact_example,
-        model_points(max_dim=5, rational=True),
-        k,
-        tolerance="0 (sympy rationals, x = 0)",
-    )
-    add(
+        lambda: model_points(max_dim=5, rational=True),
+        extra={"tolerance": "0 (sympy rationals, x = 0)"},
+    ),
+    IdentityCheck(
         "jacobi[reference]",
         "vier9",
         jacobi_reference_example,
-        model_points(max_dim=3, nontrivial=True),
-        k_mp,
-        tolerance="3N 1e-16 max|P| max|dP| at 20 digits",
-    )
-    for impl in ("reference", "fast"):
-        add(
+        lambda: model_points(max_dim=3, nontrivial=True),
+        "mp",
+        extra={"tolerance": "3N 1e-16 max|P| max|dP| at 20 digits"},
+    ),
+    *(
+        IdentityCheck(
             f"jacobi[{impl},float64]",
             "vier9",
             jacobi_float_example(impl),
-            model_points(max_dim=4, exact_point=False),
-            k if impl == "fast" else k_mp,
-            tolerance="12N(|P| dP_err + |dP| e), dP_err Richardson + e/h",
+            lambda: model_points(max_dim=4, exact_point=False),
+            "float" if impl == "fast" else "mp",
+            extra={"tolerance": "12N(|P| dP_err + |dP| e), dP_err Richardson + e/h"},
         )
-    for impl in ("reference", "fast"):
-        add(
+        for impl in ("reference", "fast")
+    ),
+    *(
+        IdentityCheck(
             f"darboux[{impl}]",
             "drie7, drie8, drie9",
             darboux_example(impl),
-            darboux_examples(max_dim=4),
-            k_mp if impl == "reference" else k,
-            tolerance="reference 1e-26 |J|^2|P|; fast 4 rowsum|J|^2 (e + 2n eps |P|)",
+            lambda: darboux_examples(max_dim=4),
+            "mp" if impl == "reference" else "float",
+            extra={"tolerance": "reference 1e-26 |J|^2|P|; fast 4 rowsum|J|^2 (e + 2n eps |P|)"},
         )
-    if _flows_available():
-        add(
-            "darboux_flow[reference]",
-            "drie10, drie11, drie12",
-            darboux_flow_example,
-            darboux_flow_examples(),
-            max(1, k // 12),
-            tolerance="4 eps max|state| (reference_flow vs mpmath.odefun of drie11/12)",
-        )
-    add(
+        for impl in ("reference", "fast")
+    ),
+    IdentityCheck(
+        "darboux_flow[reference]",
+        "drie10, drie11, drie12",
+        darboux_flow_example,
+        darboux_flow_examples,
+        "flow",
+        needs_flows=True,
+        extra={"tolerance": "4 eps max|state| (reference_flow vs mpmath.odefun of drie11/12)"},
+    ),
+    IdentityCheck(
         "whitehead",
         "zeven1, zeven3",
         whitehead_example,
-        lie_algebras(semisimple=True, max_dim=6),
-        k,
-        tolerance="0 (every cocycle solved exactly)",
-    )
+        lambda: lie_algebras(semisimple=True, max_dim=6),
+        extra={"tolerance": "0 (every cocycle solved exactly)"},
+    ),
     # negative controls: each identity must fail on broken input
-    add(
+    IdentityCheck(
         "negative[closedness: f breaks Jacobi]",
         "vier2",
         _expect_failure(_broken_jacobi_closedness),
-        _broken_jacobi_models(),
-        k,
-        expects="failure",
-    )
-    add(
+        _broken_jacobi_models,
+        extra={"expects": "failure"},
+    ),
+    IdentityCheck(
         "negative[closedness: Theta not a cocycle]",
         "zeven1",
         _expect_failure(closedness_exact_example),
-        _non_cocycle_models(),
-        k,
-        expects="failure",
-    )
-    add(
+        _non_cocycle_models,
+        extra={"expects": "failure"},
+    ),
+    IdentityCheck(
         "negative[jacobi: f breaks Jacobi]",
         "vier9",
         _expect_failure(_broken_jacobi_jacobi),
-        _broken_jacobi_models(),
-        k,
-        expects="failure",
-    )
-    add(
+        _broken_jacobi_models,
+        extra={"expects": "failure"},
+    ),
+    IdentityCheck(
         "negative[jacobi: Theta not a cocycle]",
         "vier9",
         _expect_failure(jacobi_exact_example),
-        _non_cocycle_models(),
-        k,
-        expects="failure",
-    )
-    add(
+        _non_cocycle_models,
+        extra={"expects": "failure"},
+    ),
+    IdentityCheck(
         "negative[jacobi_float: {pi,pi} scaled]",
         "vier9",
         _expect_failure(_scaled_pp_jacobi),
-        model_points(max_dim=4, exact_point=False),
-        k,
-        expects="failure",
-    )
-    add(
+        lambda: model_points(max_dim=4, exact_point=False),
+        extra={"expects": "failure"},
+    ),
+    IdentityCheck(
         "negative[antisymmetry: Upsilon not antisymmetric]",
         "vier6, vier7",
         _expect_failure(_antisymmetry_nonzero_S),
-        _nonsymmetric_upsilon_models(),
-        k,
-        expects="failure",
-    )
-    add(
+        _nonsymmetric_upsilon_models,
+        extra={"expects": "failure"},
+    ),
+    IdentityCheck(
         "negative[tensor_blocks: perturbed P]",
         "vier9",
         _expect_failure(_perturbed_blocks),
-        model_points(max_dim=4, exact_point=False),
-        k,
-        expects="failure",
-    )
-    add(
+        lambda: model_points(max_dim=4, exact_point=False),
+        extra={"expects": "failure"},
+    ),
+    IdentityCheck(
         "negative[darboux: class of Theta != 0]",
         "drie9",
         _expect_failure(_nontrivial_darboux_body),
-        _nontrivial_darboux(),
-        k_mp,
-        expects="failure",
-    )
-    add(
+        _nontrivial_darboux,
+        "mp",
+        extra={"expects": "failure"},
+    ),
+    IdentityCheck(
         "negative[whitehead: H^2 != 0]",
         "zeven3",
         _expect_failure(whitehead_example),
-        _h2_nonzero_algebras(),
-        k,
-        expects="failure",
-    )
-    if _flows_available() and k >= 30:  # ~20 s per example: thorough profile only
-        add(
-            "negative[darboux_flow: xi -> -xi]",
-            "drie11, drie12",
-            _expect_failure(_darboux_flow_wrong_shift),
-            darboux_flow_examples(),
-            max(1, k // 30),
-            expects="failure",
-        )
-    return out
+        _h2_nonzero_algebras,
+        extra={"expects": "failure"},
+    ),
+    IdentityCheck(  # ~20 s per example: the thorough profile only (max_examples >= 30)
+        "negative[darboux_flow: xi -> -xi]",
+        "drie11, drie12",
+        _expect_failure(_darboux_flow_wrong_shift),
+        darboux_flow_examples,
+        "flow_negative",
+        needs_flows=True,
+        extra={"expects": "failure"},
+    ),
+)
+"""Every check of this module, once: :func:`identity_checks` (``tstarg verify``) runs them, and
+``tests/test_identity_checks.py`` runs each under pytest."""
+
+CHECKS_BY_NAME = {c.name: c for c in CHECKS}
+
+
+# -------------------------------------------------------------------- provider
+def identity_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
+    """Every identity of :mod:`properties.identities` over the strategies, plus negative controls:
+    each :data:`CHECKS` entry that applies at this budget (:meth:`IdentityCheck.examples`)."""
+    return [c.run(max_examples, seed) for c in CHECKS if c.applies(max_examples)]
