@@ -69,7 +69,17 @@ def _exact_array(values: Any) -> np.ndarray:
 
 
 def jacobi_residual(f: np.ndarray) -> np.ndarray:
-    """``J[m, a, b, c] = f^m_ak f^k_bc + f^m_bk f^k_ca + f^m_ck f^k_ab`` (object or float)."""
+    """``J[m, a, b, c] = f^m_ak f^k_bc + f^m_bk f^k_ca + f^m_ck f^k_ab`` (object or float).
+
+    >>> from tstarg.refimpl import su2
+    >>> f = su2().f
+    >>> float(abs(jacobi_residual(f)).max())  # a Lie algebra: zero
+    0.0
+    >>> g = np.zeros((3, 3, 3))  # [e_1, e_2] = e_3, [e_1, e_3] = e_1: not a Lie algebra, since
+    >>> g[2, 0, 1], g[2, 1, 0], g[0, 0, 2], g[0, 2, 0] = 1, -1, 1, -1
+    >>> float(jacobi_residual(g)[2, 0, 1, 2])  # [e_2, [e_3, e_1]] = [e_2, -e_1] = e_3, rest 0
+    1.0
+    """
     t = np.einsum("mak,kbc->mabc", f, f)
     return t + t.transpose(0, 2, 3, 1) + t.transpose(0, 3, 1, 2)
 

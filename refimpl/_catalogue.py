@@ -346,7 +346,16 @@ CATALOGUE_NAMES = tuple(_entries())
 
 
 def catalogue(name: str | None = None):
-    """One algebra by its catalogue name, or (no argument) the dict of all of them."""
+    """One algebra by its catalogue name, or (no argument) the dict of all of them.
+
+    >>> su2 = catalogue("su(2)")
+    >>> su2.dim, float(su2.f[2, 0, 1])  # [e_1, e_2] = e_3: f^3_12 = eps_312 = 1
+    (3, 1.0)
+    >>> catalogue("so4")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: unknown algebra 'so4'; the catalogue has su(2), ...
+    """
     entries = _entries()
     if name is None:
         return {k: v() for k, v in entries.items()}

@@ -42,7 +42,12 @@ def pair_index(n: int) -> list[tuple[int, int]]:
 
 
 def delta1(alg: LieAlgebra, xi: Any, exact: bool = False) -> np.ndarray:
-    """``(delta_1 xi)_ab = -xi_m f^m_ab``: the coboundary Theta of zeven3."""
+    """``(delta_1 xi)_ab = -xi_m f^m_ab``: the coboundary Theta of zeven3.
+
+    >>> from tstarg.refimpl import su2
+    >>> float(delta1(su2(), [0, 0, 1])[0, 1])  # -xi_3 eps_312
+    -1.0
+    """
     if exact:
         alg._need_exact("delta1(exact=True)")
         xe = np.array([to_exact(v) for v in xi], dtype=object)
@@ -189,6 +194,12 @@ def cohomology(alg: LieAlgebra, exact: bool | None = None) -> Cohomology:
 
 
 def h2_dim(alg: LieAlgebra, exact: bool | None = None) -> int:
+    """``dim H^2 = dim Z^2 - dim B^2`` (zeven3).
+
+    >>> from tstarg.refimpl import abelian, heisenberg, su2
+    >>> h2_dim(su2()), h2_dim(heisenberg()), h2_dim(abelian(3))  # Whitehead; h(3); Lambda^2 R^3
+    (0, 2, 3)
+    """
     return cohomology(alg, exact).dim_h2
 
 

@@ -38,7 +38,9 @@ from fractions import Fraction
 from functools import lru_cache
 from typing import Any
 
+import mpmath
 import numpy as np
+import sympy
 
 from ._errors import ChartError
 
@@ -118,6 +120,13 @@ def parse_number(text: str, name: str = "value") -> Fraction:
     ``ValueError`` naming ``name``: anything else (code, ``"nan"``, ``"inf"``, ``"0x1p3"``,
     underscores), strings over :data:`MAX_NUMBER_CHARS` characters, exponents beyond
     :data:`MAX_DECIMAL_EXPONENT`, and a zero denominator.
+
+    >>> parse_number(" -1/3 "), parse_number("1.25e-3")
+    (Fraction(-1, 3), Fraction(1, 800))
+    >>> parse_number("__import__('os')", "theta[0, 1]")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: theta[0, 1] = "__import__('os')" is not a decimal or rational literal such as ...
     """
     if not isinstance(text, str):
         raise TypeError(f"{name}: parse_number takes a str, got {type(text).__name__}")
@@ -167,8 +176,6 @@ def exact_fraction(value: Any, name: str = "value") -> Fraction:
         return parse_number(value, name)
     mod = type(value).__module__ or ""
     if mod.startswith("sympy"):
-        import sympy
-
         if isinstance(value, sympy.Rational):  # Integer is a Rational
             return Fraction(int(value.p), int(value.q))
         if isinstance(value, sympy.Float):
@@ -177,8 +184,6 @@ def exact_fraction(value: Any, name: str = "value") -> Fraction:
             f"{name} = {value!s:.60} is not a rational or float sympy number (no exact fraction)"
         )
     if mod.startswith("mpmath"):
-        import mpmath
-
         if isinstance(value, mpmath.mpf):
             return _mpf_fraction(value._mpf_, name)
     raise ValueError(f"{name} has type {type(value).__name__}; a real number is expected")
@@ -200,8 +205,10 @@ def exact_sympy(value: Any, name: str = "value"):
     sympy objects pass unchanged (symbols and radicals included: they were built by code, not
     parsed); every other number goes through :func:`exact_fraction` (strings through
     :func:`parse_number`) and becomes an exact ``sympy.Rational``.
+
+    >>> exact_sympy("2/6"), exact_sympy(0.5)
+    (1/3, 1/2)
     """
-    import sympy
 
     if isinstance(value, sympy.Basic):
         return value

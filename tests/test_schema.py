@@ -295,6 +295,11 @@ def test_every_consumer_reads_the_spec():
     assert {m: PROTOCOL.by_name[m].arg_names for m in names} == jsonl.METHODS
     assert load_schema("request")["properties"]["method"]["enum"] == list(METHODS)
     assert set(CHECKS.values()) <= set(names)
+    from tstarg.reports.certification import REGISTRY
+    from tstarg.reports.certification.check import ANY_METHOD
+
+    assert ANY_METHOD == names
+    assert all(set(c.needs) <= set(names) for c in REGISTRY.values()), "a non-spec method"
     assert set(names) <= set(CHECKS.values()), "a spec method with no certification check"
     assert all(a.name in SAMPLE_VALUES for m in PROTOCOL.methods for a in m.args)
     attrs = {a.name for a in PROTOCOL.attributes if a.where == "attribute"}

@@ -25,10 +25,15 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from tstarg.refimpl import PROTOCOL
+
+from ..mutants import MUTATIONS
+
 __all__ = ["ANY_METHOD", "Check", "Mutant", "Variant"]
 
-ANY_METHOD = ("poisson_tensor", "hamiltonian_vector_field", "flow")
-"""``needs`` of a check that runs through whichever protocol method exists."""
+ANY_METHOD = PROTOCOL.method_names
+"""``needs`` of a check that runs through whichever protocol method exists (every method of the
+spec, :data:`tstarg.refimpl.PROTOCOL`)."""
 
 
 @dataclass(frozen=True)
@@ -93,6 +98,5 @@ class Check:
 def planted(*names: str) -> dict:
     """``mutants=`` entries for mistakes of the shared plain implementation
     (:data:`reports.mutants.MUTATIONS`): name -> description."""
-    from ..mutants import MUTATIONS
 
     return {n: MUTATIONS[n] for n in names}
