@@ -53,7 +53,7 @@ __all__ = [
 
 
 def __getattr__(name):
-    if name == "oracle_checks":
+    if name == "oracle_checks":  # on first use (PEP 562): the provider loads every oracle
         from .oracle_checks import oracle_checks
 
         return oracle_checks

@@ -15,6 +15,7 @@ third parties can call them directly.
 
 from __future__ import annotations
 
+import functools
 import importlib.util
 import math
 from collections.abc import Callable
@@ -551,7 +552,7 @@ def _tensor_blocks_checks() -> list[IdentityCheck]:
                 f"tensor_blocks[{impl},{regime}]",
                 "vier7, vier9",
                 tensor_blocks_example(impl),
-                lambda regime=regime: model_points(max_dim=4, exact_point=False, regime=regime),
+                functools.partial(model_points, max_dim=4, exact_point=False, regime=regime),
                 "float" if impl == "fast" else "mp",
                 extra={
                     "tolerance": "8n(|Phi| 2n|A|^2 e + n eps |Phi||B|), e = entry error bound of P"

@@ -416,7 +416,7 @@ def _label(v: Any, path: str = "example") -> list[tuple[str, Any]]:
         ]
     if isinstance(v, tuple):
         has_model = any(_is_model(p) for p in v)
-        out = []
+        out: list[tuple[str, Any]] = []
         for i, p in enumerate(v):
             if has_model and isinstance(p, float):
                 out.append(("t", p))
@@ -442,7 +442,7 @@ def worst_entry(notes: dict, ratio: float | None) -> dict | None:
         idx = np.unravel_index(int(np.argmax(diff)), diff.shape)
     except (TypeError, ValueError):
         return None
-    out = {
+    out: dict[str, Any] = {
         "index": [int(i) for i in idx],
         "expected": float(exp[idx]),
         "got": float(got[idx]),
@@ -563,7 +563,7 @@ def run_property(
         ck_s = left if ck_s is None else min(ck_s, left)
     sh_s = shrink_seconds if shrink_seconds is not None else lim.shrink_seconds
     t0 = time.perf_counter()
-    state = {
+    state: dict[str, Any] = {
         "failure": None,
         "over": 0,
         "stopped": False,
@@ -658,8 +658,12 @@ def run_property(
     if seed is not None:
         inner = hyp_seed(seed)(inner)
     buf = io.StringIO()
+
+    def to_buffer(text: object) -> None:
+        buf.write(str(text) + "\n")
+
     try:
-        with with_reporter(lambda s: buf.write(str(s) + "\n")):
+        with with_reporter(to_buffer):
             inner()
     except _Stop as stop:
         if state["failure"] is not None:
@@ -683,8 +687,8 @@ def run_property(
         if state["failure"] is None:  # raised outside the body: while drawing the example
             res.worst_ratio = math.inf
             # the innermost frames (where it was raised: the strategy's own code) and the error itself
-            inner = traceback.extract_tb(exc.__traceback__)[-4:]
-            tb = "".join(traceback.format_list(inner)) + "".join(
+            frames = traceback.extract_tb(exc.__traceback__)[-4:]
+            tb = "".join(traceback.format_list(frames)) + "".join(
                 traceback.format_exception_only(type(exc), exc)
             )
             res.falsifying_example = (

@@ -111,7 +111,7 @@ def save_figure(fig, path, **kwargs) -> Path:
 
 
 def _try_lock(folder: Path) -> int | None:
-    import fcntl
+    import fcntl  # local: POSIX only (the rest of the module works anywhere)
 
     folder.mkdir(parents=True, exist_ok=True)
     fd = os.open(folder / LOCK_NAME, os.O_RDWR | os.O_CREAT, 0o644)

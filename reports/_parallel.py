@@ -145,7 +145,7 @@ def map_tasks(
 
 def _map_dask(guarded: _Guarded, items: list, scheduler, workers: int | None) -> list:
     """The guarded outcomes ``(ok, value)`` of every item, gathered from Dask."""
-    try:
+    try:  # local: dask.distributed is heavy and needed only with --scheduler
         from distributed import Client, LocalCluster
     except ImportError as exc:  # pragma: no cover - dask is a dependency
         raise RuntimeError(

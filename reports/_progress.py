@@ -170,6 +170,7 @@ class Progress:
         self.mode = "off"  # later calls draw nothing
 
     def _open_rich(self, stream) -> None:
+        # local: rich is loaded only for a terminal display (plain lines and --quiet never need it)
         from rich.console import Console
         from rich.progress import BarColumn, MofNCompleteColumn, ProgressColumn, TextColumn
         from rich.progress import Progress as _RichProgress

@@ -131,7 +131,7 @@ _REQUEST_DEFS = {
 
 
 def _attribute_schema(a) -> dict:
-    base = {
+    kinds: dict[str, dict[str, Any]] = {
         "string": {"type": "string"},
         "boolean": {"type": "boolean"},
         "number": {"type": "number"},
@@ -149,8 +149,8 @@ def _attribute_schema(a) -> dict:
                 },
             ]
         },
-    }[a.type]
-    out = {"description": a.doc, **base}
+    }
+    out = {"description": a.doc, **kinds[a.type]}
     if a.low is not None:
         out["exclusiveMinimum" if a.low_open else "minimum"] = a.low
     if a.high is not None:

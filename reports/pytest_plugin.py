@@ -34,6 +34,8 @@ def _target(config) -> str:
 
 
 def pytest_report_header(config):
+    # local imports in this plugin: pytest loads it in every session of anyone who installs
+    # tstarg; the battery (numba, the kernels) is imported only when a session asks for it
     from tstarg.reports._guard import materialize
 
     spec = _target(config)

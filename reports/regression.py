@@ -352,7 +352,7 @@ def plot(cmp: dict, path) -> Path | None:
 
 
 def _plot(cmp: dict, path) -> Path:
-    import matplotlib
+    import matplotlib  # local: heavy, and only for the comparison figure
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -427,7 +427,7 @@ def _plot(cmp: dict, path) -> Path:
             transform=ax.transAxes,
         )
     ax.set_xlabel("speed-up vs baseline computation (same run)")
-    from matplotlib.patches import Patch
+    from matplotlib.patches import Patch  # local: matplotlib, as above
 
     fig.legend(
         handles=[

@@ -123,7 +123,7 @@ def _announcing(body, name: str, t0: float, announce: bool):
     line per failing check, the first of them is the verdict."""
     if not announce:
         return body
-    said = []
+    said: list[bool] = []
 
     def say():
         if said:
