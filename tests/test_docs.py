@@ -280,6 +280,7 @@ def test_the_design_page_states_the_enforced_layering():
     assert chain == "reports -> oracles -> properties -> refimpl"
     text = (DOCS / "design.md").read_text()
     assert chain in text and "`oracles` may use `properties`" in text
+    assert "*public face*" in text and "ALLOWED_PRIVATE" in text  # the private-import rule
 
 
 def test_nothing_refers_to_files_outside_the_repository():
