@@ -145,6 +145,46 @@ def test_no_private_import_across_packages():
     assert stale == [], f"ALLOWED_PRIVATE lists imports that no longer exist: {stale}"
 
 
+def _private_attributes(m: str, source: str) -> list[tuple[str, str]]:
+    """``(module, dotted name)`` for every ``alias._name`` in ``source`` (module ``m``) where
+    ``alias`` was imported from another package: a private name reached through an attribute."""
+    tree = ast.parse(source)
+    own = m.split(".")[0]
+    aliases: dict[str, str] = {}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and not node.level and node.module:
+            name = node.module.removeprefix("tstarg.")
+            if name.split(".")[0] in RANK and name.split(".")[0] != own:
+                aliases |= {a.asname or a.name: f"{name}.{a.name}" for a in node.names}
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                name = a.name.removeprefix("tstarg.")
+                if name.split(".")[0] in RANK and name.split(".")[0] != own and a.asname:
+                    aliases[a.asname] = name
+    return sorted(
+        {
+            (m, f"{aliases[node.value.id]}.{node.attr}")
+            for node in ast.walk(tree)
+            if isinstance(node, ast.Attribute)
+            and isinstance(node.value, ast.Name)
+            and node.value.id in aliases
+            and _is_private(node.attr)
+        }
+    )
+
+
+def test_no_private_attribute_across_packages():
+    """``from tstarg.properties import runner`` then ``runner._report(...)`` crosses the line too."""
+    found = [x for m, f in _modules().items() for x in _private_attributes(m, f.read_text())]
+    assert found == [], f"private names of another package reached as attributes: {found}"
+
+
+def test_the_checker_sees_a_planted_private_attribute():
+    src = "from tstarg.properties import runner as r\nfrom . import _own\nr._report(); r.note(); _own._x\n"
+    assert _private_attributes("reports.x", src) == [("reports.x", "properties.runner._report")]
+    assert _private_attributes("properties.y", src) == []
+
+
 def test_the_checker_sees_a_planted_private_import():
     """Negative control: another package's private module and private name are found, the own
     package's private parts and the public face are not."""
