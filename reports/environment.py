@@ -15,8 +15,6 @@ import sys
 from importlib import metadata
 from pathlib import Path
 
-from threadpoolctl import threadpool_info
-
 __all__ = ["environment", "git_commit", "tstarg_version"]
 
 _LIBRARIES = ("numpy", "scipy", "numba", "mpmath", "sympy", "hypothesis", "python-flint")
@@ -55,6 +53,12 @@ def git_commit() -> str | None:
 
 def _blas() -> list[dict]:
     try:
+        # local: imported for their side effect (the BLAS threadpoolctl then reports), and kept
+        # out of the light command line (tstarg --version reads git_commit from this module)
+        import numpy  # noqa: F401 - loads the BLAS threadpoolctl reports
+        import scipy.linalg  # noqa: F401
+        from threadpoolctl import threadpool_info
+
         return [
             {
                 "api": i.get("internal_api"),
