@@ -80,6 +80,7 @@ def _ad(x):
     )
 
 
+# Independent of refimpl/_phi.py on purpose: these checks judge refimpl from first principles.
 def _phi1(M, terms=80):
     out, term = mpmath.eye(M.rows), mpmath.eye(M.rows)
     for k in range(1, terms):
