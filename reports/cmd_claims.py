@@ -1,8 +1,8 @@
 """``tstarg claims``: the paper's claims and errata -- every numbered equation, every displayed
 formula (labelled or not) and every mathematical sentence.
 
-Runs every check named by the registries (oracles.claims for the labels, oracles.claims_unlabelled
-for the displays and sentences of the paper's index shipped with the package, oracles.paper_index), prints
+Runs every check named by the registry (oracles.claims, data in oracles/registry/*.toml: the labels,
+then the displays and sentences of the paper's index shipped with the package, oracles.paper_index), prints
 the table and the coverage (items of the paper vs entries), writes ``claims.md`` (default
 ``reports/claims.md``), the GNH worked examples, the qutip comparisons with their measured errors,
 and Bloch-sphere figures of classical and quantum trajectories (``reports/figures/bloch_*.png``).
@@ -178,7 +178,7 @@ def main(args) -> int:
 def _run(args, display, claims, evaluate, render_markdown):
     """Every check of the registries, one progress step per labelled claim; returns the
     Markdown, the contradicted labels and the items without an entry."""
-    from tstarg.oracles.claims_unlabelled import coverage, evaluate_entries, render_entries_markdown
+    from tstarg.oracles.claims import coverage, evaluate_entries, render_entries_markdown
     from tstarg.oracles.paper_index import shipped_index
 
     cache: dict = {}  # each named check runs once across the claims
