@@ -15,6 +15,21 @@ from .common import Outcome
 R = sp.Rational
 
 
+def _zeven1(F, Th, n: int) -> list:
+    """zeven1 as printed, one expression per ``(a, b, g)``: ``-Theta_kg f^k_ab + Theta_kb f^k_ag -
+    Theta_ka f^k_bg`` (zero for a cocycle)."""
+    return [
+        sp.expand(
+            -sum(Th[k, g] * F[k, a, b] for k in range(n))
+            + sum(Th[k, b] * F[k, a, g] for k in range(n))
+            - sum(Th[k, a] * F[k, b, g] for k in range(n))
+        )
+        for a in range(n)
+        for b in range(n)
+        for g in range(n)
+    ]
+
+
 def zeven1_jacobi(name: str = "su(2)") -> Outcome:
     """zeven1 as printed is exactly the condition for the bracket drie3
     ``{pi_a, pi_b} = -(pi_k f^k_ab - Theta_ab)`` to satisfy Jacobi (equivalently, for
@@ -45,16 +60,7 @@ def zeven1_jacobi(name: str = "su(2)") -> Outcome:
     jac_eqs = []
     for e in jac:
         jac_eqs.extend(sp.Poly(e, *pi).coeffs() if e != 0 else [])
-    z1 = [
-        sp.expand(
-            -sum(Th[k, g] * F[k, a, b] for k in range(n))
-            + sum(Th[k, b] * F[k, a, g] for k in range(n))
-            - sum(Th[k, a] * F[k, b, g] for k in range(n))
-        )
-        for a in range(n)
-        for b in range(n)
-        for g in range(n)
-    ]
+    z1 = _zeven1(F, Th, n)
     syms = list(t.values())
 
     def space(eqs):
@@ -80,16 +86,7 @@ def zeven3_whitehead(name: str = "su(2)") -> Outcome:
     F = alg.f_exact
     xi = sp.symbols(f"x0:{n}")
     Th = sp.Matrix(n, n, lambda a, b: -sum(xi[m] * F[m, a, b] for m in range(n)))
-    z1 = [
-        sp.expand(
-            -sum(Th[k, g] * F[k, a, b] for k in range(n))
-            + sum(Th[k, b] * F[k, a, g] for k in range(n))
-            - sum(Th[k, a] * F[k, b, g] for k in range(n))
-        )
-        for a in range(n)
-        for b in range(n)
-        for g in range(n)
-    ]
+    z1 = _zeven1(F, Th, n)
     cob = all(e == 0 for e in z1)
     coh = cohomology(alg, exact=True)
     semisimple = alg.is_semisimple()
