@@ -23,3 +23,9 @@ def tolerance(scale=1) -> mpmath.mpf:
     # error model for the mpmath first-principles route: mpmath.diff at DPS + 15 guard digits
     # is good to ~DPS digits; we ask for DPS - 8 correct digits of the scale.
     return mpmath.mpf(10) ** (-(DPS - 8)) * max(mpmath.mpf(1), abs(scale))
+
+
+def within(err, detail: str) -> Outcome:
+    """The outcome of an mpmath check whose defect ``err`` is held to :func:`tolerance` (scale 1)."""
+    tol = tolerance()
+    return Outcome(bool(err <= tol), float(err), float(tol), detail)

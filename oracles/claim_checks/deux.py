@@ -14,7 +14,7 @@ from tstarg.refimpl.reference import Reference
 
 from . import algebras
 from . import group_model as gm
-from .common import DPS, Outcome, tolerance
+from .common import DPS, Outcome, tolerance, within
 
 
 def twee1_frame_printed() -> Outcome:
@@ -30,12 +30,7 @@ def twee1_frame_printed() -> Outcome:
             lambda y: gm.coords(gm.group_element(y) * gm.group_element([0, 0, 0])), x
         )  # d(g h)/dg at h = e
         err = gm.maxabs(printed - true)
-    return Outcome(
-        bool(err <= tolerance()),
-        float(err),
-        float(tolerance()),
-        "d(gh)/dg at h=e vs d/ds g exp(s e_b)",
-    )
+    return within(err, "d(gh)/dg at h=e vs d/ds g exp(s e_b)")
 
 
 def twee1_frame_corrected() -> Outcome:
@@ -56,12 +51,7 @@ def twee1_frame_corrected() -> Outcome:
             gm.maxabs(dh_co - A),
             gm.maxabs(dh_co * dh - mpmath.eye(3)),
         )
-    return Outcome(
-        bool(err <= tolerance()),
-        float(err),
-        float(tolerance()),
-        "L(g,e) = phi1(-ad_x)^-1, L(g^-1,g) = phi1(-ad_x)",
-    )
+    return within(err, "L(g,e) = phi1(-ad_x)^-1, L(g^-1,g) = phi1(-ad_x)")
 
 
 def twee3_coadjoint() -> Outcome:
@@ -79,9 +69,7 @@ def twee3_coadjoint() -> Outcome:
         piL, piR = L.T * p, R.T * p
         Ad_inv = mpmath.expm(-gm.ad(x))
         err = gm.maxabs(piR - Ad_inv.T * piL)
-    return Outcome(
-        bool(err <= tolerance()), float(err), float(tolerance()), "pi^R vs Ad(g^-1)^T pi^L"
-    )
+    return within(err, "pi^R vs Ad(g^-1)^T pi^L")
 
 
 _LVEC, _GAMMA = ("0.2", "-0.5", "1.1"), ("0.6", "0.3", "-0.9")
@@ -106,12 +94,7 @@ def twee16_gravity_gradient() -> Outcome:
             for mu in range(3)
         ]
         err = max(abs(u - v) for u, v in zip(lhs, rhs))
-    return Outcome(
-        bool(err <= tolerance()),
-        float(err),
-        float(tolerance()),
-        "derivative of V along g exp(s e_mu)",
-    )
+    return within(err, "derivative of V along g exp(s e_mu)")
 
 
 def _gamma_rate(Omega):

@@ -11,7 +11,7 @@ from tstarg.refimpl.reference import Reference
 
 from . import group_model as gm
 from . import paper
-from .common import DPS, Outcome, tolerance
+from .common import DPS, Outcome, tolerance, within
 
 
 def liouville_forms() -> Outcome:
@@ -78,12 +78,7 @@ def drie9_darboux() -> Outcome:
         for i in range(3):
             can[i, 3 + i], can[3 + i, i] = 1, -1
         err = gm.maxabs(Pn - can)
-    return Outcome(
-        bool(err <= tolerance()),
-        float(err),
-        float(tolerance()),
-        "pushed Poisson tensor vs canonical",
-    )
+    return within(err, "pushed Poisson tensor vs canonical")
 
 
 def labels_unique_printed() -> Outcome:
