@@ -185,6 +185,16 @@ def _state_field(body: QuadraticField, n: int, Ii, R, J, Fad3, want_ad: bool) ->
     return QuadraticField(d, const, lin, quad), offs, m
 
 
+def _reversed(F: QuadraticField) -> QuadraticField:
+    """The field ``-F`` (every coefficient negated, exactly): its flow at ``s`` is ``F``'s at ``-s``."""
+    return QuadraticField(
+        F.d,
+        {i: -v for i, v in F.const.items()},
+        {i: {j: -a for j, a in row} for i, row in F.lin.items()},
+        {i: {(j, k): -q for j, k, q in row} for i, row in F.quad.items()},
+    )
+
+
 # ------------------------------------------------------------------ x by Krawczyk
 class _Log:
     """The Krawczyk test for ``exp(rho(x)) = G`` (module docstring)."""
@@ -548,7 +558,8 @@ def full_state_enclosure(
     ``Upsilon`` must be exactly 0 (otherwise refused by name). The inputs pass the rigorous
     implementation's boundary (:mod:`refimpl.rigorous`: magnitudes, chart and work budget at ``x0``,
     precision cap) and the flow budget ``|t| <= MAX_FLOW_TIME``; ``max_seconds`` bounds the CPU time,
-    estimated from the first steps. ``order`` defaults to ``max(12, prec_bits // 5)``; ``jac_order``
+    estimated from the first steps. ``t < 0``: the flow backwards in time (the field reversed).
+    ``order`` defaults to ``max(12, prec_bits // 5)``; ``jac_order``
     (the Taylor order of the variational equation) to 8, or ``3/4 order`` with ``jacobian=True`` (the
     Jacobian's radius then matches the state's; at 8 it is ~1e-12).
     """
@@ -595,8 +606,10 @@ def full_state_enclosure(
     _point_view(pi0, n, "pi0")
     check_frames_budget(ff, xf)
     tv = float(check_magnitudes(_fview(t, "t"), "t"))
-    if not 0 <= tv <= MAX_FLOW_TIME:
-        raise ValueError(f"t must be in [0, {MAX_FLOW_TIME:g}] (the flow budget), got {t!r}")
+    if not abs(tv) <= MAX_FLOW_TIME:
+        raise ValueError(
+            f"t must be in [-{MAX_FLOW_TIME:g}, {MAX_FLOW_TIME:g}] (the flow budget), got {t!r}"
+        )
     if order is None:
         order = max(12, prec_bits // 5)
     if (
@@ -622,6 +635,8 @@ def full_state_enclosure(
         F3 = [[[to_arb(src[k, a, j], "f") for j in range(n)] for a in range(n)] for k in range(n)]
         R, J = _rep_balls(rep)
         field_, offs, m = _state_field(body, n, Ii, R, J, F3, want_ad)
+        if tv < 0:  # y(t) for t < 0 is the state at |t| of the time-reversed field y' = -F(y)
+            field_ = _reversed(field_)
         Fad, _, _ = algebra_balls(f, prec_bits)
         xv = arb_mat(n, 1, [to_arb(v, "x0") for v in np.asarray(x0, dtype=object).reshape(-1)])
         adx = arb_mat(n, n, (Fad * xv).entries())
@@ -656,7 +671,7 @@ def full_state_enclosure(
         res = enclose_quadratic(
             field_,
             y0,
-            to_arb(t, "t"),
+            abs(to_arb(t, "t")),
             order=order,
             jac_order=jac_order,
             tol=tol,
