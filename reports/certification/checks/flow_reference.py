@@ -84,9 +84,10 @@ def _flow_reference(impl, dom, stats):
             xr, pr, ex_, ep_ = proven
             _count(stats, f"forward legs judged by {PROVEN_JUDGE}")
         else:  # the balls refuse (named): the mpmath reference judges, unproven
+            _count(stats, f"balls refused: {proven}")
             xr, pr = reference((*model, x, pi), ta)
             ex_ = ep_ = 0.0
-            _count(stats, f"forward legs judged by the mpmath reference (balls refused: {proven})")
+            _count(stats, "forward legs judged by the mpmath reference (the balls refused)")
         # forward from the drawn start to the judge's end point, and back (time -|t|) from that end
         # point: to the drawn start (the mpmath route: the round trip, the reference error carried
         # back unamplified is far below tolerance), or, where the balls enclose the backward flow from
@@ -97,6 +98,8 @@ def _flow_reference(impl, dom, stats):
             if isinstance(back, tuple):
                 legs.append((-ta, (xr, pr), back[:2], back[2:]))
             else:
+                if back is not None:
+                    _count(stats, f"backward legs by the round trip (balls refused: {back})")
                 legs.append((-ta, (xr, pr), (x, pi), (0.0, 0.0)))
         c2, f2 = conditioning(f, theta, ups, xr, pr)
         cond, frame = max(cond, c2), max(frame, f2)
