@@ -26,8 +26,12 @@ Rounding model (outward rounding under IEEE 754 round-to-nearest-even, no direct
     ``down`` is non-decreasing, so it also bounds a minimum of rounded results (interval products take
     the min/max of the four bound products) from below; sums add bounds. Two operations
     are exact and not widened: adding to an exact 0, and multiplying by a coefficient ``+-2^k``,
-    ``k >= 0`` (a scaling; flagged per coefficient by the caller). The new centre ``yhat'`` of each
-    step is ``fl(yhat + m)`` with its rounding error taken exactly by Knuth's TwoSum. The input
+    ``k >= 0``, or by a power-of-two step ``h^k`` or ``1/k`` (scalings, exact while the result is
+    normal; flagged per coefficient by the caller). The new centre ``yhat'`` of each step is
+    ``fl(yhat + m)`` with its rounding error taken exactly by Knuth's TwoSum, and the dominant term of
+    the point series, ``F(yhat)``, is computed with Dekker's exact products and TwoSum
+    (:func:`_point_field`), about one rounding wide: the radius at ``T`` is mostly the sum of these
+    per-step widths carried by the flow. The input
     coefficients are enclosed outward from Arb balls by the caller.
 
 A-priori enclosure (high order, Nedialkov, Jackson and Corliss 1999)
@@ -37,8 +41,9 @@ A-priori enclosure (high order, Nedialkov, Jackson and Corliss 1999)
 
 Steps
     The step ``h`` comes from the point series at the set's centre (Jorba-Zou: the last two terms
-    about ``tol``, times a factor learnt from rejections); it is accepted when the enclosures exist
-    and the Lagrange remainder over ``E`` is at most ``tol``, else it shrinks by 0.7. Times are
+    about ``tol``, times a factor learnt from rejections), rounded down to a power of two; it is
+    accepted when the enclosures exist and the Lagrange remainder over ``E`` is at most ``tol``, else
+    it is halved. Times are
     float64: the step from ``t`` to ``t' = fl(t + h)`` is ``t' - t``, a point when TwoSum shows it
     exact, else that difference enclosed outward (every solution operator of length in the interval
     is enclosed), and the last step ends on
@@ -49,6 +54,8 @@ remainder below ``tol``), 2 a non-finite set (overflow), 3 more than ``max_steps
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -114,21 +121,46 @@ def _addhi(s, p, u, eta):
     return r + abs(r) * u
 
 
+TINY = (
+    2.0**-1022
+)  # the smallest normal float: a scaling by a power of two is exact when the result is normal
+
+
+@njit(cache=True)
+def _pow2(x):
+    """``x`` is a power of two (``x > 0``)."""
+    return x > 0.0 and math.frexp(x)[0] == 0.5
+
+
+@njit(cache=True)
+def _scale(lo, hi, s, u, eta):
+    """``[lo, hi] * s`` for a point ``s``: exact (not widened) when ``s`` is a power of two and both
+    results are normal or exact zeros, else the outward product."""
+    a = lo * s
+    b = hi * s
+    if _pow2(abs(s)) and (lo == 0.0 or abs(a) >= TINY) and (hi == 0.0 or abs(b) >= TINY):
+        return (a, b) if s > 0.0 else (b, a)
+    return _mul(lo, hi, s, s, u, eta)
+
+
 @njit(cache=True)
 def _divk(slo, shi, k, u, eta):
-    """``[slo, shi] / k`` for an integer ``k >= 1`` (0 stays an exact 0)."""
+    """``[slo, shi] / k`` for an integer ``k >= 1`` (exact for a power of two ``k`` when the results are
+    normal, 0 stays an exact 0)."""
+    if _pow2(float(k)):
+        return _scale(slo, shi, 1.0 / k, u, eta)
     lo = 0.0 if slo == 0.0 else _dn(slo / k, u, eta)
     hi = 0.0 if shi == 0.0 else _up(shi / k, u, eta)
     return lo, hi
 
 
 @njit(cache=True)
-def _taylor(Tlo, Thi, P, tab, conv, u, eta):
-    """Rows ``1..P`` of the normalised Taylor coefficients ``Tlo/Thi[k, :]`` from row 0 (intervals)."""
+def _taylor(Tlo, Thi, P, tab, conv, u, eta, k0=0):
+    """Rows ``k0+1..P`` of the normalised Taylor coefficients ``Tlo/Thi[k, :]`` from rows ``0..k0``."""
     clo, chi, lptr, lidx, llo, lhi, lex, qptr, qpair, qlo, qhi, qex, pj, pk = tab
     d = Tlo.shape[1]
     npair = pj.shape[0]
-    for k in range(P):
+    for k in range(k0, P):
         for m in range(npair):
             j = pj[m]
             kk = pk[m]
@@ -153,6 +185,78 @@ def _taylor(Tlo, Thi, P, tab, conv, u, eta):
                 slo = _addlo(slo, plo, u, eta)
                 shi = _addhi(shi, phi, u, eta)
             Tlo[k + 1, i], Thi[k + 1, i] = _divk(slo, shi, k + 1, u, eta)
+
+
+@njit(cache=True)
+def _two_prod(a, b):
+    """Dekker's product (Veltkamp splitting): ``a b = p + e`` exactly, with ``ok`` False outside the
+    range where that is guaranteed (no overflow in the split, no underflow of the error term)."""
+    p = a * b
+    if p == 0.0 or not (1e-280 < abs(p) < 1e280 and abs(a) < 1e150 and abs(b) < 1e150):
+        return p, 0.0, p == 0.0 and (a == 0.0 or b == 0.0)
+    c = 134217729.0 * a  # 2^27 + 1
+    ah = c - (c - a)
+    al = a - ah
+    c = 134217729.0 * b
+    bh = c - (c - b)
+    bl = b - bh
+    e = ((ah * bh - p) + ah * bl + al * bh) + al * bl
+    return p, e, True
+
+
+@njit(cache=True)
+def _two_sum(a, b):
+    """Knuth's TwoSum: ``a + b = s + e`` exactly."""
+    s = a + b
+    bb = s - a
+    return s, (a - (s - bb)) + (b - bb)
+
+
+@njit(cache=True)
+def _point_field(y, tab, outlo, outhi, u, eta):
+    """``F(y)`` at a point ``y``, nearly exactly: each product ``y_j y_k`` split exactly (Dekker), scaled
+    exactly by a ``+-2^k`` coefficient, the leading parts summed by TwoSum with every rounding error and
+    every low part collected in an interval; the result is then about one rounding wide instead of
+    the ulps of every product and sum. Other terms take the interval route."""
+    clo, chi, lptr, lidx, llo, lhi, lex, qptr, qpair, qlo, qhi, qex, pj, pk = tab
+    d = y.shape[0]
+    for i in range(d):
+        s = 0.0
+        elo = 0.0  # the interval of everything not in s
+        ehi = 0.0
+        if clo[i] == chi[i]:
+            s = clo[i]
+        else:
+            elo = clo[i]
+            ehi = chi[i]
+        for t in range(lptr[i], lptr[i + 1]):
+            yj = y[lidx[t]]
+            a = llo[t] * yj
+            if lex[t] and (abs(a) >= TINY or yj == 0.0):
+                s, err = _two_sum(s, a)
+                elo = _addlo(elo, err, u, eta)
+                ehi = _addhi(ehi, err, u, eta)
+            else:
+                plo, phi = _mul(llo[t], lhi[t], yj, yj, u, eta)
+                elo = _addlo(elo, plo, u, eta)
+                ehi = _addhi(ehi, phi, u, eta)
+        for t in range(qptr[i], qptr[i + 1]):
+            m = qpair[t]
+            a = y[pj[m]]
+            b = y[pk[m]]
+            p, pe, exact = _two_prod(a, b)
+            q = qlo[t]
+            if qex[t] and exact and (pe == 0.0 or abs(q * pe) >= TINY):
+                s, err = _two_sum(s, q * p)
+                elo = _addlo(_addlo(elo, err, u, eta), q * pe, u, eta)
+                ehi = _addhi(_addhi(ehi, err, u, eta), q * pe, u, eta)
+            else:
+                alo, ahi = _mul(a, a, b, b, u, eta)
+                plo, phi = _mul(qlo[t], qhi[t], alo, ahi, u, eta)
+                elo = _addlo(elo, plo, u, eta)
+                ehi = _addhi(ehi, phi, u, eta)
+        outlo[i] = _addlo(s, elo, u, eta)
+        outhi[i] = _addhi(s, ehi, u, eta)
 
 
 @njit(cache=True)
@@ -312,20 +416,29 @@ def _series_sum(Tlo, Thi, P, hlo, hhi, outlo, outhi, u, eta):
     for i in range(d):
         outlo[i] = 0.0
         outhi[i] = 0.0
+    point = hlo == hhi
     plo = 1.0
     phi = 1.0
     pw = np.empty((P + 1, 2))
     for k in range(1, P + 1):
-        plo, phi = _mul(plo, phi, hlo, hhi, u, eta)
+        if point:  # a point power (exact for a power-of-two step while normal)
+            plo = plo * hlo if _pow2(hlo) and plo * hlo >= TINY else _dn(plo * hlo, u, eta)
+            phi = phi * hhi if _pow2(hhi) and phi * hhi >= TINY else _up(phi * hhi, u, eta)
+            point = plo == phi
+        else:
+            plo, phi = _mul(plo, phi, hlo, hhi, u, eta)
         pw[k, 0] = plo
         pw[k, 1] = phi
     for i in range(d):
         slo = 0.0
         shi = 0.0
         for k in range(P, 0, -1):
-            a, b = _mul(Tlo[k, i], Thi[k, i], pw[k, 0], pw[k, 1], u, eta)
-            slo = _dn(slo + a, u, eta)
-            shi = _up(shi + b, u, eta)
+            if pw[k, 0] == pw[k, 1]:
+                a, b = _scale(Tlo[k, i], Thi[k, i], pw[k, 0], u, eta)
+            else:
+                a, b = _mul(Tlo[k, i], Thi[k, i], pw[k, 0], pw[k, 1], u, eta)
+            slo = _addlo(slo, a, u, eta)
+            shi = _addhi(shi, b, u, eta)
         outlo[i] = slo
         outhi[i] = shi
 
@@ -458,7 +571,8 @@ def enclose(tab, y0lo, y0hi, T, P, q, tol, h0, max_steps, u, eta):
             Yhi[i] = max(_up(yhat[i] + n1hi[i, 0], u, eta), yhat[i])
             Plo[0, i] = yhat[i]
             Phi[0, i] = yhat[i]
-        _taylor(Plo, Phi, P + 1, tab, conv, u, eta)
+        _point_field(yhat, tab, Plo[1], Phi[1], u, eta)  # the dominant term, nearly exact
+        _taylor(Plo, Phi, P + 1, tab, conv, u, eta, 1)
         a1 = 0.0
         a2 = 0.0
         for i in range(d):
@@ -476,6 +590,7 @@ def enclose(tab, y0lo, y0hi, T, P, q, tol, h0, max_steps, u, eta):
         _jac_taylor(TYlo, TYhi, Ilo, Ilo, q, tab, Jlo, Jhi, u, eta)
         accepted = False
         for _try in range(60):
+            h = math.ldexp(1.0, math.frexp(h)[1] - 1)  # a power of two: exact scalings by h^k
             last = t + h >= T
             tn = T if last else t + h
             hh = tn - t
@@ -508,8 +623,8 @@ def enclose(tab, y0lo, y0hi, T, P, q, tol, h0, max_steps, u, eta):
                 accepted = True
                 break
             rejected += 1
-            h = 0.7 * (tn - t)
-            fac = 0.7 * fac
+            h = 0.5 * (tn - t)
+            fac = 0.5 * fac
             if h < 1e-12 * (1.0 + T):
                 return yhat, yhat, steps, rejected, UNDERFLOW
         if not accepted:
