@@ -157,8 +157,9 @@ def interval_enclose(
     )
     if status == K.UNDERFLOW:
         raise ValueError(
-            f"interval flow: step size underflow after {steps} steps (no a-priori enclosure or no "
-            f"remainder below tol = {tol:g})"
+            f"interval flow: step size underflow after {steps} steps (no a-priori enclosure, or no "
+            f"remainder below tol = {tol:g}, or no Jacobian remainder below {K.JTOL:g}: raise "
+            f"jac_order = {jac_order})"
         )
     if status == K.NONFINITE:
         raise ValueError(f"interval flow: the enclosure overflowed float64 after {steps} steps")
@@ -220,7 +221,7 @@ def interval_body_enclosure(
     *,
     tol: float = 1e-16,
     order: int | None = None,
-    jac_order: int = 8,
+    jac_order: int = 6,
     max_steps: int = 100000,
 ) -> IntervalEnclosure:
     """Enclose the body state at ``t`` (the arguments of :func:`body_flow_enclosure`) in float64 intervals.

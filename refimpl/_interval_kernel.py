@@ -42,7 +42,8 @@ A-priori enclosure (high order, Nedialkov, Jackson and Corliss 1999)
 Steps
     The step ``h`` comes from the point series at the set's centre (Jorba-Zou: the last two terms
     about ``tol``, times a factor learnt from rejections), rounded down to a power of two; it is
-    accepted when the enclosures exist and the Lagrange remainder over ``E`` is at most ``tol``, else
+    accepted when the enclosures exist, the Lagrange remainder over ``E`` is at most ``tol`` and the
+    Jacobian's remainder at most :data:`JTOL` (its width multiplies the set's radius every step), else
     it is halved. Times are
     float64: the step from ``t`` to ``t' = fl(t + h)`` is ``t' - t``, a point when TwoSum shows it
     exact, else that difference enclosed outward (every solution operator of length in the interval
@@ -71,6 +72,9 @@ U = 2.0**-53 + 2.0**-105  # the relative widening u (1 + 2 u), u = 2^-53 (module
 ETA = 5e-324  # 2^-1074, the smallest subnormal: >= every gap
 
 OK, UNDERFLOW, NONFINITE, MAXSTEPS = 0, 1, 2, 3
+JTOL = (
+    1e-4  # the largest accepted Jacobian remainder per step: the set grows by about d JTOL per step
+)
 
 
 @njit(cache=True)
@@ -617,6 +621,12 @@ def enclose(tab, y0lo, y0hi, T, P, q, tol, h0, max_steps, u, eta):
                     ok = _jac_enclosure(
                         Jlo, Jhi, q, hk, tab, TElo, TEhi, EJlo, EJhi, JRlo, JRhi, u, eta
                     )
+                    if ok:  # the Jacobian's truncation width multiplies the set: keep it small
+                        jrem = 0.0
+                        for i in range(d):
+                            for c in range(d):
+                                jrem = max(jrem, abs(JRlo[q + 1, i, c]), abs(JRhi[q + 1, i, c]))
+                        ok = jrem * hk[q + 1] <= JTOL
                 else:
                     ok = False
             if ok:
