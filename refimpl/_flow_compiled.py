@@ -325,19 +325,23 @@ def _run_cf(cf, y0, t, eps, order=None):
     return y, steps
 
 
-def _control(model, y0, t, eps_a0, n, tol):
+def _control(model, y0, t, eps_a0, n, tol, *, runner=None, estimate=None):
     """The two-run control of the module docstring on the rows of ``y0``: ``(B, estimate, steps of B)``.
 
     Trajectories are grouped by their local tolerances (one tolerance per kernel call); a trajectory
-    run again keeps its ``B`` when ``B``'s tolerance does not change (only ``A`` is run again)."""
+    run again keeps its ``B`` when ``B``'s tolerance does not change (only ``A`` is run again).
+    ``runner``: ``(run, order_b)`` as :func:`_runner` gives them, and ``estimate(A, B, n, out)`` the
+    per-row ``|A - B|`` (default: the su(2) quaternion state's; :mod:`refimpl._full_state` passes
+    its own for ``G = rho(g)``)."""
     N = len(y0)
-    run, order_b = _runner(model, True)
+    run, order_b = _runner(model, True) if runner is None else runner
+    _estimate_ = _estimate if estimate is None else estimate
     if N == 1:  # one trajectory, first pair: scalars only (the common protocol call)
         eb0 = _eps_b(eps_a0)
         A, _ = run(y0, t, eps_a0)
         B, sB = run(y0, t, eb0, order_b(eb0))
         d1 = np.empty(1)
-        _estimate(A, B, n, d1)
+        _estimate_(A, B, n, d1)
         e1 = float(d1[0])
         if eps_a0 >= PROP_MIN_A and eb0 >= PROP_MIN_B:
             e1 = min(e1, PROP * (eb0 / eps_a0) * e1)
@@ -374,9 +378,9 @@ def _control(model, y0, t, eps_a0, n, tol):
                     out[idx] = st
         di = np.empty(todo.size)
         if N == 1:
-            _estimate(Ares, res, n, di)
+            _estimate_(Ares, res, n, di)
         else:
-            _estimate(Ares[todo], res[todo], n, di)
+            _estimate_(Ares[todo], res[todo], n, di)
         d[todo] = di
         # B is at least 1/SAFETY times tighter than A: |A - B| ~ err(A) > err(B); with a much tighter B the
         # tolerance proportionality of the global error (Shampine 1985) gives the smaller estimate

@@ -43,7 +43,10 @@ The output
 Error control
     The two runs of :mod:`refimpl._flow_compiled` (a checking run ``A`` and the answer ``B``, local
     tolerances from :func:`refimpl._flow_compiled.local_tolerances`), the estimate measured where the
-    user reads the result: ``max(|pi_A - pi_B|, |Ad_A - Ad_B|)`` per trajectory.
+    user reads the result: ``max(|pi_A - pi_B|, |Ad_A - Ad_B|)`` per trajectory; the same control
+    function (:func:`refimpl._flow_compiled._control`) as the su(2) full state: a trajectory over the
+    tolerance keeps its ``B`` when only ``A`` is tightened, and has ``B`` alone tightened when the
+    proportional estimate then passes.
 """
 
 from __future__ import annotations
@@ -52,7 +55,7 @@ import numpy as np
 
 from . import _compiled_taylor as _ct
 from . import _full_state_kernel as _fk
-from ._flow_compiled import EPS_FLOOR, PROP, PROP_MIN_A, PROP_MIN_B, _eps_b, local_tolerances
+from ._flow_compiled import _control, local_tolerances
 from .codegen import import_source
 from .codegen.full_state import full_state_source
 
@@ -319,6 +322,14 @@ def full_state(model, abelian=None) -> FullState:
         ab = abelian.of(model.f, 1) if (rep.exponential and abelian is not None) else None
         fs = FullState(model, rep, None if ab is None else ab.P)
         fs.abelian = ab
+        if ab is not None:  # the tables of the compiled refine (_fk.abelian_batch)
+            D = np.ascontiguousarray(ab.D, dtype=float)
+            fs.abelian_tables = (
+                np.ascontiguousarray(ab.P, dtype=float),
+                np.ascontiguousarray(np.linalg.pinv(ab.P)),
+                D,
+                np.ascontiguousarray(np.einsum("ak,aij->kij", D, np.asarray(rep.mats).real)),
+            )
         fs.mats = np.ascontiguousarray(rep.mats, dtype=complex if fs.cplx else float)
         fs.proj = np.ascontiguousarray(_projector(rep.mats))
         gv = np.array(fs.gvars, dtype=np.int64).reshape(-1, 3)
@@ -388,6 +399,10 @@ def _x_of(fs: FullState, G, Ad, s) -> np.ndarray:
         xs[j] = fs.rep.log(G[j], Ad[j])
     if fs.abelian is not None:
         P = fs.abelian.P
+        if not fs.cplx:  # compiled (refimpl._full_state_kernel.abelian_batch), the same refine
+            ab = fs.abelian_tables
+            _fk.abelian_batch(G, xs, np.ascontiguousarray(s), *ab, fs.mats, ABELIAN_RTOL)
+            return xs.T.copy()
         for j in range(N):
             sj = s[:, j]
             if np.max(np.abs(P @ xs[j] - sj)) > ABELIAN_RTOL * max(1.0, float(np.max(np.abs(sj)))):
@@ -395,8 +410,8 @@ def _x_of(fs: FullState, G, Ad, s) -> np.ndarray:
     return xs.T.copy()
 
 
-def _run(fs: FullState, y0, t, eps, generated=False):
-    y, steps = fs.run(y0, t, eps, generated=generated)
+def _run(fs: FullState, y0, t, eps, generated=False, order=None):
+    y, steps = fs.run(y0, t, eps, order=order, generated=generated)
     if steps.min() < 0:
         raise ValueError(
             f"compiled Taylor flow: trajectories {np.flatnonzero(steps < 0)[:10].tolist()} became "
@@ -431,34 +446,25 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None) -> di
         Gamma0 = np.einsum("Nmb,m->bN", Ad0, model.gamma)
     s0 = None if fs.abelian is None else fs.abelian.P @ x0
     y0 = _pack(fs, pi0, Gamma0, G0, s0)
-    eps_a, eps_b = local_tolerances(tol)
+    eps_a, _ = local_tolerances(tol)
     gen = N * abs(t) >= GENERATED_MIN_WORK
-    todo = None  # every trajectory (the first pair of runs), then those over the tolerance
-    for _ in range(6):
-        yt = y0 if todo is None else y0[todo]
-        A, _s = _run(fs, yt, t, eps_a, gen)
-        B, sB = _run(fs, yt, t, eps_b, gen)
-        d, GB, AdB = _estimate(fs, A, B)
-        prop = eps_a >= PROP_MIN_A and eps_b >= PROP_MIN_B
-        e = np.minimum(d, PROP * (eps_b / eps_a) * d) if prop else d
-        if todo is None:
-            res, Adres, G, est, steps = B, AdB, GB, e, sB
-            todo = np.arange(N)
-        else:
-            res[todo], Adres[todo], G[todo], est[todo], steps[todo] = B, AdB, GB, e, sB
-        over = todo[e > tol]
-        if over.size == 0:
-            break
-        new = max(eps_a * min(tol / float(np.max(est[over])) / 10, 0.1), EPS_FLOOR)
-        if new >= eps_a:
-            break
-        eps_a, eps_b, todo = new, _eps_b(new), over
+
+    def run(y, tt, eps, order=None):
+        return _run(fs, y, tt, eps, gen, order)
+
+    def estimate(A, B, n_, out):
+        out[:] = _estimate(fs, A, B)[0]
+
+    res, est, steps = _control(
+        model, y0, t, eps_a, n, tol, runner=(run, default_order), estimate=estimate
+    )
     over = np.flatnonzero(est > tol)
     if over.size:
         raise ValueError(
             f"compiled Taylor flow: tolerance {tol} not reached on trajectories {over[:10].tolist()} "
             f"(estimated errors {est[over][:3].tolist()}) at the float64 floor of the local tolerance"
         )
+    _, G, Adres = _estimate(fs, res, res)
     s = None if fs.abelian is None else res[:, fs.d - fs.n_ab :].T
     x = _x_of(fs, G, Adres, s)
     return {
