@@ -62,14 +62,15 @@ from .codegen.full_state import full_state_source
 __all__ = ["FullState", "applies", "full_state", "full_state_flow"]
 
 EPS = np.finfo(float).eps
-GENERATED_MIN_WORK = 64.0
+GENERATED_MIN_WORK = 0.0
 """``N |t|`` (trajectories times the time span) from which a flow runs the kernel generated for its
-structure (:func:`refimpl.codegen.full_state.full_state_source`, about 2.2x faster per step: every product unrolled in one loop over the
-terms) instead of the one compiled for every structure (:mod:`refimpl._full_state_kernel`); the
-generated one costs 4-9 s of compilation per structure before the disk cache has it, repaid only by
-long batched flows (the rule of ``BATCH_MIN`` in :mod:`refimpl._compiled_taylor`), and kept out of
-single protocol calls (certification's per-call time budget counts a cold compile). A function of
-the call's inputs, so a call's result never depends on what ran before it."""
+structure (:func:`refimpl.codegen.full_state.full_state_source`: every product unrolled, about 2x
+faster per step) instead of the one compiled for every structure (:mod:`refimpl._full_state_kernel`,
+kept for ``FullState.run(generated=False)``). 0: always the generated one -- its compilation, 3-7 s
+of CPU per structure before the disk cache has it (su(3) the largest measured: 6.9 s; the Horner
+update and the step norms are loops over index tables and the products run in chunks of
+``PRODUCT_CHUNK``, which took su(3) down from 12 s), stays under the 10 s per structure of issue 25.
+A function of the call's inputs, so a call's result never depends on what ran before it."""
 
 
 def applies(model) -> bool:
