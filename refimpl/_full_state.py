@@ -431,12 +431,13 @@ def _estimate(fs: FullState, A, B):
     return est, GB, AdB
 
 
-def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None) -> dict:
+def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=None) -> dict:
     """Full state ``(x, pi)`` of ``N`` trajectories (``x0``, ``pi0`` of shape (n, N)) at time ``t`` with
     the global tolerance ``tol`` (max-norm over ``pi`` and ``Ad(g)`` per trajectory, two runs).
 
     Returns ``pi``, ``Gamma``, ``x``, ``g`` (``rho(g)``, (N, r, r)), ``Ad``, ``rebases`` (zeros: no
-    chart), ``steps``, ``error_estimate`` and ``path``."""
+    chart), ``steps``, ``error_estimate`` and ``path``. ``run``: the kernel, ``run(fs, y0, t, eps,
+    generated) -> (y, steps)`` (default :func:`_run`; each kernel picks its own order for ``eps``)."""
     fs = full_state(model, abelian)
     n, N = pi0.shape
     G0 = np.empty((N, fs.r, fs.r), dtype=fs.mats.dtype)
@@ -450,14 +451,16 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None) -> di
     eps_a, _ = local_tolerances(tol)
     gen = N * abs(t) >= GENERATED_MIN_WORK
 
-    def run(y, tt, eps, order=None):
-        return _run(fs, y, tt, eps, gen, order)
+    go = _run if run is None else run
+
+    def run_(y, tt, eps, order=None):  # order None: the kernel's own for eps
+        return go(fs, y, tt, eps, gen)
 
     def estimate(A, B, n_, out):
         out[:] = _estimate(fs, A, B)[0]
 
     res, est, steps = _control(
-        model, y0, t, eps_a, n, tol, runner=(run, default_order), estimate=estimate
+        model, y0, t, eps_a, n, tol, runner=(run_, lambda eps: None), estimate=estimate
     )
     over = np.flatnonzero(est > tol)
     if over.size:
