@@ -31,7 +31,9 @@ What is compiled
     ``f``, ``I^-1``, ``Theta``, ``G_L``, ``E_b`` and which entries of ``G`` vary; the numbers are one
     array argument ``c`` (read once per call into locals), the order ``P`` an argument. Files live under
     :func:`refimpl._compiled_taylor.cache_dir`, named by the hash of the source, compiled with
-    ``cache=True``.
+    ``cache=True`` (3-7 s of CPU per structure the first time, :data:`GENERATED_MIN_WORK`). The kernel
+    compiled once for every structure (:mod:`refimpl._full_state_kernel`, the same recurrence from
+    sparse tables, about 2x slower per step) stays as ``FullState.run(generated=False)``.
 
 The output
     ``Ad(g)`` from ``G``: ``G E_b G^-1 = Ad(g)_ab E_a`` (projected on the ``E_a``); ``x`` by the
@@ -464,8 +466,11 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
     def run_(y, tt, eps, order=None):  # order None: the kernel's own for eps
         return go(fs, y, tt, eps, gen)
 
+    last = [None, None, None]  # (B, G_B, Ad_B) of the last estimate: the answer's, when it is B
+
     def estimate(A, B, n_, out):
-        out[:] = _estimate(fs, A, B)[0]
+        out[:], last[1], last[2] = _estimate(fs, A, B)
+        last[0] = B
 
     res, est, steps = _control(
         model, y0, t, eps_a, n, tol, runner=(run_, lambda eps: None), estimate=estimate, b_max=B_MAX
@@ -476,7 +481,10 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
             f"compiled Taylor flow: tolerance {tol} not reached on trajectories {over[:10].tolist()} "
             f"(estimated errors {est[over][:3].tolist()}) at the float64 floor of the local tolerance"
         )
-    _, G, Adres = _estimate(fs, res, res)
+    if last[0] is res:  # N = 1, first pair: G and Ad(g) of the answer already computed
+        G, Adres = last[1], last[2]
+    else:
+        _, G, Adres = _estimate(fs, res, res)
     s = None if fs.abelian is None else res[:, fs.d - fs.n_ab :].T
     x = _x_of(fs, G, Adres, s)
     return {
