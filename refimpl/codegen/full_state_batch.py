@@ -1,13 +1,16 @@
 """The lane-batched kernel of the compiled full state (:mod:`refimpl._full_state`), one per structure.
 
 ``W`` trajectories run side by side in lanes (template ``full_state_batch``): the Taylor coefficients
-are laid out ``V[row, k, lane]``, so the ``W`` lanes of one coefficient are contiguous, and every
-statement of the recurrence is written out once per lane with the lane's accumulators as scalars.
-The Cauchy products -- ``(#products) P^2 / 2`` multiply-adds per step, the bulk of the work -- are
-loads and fused multiply-adds only (no stores in the loop over ``a``), which LLVM's SLP vectoriser
-packs into SIMD instructions across the lanes; no reassociation flag is needed (``fastmath`` is
+are laid out ``V[k, row, lane]`` (C order), so the ``W`` lanes of one coefficient are contiguous, and
+every statement of the recurrence is written out once per lane. The Cauchy products -- ``(#products)
+P^2 / 2`` multiply-adds per step, the bulk of the work -- are summed ``GROUP`` products at a time into
+rows of ``V`` of their own (``V[k, nv + p, lane]``): the lanes' adjacent stores are the seeds from
+which LLVM's SLP vectoriser packs loads, multiply-adds and stores into SIMD instructions across the
+lanes (measured on se(3) at order 20, one run: 2.6x fewer CPU seconds per trajectory than the
+single-trajectory generated kernel; accumulators held in scalars instead were packed across
+*products*, with shuffles, and gained nothing). No reassociation flag is needed (``fastmath`` is
 ``contract`` only, as in the single-trajectory kernels), so every lane sums its products in the order
-``a = 0..k`` of :mod:`refimpl._full_state_kernel`.
+``a = 0..k`` of :mod:`refimpl._full_state_kernel`; only the choice of fused multiply-adds may differ.
 
 The source is generated from the sparse tables of :meth:`refimpl._full_state.FullState.tables` (the
 one description of the field, shared with the kernel compiled for every structure): their index
@@ -15,7 +18,7 @@ arrays are the structure and are written into the source; their numbers (``dcoef
 ``lcoef``) are one argument array ``c``, read into locals once per call. So the source, and the cache
 key of its machine code, depends on the nonzero patterns only, never on the values.
 
-Each lane keeps its own time, step and step count: a trajectory takes the same steps as in the
+Each lane keeps its own time, step and step count: a trajectory takes the steps it takes in the
 single-trajectory kernel (Jorba-Zou's step from its own coefficients, per lane), and keeps its own
 error estimate and its own failure status.
 """
@@ -33,7 +36,8 @@ LANES = 4
 """Trajectories per lane block (``W``): four float64 lanes fill one 256-bit SIMD register."""
 
 GROUP = 8
-"""General Cauchy products summed in one loop over ``a``: their ``W``-lane accumulators stay in registers."""
+"""General Cauchy products summed in one loop over ``a`` (se(3), order 20, one run: 8 products 59 us
+per trajectory, 4 products 63 us, 2 products 71 us)."""
 
 
 def _sum(terms: list[str]) -> str:
@@ -75,10 +79,10 @@ def batch_source(tables, d: int, W: int = LANES, group: int = GROUP) -> str:
     general = [p for p in range(len(pu)) if pcls[p] == 0]
     for g0 in range(0, len(general), group):
         grp = general[g0 : g0 + group]
-        kb += [f"p{p}_{ln} = 0.0" for p in grp for ln in lanes]
+        kb += [f"{at('k', nv + p, ln)} = 0.0" for p in grp for ln in lanes]
         kb += ["for a in range(k + 1):", I1 + "b = k - a"]
         kb += [
-            I1 + f"p{p}_{ln} += {at('a', pu[p], ln)} * {at('b', pw[p], ln)}"
+            I1 + f"{at('k', nv + p, ln)} += {at('a', pu[p], ln)} * {at('b', pw[p], ln)}"
             for p in grp
             for ln in lanes
         ]
@@ -95,7 +99,11 @@ def batch_source(tables, d: int, W: int = LANES, group: int = GROUP) -> str:
     kb.append("ik = 1.0 / (k + 1)")
     for cv in range(len(vrow)):
         for ln in lanes:
-            terms = [f"c{off_q + t} * p{qprod[t]}_{ln}" for t in range(qptr[cv], qptr[cv + 1])]
+            terms = [
+                f"c{off_q + t} * "
+                + (at("k", nv + qprod[t], ln) if pcls[qprod[t]] == 0 else f"p{qprod[t]}_{ln}")
+                for t in range(qptr[cv], qptr[cv + 1])
+            ]
             for t in range(lptr[cv], lptr[cv + 1]):
                 if lcon[t]:
                     terms.append(f"(c{off_l + t} * {at(0, lvar[t], ln)} if k == 0 else 0.0)")
@@ -120,7 +128,7 @@ def batch_source(tables, d: int, W: int = LANES, group: int = GROUP) -> str:
                 f"V[0, o, {ln}] = w_{ln}",
             )
         ),
-        NV=str(int(nv)),
+        NV=str(int(nv) + len(pu)),
         D=str(int(d)),
         W=str(W),
     )

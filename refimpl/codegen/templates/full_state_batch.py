@@ -1,12 +1,13 @@
 """Template of the lane-batched full-state Taylor kernel (:func:`refimpl.codegen.full_state_batch.
-batch_source`): ``W`` trajectories side by side, the Taylor coefficients laid out ``V[row, k, lane]``.
+batch_source`): ``W`` trajectories side by side, the Taylor coefficients laid out ``V[k, row, lane]``.
 
 Read as text by :func:`refimpl.codegen._loader.template`: the lines above the body mark only
 define the placeholders for the linters; ``__NAME__`` is replaced by :func:`refimpl.codegen._loader.fill`
-(a placeholder alone on its line replaces the whole line). The generated blocks are the coefficient
-recurrence of one order ``k`` (``__COEFF__``, every lane), the step rows' norms of one lane
-(``__NORMS__``), the compensated Horner update of every lane (``__UPDATE__``) and the finiteness test
-of one lane (``__FINITE__``).
+(a placeholder alone on its line replaces the whole line). The generated blocks are the loads of the
+numbers (``__LOADS__``), the coefficient recurrence of one order ``k`` for every lane (``__COEFF__``)
+and the lanes of the compensated Horner update (``__HLOAD__``, ``__ZLOAD__``, ``__ZSTEP__``,
+``__ZADD__``); ``__NV__`` rows of ``V`` (state, derived, products), ``__D__`` state variables,
+``__W__`` lanes.
 
 Lanes: each lane runs one trajectory with its own time, step and step count -- the step sequence of
 the single-trajectory kernel (:mod:`refimpl._full_state_kernel`), so each trajectory keeps its own
