@@ -415,12 +415,14 @@ def _estimate(fs: FullState, A, B):
     return est, GB, AdB
 
 
-def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None) -> dict:
+def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=None) -> dict:
     """Full state ``(x, pi)`` of ``N`` trajectories (``x0``, ``pi0`` of shape (n, N)) at time ``t`` with
     the global tolerance ``tol`` (max-norm over ``pi`` and ``Ad(g)`` per trajectory, two runs).
 
     Returns ``pi``, ``Gamma``, ``x``, ``g`` (``rho(g)``, (N, r, r)), ``Ad``, ``rebases`` (zeros: no
-    chart), ``steps``, ``error_estimate`` and ``path``."""
+    chart), ``steps``, ``error_estimate`` and ``path``. ``run``: the kernel, ``run(fs, y0, t, eps,
+    generated) -> (y, steps)`` (default :func:`_run`; :mod:`refimpl._full_state_rational` passes the
+    ``Upsilon != 0`` one)."""
     fs = full_state(model, abelian)
     n, N = pi0.shape
     G0 = np.empty((N, fs.r, fs.r), dtype=fs.mats.dtype)
@@ -433,11 +435,12 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None) -> di
     y0 = _pack(fs, pi0, Gamma0, G0, s0)
     eps_a, eps_b = local_tolerances(tol)
     gen = N * abs(t) >= GENERATED_MIN_WORK
+    go = _run if run is None else run
     todo = None  # every trajectory (the first pair of runs), then those over the tolerance
     for _ in range(6):
         yt = y0 if todo is None else y0[todo]
-        A, _s = _run(fs, yt, t, eps_a, gen)
-        B, sB = _run(fs, yt, t, eps_b, gen)
+        A, _s = go(fs, yt, t, eps_a, gen)
+        B, sB = go(fs, yt, t, eps_b, gen)
         d, GB, AdB = _estimate(fs, A, B)
         prop = eps_a >= PROP_MIN_A and eps_b >= PROP_MIN_B
         e = np.minimum(d, PROP * (eps_b / eps_a) * d) if prop else d
