@@ -21,17 +21,19 @@ state's coefficient array). Step control (Jorba-Zou on ``pi``, ``Gamma`` and the
 from __future__ import annotations
 
 from ._loader import template
-from .rational import (
-    adaptive_step_lines,
-    amax_of,
-    cauchy_loops,
-    prologue_lines,
-    solve_lines,
-    update_lines,
-)
+from .rational import adaptive_step_lines, cauchy_loops, prologue_lines, solve_lines
 from .taylor import tree_sum
 
 __all__ = ["full_state_rational_source"]
+
+
+def _int_array(name: str, values: list[int]) -> str:
+    body = ", ".join(str(int(v)) for v in values)
+    return (
+        f"{name} = np.array([{body}], dtype=np.int64)"
+        if values
+        else f"{name} = np.zeros(0, dtype=np.int64)"
+    )
 
 
 def full_state_rational_source(rf, fs) -> str:
@@ -50,7 +52,7 @@ def full_state_rational_source(rf, fs) -> str:
     gvary = [g for g in gnames if g not in fs.const]
     used: set[int] = set()
 
-    body, kb = solve_lines(rf, sensitivity=True)
+    body, kb = solve_lines(rf, sensitivity=True, compact=True)
     # M_k = rho(Omega_k)
     for e, key in enumerate(fs.mv):
         terms = [f"c{ci} * OM[{b}, k]" for ci, b in fs.mv[key]]
@@ -83,12 +85,48 @@ def full_state_rational_source(rf, fs) -> str:
         kb.append(f"SS[{ell}, k + 1] = ({tree_sum(terms) if terms else '0.0'}) * ik")
     body += [I1 + x for x in kb]
 
-    ctrl = [("PI", a) for a in range(n)] + ([("GA", a) for a in range(n)] if grav else [])
-    ctrl += [("GG", gidx[g]) for g in gvary]
-    rows = ctrl + [("SS", ell) for ell in range(len(ab))]
-    # a step collapsing below float64's resolution of t: a real singularity ahead (vier12)
-    step = adaptive_step_lines(amax_of(ctrl), I1, "h > stall * t")
-    step += update_lines(rows)
+    # the step norms and the compensated Horner update as loops over the blocks (a loop per row would
+    # multiply the compile time; same arithmetic in the same order): PI, GA, the varying G (table GV), SS
+    blocks = [("PI", "n", None, "0")]
+    if grav:
+        blocks.append(("GA", "n", None, "n"))
+    blocks.append(("GG", "GV.shape[0]", "GV", "ncg"))
+    blocks.append(("SS", str(len(ab)), None, "ncs"))
+    norms = ["m0 = 0.0", "m1 = 0.0", "m2 = 0.0"]
+    for arr, cnt, tab, _ in blocks[:-1]:
+        norms += [f"for q in range({cnt}):", I1 + (f"i = {tab}[q]" if tab else "i = q")]
+        norms += [
+            I1 + f"m{j} = max(m{j}, abs({arr}[i, {k}]))" for j, k in enumerate(("0", "P - 1", "P"))
+        ]
+    step = norms + adaptive_step_lines(
+        lambda k: {"0": "m0", "P - 1": "m1", "P": "m2"}[str(k)], I1, "h > stall * t"
+    )
+    step.append("fin = True")
+    for arr, cnt, tab, off in blocks:
+        step += [
+            f"for q in range({cnt}):",
+            I1 + (f"i = {tab}[q]" if tab else "i = q"),
+            I1 + f"ci = {off} + q",
+            I1 + f"z = {arr}[i, P]",
+            I1 + "for kk in range(P - 1, 0, -1):",
+            I2 + f"z = z * hs + {arr}[i, kk]",
+            I1 + "z = z * hs - comp[ci]",
+            I1 + f"w = {arr}[i, 0] + z",
+            I1 + f"comp[ci] = (w - {arr}[i, 0]) - z",
+            I1 + f"{arr}[i, 0] = w",
+            I1 + "if not math.isfinite(w):",
+            I2 + "fin = False",
+        ]
+    step += [
+        "nst += 1",
+        "if not fin:",
+        I1 + "status = -1",
+        I1 + "break",
+        "if nst > max_steps:",
+        I1 + "status = -3",
+        I1 + "break",
+    ]
+    nrows = n * (2 if grav else 1) + len(gvary) + len(ab)
 
     io = [("PI", a) for a in range(n)] + ([("GA", a) for a in range(n)] if grav else [])
     io += [("GG", v) for v in range(len(gnames))] + [("SS", ell) for ell in range(len(ab))]
@@ -98,13 +136,19 @@ def full_state_rational_source(rf, fs) -> str:
         "@njit(cache=True, nogil=True)",
         "def adaptive(y0, T, tol, P, max_steps, fv, th, U, Ii, GL, UGL, cfs, cond_max, out, nsteps, tend, conds):",
     ]
-    pro = prologue_lines(rf, len(rows))
+    pro = prologue_lines(rf, nrows)
     src += pro[:-1]
     src += [I1 + f"c{ci} = cfs[{ci}]" for ci in sorted(used)]
     src += [
         I1 + f"GG = np.zeros(({max(len(gnames), 1)}, P + 1))",
         I1 + f"MM = np.zeros(({max(len(mnames), 1)}, P + 1))",
         I1 + f"SS = np.zeros(({max(len(ab), 1)}, P + 1))",
+        I1 + _int_array("GV", [gidx[g] for g in gvary]),
+        I1 + _int_array("TRM", [t[0] for t in rf.trip]),
+        I1 + _int_array("TRA", [t[1] for t in rf.trip]),
+        I1 + _int_array("TRB", [t[2] for t in rf.trip]),
+        I1 + f"ncg = {n * (2 if grav else 1)}",
+        I1 + f"ncs = {n * (2 if grav else 1) + len(gvary)}",
         I1 + "unorm = 0.0",
         I1 + "for a in range(n):",
         I2 + "unorm = max(unorm, np.sum(np.abs(U[a])))",
@@ -113,7 +157,7 @@ def full_state_rational_source(rf, fs) -> str:
     for col, (r, i) in enumerate(io):
         src.append(I2 + f"{r}[{i}, 0] = y0[it, {col}]")
     src += [
-        I2 + f"for q in range({len(rows)}):",
+        I2 + f"for q in range({nrows}):",
         I3 + "comp[q] = 0.0",
         I2 + "t = 0.0",
         I2 + "nst = 0",

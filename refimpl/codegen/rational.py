@@ -90,7 +90,9 @@ def sensitivity_lines(mi: str, s0: str, unorm: str) -> list[str]:
     ]
 
 
-def solve_lines(rf, sensitivity: bool = False) -> tuple[list[str], list[str]]:
+def solve_lines(
+    rf, sensitivity: bool = False, compact: bool = False
+) -> tuple[list[str], list[str]]:
     """The solve by ``Phi`` as a series recurrence, shared by every rational kernel: ``(per_step,
     per_order)``. ``per_step`` (inside the step loop): ``S_0``, ``Psi_0 = 1 + Upsilon S_0``, its inverse
     ``Mi`` and condition (``status = -2`` and stop above ``cond_max``), then the line
@@ -121,7 +123,15 @@ def solve_lines(rf, sensitivity: bool = False) -> tuple[list[str], list[str]]:
 
     body = []
     # ---- Psi_0 = 1 + U S_0 and its inverse; the condition number
-    for a in range(n):
+    if compact:  # S_0 by loops over the index tables TRM, TRA, TRB (the caller defines them)
+        body += [
+            "for a in range(n):",
+            I1 + "for b in range(n):",
+            I2 + "S0[a, b] = -th[a, b]",
+            "for e in range(TRM.shape[0]):",
+            I1 + "S0[TRA[e], TRB[e]] += fv[e] * PI[TRM[e], 0]",
+        ]
+    for a in range(n if not compact else 0):
         for b in range(n):
             terms = [
                 f"fv{t} * PI[{m}, 0]" for t, (m, aa, bb) in enumerate(trip) if (aa, bb) == (a, b)
