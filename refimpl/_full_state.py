@@ -451,7 +451,8 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
 
     Returns ``pi``, ``Gamma``, ``x``, ``g`` (``rho(g)``, (N, r, r)), ``Ad``, ``rebases`` (zeros: no
     chart), ``steps``, ``error_estimate`` and ``path``. ``run``: the kernel, ``run(fs, y0, t, eps,
-    generated) -> (y, steps)`` (default :func:`_run`; each kernel picks its own order for ``eps``)."""
+    generated) -> (y, steps)`` (default :func:`_run`; :mod:`refimpl._full_state_rational` passes the
+    ``Upsilon != 0`` one; each kernel picks its own order for ``eps``)."""
     fs = full_state(model, abelian)
     n, N = pi0.shape
     G0 = np.empty((N, fs.r, fs.r), dtype=fs.mats.dtype)
