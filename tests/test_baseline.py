@@ -73,9 +73,7 @@ def test_a_much_faster_run_says_the_baseline_is_stale(base, tmp_path, capsys):
         baseline=str(base_file), no_baseline=False, digits_slack=None, speed_factor=None
     )
     results: list = []
-    _verify._compare_with_baseline(
-        args, report, results, tmp_path, _verify._load_baseline(args)
-    )
+    _verify._compare_with_baseline(args, report, results, tmp_path, _verify._load_baseline(args))
     out = capsys.readouterr().out
     assert "the baseline is stale" in out and regression.RENEW in out
     assert report["comparison"]["stale"]
