@@ -9,8 +9,14 @@ from pathlib import Path
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from tstarg.oracles.claims import CLAIMS, evaluate, render_markdown
-from tstarg.oracles.claims_unlabelled import coverage, evaluate_entries, render_entries_markdown
+from tstarg.oracles.claims import (
+    CLAIMS,
+    coverage,
+    evaluate,
+    evaluate_entries,
+    render_entries_markdown,
+    render_markdown,
+)
 from tstarg.oracles.gnh_examples import EXAMPLES, check_example
 from tstarg.oracles.paper_index import shipped_index
 

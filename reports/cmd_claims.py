@@ -1,8 +1,8 @@
 """``tstarg claims``: the paper's claims and errata -- every numbered equation, every displayed
 formula (labelled or not) and every mathematical sentence.
 
-Runs every check named by the registries (oracles.claims for the labels, oracles.claims_unlabelled
-for the displays and sentences of the paper's index shipped with the package, oracles.paper_index), prints
+Runs every check named by the registry (oracles.claims, data in oracles/registry/*.toml: the labels,
+then the displays and sentences of the paper's index shipped with the package, oracles.paper_index), prints
 the table and the coverage (items of the paper vs entries), writes ``claims.md`` (default
 ``reports/claims.md``), the GNH worked examples, the qutip comparisons with their measured errors,
 and Bloch-sphere figures of classical and quantum trajectories (``reports/figures/bloch_*.png``).
