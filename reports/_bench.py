@@ -46,6 +46,7 @@ from ._imports import import_module, resolve
 from ._parallel import describe, map_tasks, parallel_options
 from ._progress import Progress, is_quiet
 from ._workprecision import fmt_err, fmt_time
+from .environment import git_commit
 from .jsonl import CommandImplementation, ProgramFailure, check_timeout
 
 
@@ -62,7 +63,7 @@ def _env() -> dict:
         "mpmath_backend": mpmath.libmp.BACKEND,
         "matplotlib": matplotlib.__version__,
         "blas_threads": [(i.get("internal_api"), i.get("num_threads")) for i in threadpool_info()],
-        "git_commit": _git_commit(),
+        "git_commit": git_commit(),  # the one source of the commit (reports.environment)
         "git_uncommitted_changes": _git_dirty(),
     }
 
@@ -81,22 +82,6 @@ def _git_dirty() -> bool | None:
     except (OSError, subprocess.SubprocessError):
         return None
     return bool(r.stdout.strip()) if r.returncode == 0 else None
-
-
-def _git_commit() -> str | None:
-    """The checked-out commit (read-only ``git rev-parse``), or None outside a repository."""
-    try:
-        r = subprocess.run(
-            ["git", "rev-parse", "HEAD"],
-            capture_output=True,
-            text=True,
-            timeout=10,
-            check=False,
-            cwd=Path(__file__).resolve().parent,
-        )
-    except (OSError, subprocess.SubprocessError):
-        return None
-    return r.stdout.strip() or None
 
 
 def _settings(quick: bool) -> dict:

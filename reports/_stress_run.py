@@ -6,7 +6,6 @@ from __future__ import annotations
 import json
 import math
 import platform
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -30,6 +29,7 @@ from ._stress import (
     summarize_points,
     task,
 )
+from .environment import git_commit
 
 MARKERS = {
     "ok": ("o", "tab:green"),
@@ -136,31 +136,6 @@ def _stress_d64() -> float:
 def _environment() -> dict:
     import matplotlib  # heavy (only its version is wanted here); the plots import it themselves
 
-    try:
-        here = Path(__file__).resolve().parent
-        commit = (
-            subprocess.run(
-                ["git", "rev-parse", "HEAD"],
-                capture_output=True,
-                text=True,
-                timeout=10,
-                check=False,
-                cwd=here,
-            ).stdout.strip()
-            or None
-        )
-        dirty = subprocess.run(
-            ["git", "status", "--porcelain", "--untracked-files=no"],
-            capture_output=True,
-            text=True,
-            timeout=10,
-            check=False,
-            cwd=here,
-        ).stdout.strip()
-        if commit and dirty:
-            commit += " + uncommitted changes"
-    except (OSError, subprocess.SubprocessError):
-        commit = None
     return {
         "python": platform.python_version(),
         "platform": platform.platform(),
@@ -170,7 +145,7 @@ def _environment() -> dict:
         "mpmath": mpmath.__version__,
         "sympy": sympy.__version__,
         "matplotlib": matplotlib.__version__,
-        "git_commit": commit,
+        "git_commit": git_commit(),  # the one source of the commit (reports.environment)
         "blas_threads": 1,
     }
 

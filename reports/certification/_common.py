@@ -33,7 +33,7 @@ from tstarg.refimpl import CATALOGUE_NAMES, catalogue, provides
 from tstarg.refimpl.flows import reference as _flow_reference
 from tstarg.refimpl.flows import reference_flow
 from tstarg.refimpl.reference import Reference
-from tstarg.refimpl.rigorous import Rigorous
+from tstarg.refimpl.rigorous import Rigorous, judge_flow
 
 from .._atomic import write_text
 
@@ -271,7 +271,6 @@ def _proven_state(f, theta, ups, inertia, pot, x, pi, t):
     proven upper bounds of ``|exact - value|`` per part (the radius plus half an ulp of the rounded
     midpoint); or a string, the reason the balls refused (``Upsilon != 0``, no exact representation,
     the logarithm not proven unique, over :data:`PROVEN_MAX_SECONDS`). Cached by value."""
-    from tstarg.refimpl.rigorous import judge_flow
 
     def compute():
         try:
