@@ -395,7 +395,14 @@ _check_class_against_spec()
 
 def provides(obj: Any, name: str) -> bool:
     """Does ``obj`` provide the protocol method ``name``? (callable, and not the placeholder of
-    :class:`Implementation`)."""
+    :class:`Implementation`).
+
+    >>> class Mine(Implementation):  # overrides one method: the others stay placeholders
+    ...     def poisson_tensor(self, f, theta, upsilon, x, pi):
+    ...         raise NotImplementedError
+    >>> provides(Mine(), "poisson_tensor"), provides(Mine(), "flow"), provided_methods(Mine())
+    (True, False, ['poisson_tensor'])
+    """
     fn = getattr(obj, name, None)
     return callable(fn) and not getattr(fn, "__tstarg_placeholder__", False)
 
@@ -407,7 +414,13 @@ def provided_methods(obj: Any) -> list[str]:
 
 def check_attributes(obj: Any, label: str = "") -> list[str]:
     """The problems of ``obj``'s declared attributes against the spec's types and caps (empty:
-    all admissible). Domain keys are checked by the certification's ``declared_domain``."""
+    all admissible). Domain keys are checked by the certification's ``declared_domain``.
+
+    >>> class Loose:
+    ...     flow_tolerance = -1.0  # a promised error must be positive
+    >>> print(*check_attributes(Loose(), "Loose"))  # doctest: +ELLIPSIS
+    Loose: flow_tolerance = -1.0 is outside its admissible range (0, 0.0001] ...
+    """
     out = []
     for a in ATTRIBUTES:
         if a.where != "attribute":

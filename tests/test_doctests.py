@@ -14,6 +14,7 @@ MODULES = (
     "tstarg.refimpl._catalogue",  # catalogue
     "tstarg.refimpl._cohomology",  # delta1, h2_dim
     "tstarg.refimpl._validate",  # parse_number, exact_sympy
+    "tstarg.refimpl._protocol",  # provides, provided_methods, check_attributes
     "tstarg.refimpl.model",  # Model
     "tstarg.refimpl.notebook",  # the notebook helpers
     "tstarg.properties.runner",  # RunState, limits
