@@ -45,8 +45,7 @@ import mpmath
 import numpy as np
 import sympy
 
-from tstarg.refimpl import LieAlgebra
-from tstarg.refimpl._validate import parse_number
+from tstarg.refimpl import LieAlgebra, parse_number
 from tstarg.refimpl.accuracy import correct_digits as _digits
 from tstarg.refimpl.accuracy import max_abs
 from tstarg.refimpl.flows import reference_flow

@@ -31,9 +31,9 @@ from tstarg.refimpl import (
     coboundary_basis,
     cocycle_basis,
     delta2,
+    exact_sympy,
+    jacobi_residual,
 )
-from tstarg.refimpl._algebra import jacobi_residual
-from tstarg.refimpl._validate import exact_sympy
 from tstarg.refimpl.fast import implementation as _fast
 
 __all__ = [

@@ -7,8 +7,7 @@ import random
 
 import sympy as sp
 
-from tstarg.refimpl import catalogue, cocycle_basis
-from tstarg.refimpl._validate import exact_sympy
+from tstarg.refimpl import catalogue, cocycle_basis, exact_sympy
 
 
 def random_model(name: str, seed: int):
