@@ -43,7 +43,7 @@ from collections import Counter
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
-from .claim_checks import CHECKS, Outcome, run_check
+from .claim_checks import CHECKS, Outcome, renamed_labels, run_check
 from .paper_index import PaperIndex, normalise
 
 __all__ = [
@@ -362,18 +362,10 @@ def labelled_display_entry(display_id: str, labels: tuple, latex: str, claims=CL
     )
 
 
-def _renamed(labels_in_order):
-    seen, out = set(), []
-    for lab in labels_in_order:
-        out.append("drie12" if lab == "drie5" and lab in seen else lab)
-        seen.add(lab)
-    return out
-
-
 def entries_for(index: PaperIndex) -> list[tuple[object, Claim | None]]:
     """Pair every display and sentence of ``index`` with its entry (``None`` when the registry has
     none), in the paper's order."""
-    all_labels = _renamed([lab for d in index.displays for lab in d.labels])
+    all_labels = renamed_labels([lab for d in index.displays for lab in d.labels])
     it = iter(all_labels)
     unl = {e.id: e for e in UNLABELLED}
     sen = {e.id: e for e in SENTENCES}

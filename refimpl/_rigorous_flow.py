@@ -53,6 +53,7 @@ import numpy as np
 from flint import arb, arb_mat
 
 from ._arb import Balls, algebra_balls, exact_source, float_view, to_arb, upper, workprec
+from ._taylor import body_field_tables
 from ._validate import (
     check_inertia,
     check_potential,
@@ -61,11 +62,14 @@ from ._validate import (
     check_upsilon,
 )
 
-__all__ = ["FlowEnclosure", "QuadraticField", "body_field", "body_flow_enclosure"]
+__all__ = ["FlowEnclosure", "BallField", "body_field", "body_flow_enclosure"]
 
 
-class QuadraticField:
-    """``y' = c + A y + Q(y, y)``: ``lin[i] = [(j, a_ij)]``, ``quad[i] = [(j, k, q_ijk)]`` (ball coefficients)."""
+class BallField:
+    """``y' = c + A y + Q(y, y)``: ``lin[i] = [(j, a_ij)]``, ``quad[i] = [(j, k, q_ijk)]`` (ball coefficients).
+
+    The Arb evaluator of a quadratic field for the enclosures; the body field's tables are those of
+    refimpl/_taylor.py (``body_field_tables``, the one definition), filled with balls by :func:`body_field`."""
 
     def __init__(self, d: int, const: dict, lin: dict, quad: dict):
         self.d = d
@@ -146,7 +150,7 @@ class QuadraticField:
         return J
 
 
-def body_field(f, theta, inertia, potential) -> tuple[QuadraticField, int]:
+def body_field(f, theta, inertia, potential) -> tuple[BallField, int]:
     """The quadratic field of the Euler (``potential=None``) or Euler-Poisson body system, in balls."""
     src = exact_source(f)
     n = src.shape[0]
@@ -160,34 +164,36 @@ def body_field(f, theta, inertia, potential) -> tuple[QuadraticField, int]:
         [[to_arb(v, "inertia") for v in row] for row in np.asarray(inertia, dtype=object)]
     ).inv()
     Ii = np.array(Iinv.entries(), dtype=object).reshape(n, n)
-    grav = potential is not None
-    d = 2 * n if grav else n
-    const, lin, quad = {}, {i: {} for i in range(d)}, {i: {} for i in range(d)}
-
-    def add(dct, key, v):
-        dct[key] = dct.get(key, arb(0)) + v
-
+    # the ball coefficients of the one table of the body field (refimpl/_taylor.py body_field_tables):
+    # its contractions summed in balls over the nonzero entries
+    zero = arb(0)
+    fI = np.full((n, n, n), zero, dtype=object)  # sum_b f^m_ab (I^-1)_bj
+    TI = np.full((n, n), zero, dtype=object)  # sum_b Theta_ab (I^-1)_bj
     nzf = [
         (m, a, b) for m in range(n) for a in range(n) for b in range(n) if not F[m, a, b].is_zero()
     ]
     nzI = [(b, j) for b in range(n) for j in range(n) if not Ii[b, j].is_zero()]
-    for m, a, b in nzf:  # -f^m_ab pi_m Omega^b,  Omega^b = Iinv_bj pi_j
+    for m, a, b in nzf:
         for bb, j in nzI:
             if bb == b:
-                add(quad[a], (m, j), -F[m, a, b] * Ii[b, j])
-    for a in range(n):  # + Theta_ab Omega^b
-        for bb, j in nzI:
-            if not th[a, bb].is_zero():
-                add(lin[a], j, th[a, bb] * Ii[bb, j])
-    if grav:
+                fI[m, a, j] += F[m, a, b] * Ii[b, j]
+    for a in range(n):
+        for b, j in nzI:
+            if not th[a, b].is_zero():
+                TI[a, j] += th[a, b] * Ii[b, j]
+    fL = IF = None
+    if potential is not None:
         Lv = [to_arb(v, "potential['L']") for v in np.asarray(potential["L"], dtype=object)]
-        for m, a, c in nzf:  # + Gamma_m f^m_ac L^c
-            add(lin[a], n + m, F[m, a, c] * Lv[c])
-        for a, b, mu in nzf:  # dGamma_mu = Gamma_a f^a_{b mu} Omega^b (twee17 corrected)
+        fL = np.full((n, n), zero, dtype=object)  # sum_c f^m_ac L^c, at [a, m]
+        IF = np.full((n, n, n), zero, dtype=object)  # sum_b (I^-1)_bj f^a_{b mu}, at [mu, j, a]
+        for m, a, c in nzf:
+            fL[a, m] += F[m, a, c] * Lv[c]
+        for a, b, mu in nzf:  # twee17 corrected
             for bb, j in nzI:
                 if bb == b:
-                    add(quad[n + mu], (j, n + a), F[a, b, mu] * Ii[b, j])
-    return QuadraticField(d, const, lin, quad), n
+                    IF[mu, j, a] += F[a, b, mu] * Ii[b, j]
+    d, lin, quad = body_field_tables(n, fI, TI, fL, IF)
+    return BallField(d, {}, dict(enumerate(lin)), dict(enumerate(quad))), n
 
 
 @dataclass
@@ -216,7 +222,7 @@ def _inflate(e: arb, factor: float = 0.25) -> arb:
     return e + arb(0, factor * upper(e.rad()) + 1e-40 * (1 + upper(e)))
 
 
-def _enclosure(F: QuadraticField, Y: list, H: arb, tries: int = 12):
+def _enclosure(F: BallField, Y: list, H: arb, tries: int = 12):
     """A box ``E`` with ``Y + H F(E) subset E`` (``H`` encloses ``[0, h]``), or None.
 
     Picard iteration with inflation: ``E <- inflate(Y + H F(E))`` until the image lies inside.
@@ -230,7 +236,7 @@ def _enclosure(F: QuadraticField, Y: list, H: arb, tries: int = 12):
     return None
 
 
-def _jac_enclosure(F: QuadraticField, E: list, H: arb, tries: int = 12):
+def _jac_enclosure(F: BallField, E: list, H: arb, tries: int = 12):
     """A ball matrix ``E_J`` with ``I + H DF(E) E_J subset E_J``, or None (Picard iteration with inflation)."""
     d = F.d
     DF = F.DF(E)
@@ -307,7 +313,7 @@ def _lohner_step_(F, yhat, B, r, h, p, q, tol):
 
 
 def enclose_quadratic(
-    F: QuadraticField,
+    F: BallField,
     y0: list,
     T: arb,
     *,

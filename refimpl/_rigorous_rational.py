@@ -63,7 +63,7 @@ def _kron_eye(k: int, M: arb_mat) -> arb_mat:
 
 class RationalField:
     """``y' = sign F(y)`` for the state ``y = (pi, Gamma?, rho(g) real, imaginary?, Ad(g)?)`` with
-    ``Upsilon != 0`` (module docstring); the interface of :class:`_rigorous_flow.QuadraticField` that the
+    ``Upsilon != 0`` (module docstring); the interface of :class:`_rigorous_flow.BallField` that the
     Lohner step uses: ``d``, ``__call__``, ``taylor``, ``jacobian_taylor``, ``DF``."""
 
     def __init__(self, F3, theta, U, Ii, L, R, J, want_ad: bool, sign: int = 1):

@@ -44,7 +44,7 @@ from flint import arb, arb_mat
 from ._arb import Balls, algebra_balls, exact_source, to_arb, upper, workprec
 from ._errors import DegeneratePointError
 from ._representation import RepresentationError, representation_for
-from ._rigorous_flow import QuadraticField, body_field, enclose_quadratic
+from ._rigorous_flow import BallField, body_field, enclose_quadratic
 from ._rigorous_rational import RationalField
 
 __all__ = ["StateEnclosure", "full_state_enclosure", "judge_flow"]
@@ -133,7 +133,7 @@ def _comb(mats: list, w) -> arb_mat:
 
 
 # ------------------------------------------------------------------ the field of the whole state
-def _state_field(body: QuadraticField, n: int, Ii, R, J, Fad3, want_ad: bool) -> tuple:
+def _state_field(body: BallField, n: int, Ii, R, J, Fad3, want_ad: bool) -> tuple:
     """The body field with the rows of ``G_r, G_i`` (and ``Ad``) appended; returns ``(field, layout)``."""
     m = R[0].nrows()
     d0 = body.d
@@ -187,12 +187,12 @@ def _state_field(body: QuadraticField, n: int, Ii, R, J, Fad3, want_ad: bool) ->
                 for j in range(n):
                     for k in range(n):
                         add(ad0 + i * n + j, (ad0 + i * n + k, ll), Al[k][j])
-    return QuadraticField(d, const, lin, quad), offs, m
+    return BallField(d, const, lin, quad), offs, m
 
 
-def _reversed(F: QuadraticField) -> QuadraticField:
+def _reversed(F: BallField) -> BallField:
     """The field ``-F`` (every coefficient negated, exactly): its flow at ``s`` is ``F``'s at ``-s``."""
-    return QuadraticField(
+    return BallField(
         F.d,
         {i: -v for i, v in F.const.items()},
         {i: {j: -a for j, a in row} for i, row in F.lin.items()},

@@ -19,7 +19,7 @@ from flint import arb, arb_mat
 
 from tstarg.refimpl import so4, su2
 from tstarg.refimpl._arb import Balls, algebra_balls, to_arb, workprec
-from tstarg.refimpl._rigorous_flow import QuadraticField, body_field, enclose_quadratic
+from tstarg.refimpl._rigorous_flow import BallField, body_field, enclose_quadratic
 from tstarg.refimpl.flows import euler_top_closed_form, reference_trajectory
 from tstarg.refimpl.rigorous import body_flow_enclosure
 
@@ -179,7 +179,7 @@ def test_printed_twee17_sign_is_excluded():
         F, n = body_field(su2(), Z, ISSUE_TOP, GRAV)
         quad = {i: {(j, k): v for j, k, v in F.quad.get(i, ())} for i in range(F.d)}
         lin = {i: dict(F.lin.get(i, ())) for i in range(F.d)}
-        wrong = QuadraticField(
+        wrong = BallField(
             F.d,
             {},
             lin,

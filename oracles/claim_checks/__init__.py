@@ -26,7 +26,7 @@ from __future__ import annotations
 
 from . import cinq, deux, quatre, sept, trois, un
 from .common import DPS, Outcome, tolerance
-from .paper import PAPER_LABELS, paper_labels, paper_path
+from .paper import PAPER_LABELS, paper_labels, paper_path, renamed_labels
 
 __all__ = [
     "CHECKS",
@@ -37,6 +37,7 @@ __all__ = [
     "clear_cache",
     "paper_labels",
     "paper_path",
+    "renamed_labels",
     "run_check",
     "tolerance",
 ]

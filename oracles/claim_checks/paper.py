@@ -100,3 +100,13 @@ def paper_labels(text: str | None = None) -> list[str]:
         text = p.read_text()
     labels = re.findall(r"\\label\{([a-z]+[0-9]+)\}", text)
     return labels
+
+
+def renamed_labels(labels) -> list[str]:
+    """The labels in order with the second ``drie5`` (the dpi'/dt equation after drie11) renamed
+    ``drie12``: the names of the claims registry."""
+    seen, out = set(), []
+    for lab in labels:
+        out.append("drie12" if lab == "drie5" and lab in seen else lab)
+        seen.add(lab)
+    return out

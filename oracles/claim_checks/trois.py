@@ -90,11 +90,7 @@ def labels_unique_printed() -> Outcome:
 
 def labels_unique_corrected() -> Outcome:
     """With the second ``drie5`` (the dpi'/dt equation after drie11) renamed ``drie12``, labels are unique."""
-    labels = paper.paper_labels()
-    seen, fixed = set(), []
-    for lab in labels:
-        fixed.append("drie12" if lab == "drie5" and lab in seen else lab)
-        seen.add(lab)
+    fixed = paper.renamed_labels(paper.paper_labels())
     dup = sorted({x for x in fixed if fixed.count(x) > 1})
     i11 = fixed.index("drie11")
     return Outcome(
