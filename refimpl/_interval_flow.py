@@ -21,7 +21,7 @@ from flint import arb
 
 from . import _interval_kernel as K
 from ._arb import float_view, workprec
-from ._rigorous_flow import QuadraticField, body_field, body_flow_enclosure
+from ._rigorous_flow import body_field, body_flow_enclosure
 
 __all__ = [
     "IntervalEnclosure",
@@ -46,7 +46,7 @@ def _bounds(b: arb) -> tuple[float, float]:
     return lo, hi
 
 
-def merged_terms(F: QuadraticField) -> tuple[dict, dict, dict]:
+def merged_terms(F) -> tuple[dict, dict, dict]:
     """``(const, lin, quad)`` of ``F`` with the products ``y_j y_k`` and ``y_k y_j`` merged into one term
     ``(min(j, k), max(j, k))`` (ball sums, exact for the dyadic coefficients of the catalogue's fields):
     ``const[i]``, ``lin[i] = {j: ball}``, ``quad[i] = {(j, k): ball}``, zero balls dropped. Fewer terms
@@ -64,8 +64,9 @@ def merged_terms(F: QuadraticField) -> tuple[dict, dict, dict]:
     return dict(F.const), lin, quad
 
 
-def interval_tables(F: QuadraticField) -> tuple:
-    """The kernel's sparse tables of a ball :class:`refimpl._rigorous_flow.QuadraticField` (terms merged
+def interval_tables(F) -> tuple:
+    """The kernel's sparse tables of a ball field ``F`` of :mod:`refimpl._rigorous_flow` (``F.d``,
+    ``F.const``, ``F.lin``, ``F.quad``, as :func:`refimpl._rigorous_flow.body_field` returns; terms merged
     by :func:`merged_terms`), every coefficient an outward float64 interval: ``(clo, chi, lptr, lidx,
     llo, lhi, lex, qptr, qpair, qlo, qhi, qex, pj, pk)`` (constant terms; per row the linear terms; per
     row the quadratic terms, each naming a product ``y[pj[m]] y[pk[m]]``; ``lex``/``qex`` flag the point
@@ -260,7 +261,7 @@ def interval_body_enclosure(
     b = [_bounds(v) for v in balls]
     with workprec(SETUP_BITS):
         F, _ = body_field(f, theta, inertia, potential)
-    tables = interval_tables(F)
+        tables = interval_tables(F)
     lo, hi, steps, rejected = interval_enclose(
         tables,
         [x for x, _ in b],

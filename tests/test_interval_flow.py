@@ -206,3 +206,58 @@ def test_bad_input_is_refused_by_name():
     enc = interval_body_enclosure(*args, p, 0.5)
     assert np.array_equal(p, PI0), "the caller's array was mutated"
     assert enc.steps >= 1 and np.isfinite(enc.lo).all()
+
+
+# ------------------------------------------------------------------ randomized containment
+
+RANDOM_ALGEBRAS = ("su(2)", "sl(2,R)", "h(3)", "Bianchi VI0", "aff(1)", "se(2)", "se(3)", "so(4)")
+
+
+def _draw(seed):
+    """A drawn model and point: algebra, a coboundary Theta (``-xi.f``), a diagonal inertia (dyadic or
+    not), gravity or not, ``pi0``, ``x0`` and ``t``."""
+    rng = np.random.default_rng(seed)
+    alg = catalogue(RANDOM_ALGEBRAS[rng.integers(len(RANDOM_ALGEBRAS))])
+    n = alg.f.shape[0]
+    xi = rng.integers(-4, 5, n) / 8 if rng.random() < 0.5 else np.zeros(n)
+    theta = -np.einsum("k,kab->ab", xi, alg.f)
+    diag = rng.uniform(0.5, 2.0, n)
+    inertia = np.diag(np.round(diag * 16) / 16 if rng.random() < 0.5 else diag)
+    pot = None
+    if rng.random() < 0.5:
+        pot = {"kind": "gravity", "L": rng.uniform(-1, 1, n), "gamma": rng.uniform(-1, 1, n)}
+    x0 = rng.uniform(-0.3, 0.3, n)
+    pi0 = rng.uniform(-1, 1, n)
+    t = float(rng.choice([0.5, 1.0]))
+    return alg, theta, inertia, pot, x0, pi0, t
+
+
+def _random_case(seed):
+    alg, theta, inertia, pot, x0, pi0, t = _draw(seed)
+    Zn = np.zeros_like(theta)
+    enc = interval_body_enclosure(alg, theta, Zn, inertia, pot, x0, pi0, t, tol=1e-16)
+    tr = reference_trajectory(alg, theta, Zn, inertia, pot, x0, pi0, [0, t], dps=40, system="body")
+    ref = list(tr.pi[-1]) + (list(tr.Gamma[-1]) if tr.Gamma is not None else [])
+    assert enc.contains(ref).all(), (seed, enc.lo, enc.hi, [float(v) for v in ref])
+    # TaylorModels-style negative control: the reference moved by twice the radius is excluded
+    moved = [v + 2 * r + abs(float(v)) * 2.0**-50 + 1e-300 for v, r in zip(ref, enc.rad)]
+    assert not enc.contains(moved).any(), seed
+    return enc.max_rad()
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_random_models_contain_the_reference_sample(seed):
+    """A CI sample of the randomized containment run below."""
+    assert _random_case(seed) < 1e-8
+
+
+@pytest.mark.slow
+def test_random_models_contain_the_reference():
+    """Randomized containment (slow): 1000 drawn models and points, each box contains the 40-digit
+    reference and excludes it moved by twice the radius."""
+    worst = 0.0
+    for seed in range(1000):
+        worst = max(worst, _random_case(seed))
+        if seed % 50 == 49:  # progress
+            print(f"random models: {seed + 1}/1000, worst radius {worst:.3g}", flush=True)
+    assert worst < 1e-6
