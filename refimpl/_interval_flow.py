@@ -27,8 +27,11 @@ __all__ = [
     "IntervalEnclosure",
     "interval_body_enclosure",
     "interval_enclose",
+    "interval_su2_full_enclosure",
     "interval_tables",
     "merged_terms",
+    "su2_full_field",
+    "su2_quaternion",
 ]
 
 SETUP_BITS = (
@@ -273,3 +276,106 @@ def interval_body_enclosure(
         max_steps=max_steps,
     )
     return IntervalEnclosure(tv, lo, hi, n, steps, rejected, order, jac_order, float(tol))
+
+
+@dataclass
+class _Field:
+    """A ball field in the layout of :mod:`refimpl._rigorous_flow` (``lin[i] = [(j, ball)]``,
+    ``quad[i] = [(j, k, ball)]``), for the su(2) full state below."""
+
+    d: int
+    const: dict
+    lin: dict
+    quad: dict
+
+
+_EPS = {(0, 1, 2): 1, (1, 2, 0): 1, (2, 0, 1): 1, (0, 2, 1): -1, (2, 1, 0): -1, (1, 0, 2): -1}
+
+
+def su2_full_field(theta, inertia, potential) -> tuple[_Field, int]:
+    """The su(2) body field extended by the group element as a unit quaternion, in balls: state
+    ``(pi, [Gamma,] q)`` with ``g = q_0 - i q.sigma`` (``exp(x^a E_a)``, ``E_a = -(i/2) sigma_a``); the
+    kinematics ``g^-1 dg/dt = Omega^a E_a`` (vier10 with ``Upsilon = 0``: ``Omega = I^-1 pi``) read
+    ``dq_0/dt = -1/2 q.Omega``, ``dq/dt = 1/2 (q_0 Omega + q x Omega)`` -- the rows of
+    :func:`refimpl._taylor.quadratic_field_su2_full`, here with the ball ``I^-1``."""
+    from flint import arb_mat
+
+    from . import su2
+
+    F, n = body_field(su2(), theta, inertia, potential)
+    Ii = arb_mat([[arb(v) for v in row] for row in np.asarray(inertia, dtype=float)]).inv()
+    d = F.d + 4
+    q0 = F.d
+    lin = {i: list(F.lin.get(i, ())) for i in range(d)}
+    quad = {i: list(F.quad.get(i, ())) for i in range(d)}
+    half = arb(1) / 2
+    for c in range(n):  # Omega_b = sum_c Ii[b, c] pi_c
+        for b in range(n):
+            w = Ii[b, c]
+            if w.is_zero():
+                continue
+            quad[q0].append((q0 + 1 + b, c, -half * w))  # -1/2 q_b Omega_b
+            quad[q0 + 1 + b].append((q0, c, half * w))  # 1/2 q_0 Omega_b
+            for a in range(n):
+                for e in range(n):  # (q x Omega)_a = eps_aeb q_e Omega_b
+                    sgn = _EPS.get((a, e, b), 0)
+                    if sgn:
+                        quad[q0 + 1 + a].append((q0 + 1 + e, c, sgn * half * w))
+    return _Field(d, dict(F.const), lin, quad), n
+
+
+def su2_quaternion(x0) -> list:
+    """The balls of ``q`` with ``exp(x0^a E_a) = q_0 - i q.sigma``: ``q_0 = cos(|x0|/2)``,
+    ``q = sin(|x0|/2) x0/|x0|`` (written ``x0/2 sinc(|x0|/2)``, continuous at 0)."""
+    xs = [arb(float(v)) for v in np.asarray(x0, dtype=float)]
+    r = sum((v * v for v in xs), arb(0)).sqrt()
+    return [(r / 2).cos()] + [v / 2 * (r / 2).sinc() for v in xs]
+
+
+def interval_su2_full_enclosure(
+    theta,
+    upsilon,
+    inertia,
+    potential,
+    x0,
+    pi0,
+    t,
+    *,
+    tol: float = 1e-16,
+    order: int | None = None,
+    jac_order: int = 6,
+    max_steps: int = 100000,
+) -> IntervalEnclosure:
+    """The full state of an su(2) model (``Upsilon = 0``) at ``t`` in float64 intervals: the box of
+    ``(pi, [Gamma,] q)`` with ``g(t) = q_0 - i q.sigma`` (:func:`su2_full_field`). Arguments and checks
+    as :func:`interval_body_enclosure` with ``f = su(2)``."""
+    from . import su2
+
+    e = interval_body_enclosure(
+        su2(), theta, upsilon, inertia, potential, x0, pi0, 0.0, tol=tol, order=order,
+        jac_order=jac_order, max_steps=max_steps,
+    )  # fmt: skip
+    tv = float(float_view(t, "t"))
+    from ._validate import MAX_FLOW_TIME
+
+    if not math.isfinite(tv) or not 0 <= tv <= MAX_FLOW_TIME:
+        raise ValueError(
+            f"t must be a finite number in [0, {MAX_FLOW_TIME:g}] (the flow budget), got {t!r}"
+        )
+    with workprec(SETUP_BITS):
+        F, n = su2_full_field(theta, inertia, potential)
+        tables = interval_tables(F)
+        b = [_bounds(v) for v in su2_quaternion(x0)]
+    lo0 = list(e.lo) + [x for x, _ in b]
+    hi0 = list(e.hi) + [y for _, y in b]
+    lo, hi, steps, rejected = interval_enclose(
+        tables,
+        lo0,
+        hi0,
+        tv,
+        order=e.order,
+        jac_order=jac_order,
+        tol=float(tol),
+        max_steps=max_steps,
+    )
+    return IntervalEnclosure(tv, lo, hi, n, steps, rejected, e.order, jac_order, float(tol))

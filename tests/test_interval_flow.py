@@ -19,6 +19,7 @@ import math
 from fractions import Fraction
 from functools import lru_cache
 
+import mpmath
 import numpy as np
 import pytest
 from hypothesis import assume, example, given
@@ -30,6 +31,7 @@ from tstarg.refimpl._arb import workprec
 from tstarg.refimpl._interval_flow import (
     interval_body_enclosure,
     interval_enclose,
+    interval_su2_full_enclosure,
     interval_tables,
 )
 from tstarg.refimpl._rigorous_flow import body_field
@@ -177,6 +179,36 @@ def test_no_widening_mutant_misses_the_reference():
     assert all(float(a) <= v <= float(b) for a, b, v in zip(lo, hi, ref))
     mlo, mhi, _, _ = interval_enclose(tab, y0, y0, 10.0, rounding=(0.0, 0.0), **kw)
     assert not all(float(a) <= v <= float(b) for a, b, v in zip(mlo, mhi, ref))
+
+
+@pytest.mark.parametrize("t", [0.0, 0.5])
+def test_su2_full_state_contains_the_reference_group_element(t):
+    """The heavy top's full state (pi, Gamma, q) with ``g = q_0 - i q.sigma``: the box contains the
+    30-digit reference's ``pi``, ``Gamma`` and its SU(2) matrix ``g(t)`` read as a quaternion
+    (``q_0 = Re g_00``, ``q_1 = -Im g_01``, ``q_2 = -Re g_01``, ``q_3 = -Im g_00``), and ``|q|^2``
+    over the box contains 1."""
+    enc = interval_su2_full_enclosure(Z, Z, TOP, GRAV, X0, PI0, t, tol=1e-17)
+    tr = reference_trajectory(su2(), Z, Z, TOP, GRAV, X0, PI0, [0, t], dps=30, system="full")
+    g = tr.g[-1]
+    q = [mpmath.re(g[0, 0]), -mpmath.im(g[0, 1]), -mpmath.re(g[0, 1]), -mpmath.im(g[0, 0])]
+    ref = list(tr.pi[-1]) + list(tr.Gamma[-1]) + q
+    assert enc.contains(ref).all(), (enc.lo, enc.hi, [float(v) for v in ref])
+    assert enc.max_rad() < 1e-13
+    lo, hi = enc.lo[6:], enc.hi[6:]  # |q|^2 by interval squares, rounded outward
+    sq_lo = sum(0.0 if a <= 0 <= b else min(a * a, b * b) for a, b in zip(lo, hi)) * (1 - 2.0**-50)
+    sq_hi = sum(max(a * a, b * b) for a, b in zip(lo, hi)) * (1 + 2.0**-50)
+    assert sq_lo <= 1 <= sq_hi
+
+
+@pytest.mark.slow
+def test_su2_full_state_t10():
+    """The full state at T = 10 (slow: the full reference): radius about 2.4e-12, reference inside."""
+    enc = interval_su2_full_enclosure(Z, Z, TOP, GRAV, X0, PI0, 10.0, tol=1e-17)
+    tr = reference_trajectory(su2(), Z, Z, TOP, GRAV, X0, PI0, [0, 10.0], dps=40, system="full")
+    g = tr.g[-1]
+    q = [mpmath.re(g[0, 0]), -mpmath.im(g[0, 1]), -mpmath.re(g[0, 1]), -mpmath.im(g[0, 0])]
+    assert enc.contains(list(tr.pi[-1]) + list(tr.Gamma[-1]) + q).all()
+    assert enc.max_rad() < 1e-11
 
 
 # ------------------------------------------------------------------ bad input
