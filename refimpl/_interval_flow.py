@@ -13,7 +13,10 @@ encloses ``Gamma(0) = Ad(exp x0)^T gamma`` in Arb balls, rounded outward to doub
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import math
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -127,6 +130,58 @@ def default_order(tol: float) -> int:
     return max(4, math.ceil(-math.log(tol) / 2.0 + 1.0))
 
 
+def _libm():
+    """The C library's ``fegetround``/``fesetround`` (ctypes), or None where they cannot be found."""
+    try:
+        name = ctypes.util.find_library("m") or ctypes.util.find_library("c")
+        lib = ctypes.CDLL(name)
+        lib.fegetround.restype = ctypes.c_int
+        lib.fesetround.argtypes = [ctypes.c_int]
+        return lib
+    except (OSError, AttributeError, TypeError):  # pragma: no cover - platforms without them
+        return None
+
+
+_LIBM = _libm()
+FE_TONEAREST = 0  # <fenv.h> on x86-64 and aarch64 (glibc, musl, macOS)
+
+
+@contextmanager
+def _round_to_nearest():
+    """Run the block in round-to-nearest and restore the caller's mode after: a library such as CAPD
+    switches the FPU to directed rounding and may leave it so, which would void the outward-rounding
+    model (and Dekker's and Knuth's exact transformations). Where ``fesetround`` is missing the kernel's
+    own probe still refuses a wrong mode."""
+    if _LIBM is None:  # pragma: no cover
+        yield
+        return
+    old = _LIBM.fegetround()
+    if old != FE_TONEAREST:
+        _LIBM.fesetround(FE_TONEAREST)
+    try:
+        yield
+    finally:
+        if old != FE_TONEAREST:
+            _LIBM.fesetround(old)
+
+
+def _run(tables, lo0, hi0, t, order, jac_order, tol, max_steps, rounding):
+    return K.enclose(
+        tables,
+        lo0,
+        hi0,
+        float(t),
+        int(order),
+        int(jac_order),
+        float(tol),
+        1.0,
+        int(max_steps),
+        float(rounding[0]),
+        float(rounding[1]),
+        K.PROBE,
+    )
+
+
 def interval_enclose(
     tables: tuple,
     y0lo,
@@ -146,19 +201,15 @@ def interval_enclose(
     """
     lo0 = np.array(y0lo, dtype=float)
     hi0 = np.array(y0hi, dtype=float)
-    lo, hi, steps, rejected, status = K.enclose(
-        tables,
-        lo0,
-        hi0,
-        float(t),
-        int(order),
-        int(jac_order),
-        float(tol),
-        1.0,
-        int(max_steps),
-        float(rounding[0]),
-        float(rounding[1]),
-    )
+    with _round_to_nearest():
+        lo, hi, steps, rejected, status = _run(
+            tables, lo0, hi0, t, order, jac_order, tol, max_steps, rounding
+        )
+    if status == K.NOT_NEAREST:
+        raise ValueError(
+            "interval flow: the floating-point rounding mode is not round-to-nearest (another library "
+            "left it directed) and could not be reset; the outward rounding assumes it"
+        )
     if status == K.UNDERFLOW:
         raise ValueError(
             f"interval flow: step size underflow after {steps} steps (no a-priori enclosure, or no "

@@ -16,6 +16,7 @@ Independent routes, never the code under test:
 from __future__ import annotations
 
 import math
+import platform
 from fractions import Fraction
 from functools import lru_cache
 
@@ -87,6 +88,7 @@ def _inside(lo, hi, exact):
 @example(1.0 + 2.0**-52, 1.0 + 2.0**-52, 1.0 + 2.0**-52, 1.0 + 2.0**-52)
 @example(2.0**-1022, 2.0**-1022, 0.75, 0.75)
 @example(0.1, 0.1, -0.7, -0.7)
+@example((1 + 2.0**-51) * 2.0**-1000, -(2.0**-1054), 1.0, 1.0)  # a tie below 2^-968: needs eta
 def test_outward_product_and_sum_contain_the_exact_result(a, b, c, d):
     """Every bound of ``_mul`` / ``_addlo`` / ``_addhi`` / ``_divk`` / ``_scale`` encloses the exact
     rational result (point intervals, so the result is one exact number); Dekker's product and TwoSum
@@ -209,6 +211,31 @@ def test_su2_full_state_t10():
     q = [mpmath.re(g[0, 0]), -mpmath.im(g[0, 1]), -mpmath.re(g[0, 1]), -mpmath.im(g[0, 0])]
     assert enc.contains(list(tr.pi[-1]) + list(tr.Gamma[-1]) + q).all()
     assert enc.max_rad() < 1e-11
+
+
+@pytest.mark.skipif(platform.machine() not in ("x86_64", "AMD64"), reason="FE_UPWARD of x86-64")
+def test_directed_rounding_left_by_another_library_is_reset_and_restored():
+    """CAPD leaves the FPU in directed rounding (the benchmark caught a box missing the reference that
+    way). With the mode set upward: the kernel's probe refuses to run (status NOT_NEAREST), while
+    ``interval_body_enclosure`` resets round-to-nearest around the kernel, encloses the reference, and
+    gives the caller's mode back."""
+    from tstarg.refimpl import _interval_flow as IF
+
+    if IF._LIBM is None:
+        pytest.skip("no fesetround")
+    FE_UPWARD = 0x800
+    tab = IF.interval_tables(IF.body_field(su2(), Z, TOP, None)[0])
+    old = IF._LIBM.fegetround()
+    try:
+        assert IF._LIBM.fesetround(FE_UPWARD) == 0
+        status = K.enclose(tab, PI0, PI0, 1.0, 12, 6, 1e-12, 1.0, 100, K.U, K.ETA, K.PROBE)[-1]
+        enc = _enclose("heavy top", 1.0, tol=1e-17)
+        mode = IF._LIBM.fegetround()
+    finally:
+        IF._LIBM.fesetround(old)
+    assert status == K.NOT_NEAREST
+    assert mode == FE_UPWARD
+    assert enc.contains(_reference("heavy top", 1.0)).all()
 
 
 # ------------------------------------------------------------------ bad input
