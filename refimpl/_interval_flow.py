@@ -16,6 +16,7 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import math
+import platform
 from contextlib import contextmanager
 from dataclasses import dataclass
 
@@ -143,26 +144,34 @@ def _libm():
 
 
 _LIBM = _libm()
-FE_TONEAREST = 0  # <fenv.h> on x86-64 and aarch64 (glibc, musl, macOS)
+# <fenv.h> values of (to nearest, upward, downward, toward zero), by machine
+_FE = {
+    "x86_64": (0, 0x800, 0x400, 0xC00),
+    "AMD64": (0, 0x800, 0x400, 0xC00),
+    "aarch64": (0, 0x400000, 0x800000, 0xC00000),
+    "arm64": (0, 0x400000, 0x800000, 0xC00000),
+}.get(platform.machine())
 
 
 @contextmanager
 def _round_to_nearest():
-    """Run the block in round-to-nearest and restore the caller's mode after: a library such as CAPD
-    switches the FPU to directed rounding and may leave it so, which would void the outward-rounding
-    model (and Dekker's and Knuth's exact transformations). Where ``fesetround`` is missing the kernel's
-    own probe still refuses a wrong mode."""
-    if _LIBM is None:  # pragma: no cover
+    """Run the block in round-to-nearest and give the caller's mode back after: a library such as CAPD
+    switches the floating-point unit to directed rounding and leaves it so, which would void the
+    outward-rounding model (and Dekker's and Knuth's exact transformations). The mode is read by a
+    compiled probe (:func:`refimpl._interval_kernel.rounding_mode`: C's ``fegetround`` may read another
+    register than the one compiled code uses) and set by C's ``fesetround``. Where either is missing,
+    the kernel's own probe still refuses a wrong mode."""
+    if _LIBM is None or _FE is None:  # pragma: no cover
         yield
         return
-    old = _LIBM.fegetround()
-    if old != FE_TONEAREST:
-        _LIBM.fesetround(FE_TONEAREST)
+    old = K.rounding_mode(K.PROBE)
+    if old != 0:
+        _LIBM.fesetround(_FE[0])
     try:
         yield
     finally:
-        if old != FE_TONEAREST:
-            _LIBM.fesetround(old)
+        if old != 0:
+            _LIBM.fesetround(_FE[old])
 
 
 def _run(tables, lo0, hi0, t, order, jac_order, tol, max_steps, rounding):

@@ -536,6 +536,22 @@ def _nearest(probe):
 
 
 @njit(cache=True)
+def rounding_mode(probe):
+    """The current rounding mode as seen by compiled code (the SSE/NEON control register, which C's
+    ``fegetround`` need not report: on x86-64 glibc reads the x87 word): 0 to nearest, 1 upward,
+    2 downward, 3 toward zero; probed like :func:`_nearest`."""
+    if _nearest(probe):
+        return 0
+    one = probe[2]
+    up = 1.0 + 2.0**-52
+    if one + probe[0] == up:
+        return 1
+    if -one - probe[0] == -up:
+        return 2
+    return 3
+
+
+@njit(cache=True)
 def enclose(tab, y0lo, y0hi, T, P, q, tol, h0, max_steps, u, eta, probe):
     """Enclose ``y(T)`` for ``y' = F(y)`` (tables ``tab``), ``y(0)`` in ``[y0lo, y0hi]``.
 
