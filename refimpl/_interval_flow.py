@@ -13,7 +13,11 @@ encloses ``Gamma(0) = Ad(exp x0)^T gamma`` in Arb balls, rounded outward to doub
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import math
+import platform
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,8 +31,11 @@ __all__ = [
     "IntervalEnclosure",
     "interval_body_enclosure",
     "interval_enclose",
+    "interval_su2_full_enclosure",
     "interval_tables",
     "merged_terms",
+    "su2_full_field",
+    "su2_quaternion",
 ]
 
 SETUP_BITS = (
@@ -124,6 +131,66 @@ def default_order(tol: float) -> int:
     return max(4, math.ceil(-math.log(tol) / 2.0 + 1.0))
 
 
+def _libm():
+    """The C library's ``fegetround``/``fesetround`` (ctypes), or None where they cannot be found."""
+    try:
+        name = ctypes.util.find_library("m") or ctypes.util.find_library("c")
+        lib = ctypes.CDLL(name)
+        lib.fegetround.restype = ctypes.c_int
+        lib.fesetround.argtypes = [ctypes.c_int]
+        return lib
+    except (OSError, AttributeError, TypeError):  # pragma: no cover - platforms without them
+        return None
+
+
+_LIBM = _libm()
+# <fenv.h> values of (to nearest, upward, downward, toward zero), by machine
+_FE = {
+    "x86_64": (0, 0x800, 0x400, 0xC00),
+    "AMD64": (0, 0x800, 0x400, 0xC00),
+    "aarch64": (0, 0x400000, 0x800000, 0xC00000),
+    "arm64": (0, 0x400000, 0x800000, 0xC00000),
+}.get(platform.machine())
+
+
+@contextmanager
+def _round_to_nearest():
+    """Run the block in round-to-nearest and give the caller's mode back after: a library such as CAPD
+    switches the floating-point unit to directed rounding and leaves it so, which would void the
+    outward-rounding model (and Dekker's and Knuth's exact transformations). The mode is read by a
+    compiled probe (:func:`refimpl._interval_kernel.rounding_mode`: C's ``fegetround`` may read another
+    register than the one compiled code uses) and set by C's ``fesetround``. Where either is missing,
+    the kernel's own probe still refuses a wrong mode."""
+    if _LIBM is None or _FE is None:  # pragma: no cover
+        yield
+        return
+    old = K.rounding_mode(K.PROBE)
+    if old != 0:
+        _LIBM.fesetround(_FE[0])
+    try:
+        yield
+    finally:
+        if old != 0:
+            _LIBM.fesetround(_FE[old])
+
+
+def _run(tables, lo0, hi0, t, order, jac_order, tol, max_steps, rounding):
+    return K.enclose(
+        tables,
+        lo0,
+        hi0,
+        float(t),
+        int(order),
+        int(jac_order),
+        float(tol),
+        1.0,
+        int(max_steps),
+        float(rounding[0]),
+        float(rounding[1]),
+        K.PROBE,
+    )
+
+
 def interval_enclose(
     tables: tuple,
     y0lo,
@@ -143,19 +210,15 @@ def interval_enclose(
     """
     lo0 = np.array(y0lo, dtype=float)
     hi0 = np.array(y0hi, dtype=float)
-    lo, hi, steps, rejected, status = K.enclose(
-        tables,
-        lo0,
-        hi0,
-        float(t),
-        int(order),
-        int(jac_order),
-        float(tol),
-        1.0,
-        int(max_steps),
-        float(rounding[0]),
-        float(rounding[1]),
-    )
+    with _round_to_nearest():
+        lo, hi, steps, rejected, status = _run(
+            tables, lo0, hi0, t, order, jac_order, tol, max_steps, rounding
+        )
+    if status == K.NOT_NEAREST:
+        raise ValueError(
+            "interval flow: the floating-point rounding mode is not round-to-nearest (another library "
+            "left it directed) and could not be reset; the outward rounding assumes it"
+        )
     if status == K.UNDERFLOW:
         raise ValueError(
             f"interval flow: step size underflow after {steps} steps (no a-priori enclosure, or no "
@@ -261,7 +324,7 @@ def interval_body_enclosure(
     b = [_bounds(v) for v in balls]
     with workprec(SETUP_BITS):
         F, _ = body_field(f, theta, inertia, potential)
-    tables = interval_tables(F)
+        tables = interval_tables(F)
     lo, hi, steps, rejected = interval_enclose(
         tables,
         [x for x, _ in b],
@@ -273,3 +336,106 @@ def interval_body_enclosure(
         max_steps=max_steps,
     )
     return IntervalEnclosure(tv, lo, hi, n, steps, rejected, order, jac_order, float(tol))
+
+
+@dataclass
+class _Field:
+    """A ball field in the layout of :mod:`refimpl._rigorous_flow` (``lin[i] = [(j, ball)]``,
+    ``quad[i] = [(j, k, ball)]``), for the su(2) full state below."""
+
+    d: int
+    const: dict
+    lin: dict
+    quad: dict
+
+
+_EPS = {(0, 1, 2): 1, (1, 2, 0): 1, (2, 0, 1): 1, (0, 2, 1): -1, (2, 1, 0): -1, (1, 0, 2): -1}
+
+
+def su2_full_field(theta, inertia, potential) -> tuple[_Field, int]:
+    """The su(2) body field extended by the group element as a unit quaternion, in balls: state
+    ``(pi, [Gamma,] q)`` with ``g = q_0 - i q.sigma`` (``exp(x^a E_a)``, ``E_a = -(i/2) sigma_a``); the
+    kinematics ``g^-1 dg/dt = Omega^a E_a`` (vier10 with ``Upsilon = 0``: ``Omega = I^-1 pi``) read
+    ``dq_0/dt = -1/2 q.Omega``, ``dq/dt = 1/2 (q_0 Omega + q x Omega)`` -- the rows of
+    :func:`refimpl._taylor.quadratic_field_su2_full`, here with the ball ``I^-1``."""
+    from flint import arb_mat
+
+    from . import su2
+
+    F, n = body_field(su2(), theta, inertia, potential)
+    Ii = arb_mat([[arb(v) for v in row] for row in np.asarray(inertia, dtype=float)]).inv()
+    d = F.d + 4
+    q0 = F.d
+    lin = {i: list(F.lin.get(i, ())) for i in range(d)}
+    quad = {i: list(F.quad.get(i, ())) for i in range(d)}
+    half = arb(1) / 2
+    for c in range(n):  # Omega_b = sum_c Ii[b, c] pi_c
+        for b in range(n):
+            w = Ii[b, c]
+            if w.is_zero():
+                continue
+            quad[q0].append((q0 + 1 + b, c, -half * w))  # -1/2 q_b Omega_b
+            quad[q0 + 1 + b].append((q0, c, half * w))  # 1/2 q_0 Omega_b
+            for a in range(n):
+                for e in range(n):  # (q x Omega)_a = eps_aeb q_e Omega_b
+                    sgn = _EPS.get((a, e, b), 0)
+                    if sgn:
+                        quad[q0 + 1 + a].append((q0 + 1 + e, c, sgn * half * w))
+    return _Field(d, dict(F.const), lin, quad), n
+
+
+def su2_quaternion(x0) -> list:
+    """The balls of ``q`` with ``exp(x0^a E_a) = q_0 - i q.sigma``: ``q_0 = cos(|x0|/2)``,
+    ``q = sin(|x0|/2) x0/|x0|`` (written ``x0/2 sinc(|x0|/2)``, continuous at 0)."""
+    xs = [arb(float(v)) for v in np.asarray(x0, dtype=float)]
+    r = sum((v * v for v in xs), arb(0)).sqrt()
+    return [(r / 2).cos()] + [v / 2 * (r / 2).sinc() for v in xs]
+
+
+def interval_su2_full_enclosure(
+    theta,
+    upsilon,
+    inertia,
+    potential,
+    x0,
+    pi0,
+    t,
+    *,
+    tol: float = 1e-16,
+    order: int | None = None,
+    jac_order: int = 6,
+    max_steps: int = 100000,
+) -> IntervalEnclosure:
+    """The full state of an su(2) model (``Upsilon = 0``) at ``t`` in float64 intervals: the box of
+    ``(pi, [Gamma,] q)`` with ``g(t) = q_0 - i q.sigma`` (:func:`su2_full_field`). Arguments and checks
+    as :func:`interval_body_enclosure` with ``f = su(2)``."""
+    from . import su2
+
+    e = interval_body_enclosure(
+        su2(), theta, upsilon, inertia, potential, x0, pi0, 0.0, tol=tol, order=order,
+        jac_order=jac_order, max_steps=max_steps,
+    )  # fmt: skip
+    tv = float(float_view(t, "t"))
+    from ._validate import MAX_FLOW_TIME
+
+    if not math.isfinite(tv) or not 0 <= tv <= MAX_FLOW_TIME:
+        raise ValueError(
+            f"t must be a finite number in [0, {MAX_FLOW_TIME:g}] (the flow budget), got {t!r}"
+        )
+    with workprec(SETUP_BITS):
+        F, n = su2_full_field(theta, inertia, potential)
+        tables = interval_tables(F)
+        b = [_bounds(v) for v in su2_quaternion(x0)]
+    lo0 = list(e.lo) + [x for x, _ in b]
+    hi0 = list(e.hi) + [y for _, y in b]
+    lo, hi, steps, rejected = interval_enclose(
+        tables,
+        lo0,
+        hi0,
+        tv,
+        order=e.order,
+        jac_order=jac_order,
+        tol=float(tol),
+        max_steps=max_steps,
+    )
+    return IntervalEnclosure(tv, lo, hi, n, steps, rejected, e.order, jac_order, float(tol))

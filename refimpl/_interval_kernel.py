@@ -14,9 +14,11 @@ Rounding model (outward rounding under IEEE 754 round-to-nearest-even, no direct
     ``down(s)`` lies below the exact value ``r`` whose rounding is ``s``: let ``g`` be the gap from
     ``s`` down to its neighbour ``pred(s)``; round-to-nearest puts ``r >= s - g/2``, so
     ``pred(s) < r``. For normal ``s = m 2^e`` (``1 <= |m| < 2``) the gap is at most ``2^(e-52)``, so
-    ``g/2 <= u 2^e <= u |s|``; and ``fl(phi |s|) > u |s|`` strictly (``u |s|`` is a float and ``phi |s|``
-    exceeds it by more than half its ulp), so the subtracted amount ``d`` exceeds ``g/2``; below the
-    normal range ``eta`` (the gap there) does it. Hence the real ``s - d`` lies below
+    ``g/2 <= u 2^e <= u |s|``. While ``u |s|`` is normal (``|s| >= 2^-968``), ``fl(phi |s|) > u |s|``
+    strictly (``u |s|`` is a float and ``phi |s|`` exceeds it by more than half its ulp), so the
+    subtracted amount ``d`` exceeds ``g/2``; below that, ``g/2 <= 2^-1022`` lies on the subnormal grid,
+    so ``fl(phi |s|) >= g/2`` and adding ``eta`` (exactly, there) makes ``d > g/2``; for subnormal ``s``,
+    ``eta`` is the gap itself. Hence the real ``s - d`` lies below
     the midpoint of ``[pred(s), s]``, rounds to ``pred(s)`` or lower, and ``down(s) <= pred(s) < r``.
     Symmetrically for ``up``. This is the predecessor of Rump, Zimmermann, Boldo and Melquiond
     ("Computing predecessor and successor in rounding to nearest", BIT 49 (2009) 419-431).
@@ -51,7 +53,9 @@ Steps
     ``T`` exactly, so the set at the end encloses ``y(T)``.
 
 Status codes returned by :func:`enclose`: 0 done, 1 step-size underflow (no a-priori box or no
-remainder below ``tol``), 2 a non-finite set (overflow), 3 more than ``max_steps`` steps.
+remainder below ``tol``), 2 a non-finite set (overflow), 3 more than ``max_steps`` steps, 4 the
+rounding mode is not round-to-nearest (probed by :func:`_nearest` before anything is computed; the
+caller sets round-to-nearest around the call, :func:`refimpl._interval_flow.interval_enclose`).
 """
 
 from __future__ import annotations
@@ -71,7 +75,7 @@ except ImportError:  # pragma: no cover - the plain-Python path (very slow, same
 U = 2.0**-53 + 2.0**-105  # the relative widening u (1 + 2 u), u = 2^-53 (module docstring)
 ETA = 5e-324  # 2^-1074, the smallest subnormal: >= every gap
 
-OK, UNDERFLOW, NONFINITE, MAXSTEPS = 0, 1, 2, 3
+OK, UNDERFLOW, NONFINITE, MAXSTEPS, NOT_NEAREST = 0, 1, 2, 3, 4
 JTOL = (
     1e-4  # the largest accepted Jacobian remainder per step: the set grows by about d JTOL per step
 )
@@ -113,21 +117,24 @@ def _cmul(clo, chi, exact, xlo, xhi, u, eta):
 
 @njit(cache=True)
 def _addlo(s, p, u, eta):
-    """Lower bound of ``s + p``. A sum needs no ``eta``: a sum that is zero or subnormal is exact
-    (Hauser 1996), and a normal one is covered by ``phi |r|`` (module docstring)."""
+    """Lower bound of ``s + p``: ``down`` of the rounded sum, except for the exact cases, not widened
+    (nor into the slow subnormals): ``s = 0``, and a sum rounding to 0 (only ``s = -p`` does)."""
+    if s == 0.0:
+        return p
     r = s + p
-    return r - abs(r) * u
+    return 0.0 if r == 0.0 else r - (abs(r) * u + eta)
 
 
 @njit(cache=True)
 def _addhi(s, p, u, eta):
+    if s == 0.0:
+        return p
     r = s + p
-    return r + abs(r) * u
+    return 0.0 if r == 0.0 else r + (abs(r) * u + eta)
 
 
-TINY = (
-    2.0**-1022
-)  # the smallest normal float: a scaling by a power of two is exact when the result is normal
+# the smallest normal float: a scaling by a power of two is exact when the result is normal
+TINY = 2.0**-1022
 
 
 @njit(cache=True)
@@ -509,13 +516,50 @@ def _inverse_enclosure(Q, Xlo, Xhi, u, eta):
     return True
 
 
+PROBE = np.array([2.0**-54, 2.0**-53 + 2.0**-105, 1.0])  # run-time operands of :func:`_nearest`
+
+
 @njit(cache=True)
-def enclose(tab, y0lo, y0hi, T, P, q, tol, h0, max_steps, u, eta):
+def _nearest(probe):
+    """The current rounding mode is round-to-nearest (the model's assumption), probed at run time on
+    the argument ``probe`` = :data:`PROBE` (run-time values, so nothing is folded at compile time):
+    ``1 + 2^-54`` rounds to 1 and ``1 + (2^-53 + 2^-105)`` to ``1 + 2^-52``, and the same negated --
+    only round-to-nearest does all four (another library may have left the mode directed)."""
+    one = probe[2]
+    up = 1.0 + 2.0**-52  # exact
+    return (
+        one + probe[0] == one
+        and one + probe[1] == up
+        and -one - probe[0] == -one
+        and -one - probe[1] == -up
+    )
+
+
+@njit(cache=True)
+def rounding_mode(probe):
+    """The current rounding mode as seen by compiled code (the SSE/NEON control register, which C's
+    ``fegetround`` need not report: on x86-64 glibc reads the x87 word): 0 to nearest, 1 upward,
+    2 downward, 3 toward zero; probed like :func:`_nearest`."""
+    if _nearest(probe):
+        return 0
+    one = probe[2]
+    up = 1.0 + 2.0**-52
+    if one + probe[0] == up:
+        return 1
+    if -one - probe[0] == -up:
+        return 2
+    return 3
+
+
+@njit(cache=True)
+def enclose(tab, y0lo, y0hi, T, P, q, tol, h0, max_steps, u, eta, probe):
     """Enclose ``y(T)`` for ``y' = F(y)`` (tables ``tab``), ``y(0)`` in ``[y0lo, y0hi]``.
 
     Returns ``(lo, hi, steps, rejected, status)`` (module docstring for ``status``).
     """
     d = y0lo.shape[0]
+    if not _nearest(probe):
+        return y0lo, y0hi, 0, 0, NOT_NEAREST
     npair = tab[12].shape[0]
     conv = np.empty((2, max(npair, 1)))
     yhat = np.empty(d)
