@@ -56,6 +56,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _compiled_taylor as _ct
+from . import _full_state_batch as _fsb
 from . import _full_state_kernel as _fk
 from ._flow_compiled import _control, local_tolerances
 from .codegen import import_source
@@ -304,6 +305,9 @@ class FullState:
         y = np.ascontiguousarray(y0, dtype=float)
         out = np.empty_like(y)
         steps = np.zeros(y.shape[0], dtype=np.int64)
+        # issue 25 batch hook: W trajectories at a time in SIMD lanes (refimpl._full_state_batch)
+        if generated and y.shape[0] >= _fsb.LANES:
+            return _fsb.run(self, y, T, tol, P, max_steps)
         if generated:
             self.module().adaptive(
                 y, float(T), float(tol), P, int(max_steps), self.coef, out, steps
@@ -447,7 +451,8 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
 
     Returns ``pi``, ``Gamma``, ``x``, ``g`` (``rho(g)``, (N, r, r)), ``Ad``, ``rebases`` (zeros: no
     chart), ``steps``, ``error_estimate`` and ``path``. ``run``: the kernel, ``run(fs, y0, t, eps,
-    generated) -> (y, steps)`` (default :func:`_run`; each kernel picks its own order for ``eps``)."""
+    generated) -> (y, steps)`` (default :func:`_run`; :mod:`refimpl._full_state_rational` passes the
+    ``Upsilon != 0`` one; each kernel picks its own order for ``eps``)."""
     fs = full_state(model, abelian)
     n, N = pi0.shape
     G0 = np.empty((N, fs.r, fs.r), dtype=fs.mats.dtype)
