@@ -27,7 +27,11 @@ Error control (per trajectory, never shared)
     ``eps`` varies by a factor 2-4 over ``eps`` = 1e-8 ... 1e-13 on the heavy and the asymmetric top).
     ``B`` is returned when the estimate is at most ``tol`` on that trajectory. A trajectory over it is
     run again with ``eps_A`` lowered by the observed excess (times 10), until it passes or ``eps_A``
-    reaches :data:`EPS_FLOOR` (then ``ValueError`` names it). Not seen by ``d``: the rounding of the
+    reaches :data:`EPS_FLOOR` (then ``ValueError`` names it); when the ``B`` it holds is within
+    :data:`REUSE_B` of that new ``eps_A``, that ``B`` becomes the new ``A`` and only a new ``B`` (at
+    ``SAFETY`` times its tolerance) is run -- the pair still has ``r <= SAFETY``, all the estimate
+    asks of it. The full state of every other algebra (:mod:`refimpl._full_state`) runs this same
+    control with its own kernel and estimate and ``B`` capped at 3e-14. Not seen by ``d``: the rounding of the
     starting point (the same in both runs) amplified by the flow's sensitivity -- about 1e-13 on the
     heavy top over ``T = 100``, 1e-11 on the asymmetric top; tolerances near that floor are refused when
     ``d`` sees it, and are not certified by the two runs otherwise.

@@ -530,7 +530,8 @@ def _resid(v, mats, G, X, E, R):
 def refine_abelian(G, x0, s, P, Ppinv, D, Dr, mats, out):
     """The compiled twin of :meth:`refimpl.flows._common._AbelianPart.refine` for a real representation
     (the same steps): ``out`` = ``x`` with ``P x = s`` and ``exp(rho(x))`` closest to ``G``, by at most
-    eight Gauss-Newton steps over ``[g, g]`` (directions ``D``, their images ``Dr = D^T rho``) from
+    eight Gauss-Newton steps over ``[g, g]`` (directions ``D``, their images ``Dr = D^T rho``; each
+    step by the normal equations, not scipy's least squares) from
     ``x0 + pinv(P) (s - P x0)``, each kept only when it lowers ``max |exp(rho(x)) - G|``; the Jacobian's
     columns are the Frechet derivatives ``L(rho(x), Dr_j)``, the upper right block of the exponential of
     ``[[rho(x), Dr_j], [0, rho(x)]]`` (Higham, Functions of Matrices, 3.2); ``x0`` itself when the fit
@@ -547,7 +548,23 @@ def refine_abelian(G, x0, s, P, Ppinv, D, Dr, mats, out):
     EZ = np.zeros((2 * r, 2 * r))
     J = np.zeros((r * r, m))
     rhs = np.zeros(r * r)
-    best = x0 + Ppinv @ (s - P @ x0)
+    Jr = np.zeros(m)
+    dw = np.zeros(m)
+    JtJ = np.zeros((m, m))
+    JtJi = np.zeros((m, m))
+    k = P.shape[0]
+    ds = np.zeros(k)
+    for ell in range(k):
+        acc = s[ell]
+        for a in range(n):
+            acc -= P[ell, a] * x0[a]
+        ds[ell] = acc
+    best = np.zeros(n)
+    for a in range(n):
+        acc = x0[a]
+        for ell in range(k):
+            acc += Ppinv[a, ell] * ds[ell]
+        best[a] = acc
     cand = np.zeros(n)
     r0 = _resid(x0, mats, G, X, E, R0)
     rb = _resid(best, mats, G, X, E, Rb)
@@ -571,9 +588,28 @@ def refine_abelian(G, x0, s, P, Ppinv, D, Dr, mats, out):
         for i in range(r):
             for j in range(r):
                 rhs[i * r + j] = -Rb[i, j]
-        if not (np.all(np.isfinite(J)) and np.all(np.isfinite(rhs))):
+        # the least-squares step by the normal equations (the small m x m Gauss-Jordan of _inverse:
+        # no LAPACK binding to compile); the step's own error is corrected by the next iteration, and
+        # a step that does not lower the residual is never taken
+        for a in range(m):
+            acc = 0.0
+            for q in range(r * r):
+                acc += J[q, a] * rhs[q]
+            Jr[a] = acc
+            for c in range(m):
+                acc = 0.0
+                for q in range(r * r):
+                    acc += J[q, a] * J[q, c]
+                JtJ[a, c] = acc
+        if not (np.all(np.isfinite(JtJ)) and np.all(np.isfinite(Jr))):
             break
-        dw = np.linalg.lstsq(J, rhs)[0]
+        if not _inverse(JtJ, JtJi):
+            break
+        for a in range(m):
+            acc = 0.0
+            for c in range(m):
+                acc += JtJi[a, c] * Jr[c]
+            dw[a] = acc
         for a in range(n):
             acc = best[a]
             for c in range(m):
