@@ -10,8 +10,8 @@ under the two-run control of :func:`refimpl._full_state.full_state_flow`; a lane
 changes another lane's arithmetic.
 
 Vectorisation
-    The kernel's lanes are written out statement by statement in a C-contiguous
-    ``V[k, row, lane]``; LLVM's SLP vectoriser packs them into SIMD instructions. numba leaves that
+    The kernel's statements run in short loops over the lanes of a C-contiguous ``V[k, row, lane]``;
+    LLVM unrolls them and its SLP vectoriser packs the lanes into SIMD instructions. numba leaves that
     pass off by default (``NUMBA_SLP_VECTORIZE=0``, for compile time), so :func:`kernel` compiles the
     batch kernel -- and only it -- with the pass on, under numba's compiler lock. The pass does not
     reassociate (no ``fastmath`` beyond ``contract``, as in every Taylor kernel here): a lane's
