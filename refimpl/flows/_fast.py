@@ -38,6 +38,8 @@ __all__ = ["NumpyModel", "cached_model", "fast_flow", "fast_trajectory", "integr
 NumpyModel = Model
 """The validated float64 model (:class:`refimpl.model.Model`; the old name, kept)."""
 
+PROBE_ROWS = 64  # trajectories of a batch on which the adaptive path's time probe runs (issue 25)
+
 
 def integrate_fast(
     model: Model,
@@ -214,13 +216,19 @@ def fast_flow(
         # an adaptive run costs about linearly in |t|: time it over 1/64 of the span (twice: the
         # first may compile on first use) and refuse, with the estimate, a run that would cross
         # the budget before it starts
+        # issue 25 batch hook: the probe runs on a spread sample of at most PROBE_ROWS trajectories
+        # (the cost is linear in their number: scaled by N / m), not on the whole batch
+        m = min(X.shape[1], PROBE_ROWS)
+        rows = np.linspace(0, X.shape[1] - 1, m).astype(np.int64)
+        Xs, Ps = np.ascontiguousarray(X[:, rows]), np.ascontiguousarray(P[:, rows])
+
         def probe(k):
-            return meth.integrate(model, State(X, P), tv * k / 64, tol=tol, system="full")
+            return meth.integrate(model, State(Xs, Ps), tv * k / 64, tol=tol, system="full")
 
         with np.errstate(all="ignore"):
             StepBudget("fast_flow").calibrate(probe, 1)
             budget.calibrate(probe, 1)
-        budget.before(64, doing)
+        budget.before(math.ceil(64 * X.shape[1] / m), doing)
     out = meth.integrate(model, State(X, P), tv, tol=tol, steps=steps, system="full")
     # one reduction when all is finite (a finite sum); the per-trajectory check only otherwise
     bad_pi = None if np.isfinite(out["pi"].sum()) else ~np.all(np.isfinite(out["pi"]), axis=0)
