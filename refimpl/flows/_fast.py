@@ -216,19 +216,22 @@ def fast_flow(
         # an adaptive run costs about linearly in |t|: time it over 1/64 of the span (twice: the
         # first may compile on first use) and refuse, with the estimate, a run that would cross
         # the budget before it starts
-        # issue 25 batch hook: the probe runs on a spread sample of at most PROBE_ROWS trajectories
-        # (the cost is linear in their number: scaled by N / m), not on the whole batch
-        m = min(X.shape[1], PROBE_ROWS)
-        rows = np.linspace(0, X.shape[1] - 1, m).astype(np.int64)
+        # issue 25 batch hook: the probe runs on a spread sample of m <= PROBE_ROWS trajectories over
+        # the fraction of the span that makes it 1/64 of the batch's work (at most the whole span), so a
+        # large batch is not probed whole; its estimate is scaled by N / (m frac)
+        N = X.shape[1]
+        m = min(N, PROBE_ROWS)
+        frac = min(1.0, N / (64 * m))
+        rows = np.linspace(0, N - 1, m).astype(np.int64)
         Xs, Ps = np.ascontiguousarray(X[:, rows]), np.ascontiguousarray(P[:, rows])
 
         def probe(k):
-            return meth.integrate(model, State(Xs, Ps), tv * k / 64, tol=tol, system="full")
+            return meth.integrate(model, State(Xs, Ps), tv * frac * k, tol=tol, system="full")
 
         with np.errstate(all="ignore"):
             StepBudget("fast_flow").calibrate(probe, 1)
             budget.calibrate(probe, 1)
-        budget.before(math.ceil(64 * X.shape[1] / m), doing)
+        budget.before(math.ceil(N / (m * frac)), doing)
     out = meth.integrate(model, State(X, P), tv, tol=tol, steps=steps, system="full")
     # one reduction when all is finite (a finite sum); the per-trajectory check only otherwise
     bad_pi = None if np.isfinite(out["pi"].sum()) else ~np.all(np.isfinite(out["pi"]), axis=0)
