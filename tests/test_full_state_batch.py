@@ -246,3 +246,32 @@ def test_lane_kernel_size_rule():
     fbig = fs_mod.FullState(big, big.representation)
     assert int((fbig.tables()[7] == 0).sum()) > fsb.MAX_SIZE // 2
     assert not fsb.applies(fbig)
+
+
+@needs_numba
+def test_time_probe_runs_on_a_sample_of_the_batch(monkeypatch):
+    """fast_flow's time probe (issue 30 budget) runs on at most PROBE_ROWS trajectories, not on the
+    whole batch; the budget still refuses, with its estimate, a batch it cannot afford."""
+    from tstarg.refimpl import _validate
+    from tstarg.refimpl.flows import _fast
+
+    sizes = []
+    real = fsb.run
+
+    def spy(*a, **kw):
+        sizes.append(a[1].shape[0])
+        return real(*a, **kw)
+
+    monkeypatch.setattr(fsb, "run", spy)
+    f, theta, ups, inertia, pot = _args()
+    rng = np.random.default_rng(6)
+    N, T = 3 * _fast.PROBE_ROWS, 2.0
+    assert N * T >= 256  # the probed regime of fast_flow
+    X0 = 0.3 * rng.standard_normal((N, 3))
+    P0 = rng.standard_normal((N, 3))
+    FAST.flow(f, theta, ups, inertia, pot, X0, P0, T)
+    assert N in sizes  # the run itself
+    assert min(sizes) <= _fast.PROBE_ROWS and sizes.count(N) <= 2  # probes: the sample only
+    monkeypatch.setattr(_validate, "TIME_BUDGET_S", 1e-9)
+    with pytest.raises(_validate.BudgetError, match="would take about"):
+        FAST.flow(f, theta, ups, inertia, pot, X0, P0, T)
