@@ -306,7 +306,7 @@ class FullState:
         out = np.empty_like(y)
         steps = np.zeros(y.shape[0], dtype=np.int64)
         # issue 25 batch hook: W trajectories at a time in SIMD lanes (refimpl._full_state_batch)
-        if generated and y.shape[0] >= _fsb.LANES:
+        if generated and y.shape[0] >= _fsb.LANES and _fsb.applies(self):
             return _fsb.run(self, y, T, tol, P, max_steps)
         if generated:
             self.module().adaptive(

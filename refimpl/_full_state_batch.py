@@ -10,8 +10,8 @@ under the two-run control of :func:`refimpl._full_state.full_state_flow`; a lane
 changes another lane's arithmetic.
 
 Vectorisation
-    The kernel's lanes are written out statement by statement in a C-contiguous
-    ``V[k, row, lane]``; LLVM's SLP vectoriser packs them into SIMD instructions. numba leaves that
+    The kernel's statements run in short loops over the lanes of a C-contiguous ``V[k, row, lane]``;
+    LLVM unrolls them and its SLP vectoriser packs the lanes into SIMD instructions. numba leaves that
     pass off by default (``NUMBA_SLP_VECTORIZE=0``, for compile time), so :func:`kernel` compiles the
     batch kernel -- and only it -- with the pass on, under numba's compiler lock. The pass does not
     reassociate (no ``fastmath`` beyond ``contract``, as in every Taylor kernel here): a lane's
@@ -26,7 +26,21 @@ import numpy as np
 from .codegen import import_source
 from .codegen.full_state_batch import GROUP, LANES, batch_numbers, batch_source
 
-__all__ = ["LANES", "kernel", "run"]
+__all__ = ["LANES", "MAX_SIZE", "applies", "kernel", "run"]
+
+MAX_SIZE = 240
+"""The largest structure given the lane kernel, counted as general Cauchy products plus the terms of
+the derived and state rows (the statements of the generated recurrence). Its cold compilation grows
+with that count -- measured at load average ~7, one run each: se(3) (117) 5.4 s, so(4) (162) 7.4 s,
+su(3) (365) 13.9 s -- and a first call's time budget (refimpl._validate.TIME_BUDGET_S) counts it, so a
+larger structure keeps the single-trajectory generated kernel (about 4.6 s to compile on su(3))."""
+
+
+def applies(fs) -> bool:
+    """Whether the structure of ``fs`` is small enough for the lane kernel (:data:`MAX_SIZE`)."""
+    tb = fs.tables()
+    return int((tb[7] == 0).sum()) + len(tb[3]) + len(tb[10]) + len(tb[13]) <= MAX_SIZE
+
 
 _SIG = (
     "(float64[:, ::1], float64, float64, int64, int64, float64[::1], int64[::1], int64[::1], "

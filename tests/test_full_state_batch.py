@@ -200,3 +200,78 @@ def test_source_depends_on_structure_only():
     assert srcs[0] == srcs[1]
     with pytest.raises(ValueError, match="lanes W"):
         batch_source(fsx.tables(), fsx.d, W=0)
+
+
+@pytest.mark.slow
+@needs_numba
+@pytest.mark.parametrize("name", ["se(3)", "so(4)", "su(3)", "h(3)", "sl(3,R)"])
+def test_batch_kernel_on_other_algebras_slow(name):
+    """Every catalogued structure kind (affine, compact, complex representation, nilpotent with the
+    abelian part, split real): the lane kernel against the table-driven single kernel, W + 1 rows
+    (one compilation per structure, several seconds each: slow)."""
+    from tstarg.refimpl._catalogue import catalogue
+
+    alg = catalogue(name)
+    n = alg.f.shape[0]
+    rng = np.random.default_rng(1)
+    A = rng.standard_normal((n, n))
+    z = np.zeros((n, n))
+    model = cached_model(alg.f, z, z, A @ A.T / n + np.eye(n), None)
+    f = fs_mod.full_state(model, _AbelianPart)
+    N = W + 1
+    x0 = 0.2 * rng.standard_normal((n, N))
+    pi0 = rng.standard_normal((n, N))
+    G0 = np.empty((N, f.r, f.r), dtype=f.mats.dtype)
+    fk.exp_batch(np.ascontiguousarray(x0.T), f.mats, G0)
+    s0 = None if f.abelian is None else f.abelian.P @ x0
+    y = fs_mod._pack(f, pi0, None, G0, s0)
+    T, tol = 1.0, 1e-12
+    P = fs_mod.default_order(tol)
+    out, steps = fsb.run(f, y, T, tol, P, 10**7)
+    ref, rsteps = _single(f, y, T, tol, P)
+    np.testing.assert_array_equal(steps, rsteps)
+    _assert_rounding_close(out, ref, rsteps)
+
+
+def test_lane_kernel_size_rule():
+    """The lane kernel takes small structures (Bianchi III: a few dozen statements) and leaves the
+    largest to the single-trajectory kernel (su(3): 140 general products alone, over MAX_SIZE)."""
+    from tstarg.refimpl._catalogue import catalogue
+
+    small = cached_model(*_args())
+    assert fsb.applies(fs_mod.FullState(small, small.representation))
+    su3 = catalogue("su(3)")
+    z = np.zeros((8, 8))
+    big = cached_model(su3.f, z, z, np.diag(np.linspace(1.0, 2.0, 8)), None)
+    fbig = fs_mod.FullState(big, big.representation)
+    assert int((fbig.tables()[7] == 0).sum()) > fsb.MAX_SIZE // 2
+    assert not fsb.applies(fbig)
+
+
+@needs_numba
+def test_time_probe_runs_on_a_sample_of_the_batch(monkeypatch):
+    """fast_flow's time probe (issue 30 budget) runs on at most PROBE_ROWS trajectories, not on the
+    whole batch; the budget still refuses, with its estimate, a batch it cannot afford."""
+    from tstarg.refimpl import _validate
+    from tstarg.refimpl.flows import _fast
+
+    sizes = []
+    real = fsb.run
+
+    def spy(*a, **kw):
+        sizes.append(a[1].shape[0])
+        return real(*a, **kw)
+
+    monkeypatch.setattr(fsb, "run", spy)
+    f, theta, ups, inertia, pot = _args()
+    rng = np.random.default_rng(6)
+    N, T = 3 * _fast.PROBE_ROWS, 2.0
+    assert N * T >= 256  # the probed regime of fast_flow
+    X0 = 0.3 * rng.standard_normal((N, 3))
+    P0 = rng.standard_normal((N, 3))
+    FAST.flow(f, theta, ups, inertia, pot, X0, P0, T)
+    assert N in sizes  # the run itself
+    assert min(sizes) <= _fast.PROBE_ROWS and sizes.count(N) <= 2  # probes: the sample only
+    monkeypatch.setattr(_validate, "TIME_BUDGET_S", 1e-9)
+    with pytest.raises(_validate.BudgetError, match="would take about"):
+        FAST.flow(f, theta, ups, inertia, pot, X0, P0, T)

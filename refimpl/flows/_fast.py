@@ -38,6 +38,8 @@ __all__ = ["NumpyModel", "cached_model", "fast_flow", "fast_trajectory", "integr
 NumpyModel = Model
 """The validated float64 model (:class:`refimpl.model.Model`; the old name, kept)."""
 
+PROBE_ROWS = 64  # trajectories of a batch on which the adaptive path's time probe runs (issue 25)
+
 
 def integrate_fast(
     model: Model,
@@ -214,13 +216,22 @@ def fast_flow(
         # an adaptive run costs about linearly in |t|: time it over 1/64 of the span (twice: the
         # first may compile on first use) and refuse, with the estimate, a run that would cross
         # the budget before it starts
+        # issue 25 batch hook: the probe runs on a spread sample of m <= PROBE_ROWS trajectories over
+        # the fraction of the span that makes it 1/64 of the batch's work (at most the whole span), so a
+        # large batch is not probed whole; its estimate is scaled by N / (m frac)
+        N = X.shape[1]
+        m = min(N, PROBE_ROWS)
+        frac = min(1.0, N / (64 * m))
+        rows = np.linspace(0, N - 1, m).astype(np.int64)
+        Xs, Ps = np.ascontiguousarray(X[:, rows]), np.ascontiguousarray(P[:, rows])
+
         def probe(k):
-            return meth.integrate(model, State(X, P), tv * k / 64, tol=tol, system="full")
+            return meth.integrate(model, State(Xs, Ps), tv * frac * k, tol=tol, system="full")
 
         with np.errstate(all="ignore"):
             StepBudget("fast_flow").calibrate(probe, 1)
             budget.calibrate(probe, 1)
-        budget.before(64, doing)
+        budget.before(math.ceil(N / (m * frac)), doing)
     out = meth.integrate(model, State(X, P), tv, tol=tol, steps=steps, system="full")
     # one reduction when all is finite (a finite sum); the per-trajectory check only otherwise
     bad_pi = None if np.isfinite(out["pi"].sum()) else ~np.all(np.isfinite(out["pi"]), axis=0)
