@@ -100,6 +100,10 @@ class QuadraticField:
                 M[i][k] += q * y[j]
         return arb_mat(M)
 
+    def DF(self, y: list) -> arb_mat:
+        """A ball matrix containing the Jacobian ``DF`` over the box ``y``."""
+        return self.A() + self.D(y)
+
     def A(self) -> arb_mat:
         M = [[arb(0)] * self.d for _ in range(self.d)]
         for i, row in self.lin.items():
@@ -229,7 +233,7 @@ def _enclosure(F: QuadraticField, Y: list, H: arb, tries: int = 12):
 def _jac_enclosure(F: QuadraticField, E: list, H: arb, tries: int = 12):
     """A ball matrix ``E_J`` with ``I + H DF(E) E_J subset E_J``, or None (Picard iteration with inflation)."""
     d = F.d
-    DF = F.A() + F.D(E)
+    DF = F.DF(E)
     I = arb_mat([[1 if i == j else 0 for j in range(d)] for i in range(d)])
     EJ = arb_mat(d, d, [_inflate(e, 1.0) for e in (I + H * DF).entries()])
     for _ in range(tries):
@@ -248,7 +252,17 @@ def _horner(coeffs: list, h: arb) -> list:
 
 
 def _lohner_step(F, yhat, B, r, h, p, q, tol):
-    """One step; returns ``(yhat', B', r', rem)`` or None when the enclosure fails or the remainder is too big."""
+    """One step; returns ``(yhat', B', r', rem)`` or None when the enclosure fails or the remainder is too
+    big. A field that cannot be evaluated over a box (``ZeroDivisionError``: the rational field's ``Phi``
+    not provably invertible there) fails the step; ``F.singular`` then records it."""
+    try:
+        return _lohner_step_(F, yhat, B, r, h, p, q, tol)
+    except ZeroDivisionError:
+        F.singular = True
+        return None
+
+
+def _lohner_step_(F, yhat, B, r, h, p, q, tol):
     d = F.d
     H = _hull0(h)
     Br = B * r
@@ -342,12 +356,20 @@ def enclose_quadratic(
             rejected += 1
             h = (float(left.mid()) if last else h) / 2
             if h < 1e-12 or rejected > max_steps:
+                if getattr(F, "singular", False):
+                    from ._errors import DegeneratePointError
+
+                    raise DegeneratePointError(
+                        f"rigorous flow: Delta = det Phi is not provably away from 0 along the step at "
+                        f"t = {float(tnow.mid())} (the trajectory meets or nears the degenerate set)"
+                    )
                 raise ValueError(
                     f"rigorous flow: step size underflow at t = {float(tnow.mid())} "
                     "(the enclosure or the remainder cannot be made small enough)"
                 )
             continue
         yhat, B, r, remmax, E, C, series = res
+        F.singular = False
         steps += 1
         if jacobian:
             Jtot = C * Jtot

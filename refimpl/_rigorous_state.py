@@ -24,8 +24,11 @@ contains ``t0`` (``x(t0)`` is in the previous ``K``, which ``X`` contains). A fi
 the tight box. Where a test fails (the logarithm is not unique or not isolated on a box of the step's
 width, or ``x`` reaches the chart's edge) ``x`` is not given, and ``x_note`` says why by name.
 
-``Upsilon != 0`` is refused here by name (the rational field needs the ball Taylor recurrence of the
-solve by ``Phi``; not implemented).
+``Upsilon != 0``: the body system is rational; :class:`refimpl._rigorous_rational.RationalField` carries
+the same state by the ball Taylor recurrence of the solve by ``Phi`` (and its derivative for the wrapping),
+whose ball inverse of ``Phi`` over each step's a-priori enclosure proves ``Delta = det Phi != 0`` along the
+step; a start on (or within rounding of) the degenerate set, or a step that cannot be proven so, is refused
+with :class:`DegeneratePointError`.
 """
 
 from __future__ import annotations
@@ -39,8 +42,10 @@ import sympy
 from flint import arb, arb_mat
 
 from ._arb import Balls, algebra_balls, exact_source, to_arb, upper, workprec
+from ._errors import DegeneratePointError
 from ._representation import RepresentationError, representation_for
 from ._rigorous_flow import QuadraticField, body_field, enclose_quadratic
+from ._rigorous_rational import RationalField
 
 __all__ = ["StateEnclosure", "full_state_enclosure", "judge_flow"]
 
@@ -183,6 +188,16 @@ def _state_field(body: QuadraticField, n: int, Ii, R, J, Fad3, want_ad: bool) ->
                     for k in range(n):
                         add(ad0 + i * n + j, (ad0 + i * n + k, ll), Al[k][j])
     return QuadraticField(d, const, lin, quad), offs, m
+
+
+def _reversed(F: QuadraticField) -> QuadraticField:
+    """The field ``-F`` (every coefficient negated, exactly): its flow at ``s`` is ``F``'s at ``-s``."""
+    return QuadraticField(
+        F.d,
+        {i: -v for i, v in F.const.items()},
+        {i: {j: -a for j, a in row} for i, row in F.lin.items()},
+        {i: {(j, k): -q for j, k, q in row} for i, row in F.quad.items()},
+    )
 
 
 # ------------------------------------------------------------------ x by Krawczyk
@@ -545,10 +560,12 @@ def full_state_enclosure(
 ) -> StateEnclosure:
     """Enclose the whole state at ``t`` (module docstring): ``pi``, ``Gamma``, ``rho(g)``, ``Ad(g)``, ``x``.
 
-    ``Upsilon`` must be exactly 0 (otherwise refused by name). The inputs pass the rigorous
+    ``Upsilon != 0`` by the rational field (module docstring; ``DegeneratePointError`` where ``Delta``
+    is not proven away from 0). The inputs pass the rigorous
     implementation's boundary (:mod:`refimpl.rigorous`: magnitudes, chart and work budget at ``x0``,
     precision cap) and the flow budget ``|t| <= MAX_FLOW_TIME``; ``max_seconds`` bounds the CPU time,
-    estimated from the first steps. ``order`` defaults to ``max(12, prec_bits // 5)``; ``jac_order``
+    estimated from the first steps. ``t < 0``: the flow backwards in time (the field reversed).
+    ``order`` defaults to ``max(12, prec_bits // 5)``; ``jac_order``
     (the Taylor order of the variational equation) to 8, or ``3/4 order`` with ``jacobian=True`` (the
     Jacobian's radius then matches the state's; at 8 it is ~1e-12).
     """
@@ -595,8 +612,10 @@ def full_state_enclosure(
     _point_view(pi0, n, "pi0")
     check_frames_budget(ff, xf)
     tv = float(check_magnitudes(_fview(t, "t"), "t"))
-    if not 0 <= tv <= MAX_FLOW_TIME:
-        raise ValueError(f"t must be in [0, {MAX_FLOW_TIME:g}] (the flow budget), got {t!r}")
+    if not abs(tv) <= MAX_FLOW_TIME:
+        raise ValueError(
+            f"t must be in [-{MAX_FLOW_TIME:g}, {MAX_FLOW_TIME:g}] (the flow budget), got {t!r}"
+        )
     if order is None:
         order = max(12, prec_bits // 5)
     if (
@@ -608,12 +627,7 @@ def full_state_enclosure(
         raise ValueError(f"tol must be > 0, got {tol!r}")
     rep = representation_for(f)
     with workprec(prec_bits):
-        if not all(to_arb(v, "upsilon").is_zero() for v in np.asarray(upsilon, dtype=object).flat):
-            raise ValueError(
-                "full_state_enclosure: upsilon != 0 is not enclosed (the rational field of vier10/vier11 "
-                "needs the ball Taylor recurrence of the solve by Phi); only upsilon = 0 exactly"
-            )
-        body, _ = body_field(f, theta, inertia, None if pot is None else potential)
+        Ub = [to_arb(v, "upsilon") for v in np.asarray(upsilon, dtype=object).flat]
         Ii_m = arb_mat(
             [[to_arb(v, "inertia") for v in row] for row in np.asarray(inertia, dtype=object)]
         ).inv()
@@ -621,7 +635,32 @@ def full_state_enclosure(
         src = exact_source(f)
         F3 = [[[to_arb(src[k, a, j], "f") for j in range(n)] for a in range(n)] for k in range(n)]
         R, J = _rep_balls(rep)
-        field_, offs, m = _state_field(body, n, Ii, R, J, F3, want_ad)
+        if all(u.is_zero() for u in Ub):
+            body, _ = body_field(f, theta, inertia, None if pot is None else potential)
+            field_, offs, m = _state_field(body, n, Ii, R, J, F3, want_ad)
+            if tv < 0:  # y(t) for t < 0 is the state at |t| of the time-reversed field y' = -F(y)
+                field_ = _reversed(field_)
+        else:  # the rational field: the solve by Phi as a ball Taylor recurrence
+            th = arb_mat(n, n, [to_arb(v, "theta") for v in np.asarray(theta, dtype=object).flat])
+            Lb = (
+                None
+                if pot is None
+                else [to_arb(v, "potential['L']") for v in np.asarray(potential["L"], dtype=object)]
+            )
+            field_ = RationalField(
+                F3, th, arb_mat(n, n, Ub), Ii_m, Lb, R, J, want_ad, sign=-1 if tv < 0 else 1
+            )
+            offs = {k: v for k, v in field_.offs.items() if k in ("G_r", "G_i", "Ad")}
+            m = field_.m
+            pi_b = arb_mat(n, 1, [to_arb(v, "pi0") for v in np.asarray(pi0, dtype=object).flat])
+            Phi0 = field_.eye_n + (field_._comb(field_.Fm, pi_b) - th) * field_.U
+            try:
+                Phi0.inv()
+            except ZeroDivisionError:
+                raise DegeneratePointError(
+                    "full_state_enclosure: Delta = det Phi(pi0) is not provably nonzero at the start "
+                    "(pi0 on or within rounding of the degenerate set Pi_1, vier12)"
+                ) from None
         Fad, _, _ = algebra_balls(f, prec_bits)
         xv = arb_mat(n, 1, [to_arb(v, "x0") for v in np.asarray(x0, dtype=object).reshape(-1)])
         adx = arb_mat(n, n, (Fad * xv).entries())
@@ -656,7 +695,7 @@ def full_state_enclosure(
         res = enclose_quadratic(
             field_,
             y0,
-            to_arb(t, "t"),
+            abs(to_arb(t, "t")),
             order=order,
             jac_order=jac_order,
             tol=tol,
@@ -730,8 +769,8 @@ def judge_flow(
     "enclosure": StateEnclosure}``: float64 midpoints and radii (upper bounds) with
     ``|exact - mid| <= rad + ulp(mid)/2`` per entry; use ``enclosure.<part>.error_bounds(value)`` for
     proven ``lo <= |value - exact| <= hi``. ``x`` is the principal logarithm of ``rho(g(t))`` (the
-    flows' documented choice (a)), or None with the reason in ``x_note``. ``Upsilon != 0`` raises
-    ``ValueError`` by name. Default 64 bits: radii ~1e-13 at ``t = 1`` (far below float64 flow errors).
+    flows' documented choice (a)), or None with the reason in ``x_note``. ``DegeneratePointError``
+    where ``Delta = det Phi`` is not proven away from 0 along the trajectory (``Upsilon != 0``). Default 64 bits: radii ~1e-13 at ``t = 1`` (far below float64 flow errors).
     """
     e = full_state_enclosure(
         f,

@@ -45,9 +45,11 @@ the reference's degeneracy test refuses a point of huge ``||Phi||`` whose ``Delt
 excludes 0, the balls are answered (tests/test_rigorous_boundary.py checks them against an independent
 120+-digit route).
 
-Flows: :func:`body_flow_enclosure` (pi, Gamma) and :func:`full_state_enclosure` (pi, Gamma, rho(g),
-Ad(g), x, and the C^1 enclosure), both ``Upsilon = 0``; :func:`judge_flow` is the flow judge
-(refimpl/_rigorous_state.py).
+Flows: :func:`body_flow_enclosure` (pi, Gamma; ``Upsilon = 0``) and :func:`full_state_enclosure` (pi,
+Gamma, rho(g), Ad(g), x, and the C^1 enclosure; ``Upsilon != 0`` by the rational field of
+refimpl/_rigorous_rational.py, either time sign); :func:`judge_flow` is the flow judge
+(refimpl/_rigorous_state.py); :func:`poisson_map_defect` and :func:`casimir_drift` use the C^1
+enclosure (refimpl/_rigorous_c1.py).
 
 Protocol (docs/design.md): ``poisson_tensor`` and ``hamiltonian_vector_field`` return float64
 midpoints (the evaluation is repeated at higher precision until every radius is below
@@ -92,6 +94,7 @@ from ._arb import (
 )
 from ._errors import ChartError, DegeneratePointError
 from ._reference_core import MAX_DPS
+from ._rigorous_c1 import casimir_drift, poisson_map_defect
 from ._rigorous_core import (
     _MAX_MAG,
     MAX_PREC_BITS,
@@ -121,6 +124,7 @@ __all__ = [
     "Rigorous",
     "UndecidedError",
     "body_flow_enclosure",
+    "casimir_drift",
     "distance_to_ball",
     "error_bounds",
     "implementation",
@@ -128,6 +132,7 @@ __all__ = [
     "judge_flow",
     "judge_poisson",
     "judge_vector_field",
+    "poisson_map_defect",
 ]
 
 LOG2E = 1.4426950408889634

@@ -38,11 +38,15 @@ Theta and Upsilon.
     ``(xdot, pidot)`` vs the reference, with random non-diagonal inertia, free and with gravity
     (twee15);
 ``flow.reference``
-    the state at ``|t| <= 1`` vs the mpmath reference flow, gravity and non-diagonal inertia
-    included; negative times by the round trip ``flow(flow_ref(z0, |t|), -|t|) = z0``. Each
-    example's reference cost is estimated first (:func:`reference_work`); examples over
-    :data:`REFERENCE_WORK_LIMIT` are drawn again (counted in the certificate, never integrated),
-    and reference results are cached across shrink steps;
+    the state at ``|t| <= 1`` vs proven balls of the whole state (``tstarg-rigorous``, Arb at 64
+    bits: an interval Taylor method with Lohner's wrapping, ``Upsilon != 0`` by the ball recurrence
+    of the solve by ``Phi``, ``x`` by a proven principal logarithm; the balls' radius, the
+    ``judge_error``, added to the tolerance), gravity and non-diagonal inertia included; negative
+    times from the judge's end point back, against the balls of the backward flow. Where the balls
+    refuse (counted by reason) the mpmath reference judges, with negative times by the round trip
+    ``flow(flow_ref(z0, |t|), -|t|) = z0``; its cost is estimated first (:func:`reference_work`),
+    examples over :data:`REFERENCE_WORK_LIMIT` are drawn again (counted in the certificate, never
+    integrated), and reference results are cached across shrink steps;
 ``flow.long``
     the state at ``t`` anywhere in ``[-T, T]`` (``T = min(FLOW_T_MAX, domain max_abs_t)``) vs an
     independent float64 judge (scipy's DOP853 at rtol 1e-13 on the body system with ``Ad(g)``

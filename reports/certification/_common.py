@@ -10,14 +10,17 @@ import math
 from collections import OrderedDict
 
 import numpy as np
+import scipy.linalg
 from hypothesis import currently_in_test_context
 from hypothesis import target as hyp_target
 
 from tstarg.oracles.float_judge import (
     FloatJudge,
+    ad,
     compare_state,
     conditioning,
     max_err,
+    phi1,
     reference_work,
     sensitivity_at,
 )
@@ -30,9 +33,23 @@ _REF = Reference(30)
 
 _JUDGE = Rigorous(200)
 
+PROVEN_PREC_BITS = 64
+"""Working precision of the proven flow judge (:func:`_proven_state`): its balls' radii are ~1e-17 at
+``|t| <= 1``, far below every float64 flow tolerance (>= 1e-9 for a declared ``flow_tolerance``)."""
+
+PROVEN_MAX_SECONDS = 4.0
+"""CPU budget of one proven flow enclosure (estimated from its first steps; over it the balls refuse
+and the mpmath reference judges, named in the certificate's counts)."""
+
+PROVEN_JUDGE = f"tstarg-rigorous (Arb balls, {PROVEN_PREC_BITS} bits)"
+"""The name of the proven flow judge in certificates and reports."""
+
 JUDGE = (
     "brackets: refimpl.rigorous (Arb balls, 200 bits; errors are proven upper bounds, digits proven "
-    "digits); vector fields and flow.reference: refimpl.reference (mpmath, 25-30 digits); flow.long, "
+    f"digits); flow.reference: {PROVEN_JUDGE}, the whole state enclosed by an interval Taylor method "
+    "with Lohner's wrapping and x by a proven principal logarithm (its error: the balls' radius, "
+    "proven), refimpl.reference (mpmath, 25 digits) where the balls refuse (counted by reason); "
+    "vector fields: refimpl.reference (mpmath, 25-30 digits); flow.long, "
     "flow.order and the flows of protocol.inputs: oracles.float_judge.FloatJudge (scipy DOP853 at "
     "rtol 1e-13 on the body system, on the flow's group; its error estimated by a run at rtol 1e-12, "
     "examples where it exceeds a tenth of the tolerance drawn again; the worst estimate per check "
@@ -238,6 +255,63 @@ def _judged_state_ratio(impl, f, t, got, want, tol, judge_err, G, group) -> floa
     raise AssertionError(
         f"flow at t = {t:g}: (x(t), pi(t)) off the judge by error/tolerance ratio {ratio:.3g}"
     )
+
+
+def _proven_state(f, theta, ups, inertia, pot, x, pi, t):
+    """The proven flow judge: ``(x, pi, x_err, pi_err)`` at ``t`` (either sign) from Arb balls
+    (:func:`refimpl.rigorous.judge_flow` at :data:`PROVEN_PREC_BITS`), where ``x_err``/``pi_err`` are
+    proven upper bounds of ``|exact - value|`` per part (the radius plus half an ulp of the rounded
+    midpoint); or a string, the reason the balls refused (``Upsilon != 0``, no exact representation,
+    the logarithm not proven unique, over :data:`PROVEN_MAX_SECONDS`). Cached by value."""
+    from tstarg.refimpl.rigorous import judge_flow
+
+    def compute():
+        try:
+            out = judge_flow(
+                f,
+                theta,
+                ups,
+                inertia,
+                pot,
+                x,
+                pi,
+                float(t),
+                prec_bits=PROVEN_PREC_BITS,
+                max_seconds=PROVEN_MAX_SECONDS,
+            )
+        except (ValueError, ArithmeticError) as exc:
+            return f"{type(exc).__name__}: {str(exc).split(' (')[0][:100]}"
+        if out["x"] is None:
+            return out["x_note"].split(" (")[0][:100]
+
+        def err(mr):
+            mid, rad = mr
+            return float(np.max(rad + 0.5 * np.spacing(np.abs(mid)), initial=0.0))
+
+        return out["x"][0], out["pi"][0], err(out["x"]), err(out["pi"])
+
+    return _FLOW_CACHE.get(
+        ("proven", PROVEN_PREC_BITS) + _key(f, theta, ups, inertia, pot, x, pi, float(t)), compute
+    )
+
+
+def _judge_errors(f, x, ex: float, ep: float, group) -> tuple:
+    """``compare_state``'s ``judge_err`` ``(x, pi, Ad, rho(g))`` for a judge whose ``x`` and ``pi`` err
+    by at most ``ex`` and ``ep``: ``Ad = expm(ad_x)`` and ``rho(exp(x))`` computed from the judge's
+    ``x`` move by at most ``||Ad||_2 ||f||_F ||phi1(-ad_x)||_2 sqrt(n) ex`` (the first-order bound of
+    :func:`compare_state`, with ``||rho||_F`` for ``||f||_F``), doubled for the second-order term
+    (``ex <= 1e-12`` here, so the quadratic term is below ``1e-12`` of the linear one). Zeros for an
+    exact judge (``ex = ep = 0``: the mpmath reference's error is far below every tolerance)."""
+    if not (ex or ep):
+        return (0.0, 0.0, 0.0, 0.0)
+    n = f.shape[0]
+    x = np.asarray(x, dtype=float)
+    lin = np.linalg.norm(phi1(-ad(f, x)), 2) * math.sqrt(n) * ex
+    ea = 2 * np.linalg.norm(scipy.linalg.expm(ad(f, x)), 2) * max(np.linalg.norm(f), 1e-300) * lin
+    eg = 0.0
+    if group is not None:
+        eg = 2 * np.linalg.norm(group.exp(x), 2) * float(np.linalg.norm(group.mats)) * lin
+    return (ex, ep, float(ea), float(eg))
 
 
 REFERENCE_DPS = 25

@@ -1,0 +1,60 @@
+"""The proven flow judge of the certification (reports/certification/_common.py ``_proven_state``, used by
+``flow.reference``): its answer against the mpmath reference flow (an independent route, 30 digits),
+its refusal by name, and the certificate that names it."""
+
+from __future__ import annotations
+
+import mpmath
+import numpy as np
+
+from tstarg.refimpl import su2
+from tstarg.refimpl.flows import reference_trajectory
+from tstarg.reports.certification import _common
+from tstarg.reports.certification._common import PROVEN_JUDGE, _proven_state
+
+Z3 = np.zeros((3, 3))
+GRAV = {"kind": "gravity", "L": np.array([0.0, 0.0, 1.0]), "gamma": np.array([0.0, 0.0, -1.0])}
+INERTIA = np.diag([1.0, 2.0, 3.0])
+X0, PI0 = np.array([0.1, 0.2, -0.3]), np.array([0.3, 0.2, 0.5])
+# Upsilon = tau.f with tau = (0, 0, 1/2): the plane pi_3 = 2 is the degenerate set (exact in binary)
+U_DEG = np.einsum("l,lmn->mn", np.array([0.0, 0.0, 0.5]), su2().f)
+
+
+def test_proven_state_holds_the_reference_with_upsilon_and_both_signs():
+    """``|value - exact| <= err`` is the judge's promise: the 30-digit reference (its own error ~1e-25,
+    far below the 64-bit balls' ~1e-17) must lie within it, for ``t`` of either sign; the judge is
+    also not vacuous (its error is below 1e-12 while the state moves by > 1e-2)."""
+    f = su2().f
+    for t in (0.5, -0.5):
+        out = _proven_state(f, Z3, U_DEG * 0.6, INERTIA, GRAV, X0, PI0, t)
+        assert isinstance(out, tuple), out
+        xm, pm, ex, ep = out
+        assert ex < 1e-12 and ep < 1e-12
+        tr = reference_trajectory(f, Z3, U_DEG * 0.6, INERTIA, GRAV, X0, PI0, [0, t], dps=30)
+        xr, pr = tr.x[-1], tr.pi[-1]  # mpf: not rounded to float64
+        with mpmath.workdps(40):
+            for got, ref, err in ((xm, xr, ex), (pm, pr, ep)):
+                for a, b in zip(got, ref):
+                    assert abs(mpmath.mpf(float(a)) - mpmath.mpf(b)) <= err * (1 + 1e-12) + 1e-25
+        assert np.max(np.abs(pm - PI0)) > 1e-2
+
+
+def test_proven_state_refuses_by_name_on_the_degenerate_set():
+    out = _proven_state(su2().f, Z3, U_DEG, INERTIA, None, X0, np.array([0.1, 0.2, 2.0]), 0.5)
+    assert isinstance(out, str) and "DegeneratePointError" in out and "Delta" in out
+
+
+def test_certificate_names_the_proven_judge_and_its_error():
+    """flow.reference on refimpl.fast (3 examples): the certificate's judge line and the check's
+    counts name the balls, and the judge's error is stated and far below the tolerance."""
+    from tstarg.refimpl.fast import implementation as fast
+    from tstarg.reports.certification import certify
+
+    assert PROVEN_JUDGE in _common.JUDGE
+    cert = certify(fast, max_examples=3, seed=0, checks=["flow.reference"], shrink=False)
+    (res,) = cert.checks
+    assert res.passed, cert.summary()
+    judged = res.extra.get(f"forward legs judged by {PROVEN_JUDGE}", 0)
+    assert judged >= 1, res.extra
+    assert 0 < res.extra["judge_error"] < 1e-9
+    assert PROVEN_JUDGE in res.extra["judge"]
