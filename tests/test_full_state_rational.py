@@ -132,10 +132,13 @@ def test_su3_against_gauss6():
 
 @pytest.mark.slow
 @needs_numba
-@pytest.mark.parametrize("name, grav", [("su(3)", False), ("su(3)", True), ("sl(3,R)", False)])
-def test_against_reference_dim8_slow(name, grav):
-    """Dimension 8: T = 0.5 against the mpmath reference."""
-    _against_reference(_model(name, seed=3, grav=grav), 0.5, 1e-11)
+@pytest.mark.parametrize(
+    "name, grav, T", [("su(3)", False, 0.5), ("su(3)", True, 0.5), ("sl(3,R)", False, 0.2)]
+)
+def test_against_reference_dim8_slow(name, grav, T):
+    """Dimension 8 against the mpmath reference (sl(3,R) over a shorter time: the reference's own
+    time budget)."""
+    _against_reference(_model(name, seed=3, grav=grav), T, 1e-11)
 
 
 @needs_numba
