@@ -4,7 +4,8 @@ Public API:
 
 * :data:`PUBLISHED_H2` (second Betti numbers of the catalogue, with sources; oracles.published);
 * the paper's claims registry: :data:`CLAIMS`, :data:`LABELS`, :data:`ERRATA`, :func:`evaluate_claims`
-  (oracles.claims) and the checks it runs, :data:`PAPER_CHECKS` (oracles.claim_checks);
+  (oracles.claims, data in oracles/registry/*.toml) and the checks it runs, :data:`CLAIM_CHECKS`
+  (oracles.claim_checks, one module per section of the paper);
 * section cinq symbolically: :func:`su2_nondegenerate_residuals`, :func:`su2_degenerate_residuals`
   (oracles.su2_symbolic); GNH worked examples: :data:`GNH_EXAMPLES`, :func:`check_gnh_example`;
 * closed forms: :func:`rigid_body_solution`, :func:`detest_b5`, :func:`detest_b5_exact`,
@@ -13,7 +14,7 @@ Public API:
 * :func:`oracle_checks` for ``tstarg verify`` (oracles.oracle_checks, imported lazily).
 """
 
-from .claim_checks import PAPER_CHECKS
+from .claim_checks import CHECKS as CLAIM_CHECKS
 from .claims import CLAIMS, ERRATA, LABELS
 from .claims import evaluate as evaluate_claims
 from .closed_forms import (
@@ -32,11 +33,11 @@ from .su2_symbolic import residuals_nondegenerate as su2_nondegenerate_residuals
 
 __all__ = [
     "CLAIMS",
+    "CLAIM_CHECKS",
     "ERRATA",
     "GNH_EXAMPLES",
     "HEAVY_TOPS",
     "LABELS",
-    "PAPER_CHECKS",
     "PUBLISHED_B1",
     "PUBLISHED_H2",
     "check_gnh_example",

@@ -1,626 +1,260 @@
-"""The registry of the paper's claims: one entry per numbered equation, with status and errata.
+"""The registry of the paper's claims: every numbered equation, every unlabelled display and every
+mathematical sentence, with its status, its checks and its errata.
 
-Each :class:`Claim` names the equation (the paper's ``\\label``; the second ``drie5`` is called
-``drie12``), states what it claims, how it is checked (``symbolic``, ``numeric``, ``both``, or
-``-``), where (oracle checks in :data:`oracles.claim_checks.PAPER_CHECKS`, run by
-``tstarg claims``, and pytest tests), and a status:
+The data live in package files, one per section of the paper, ``oracles/registry/<section>.toml``
+(``abstract``, ``un``, ``deux``, ``trois``, ``quatre``, ``cinq``, ``six``, ``sept``), each an array
+``[[claim]]`` of tables, read with :mod:`tomllib` and validated on load (:func:`load_registry`; a
+bad file raises :class:`RegistryError` naming the file, the entry and the field). One entry type,
+:class:`Claim`, serves all three kinds:
 
-``verified``
-    the listed checks pass;
-``erratum``
-    the printed form is wrong; ``erratum`` states the correction and its evidence,
-    ``literal`` names a check of the printed form that must FAIL and ``checks`` the
-    checks of the corrected form that must PASS;
-``not checkable``
-    a definition or notation; ``reason`` says why.
+* a numbered equation has a ``label`` (the paper's ``\\label``; the second ``drie5`` is called
+  ``drie12``) and a ``method`` (``symbolic``, ``numeric``, ``both`` or ``-``); the labels appear in
+  the files in the paper's order (:data:`LABELS`);
+* an unlabelled display (``<section>.d<k>``) or a mathematical sentence (``<section>.s<k>``) has an
+  ``id`` from :mod:`oracles.paper_index` and a ``quote`` that anchors it to the printed text (it
+  must occur in the display's LaTeX or in the sentence, white space collapsed).
 
-:func:`evaluate` runs the checks and returns, per claim, the observed verdict; a claim
-whose observation contradicts its status is reported as ``CONTRADICTED``.
+Fields: ``claim`` (what is claimed), ``status``, ``checks`` (checks of :mod:`oracles.claim_checks`
+that must PASS), ``literal`` (checks of the printed form that must FAIL), ``tests`` (pytest tests),
+``corrected`` (the correction of an erratum or the hypothesis of a restriction, with its evidence),
+``reason`` (why not checkable), ``remark``, ``evidence`` (precision, algebras), ``attained`` (a bound
+is attained), ``needed`` (a hypothesis is needed, with the example), ``labels`` (the numbered
+equations an unlabelled item repeats or inherits from), ``hypothesis_checks`` (of a numbered
+equation: the checks of ``attained``/``needed``, run with its display's entry).
+
+Statuses
+    ``verified`` (the checks pass), ``erratum`` (the ``literal`` checks FAIL and the ``checks`` of
+    the corrected form pass), ``restriction`` (true only under a hypothesis the text does not state;
+    ``corrected`` states it, the checks show both the restricted claim and the counterexample),
+    ``definition`` (a definition or notation; checks, if any, show it is consistent) and
+    ``not checkable`` (``reason`` says why). A numbered equation is ``verified``, ``erratum`` or
+    ``not checkable``.
+
+:func:`evaluate` runs the checks of the numbered equations and :func:`evaluate_entries` those of
+every display and sentence of the paper's index; an observation that contradicts the recorded status
+is reported as ``CONTRADICTED``. :func:`coverage` compares the registry with the paper's index.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+import tomllib
+from collections import Counter
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
 
-__all__ = ["CLAIMS", "ERRATA", "LABELS", "Claim", "evaluate", "render_markdown"]
+from .claim_checks import CHECKS, Outcome, run_check
+from .paper_index import PaperIndex, normalise
+
+__all__ = [
+    "CLAIMS",
+    "ERRATA",
+    "LABELS",
+    "REGISTRY",
+    "REGISTRY_DIR",
+    "SECTION_FILES",
+    "SENTENCES",
+    "STATUSES",
+    "UNLABELLED",
+    "Claim",
+    "RegistryError",
+    "coverage",
+    "entries_for",
+    "evaluate",
+    "evaluate_entries",
+    "fmt_outcome",
+    "labelled_display_entry",
+    "load_registry",
+    "render_entries_markdown",
+    "render_markdown",
+]
+
+STATUSES = ("verified", "erratum", "restriction", "definition", "not checkable")
+LABEL_STATUSES = ("verified", "erratum", "not checkable")
+METHODS = ("symbolic", "numeric", "both", "-")
+SECTION_FILES = ("abstract", "un", "deux", "trois", "quatre", "cinq", "six", "sept")
+"""The registry's files in the paper's order (``oracles/registry/<name>.toml``)."""
+REGISTRY_DIR = Path(__file__).with_name("registry")
 
 
 @dataclass(frozen=True)
 class Claim:
-    label: str
+    """One registry entry: a numbered equation (``label`` set, ``id`` equal to it) or an unlabelled
+    display or sentence (``label`` None); the fields are described in the module docstring."""
+
+    id: str
     section: str
     claim: str
-    method: str
     status: str
+    label: str | None = None
+    method: str = ""
+    quote: str = ""
     checks: tuple = ()
-    tests: tuple = ()
     literal: tuple = ()
-    erratum: str = ""
+    tests: tuple = ()
+    corrected: str = ""
     reason: str = ""
     remark: str = ""
+    evidence: str = ""
+    attained: str = ""
+    needed: str = ""
+    labels: tuple = ()
+    hypothesis_checks: tuple = ()
 
 
-_DEF = "a definition (or notation): nothing to verify"
-_T = "tests/"
+class RegistryError(ValueError):
+    """A registry file breaks a rule of the format (the message names the file, the entry, the field)."""
 
-CLAIMS: tuple[Claim, ...] = (
-    # ----------------------------------------------------------------- un (R^N)
-    Claim(
-        "een1",
-        "un",
-        "omega_F = 1/2 F_ij dx^i^dx^j, omega_B = 1/2 B^kl dp_k^dp_l extend omega_0 on T*R^N",
-        "-",
-        "not checkable",
-        reason=_DEF + " (recalled from the authors' earlier work)",
-    ),
-    Claim(
-        "een2",
-        "un",
-        "lifted affine change of frame x' = A x + a, p' = p A^-1",
-        "symbolic",
-        "erratum",
-        checks=("een2_corrected",),
-        literal=("een2_printed",),
-        tests=(_T + "test_claims.py::test_een2_index_erratum",),
-        erratum="printed x'^i = A^i_j x^j + a^k; the translation must carry the free index: x'^i = A^i_j x^j + a^i "
-        "(typographical; evidence: free-index check, printed term a^k has free index k != i)",
-    ),
-    Claim(
-        "een3",
-        "un",
-        "Omega keeps its form with F' = A^-T F A^-1, B' = A B A^T",
-        "symbolic",
-        "verified",
-        checks=("een3_transformation",),
-        tests=(_T + "test_claims.py::test_een3_exact",),
-        remark="typo 'dx{\\prime\\,^j}' in the source is cosmetic",
-    ),
-    # ----------------------------------------------------------------- deux
-    Claim(
-        "twee1",
-        "deux",
-        "left-invariant frame e^L_a = L^m_a(g,e) d/dg^m and coframe eps_L = L(g^-1,g) dg, "
-        "with L^a_b(g,h) := d(gh)^a/dg^b",
-        "numeric",
-        "erratum",
-        checks=("twee1_frame_corrected",),
-        literal=("twee1_frame_printed",),
-        tests=(
-            _T + "test_claims.py::test_twee1_frame_erratum",
-            _T + "test_frames.py::test_frames_match_first_principles",
-        ),
-        erratum="L^a_b(g,h) = d(gh)^a/dh^b (derivative in h, not g); then L(g,e) = phi1(-ad_x)^-1 and "
-        "L(g^-1,g) = phi1(-ad_x). Evidence: d(gh)/dg at h=e is the identity, which differs from "
-        "d/ds x(g exp(s e_b)) by O(1) (printed check fails), while d(gh)/dh matches to 45 digits",
-    ),
-    Claim(
-        "twee2",
-        "deux",
-        "holonomic, body and space coordinates of T*G",
-        "-",
-        "not checkable",
-        reason=_DEF,
-    ),
-    Claim(
-        "twee3",
-        "deux",
-        "pi^R = K(g) pi^L = Ad(g^-1)^T pi^L",
-        "numeric",
-        "verified",
-        checks=("twee3_coadjoint",),
-        tests=(_T + "test_claims.py::test_paper_checks_pass",),
-    ),
-    Claim(
-        "twee4",
-        "deux",
-        "left-invariant coframe on T*G: (L(g^-1,g) dg, dpi)",
-        "numeric",
-        "erratum",
-        checks=("twee1_frame_corrected",),
-        literal=("twee1_frame_printed",),
-        erratum="inherits the twee1 erratum: with L differentiated w.r.t. h, L(g^-1,g) = phi1(-ad_x) and the "
-        "coframe is dual to the frame of twee5 (checked: L(g^-1,g) L(g,e) = 1)",
-    ),
-    Claim(
-        "twee5",
-        "deux",
-        "dual frame (L(g,e) d/dg, d/dpi)",
-        "numeric",
-        "erratum",
-        checks=("twee1_frame_corrected",),
-        literal=("twee1_frame_printed",),
-        erratum="inherits the twee1 erratum (L(g,e) = d(gh)/dh at h = e = phi1(-ad_x)^-1)",
-    ),
-    Claim(
-        "twee6",
-        "deux",
-        "theta_0 = pi_m eps_L^m, omega_0 = -d theta_0 = eps^m^dpi_m + 1/2 pi_m f^m_ab eps^a^eps^b",
-        "numeric",
-        "verified",
-        checks=("liouville_forms",),
-    ),
-    Claim(
-        "twee7",
-        "deux",
-        "Hamiltonian vector field of omega_0: X^m = dA/dpi_m, X_a = -<dA|e_a> - pi_m f^m_ab dA/dpi_b",
-        "symbolic",
-        "verified",
-        checks=("quatre_identities",),
-        tests=(_T + "test_poisson_routes.py::test_upsilon_zero_reduces_to_twee9_drie3",),
-        remark="special case Theta = Upsilon = 0 of vier8 (exact check of vier8 for random models)",
-    ),
-    Claim(
-        "twee8",
-        "deux",
-        "{A,B}_0 = <dA|e_a> dB/dpi_a - dA/dpi_a <dB|e_a> - dA/dpi_a pi_m f^m_ab dB/dpi_b",
-        "both",
-        "verified",
-        checks=("quatre_identities",),
-        tests=(_T + "test_poisson_routes.py::test_upsilon_zero_reduces_to_twee9_drie3",),
-    ),
-    Claim(
-        "twee9",
-        "deux",
-        "{g,g}=0, {g^a,pi_n}=L^a_n(g,e), {pi_m,pi_n} = -pi_k f^k_mn",
-        "both",
-        "verified",
-        checks=("quatre_identities",),
-        tests=(
-            _T + "test_poisson_routes.py::test_upsilon_zero_reduces_to_twee9_drie3",
-            _T + "test_qutip_spin.py::test_commutators_match_lie_poisson",
-        ),
-    ),
-    Claim("twee10", "deux", "K = 1/2 I^ab pi_a pi_b", "-", "not checkable", reason=_DEF),
-    Claim(
-        "twee11",
-        "deux",
-        "L(g^-1,g) dg/dt = dK/dpi",
-        "numeric",
-        "verified",
-        checks=("euler_equations",),
-        tests=(_T + "test_vector_field.py::test_reduces_to_twee12_and_drie5",),
-    ),
-    Claim(
-        "twee12",
-        "deux",
-        "dpi_m/dt = -dV/dg^a L^a_m(g,e) + dK/dpi_n pi_a f^a_nm",
-        "numeric",
-        "verified",
-        checks=("euler_equations", "euler_equations_general"),
-        tests=(_T + "test_vector_field.py::test_reduces_to_twee12_and_drie5",),
-    ),
-    Claim(
-        "twee13",
-        "deux",
-        "Omega_L = L(g^-1,g) dg/dt = I^-1 pi",
-        "numeric",
-        "verified",
-        checks=("euler_equations",),
-    ),
-    Claim(
-        "twee14",
-        "deux",
-        "dpi_m/dt + pi_k f^k_mn Omega^n = -<dV|e_m>",
-        "numeric",
-        "verified",
-        checks=("euler_equations", "euler_equations_general"),
-        tests=(_T + "test_closed_forms.py::test_elliptic_solution_satisfies_reference_field",),
-    ),
-    Claim(
-        "twee15",
-        "deux",
-        "V(g) = -(gamma | Ad(g) L) = -(K(g^-1) gamma | L)",
-        "numeric",
-        "verified",
-        checks=("twee16_gravity_gradient",),
-        remark="K(g^-1) = Ad(g)^T; V = -(Gamma|L)",
-    ),
-    Claim(
-        "twee16",
-        "deux",
-        "<dV|e^L_m> = -(Gamma | ad(e_m) L), Gamma = K(g^-1) gamma",
-        "numeric",
-        "verified",
-        checks=("twee16_gravity_gradient",),
-    ),
-    Claim(
-        "twee17",
-        "deux",
-        "dGamma_m/dt = (Gamma | ad(e_m) Omega) = Gamma_a f^a_mb Omega^b",
-        "numeric",
-        "erratum",
-        checks=("twee17_corrected",),
-        literal=("twee17_printed",),
-        tests=(
-            _T + "test_vector_field.py::test_euler_poisson_sign_twee17_erratum",
-            _T + "test_claims.py::test_twee17_erratum",
-        ),
-        erratum="sign: dGamma_m/dt = -(Gamma | ad(e_m) Omega) = Omega^b f^a_bm Gamma_a = (ad_Omega^T Gamma)_m "
-        "(so(3): dGamma/dt = Gamma x Omega). Evidence: chain rule d/ds Ad(g exp(s Omega))^T gamma "
-        "agrees with the corrected form to 45 digits and differs from the printed one by O(1)",
-    ),
-    Claim(
-        "twee18",
-        "deux",
-        "dpi_m/dt + pi_a f^a_mb Omega^b = Gamma_a f^a_mb L^b (so(3): pi x Omega + L x Gamma)",
-        "numeric",
-        "verified",
-        checks=("euler_equations", "euler_equations_general"),
-        tests=(_T + "test_closed_forms.py::test_heavy_top_integrals_conserved",),
-    ),
-    # ----------------------------------------------------------------- trois
-    Claim(
-        "drie1",
-        "trois",
-        "omega_I = omega_0 - Theta_L = eps^dpi + 1/2 (pi.f - Theta) eps^eps",
-        "numeric",
-        "verified",
-        checks=("liouville_forms", "vier2_closed"),
-    ),
-    Claim(
-        "drie2",
-        "trois",
-        "{A,B}_I with -(pi.f - Theta) in the momentum block",
-        "both",
-        "verified",
-        checks=("quatre_identities",),
-        tests=(_T + "test_poisson_routes.py::test_upsilon_zero_reduces_to_twee9_drie3",),
-    ),
-    Claim(
-        "drie3",
-        "trois",
-        "{pi_m,pi_n}_I = -(pi_k f^k_mn - Theta_mn)",
-        "both",
-        "verified",
-        checks=("quatre_identities",),
-        tests=(
-            _T + "test_poisson_routes.py::test_upsilon_zero_reduces_to_twee9_drie3",
-            _T + "test_qutip_spin.py::test_commutators_match_lie_poisson",
-        ),
-    ),
-    Claim(
-        "drie4",
-        "trois",
-        "Omega = dK/dpi = I^-1 pi",
-        "numeric",
-        "verified",
-        checks=("euler_equations",),
-    ),
-    Claim(
-        "drie5",
-        "trois",
-        "dpi_m/dt = -<dV|e_m> + dK/dpi_a (pi_k f^k_am - Theta_am)",
-        "numeric",
-        "verified",
-        checks=("euler_equations", "euler_equations_general"),
-        tests=(_T + "test_vector_field.py::test_reduces_to_twee12_and_drie5",),
-    ),
-    Claim(
-        "drie6",
-        "trois",
-        "dpi_m/dt + pi_k f^k_ma Omega^a = -<dV|e_m> - Omega^a Theta_am",
-        "numeric",
-        "verified",
-        checks=("euler_equations", "euler_equations_general"),
-    ),
-    Claim(
-        "drie7",
-        "trois",
-        "theta_I = pi'_m eps^m, pi' = pi + xi (semisimple, Theta = -xi.f)",
-        "numeric",
-        "verified",
-        checks=("liouville_forms",),
-    ),
-    Claim(
-        "drie8",
-        "trois",
-        "omega_I = -d theta_I = eps^dpi' + 1/2 pi'.f eps^eps",
-        "numeric",
-        "verified",
-        checks=("liouville_forms",),
-    ),
-    Claim(
-        "drie9",
-        "trois",
-        "(g, p' = p + xi_b L^b(g^-1,g)) are Darboux coordinates of omega_I",
-        "numeric",
-        "verified",
-        checks=("drie9_darboux",),
-        remark="uses L(g^-1,g) = phi1(-ad_x), i.e. the twee1 correction; '(g^{-1};g)' semicolon is a typo",
-    ),
-    Claim(
-        "drie10",
-        "trois",
-        "H' = 1/2 I^mn (pi'_m - xi_m)(pi'_n - xi_n) + V",
-        "-",
-        "not checkable",
-        reason=_DEF + " (H rewritten in pi'; its consequences drie11/drie12 are checked)",
-    ),
-    Claim(
-        "drie11",
-        "trois",
-        "L(g^-1,g) dg/dt = dK'/dpi' = I^-1 (pi' - xi)",
-        "numeric",
-        "verified",
-        checks=("euler_equations",),
-    ),
-    Claim(
-        "drie12",
-        "trois",
-        "dpi'_m/dt = -<dV|e_m> + dK'/dpi'_a pi'_k f^k_am (printed with the label drie5)",
-        "numeric",
-        "erratum",
-        checks=("labels_unique_corrected", "euler_equations"),
-        literal=("labels_unique_printed",),
-        tests=(_T + "test_claims.py::test_registry_covers_every_label",),
-        erratum="label: the paper gives \\label{drie5} twice; the second one (the dpi'/dt equation after drie11) "
-        "is called drie12 here. Its content is verified (euler_equations, drie12 form).",
-    ),
-    # ----------------------------------------------------------------- quatre
-    Claim(
-        "vier1",
-        "quatre",
-        "Upsilon^L = 1/2 Upsilon^mn dpi_m ^ dpi_n",
-        "-",
-        "not checkable",
-        reason=_DEF,
-    ),
-    Claim(
-        "vier2",
-        "quatre",
-        "omega_L = omega_0 - Theta_L + Upsilon^L is closed",
-        "numeric",
-        "verified",
-        checks=("vier2_closed",),
-        remark="closedness checked as the Jacobi identity of its Poisson tensor",
-    ),
-    Claim(
-        "vier3",
-        "quatre",
-        "omega_L = 1/2 theta^T ^ [[S, 1], [-1, Upsilon]] theta, S = pi.f - Theta",
-        "both",
-        "verified",
-        checks=("quatre_identities", "liouville_forms"),
-        tests=(_T + "test_poisson_routes.py::test_tensor_inverts_omega",),
-    ),
-    Claim("vier4", "quatre", "i_X omega_L = dA defines X_A", "-", "not checkable", reason=_DEF),
-    Claim(
-        "vier5",
-        "quatre",
-        "X^a Phi_a^n = dA^n + dA_m U^mn, X_m Psi^m_b = -dA_b + dA^a S_ab",
-        "symbolic",
-        "verified",
-        checks=("quatre_identities",),
-    ),
-    Claim(
-        "vier6",
-        "quatre",
-        "Phi = 1 + S U, Psi = 1 + U S mutually transposed; Phi S = S Psi, U Phi = Psi U antisymmetric",
-        "symbolic",
-        "verified",
-        checks=("quatre_identities",),
-        tests=(_T + "test_claims.py::test_quatre_identities",),
-    ),
-    Claim(
-        "vier7",
-        "quatre",
-        "solvable iff Delta = det Phi = det Psi != 0; U Phi^-1, Phi^-1 S antisymmetric",
-        "symbolic",
-        "verified",
-        checks=("quatre_identities",),
-    ),
-    Claim(
-        "vier8",
-        "quatre",
-        "X^a = Psi^-1 (dA^ - U dA_) = (dA^ + dA_ U) Phi^-1, X_m = Phi^-1(-dA_ - S dA^) = (...) Psi^-1",
-        "symbolic",
-        "verified",
-        checks=("quatre_identities",),
-    ),
-    Claim(
-        "vier9",
-        "quatre",
-        "basic brackets {g,g} = -L L U Phi^-1, {g,pi} = L Psi^-1, {pi,pi} = -S Psi^-1",
-        "both",
-        "verified",
-        checks=("quatre_identities",),
-        tests=(_T + "test_poisson_routes.py::test_closed_formulas_match_first_principles",),
-    ),
-    Claim(
-        "vier10",
-        "quatre",
-        "Omega = (dK + dV U) Phi^-1",
-        "both",
-        "verified",
-        checks=("quatre_identities", "cinq_nondegenerate"),
-        tests=(_T + "test_vector_field.py::test_closed_equals_first_principles",),
-    ),
-    Claim(
-        "vier11",
-        "quatre",
-        "dpi/dt = (-dV + dK S) Psi^-1",
-        "both",
-        "verified",
-        checks=("quatre_identities", "cinq_nondegenerate"),
-        tests=(_T + "test_vector_field.py::test_closed_equals_first_principles",),
-    ),
-    Claim(
-        "vier12",
-        "quatre",
-        "Pi_1 = {Delta = 0}; Delta a polynomial in pi of degree <= N",
-        "symbolic",
-        "verified",
-        checks=("vier12_degree",),
-    ),
-    Claim("vier13", "quatre", "M_0' = G x (g* minus Pi_1)", "-", "not checkable", reason=_DEF),
-    Claim(
-        "vier14", "quatre", "M_1 = G x Pi_1 with embedding j_1", "-", "not checkable", reason=_DEF
-    ),
-    # ----------------------------------------------------------------- cinq
-    Claim(
-        "vijf1",
-        "cinq",
-        "su(2): S_ab = pi'_k eps_kab, Upsilon^mn = tau_l eps_lmn; Phi = C1 1 + tau pi'^T, "
-        "Psi = C1 1 + pi' tau^T, Delta = C1^2, C1 = 1 - pi'.tau; printed inverses",
-        "symbolic",
-        "verified",
-        checks=("cinq_nondegenerate",),
-        tests=(_T + "test_su2_symbolic.py::test_nondegenerate_identities",),
-    ),
-    Claim(
-        "vijf2",
-        "cinq",
-        "X^a C1 = H^a - pi'^a (tau.H^) - eps_amn H_m tau_n",
-        "symbolic",
-        "verified",
-        checks=("cinq_nondegenerate",),
-        tests=(_T + "test_su2_symbolic.py::test_nondegenerate_identities",),
-    ),
-    Claim(
-        "vijf3",
-        "cinq",
-        "X_m C1 = -H_m + tau_m (pi'.H_) - eps_mab H^a pi'_b",
-        "symbolic",
-        "verified",
-        checks=("cinq_nondegenerate",),
-    ),
-    Claim(
-        "vijf4",
-        "cinq",
-        "equations of motion with the explicit Phi^-1, Psi^-1",
-        "both",
-        "verified",
-        checks=("cinq_nondegenerate",),
-        tests=(_T + "test_su2_symbolic.py::test_vijf4_matches_reference",),
-    ),
-    Claim(
-        "vijf5",
-        "cinq",
-        "V = 0: Omega = dK Phi^-1, dpi_m/dt = Omega^a pi'_b eps_bam",
-        "both",
-        "verified",
-        checks=("cinq_nondegenerate",),
-        tests=(_T + "test_su2_symbolic.py::test_vijf4_matches_reference",),
-    ),
-    Claim(
-        "vijf6",
-        "cinq",
-        "embedding j_1: pi_3 = 1/tau - xi_3 (tau = (0,0,tau))",
-        "symbolic",
-        "verified",
-        checks=("cinq_degenerate",),
-    ),
-    Claim(
-        "vijf7",
-        "cinq",
-        "push-forward j_1*: X_3 = 0",
-        "symbolic",
-        "verified",
-        checks=("cinq_degenerate",),
-    ),
-    Claim("vijf8", "cinq", "pull-back j_1^* on forms", "-", "not checkable", reason=_DEF),
-    Claim(
-        "vijf9",
-        "cinq",
-        "pull-back of omega_L to the 5-manifold M_1",
-        "symbolic",
-        "verified",
-        checks=("cinq_degenerate",),
-        remark="= W with the dpi_3 row and column deleted; rank 4",
-    ),
-    Claim(
-        "vijf10",
-        "cinq",
-        "the 6x6 matrix of omega_L restricted to M_1",
-        "symbolic",
-        "verified",
-        checks=("cinq_degenerate",),
-        tests=(_T + "test_su2_symbolic.py::test_degenerate_identities",),
-    ),
-    Claim(
-        "vijf11",
-        "cinq",
-        "i_X omega_L|1 = dH o j_1 and its six component equations",
-        "symbolic",
-        "verified",
-        checks=("cinq_degenerate",),
-    ),
-    Claim(
-        "vijf12",
-        "cinq",
-        "null vectors Z^1, Z^2 of omega_L|1 (kernel exactly 2-dimensional)",
-        "symbolic",
-        "verified",
-        checks=("cinq_degenerate",),
-    ),
-    Claim(
-        "vijf13",
-        "cinq",
-        "consistency <dH|Z^a> = 0 <=> C21 = C22 = 0",
-        "symbolic",
-        "verified",
-        checks=("cinq_degenerate", "cinq_gnh"),
-        remark="<dH|Z^a> = -C2a (sign immaterial for a constraint)",
-    ),
-    Claim(
-        "vijf14",
-        "cinq",
-        "particular solution X_P on M_2 with X_3 = C23",
-        "symbolic",
-        "verified",
-        checks=("cinq_degenerate",),
-    ),
-    Claim(
-        "vijf15",
-        "cinq",
-        "general solution X_G = X_P + zeta_1 Z^1 + zeta_2 Z^2 on M_2",
-        "symbolic",
-        "verified",
-        checks=("cinq_degenerate", "cinq_gnh"),
-        tests=(_T + "test_gnh.py::test_worked_examples",),
-    ),
-    Claim(
-        "vijf16",
-        "cinq",
-        "tangency <dC1|X_G> = <dC21|X_G> = <dC22|X_G> = 0 decides zeta or a tertiary set",
-        "symbolic",
-        "verified",
-        checks=("cinq_degenerate", "cinq_gnh"),
-        tests=(_T + "test_gnh.py::test_worked_examples",),
-    ),
-    # ----------------------------------------------------------------- sept
-    Claim(
-        "zeven1",
-        "sept",
-        "delta_2 Theta = -Theta_kc f^k_ab + Theta_kb f^k_ac - Theta_ka f^k_bc = 0",
-        "symbolic",
-        "verified",
-        checks=("zeven1_jacobi",),
-        tests=(_T + "test_claims.py::test_zeven1_is_jacobi",),
-        remark="same solution space as the Jacobi identity of drie3 (closedness of Theta_L)",
-    ),
-    Claim(
-        "zeven2",
-        "sept",
-        "Theta_L = 1/2 Theta_ab eps_L^a ^ eps_L^b is closed and left-invariant",
-        "symbolic",
-        "verified",
-        checks=("zeven1_jacobi",),
-    ),
-    Claim(
-        "zeven3",
-        "sept",
-        "semisimple: Theta = -xi_m f^m_ab (Whitehead)",
-        "symbolic",
-        "verified",
-        checks=("zeven3_whitehead",),
-        tests=(_T + "test_cohomology.py::test_whitehead_xi_recovered",),
-    ),
-)
 
+_TUPLES = {f.name for f in fields(Claim) if f.type == "tuple"}
+_STRINGS = {f.name for f in fields(Claim) if f.type == "str"} - {"id", "section"}
+_KEYS = _TUPLES | _STRINGS | {"id", "label"}
+
+
+def _entry(path: Path, k: int, raw: object, section: str, known_checks) -> Claim:
+    where = f"{path.name}: claim #{k + 1}"
+    if not isinstance(raw, dict):
+        raise RegistryError(f"{where}: a [[claim]] table expected, got {type(raw).__name__}")
+    has_label, has_id = "label" in raw, "id" in raw
+    if has_label == has_id:
+        raise RegistryError(
+            f"{where}: exactly one of 'label' (a numbered equation) or 'id' (an "
+            f"unlabelled display or sentence) is required"
+        )
+    key = raw["label"] if has_label else raw["id"]
+    if not isinstance(key, str) or not key:
+        raise RegistryError(
+            f"{where}: field {'label' if has_label else 'id'!r} must be a non-empty string"
+        )
+    where = f"{path.name}: claim {key!r}"
+    unknown = sorted(set(raw) - _KEYS)
+    if unknown:
+        raise RegistryError(f"{where}: unknown field(s) {unknown}; known: {sorted(_KEYS)}")
+    for name in ("claim", "status"):
+        if name not in raw:
+            raise RegistryError(f"{where}: field {name!r} is required")
+    kw = {}
+    for name, value in raw.items():
+        if name in ("id", "label"):
+            continue
+        if name in _TUPLES:
+            if not isinstance(value, list) or not all(isinstance(v, str) and v for v in value):
+                raise RegistryError(f"{where}: field {name!r} must be a list of non-empty strings")
+            kw[name] = tuple(value)
+        elif not isinstance(value, str):
+            raise RegistryError(
+                f"{where}: field {name!r} must be a string, got {type(value).__name__}"
+            )
+        else:
+            kw[name] = value
+    c = Claim(id=key, section=section, label=key if has_label else None, **kw)
+    allowed = LABEL_STATUSES if has_label else STATUSES
+    if c.status not in allowed:
+        raise RegistryError(f"{where}: field 'status' is {c.status!r}; allowed: {list(allowed)}")
+    if has_label:
+        if c.method not in METHODS:
+            raise RegistryError(
+                f"{where}: field 'method' is {c.method!r}; allowed: {list(METHODS)}"
+            )
+        if c.quote:
+            raise RegistryError(
+                f"{where}: field 'quote' is for unlabelled items (a label anchors itself)"
+            )
+    else:
+        if not c.id.startswith(section + ".") or not c.quote:
+            raise RegistryError(
+                f"{where}: an unlabelled item needs an id '{section}.d<k>' or "
+                f"'{section}.s<k>' (its file's section) and a 'quote'"
+            )
+        if c.method or c.hypothesis_checks:
+            raise RegistryError(
+                f"{where}: 'method' and 'hypothesis_checks' are for numbered equations"
+            )
+    for name in ("checks", "literal", "hypothesis_checks"):
+        for check in getattr(c, name):
+            if check not in known_checks:
+                raise RegistryError(
+                    f"{where}: field {name!r} names an unknown check {check!r} "
+                    f"(oracles/claim_checks)"
+                )
+    if c.status == "verified" and (not c.checks or (has_label and c.literal)):
+        raise RegistryError(f"{where}: a verified claim names its 'checks' (and no 'literal')")
+    if c.status in ("erratum", "restriction") and not (c.checks and c.corrected):
+        raise RegistryError(f"{where}: an {c.status} names 'checks' and states 'corrected'")
+    if c.status == "erratum" and not c.literal:
+        raise RegistryError(f"{where}: an erratum names the 'literal' check of the printed form")
+    if c.status == "not checkable" and not c.reason:
+        raise RegistryError(f"{where}: a claim that is not checkable says why ('reason')")
+    if has_label and c.status == "not checkable" and c.checks:
+        raise RegistryError(f"{where}: a numbered equation that is not checkable names no 'checks'")
+    return c
+
+
+def load_registry(folder: Path | str | None = None, *, known_checks=None) -> tuple[Claim, ...]:
+    """Every entry of the registry's files (:data:`SECTION_FILES` in ``folder``, default
+    :data:`REGISTRY_DIR`), in the paper's order, validated (:class:`RegistryError`)."""
+    folder = REGISTRY_DIR if folder is None else Path(folder)
+    known_checks = CHECKS if known_checks is None else known_checks
+    out: list[Claim] = []
+    seen: dict[str, str] = {}
+    for section in SECTION_FILES:
+        path = folder / f"{section}.toml"
+        try:
+            data = tomllib.loads(path.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise RegistryError(
+                f"{path}: the registry file of section {section!r} is missing"
+            ) from None
+        except tomllib.TOMLDecodeError as exc:
+            raise RegistryError(f"{path.name}: not valid TOML ({exc})") from None
+        extra = sorted(set(data) - {"claim"})
+        if extra:
+            raise RegistryError(
+                f"{path.name}: unknown top-level key(s) {extra}; only [[claim]] tables"
+            )
+        for k, raw in enumerate(data.get("claim", [])):
+            c = _entry(path, k, raw, section, known_checks)
+            if c.id in seen:
+                raise RegistryError(f"{path.name}: claim {c.id!r} is also in {seen[c.id]}")
+            seen[c.id] = path.name
+            out.append(c)
+    return tuple(out)
+
+
+REGISTRY = load_registry()
+CLAIMS = tuple(c for c in REGISTRY if c.label is not None)
+"""The numbered equations, in the paper's order."""
+UNLABELLED = tuple(c for c in REGISTRY if c.label is None and ".d" in c.id)
+SENTENCES = tuple(c for c in REGISTRY if c.label is None and ".s" in c.id)
 LABELS = tuple(c.label for c in CLAIMS)
 ERRATA = tuple(c for c in CLAIMS if c.status == "erratum")
+
+_VERDICT = {
+    "verified": "verified",
+    "erratum": "erratum confirmed",
+    "restriction": "restriction confirmed",
+    "definition": "definition",
+    "not checkable": "not checkable",
+}
+
+
+def _outcome(name: str, cache: dict | None) -> Outcome:
+    if cache is not None and name in cache:
+        return cache[name]
+    try:
+        o = run_check(name)
+    except Exception as exc:  # noqa: BLE001 - a crashing check is a failed check
+        o = Outcome(False, None, None, f"{type(exc).__name__}: {exc}")
+    if cache is not None:
+        cache[name] = o
+    return o
+
+
+def _verdict(c: Claim, res: dict) -> str:
+    """All ``checks`` pass and all ``literal`` checks fail -> the status' verdict, else
+    ``CONTRADICTED``; ``not checkable`` is never contradicted."""
+    good = all(res[n].ok for n in c.checks) and all(not res[n].ok for n in c.literal)
+    return _VERDICT[c.status] if good or c.status == "not checkable" else "CONTRADICTED"
 
 
 @dataclass
@@ -638,30 +272,12 @@ def evaluate(claims=CLAIMS, *, cache: dict | None = None) -> list[Observation]:
     and all ``literal`` checks fail -> ``erratum confirmed`` else ``CONTRADICTED``; not checkable ->
     ``not checkable``.
     """
-    from .claim_checks import run_paper_check
-
     cache = {} if cache is None else cache
     out = []
     for c in claims:
         t0 = time.perf_counter()
-        res = {}
-        for name in c.checks + c.literal:
-            if name not in cache:
-                try:
-                    cache[name] = run_paper_check(name)
-                except Exception as exc:  # noqa: BLE001 - a crashing check is a failed check
-                    from .claim_checks import Outcome
-
-                    cache[name] = Outcome(False, None, None, f"{type(exc).__name__}: {exc}")
-            res[name] = cache[name]
-        if c.status == "not checkable":
-            verdict = "not checkable"
-        elif c.status == "verified":
-            verdict = "verified" if all(res[n].ok for n in c.checks) else "CONTRADICTED"
-        else:
-            good = all(res[n].ok for n in c.checks) and all(not res[n].ok for n in c.literal)
-            verdict = "erratum confirmed" if good else "CONTRADICTED"
-        out.append(Observation(c, verdict, res, time.perf_counter() - t0))
+        res = {name: _outcome(name, cache) for name in c.checks + c.literal}
+        out.append(Observation(c, _verdict(c, res), res, time.perf_counter() - t0))
     return out
 
 
@@ -680,10 +296,11 @@ def render_markdown(obs: list[Observation]) -> str:
         (
             "One row per numbered equation (the paper's `\\label`; the second `drie5` is `drie12`). "
             "Status: `verified`, `erratum` (printed form fails its check, corrected form passes), "
-            "`not checkable` (definitions). Checks are in `oracles/claim_checks.py` "
+            "`not checkable` (definitions). The registry is `oracles/registry/*.toml` "
+            "(`oracles/claims.py`), the checks are in `oracles/claim_checks/` "
             "(run by `tstarg claims`); error/tolerance shown where numeric, to one digit. "
             "Every displayed formula (labelled or not) and every mathematical sentence follows "
-            "below the errata (`oracles/claims_unlabelled.py`)."
+            "below the errata."
         ),
         "",
         "| label | section | claim | method | status | observed | checks | tests |",
@@ -703,6 +320,207 @@ def render_markdown(obs: list[Observation]) -> str:
     lines += ["", "## Errata", ""]
     for c in ERRATA:
         lines.append(
-            f"* **{c.label}**: {c.erratum} (printed check: {', '.join(c.literal)}; corrected: {', '.join(c.checks)})"
+            f"* **{c.label}**: {c.corrected} (printed check: {', '.join(c.literal)}; corrected: {', '.join(c.checks)})"
         )
+    return "\n".join(lines) + "\n"
+
+
+# ------------------------------------------------------------------ the paper's displays and sentences
+def labelled_display_entry(display_id: str, labels: tuple, latex: str, claims=CLAIMS) -> Claim:
+    """The entry of a labelled display, from its numbered equations (second ``drie5`` = ``drie12``):
+    erratum if one of its labels is, else verified if one is, else definition / not checkable; the
+    checks are the equations' ``checks`` and ``hypothesis_checks``."""
+    by = {c.label: c for c in claims}
+    cs: list[Claim] = [by[lab] for lab in labels]
+    statuses = {c.status for c in cs}
+    if "erratum" in statuses:
+        status = "erratum"
+    elif "verified" in statuses:
+        status = "verified"
+    else:
+        status = (
+            "definition"
+            if all(c.reason.startswith("a definition") for c in cs)
+            else "not checkable"
+        )
+    checks = tuple(dict.fromkeys([n for c in cs for n in c.checks + c.hypothesis_checks]))
+    literal = tuple(dict.fromkeys(n for c in cs for n in c.literal))
+    return Claim(
+        display_id,
+        section=cs[0].section,
+        quote=f"\\label{{{labels[0]}}}",
+        claim="; ".join(c.claim for c in cs),
+        status=status,
+        checks=checks,
+        literal=literal,
+        corrected=" / ".join(c.corrected for c in cs if c.corrected),
+        reason=" / ".join(c.reason for c in cs if c.reason),
+        evidence=" / ".join(c.remark for c in cs if c.remark),
+        attained=" / ".join(dict.fromkeys(c.attained for c in cs if c.attained)),
+        needed=" / ".join(dict.fromkeys(c.needed for c in cs if c.needed)),
+        labels=tuple(labels),
+    )
+
+
+def _renamed(labels_in_order):
+    seen, out = set(), []
+    for lab in labels_in_order:
+        out.append("drie12" if lab == "drie5" and lab in seen else lab)
+        seen.add(lab)
+    return out
+
+
+def entries_for(index: PaperIndex) -> list[tuple[object, Claim | None]]:
+    """Pair every display and sentence of ``index`` with its entry (``None`` when the registry has
+    none), in the paper's order."""
+    all_labels = _renamed([lab for d in index.displays for lab in d.labels])
+    it = iter(all_labels)
+    unl = {e.id: e for e in UNLABELLED}
+    sen = {e.id: e for e in SENTENCES}
+    known = set(LABELS)
+    out: list[tuple[object, Claim | None]] = []
+    for d in index.displays:
+        if d.labels:
+            labs = tuple(next(it) for _ in d.labels)
+            e = labelled_display_entry(d.id, labs, d.latex) if set(labs) <= known else None
+            if e is not None:  # anchor on the label as printed (drie12 is printed drie5)
+                e = replace(e, quote=f"\\label{{{d.labels[0]}}}")
+            out.append((d, e))
+        else:
+            out.append((d, unl.get(d.id)))
+    for s in index.sentences:
+        out.append((s, sen.get(s.id)))
+    return out
+
+
+def coverage(index: PaperIndex) -> dict:
+    """Counts and the mismatches between the paper's items and the registry:
+    ``missing`` (items without an entry), ``misanchored`` (entry whose ``quote`` is not in the item's
+    text), ``extra`` (entries naming no item of the paper)."""
+    pairs = entries_for(index)
+    missing = [item.id for item, e in pairs if e is None]
+    mis = []
+    for item, e in pairs:
+        if e is None:
+            continue
+        text = normalise(item.latex if hasattr(item, "latex") else item.text)
+        if normalise(e.quote) not in text:
+            mis.append(item.id)
+    ids = {item.id for item, _ in pairs}
+    extra = [e.id for e in UNLABELLED + SENTENCES if e.id not in ids]
+    nd, ns = len(index.displays), len(index.sentences)
+    with_entry = sum(1 for _, e in pairs if e is not None)
+    return {
+        "displays": nd,
+        "labelled_displays": sum(1 for d in index.displays if d.labels),
+        "sentences": ns,
+        "items": nd + ns,
+        "entries": with_entry,
+        "missing": missing,
+        "misanchored": mis,
+        "extra": extra,
+    }
+
+
+# ------------------------------------------------------------------ evaluation and report
+@dataclass
+class EntryObservation:
+    item: object
+    entry: Claim
+    verdict: str
+    results: dict
+
+
+def evaluate_entries(index: PaperIndex) -> list[EntryObservation]:
+    """Run each entry's checks (cached; each once) and compare with its status.
+
+    verified -> all ``checks`` pass; erratum / restriction -> all ``checks`` pass and all ``literal``
+    checks fail; definition -> its ``checks`` (if any) pass; otherwise ``CONTRADICTED``.
+    Raises ``ValueError`` if an item of the paper has no entry (see :func:`coverage`)."""
+    out = []
+    for item, e in entries_for(index):
+        if e is None:
+            raise ValueError(f"paper item {item.id} has no registry entry")
+        res = {name: _outcome(name, None) for name in e.checks + e.literal}
+        out.append(EntryObservation(item, e, _verdict(e, res), res))
+    return out
+
+
+def fmt_outcome(o: Outcome) -> str:
+    """``pass``/``fail`` with the defect and its bound at one significant digit (stable across runs);
+    for exact checks (no error) the check's own finding."""
+    word = "pass" if o.ok else "fail"
+    if o.error is None or not o.tolerance:
+        return f"{word} ({_md_escape(o.detail)})" if o.detail and o.error is None else word
+    return f"{word} (error {o.error:.0e}, bound {o.tolerance:.0e})"
+
+
+def _md_escape(s: str) -> str:
+    return s.replace("|", "∣")
+
+
+def render_entries_markdown(index: PaperIndex, obs: list[EntryObservation]) -> str:
+    """The coverage summary, one block per display and per sentence, and the errata found there."""
+    cov = coverage(index)
+    by_status = Counter(o.verdict for o in obs)
+    lines = [
+        "## Coverage",
+        "",
+        (
+            f"* displayed formulas in the paper: {cov['displays']} ({cov['labelled_displays']} labelled, "
+            f"{cov['displays'] - cov['labelled_displays']} unlabelled); mathematical sentences: "
+            f"{cov['sentences']} (rule: oracles/paper_index.py)"
+        ),
+        (
+            f"* items: {cov['items']}; with a registry entry: {cov['entries']}; missing: "
+            f"{len(cov['missing'])}; misanchored: {len(cov['misanchored'])}; extra: {len(cov['extra'])}"
+        ),
+        "* observed: " + ", ".join(f"{k} {v}" for k, v in sorted(by_status.items())),
+        "",
+    ]
+
+    def block(o: EntryObservation, head: str, body: list[str]) -> list[str]:
+        e = o.entry
+        out = [head, ""] + body
+        out.append(f"* status: **{e.status}**; observed: {o.verdict}")
+        out.append(f"* claim: {_md_escape(e.claim)}")
+        if e.labels:
+            out.append("* labels: " + ", ".join(e.labels))
+        if e.corrected:
+            out.append(f"* corrected: {_md_escape(e.corrected)}")
+        if e.reason:
+            out.append(f"* why: {_md_escape(e.reason)}")
+        if e.checks or e.literal:
+            chk = "; ".join(f"`{n}` {fmt_outcome(o.results[n])}" for n in e.checks)
+            if e.literal:
+                chk += "; printed form: " + "; ".join(
+                    f"`{n}` {fmt_outcome(o.results[n])}" for n in e.literal
+                )
+            out.append(f"* checks: {chk}")
+        if e.evidence:
+            out.append(f"* evidence: {_md_escape(e.evidence)}")
+        if e.attained:
+            out.append(f"* bound attained: {_md_escape(e.attained)}")
+        if e.needed:
+            out.append(f"* hypothesis: {_md_escape(e.needed)}")
+        return out + [""]
+
+    lines += ["## Displayed formulas", ""]
+    for o in obs:
+        if hasattr(o.item, "latex"):
+            d = o.item
+            kind = ("labelled " + ", ".join(o.entry.labels)) if d.labels else "unlabelled"
+            lines += block(o, f"### {d.id} ({kind}, {d.env})", ["```latex", d.latex, "```", ""])
+    lines += ["## Mathematical sentences", ""]
+    for o in obs:
+        if not hasattr(o.item, "latex"):
+            lines += block(o, f"### {o.item.id}", [f"> {o.item.text}", ""])
+    lines += ["## Errata among the unlabelled formulas and the sentences", ""]
+    for o in obs:
+        e = o.entry
+        if e.status == "erratum" and not (hasattr(o.item, "latex") and o.item.labels):
+            lines.append(
+                f"* **{o.item.id}** ({o.verdict}): {_md_escape(e.corrected)} (printed check: "
+                f"{', '.join(e.literal)}; corrected: {', '.join(e.checks)})"
+            )
     return "\n".join(lines) + "\n"

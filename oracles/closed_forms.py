@@ -59,8 +59,7 @@ from dataclasses import dataclass
 import mpmath
 import sympy as sp
 
-from tstarg.refimpl import su2
-from tstarg.refimpl._validate import exact_sympy
+from tstarg.refimpl import exact_sympy, su2
 from tstarg.refimpl.reference import Reference
 
 __all__ = [

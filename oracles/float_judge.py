@@ -70,6 +70,7 @@ def ad(f, x):
     return np.einsum("a,mab->mb", x, f)
 
 
+# Independent of refimpl/_phi.py on purpose: the judge must not share the code it judges (scipy's expm).
 def phi1(M: np.ndarray) -> np.ndarray:
     """``phi1(M) = sum M^k/(k+1)!`` from the exponential of a block matrix."""
     n = M.shape[0]

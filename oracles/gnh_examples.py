@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-from tstarg.refimpl._validate import exact_sympy
+from tstarg.refimpl import exact_sympy
 from tstarg.refimpl.gnh import gnh, lie_poisson_model, verify_result
 
 __all__ = ["EXAMPLES", "check_example", "paper_zetas", "run_example", "su2_model"]

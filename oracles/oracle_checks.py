@@ -36,7 +36,7 @@ from tstarg.properties.runner import CheckResult, announce, finished, run_proper
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue, su2
 from tstarg.refimpl.reference import Reference
 
-from .claim_checks import quatre_identities
+from .claim_checks.quatre import quatre_identities
 from .claims import evaluate
 from .closed_forms import (
     HEAVY_TOPS,

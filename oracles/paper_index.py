@@ -1,6 +1,6 @@
 """An index of the paper's LaTeX source: every displayed formula and every mathematical sentence.
 
-The claims registry (``oracles.claims``, ``oracles.claims_unlabelled``) must have one entry per item
+The claims registry (``oracles.claims``, data in ``oracles/registry/``) must have one entry per item
 listed here; ``tests/test_claims_coverage.py`` enforces it.
 
 The index ships with the package (``oracles/paper_index.json``, :func:`shipped_index`), so the

@@ -29,7 +29,7 @@ from functools import cache
 
 import sympy as sp
 
-from tstarg.refimpl._validate import exact_sympy
+from tstarg.refimpl import exact_sympy
 
 __all__ = [
     "eps",

@@ -16,26 +16,37 @@ Public API:
   identities and their negative controls.
 """
 
-from .identities import Measurement
-from .strategies import (
-    FAMILIES,
-    REGIMES,
-    basis_changes,
-    catalogue_algebras,
-    cocycles,
-    degeneracy_condition,
-    is_nilpotent,
-    is_solvable,
-    jacobi_breaking_constants,
-    lie_algebras,
-    models,
-    non_cocycles,
-    phi_condition,
-    points,
-    rationals,
-    scenes,
-    upsilons,
-)
+from __future__ import annotations
+
+from importlib import import_module
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from .identities import Measurement
+    from .strategies import (
+        FAMILIES,
+        REGIMES,
+        basis_changes,
+        catalogue_algebras,
+        cocycles,
+        degeneracy_condition,
+        is_nilpotent,
+        is_solvable,
+        jacobi_breaking_constants,
+        lie_algebras,
+        models,
+        non_cocycles,
+        phi_condition,
+        points,
+        rationals,
+        scenes,
+        upsilons,
+    )
+
+_WHERE = {"Measurement": "identities"}
+"""The public names and the submodule defining each: imported on first use (PEP 562), so that
+``tstarg --help`` and the profile table (:mod:`properties.profiles`) do not load the strategies,
+numpy and the kernels."""
 
 __all__ = [
     "FAMILIES",
@@ -57,3 +68,12 @@ __all__ = [
     "scenes",
     "upsilons",
 ]
+
+
+def __getattr__(name: str):
+    module = _WHERE.get(name, "strategies" if name in __all__ else None)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value

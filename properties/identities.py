@@ -45,8 +45,7 @@ import mpmath
 import numpy as np
 import sympy
 
-from tstarg.refimpl import LieAlgebra
-from tstarg.refimpl._validate import parse_number
+from tstarg.refimpl import LieAlgebra, parse_number
 from tstarg.refimpl.accuracy import correct_digits as _digits
 from tstarg.refimpl.accuracy import max_abs
 from tstarg.refimpl.flows import reference_flow
@@ -166,6 +165,7 @@ def _max_abs(vals) -> mpmath.mpf:
 
 
 # ------------------------------------------------------- omega_L (vier3)
+# Not refimpl/_phi.py's phi1: the properties judge refimpl, so their frame is computed apart.
 def frame_A(F: list, x: list) -> mpmath.matrix:
     """``A = phi1(-ad_x) = L(g^-1, g)`` at the current precision, as the upper-right block of
     ``expm([[-ad_x, 1], [0, 0]])`` (Van Loan); ``F[m]`` are mpmath matrices ``f^m_ab``."""
@@ -192,6 +192,28 @@ def _mat_mp(m, n) -> mpmath.matrix:
     return mpmath.matrix([[_mpf(arr[i, j]) for j in range(n)] for i in range(n)])
 
 
+def _diag_with_one(A: mpmath.matrix) -> mpmath.matrix:
+    """``diag(A, 1)``: the ``2n x 2n`` change of frame acting by ``A`` on ``x`` and as 1 on ``pi``."""
+    n = A.rows
+    T = mpmath.zeros(2 * n, 2 * n)
+    for i in range(n):
+        for j in range(n):
+            T[i, j] = A[i, j]
+        T[n + i, n + i] = 1
+    return T
+
+
+def _S_mp(F: list, pi: list, theta: mpmath.matrix) -> mpmath.matrix:
+    """``S_ab = pi_m f^m_ab - Theta_ab`` (vier3) at the current precision."""
+    n = len(F)
+    return mpmath.matrix(
+        [
+            [mpmath.fsum(pi[m] * F[m][a, b] for m in range(n)) - theta[a, b] for b in range(n)]
+            for a in range(n)
+        ]
+    )
+
+
 def omega_holonomic(
     F: list, theta: mpmath.matrix, upsilon: mpmath.matrix, z: list
 ) -> mpmath.matrix:
@@ -206,11 +228,7 @@ def omega_holonomic(
             W[n + a, n + b] = upsilon[a, b]
         W[a, n + a] = 1
         W[n + a, a] = -1
-    T = mpmath.zeros(2 * n, 2 * n)
-    for i in range(n):
-        for j in range(n):
-            T[i, j] = A[i, j]
-        T[n + i, n + i] = 1
+    T = _diag_with_one(A)
     return T.T * W * T
 
 
@@ -350,12 +368,7 @@ def phi_psi_identities(f, theta, upsilon, pi, *, exact: bool = True, dps: int = 
         F = _F_mp(f)
         th, up = _mat_mp(theta, n), _mat_mp(upsilon, n)
         pv = [_mpf(v) for v in pi]
-        S = mpmath.matrix(
-            [
-                [mpmath.fsum(pv[m] * F[m][a, b] for m in range(n)) - th[a, b] for b in range(n)]
-                for a in range(n)
-            ]
-        )
+        S = _S_mp(F, pv, th)
         Phi = mpmath.eye(n) + S * up
         Psi = mpmath.eye(n) + up * S
         Pinv, Qinv = mpmath.inverse(Phi), mpmath.inverse(Psi)
@@ -414,18 +427,9 @@ def tensor_blocks(P: np.ndarray, error_bound: float, f, theta, upsilon, x, pi) -
         A = frame_A(F, [_mpf(v) for v in x])
         th, up = _mat_mp(theta, n), _mat_mp(upsilon, n)
         pv = [_mpf(v) for v in pi]
-        S = mpmath.matrix(
-            [
-                [mpmath.fsum(pv[m] * F[m][a, b] for m in range(n)) - th[a, b] for b in range(n)]
-                for a in range(n)
-            ]
-        )
+        S = _S_mp(F, pv, th)
         Phi = mpmath.eye(n) + S * up
-        T = mpmath.zeros(2 * n, 2 * n)
-        for i in range(n):
-            for j in range(n):
-                T[i, j] = A[i, j]
-            T[n + i, n + i] = 1
+        T = _diag_with_one(A)
         B = T * mpmath.matrix(P.tolist()) * T.T
         blk = {
             k: mpmath.matrix([[B[r0 + i, c0 + j] for j in range(n)] for i in range(n)])
@@ -516,27 +520,18 @@ def closed_form_tensor(f, theta, upsilon) -> Callable[[list], mpmath.matrix]:
         x, pi = z[:n], z[n:]
         A = frame_A(F, x)
         L = mpmath.inverse(A)
-        S = mpmath.matrix(
-            [
-                [mpmath.fsum(pi[m] * F[m][a, b] for m in range(n)) - th[a, b] for b in range(n)]
-                for a in range(n)
-            ]
-        )
+        S = _S_mp(F, pi, th)
         Phi = mpmath.eye(n) + S * up
         Pi = mpmath.inverse(Phi)
         Qi = Pi.T
         blocks = [[-up * Pi, Qi], [-Pi, -S * Qi]]
         B = mpmath.zeros(2 * n, 2 * n)
-        T = mpmath.zeros(2 * n, 2 * n)
         for bi in range(2):
             for bj in range(2):
                 for i in range(n):
                     for j in range(n):
                         B[bi * n + i, bj * n + j] = blocks[bi][bj][i, j]
-        for i in range(n):
-            for j in range(n):
-                T[i, j] = L[i, j]
-            T[n + i, n + i] = 1
+        T = _diag_with_one(L)
         return T * B * T.T
 
     return P

@@ -23,8 +23,7 @@ import numpy as np
 from hypothesis import assume, reject
 from hypothesis import strategies as st
 
-from tstarg.refimpl import catalogue, cocycle_basis
-from tstarg.refimpl._algebra import jacobi_residual
+from tstarg.refimpl import catalogue, cocycle_basis, jacobi_residual
 from tstarg.refimpl.fast import implementation as fast
 from tstarg.refimpl.reference import DegeneratePointError, Reference
 

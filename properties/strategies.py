@@ -31,9 +31,9 @@ from tstarg.refimpl import (
     coboundary_basis,
     cocycle_basis,
     delta2,
+    exact_sympy,
+    jacobi_residual,
 )
-from tstarg.refimpl._algebra import jacobi_residual
-from tstarg.refimpl._validate import exact_sympy
 from tstarg.refimpl.fast import implementation as _fast
 
 __all__ = [
@@ -193,15 +193,21 @@ def _close_positions(k: int, chosen) -> list:
     return sorted(pos)
 
 
-@st.composite
-def _nilpotent(draw, max_dim):
-    k = draw(st.integers(3, 4), label="matrix size k")
+def _strict_upper_units(draw, k_min: int, k_max: int, *, min_units: int) -> tuple[int, list]:
+    """A matrix size ``k`` and the strictly upper-triangular matrix units it draws, closed under
+    products (:func:`_close_positions`): the span of a nilpotent subalgebra of ``gl(k)``."""
+    k = draw(st.integers(k_min, k_max), label="matrix size k")
     upper = [(i, j) for i in range(k) for j in range(i + 1, k)]
     chosen = draw(
-        st.lists(st.sampled_from(upper), min_size=2, max_size=len(upper), unique=True),
+        st.lists(st.sampled_from(upper), min_size=min_units, max_size=len(upper), unique=True),
         label="matrix units",
     )
-    pos = _close_positions(k, chosen)
+    return k, _close_positions(k, chosen)
+
+
+@st.composite
+def _nilpotent(draw, max_dim):
+    k, pos = _strict_upper_units(draw, 3, 4, min_units=2)
     if len(pos) > max_dim:
         pos = pos[:max_dim]
         pos = [p for p in pos if all(q in pos for q in _close_positions(k, [p]))]
@@ -214,13 +220,7 @@ def _nilpotent(draw, max_dim):
 
 @st.composite
 def _solvable(draw, max_dim):
-    k = draw(st.integers(2, 3), label="matrix size k")
-    upper = [(i, j) for i in range(k) for j in range(i + 1, k)]
-    chosen = draw(
-        st.lists(st.sampled_from(upper), min_size=1, max_size=len(upper), unique=True),
-        label="matrix units",
-    )
-    pos = _close_positions(k, chosen)
+    k, pos = _strict_upper_units(draw, 2, 3, min_units=1)
     r = draw(st.integers(1, k), label="diagonal directions")
     assume(r + len(pos) <= max_dim)
     diag = [

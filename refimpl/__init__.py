@@ -11,6 +11,12 @@ Algebras
 Cohomology (zeven1, zeven3)
     :func:`delta1`, :func:`delta2`, :func:`cocycle_basis`, :func:`coboundary_basis`,
     :func:`cohomology`, :func:`h2_dim`, :func:`check_cocycle`, :func:`solve_coboundary`.
+Helpers shared with the other packages
+    :func:`jacobi_residual`, :func:`exact_sympy` and :func:`parse_number` (exact inputs),
+    :func:`representation_for` (a faithful representation, or :class:`RepresentationError`),
+    :func:`quadratic_field` (the body system ``pi' = F(pi)`` as a quadratic form when
+    ``Upsilon = 0``), :data:`COMPILED_PATH` and :func:`compile_count` (the compiled kernels'
+    path, ``"numba"`` or ``"python"``, and their compilations so far).
 Frames (twee1, twee3)
     :func:`frames` (float64 or mpmath at any precision).
 Implementations (docs/design.md protocol)
@@ -24,7 +30,7 @@ Rigorous (Arb balls, python-flint; :mod:`refimpl.rigorous`)
     and :func:`body_flow_enclosure` (validated flows of the polynomial body systems).
 """
 
-from ._algebra import LieAlgebra
+from ._algebra import LieAlgebra, jacobi_residual
 from ._catalogue import (
     BIANCHI_TYPES,
     CATALOGUE_NAMES,
@@ -54,10 +60,15 @@ from ._cohomology import (
     h2_dim,
     solve_coboundary,
 )
+from ._compiled_taylor import PATH as COMPILED_PATH
+from ._compiled_taylor import compile_count
 from ._errors import ChartError, DegeneratePointError
 from ._frames import frames
 from ._protocol import SPEC as PROTOCOL
 from ._protocol import Implementation, check_attributes, provided_methods, provides
+from ._representation import RepresentationError, representation_for
+from ._taylor import quadratic_field
+from ._validate import exact_sympy, parse_number
 from .fast import Fast
 from .model import Model, State
 from .reference import Reference
@@ -65,6 +76,14 @@ from .scenes import Plan, Scene, load_scene, plan, run_scene
 
 __all__ = [
     "LieAlgebra",
+    "jacobi_residual",
+    "COMPILED_PATH",
+    "compile_count",
+    "RepresentationError",
+    "representation_for",
+    "quadratic_field",
+    "exact_sympy",
+    "parse_number",
     "Model",
     "State",
     "BIANCHI_TYPES",

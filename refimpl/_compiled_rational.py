@@ -229,12 +229,13 @@ def rational_taylor_body(
     }
 
 
-def _raise_failed(y, steps, tend, conds, t, cond_max):
+def _raise_failed(y, steps, tend, conds, t, cond_max, measure="cond_inf(Phi)"):
+    """Raise for the failed rows (``measure``: the name of the degeneracy measure in ``conds``)."""
     deg = np.flatnonzero(steps == -2)
     if deg.size:
         raise DegeneratePointError(
             f"rational Taylor flow: trajectories {deg[:10].tolist()} reached the degenerate set Pi_1 "
-            f"(vier12) at t = {tend[deg[:3]].tolist()}: cond_inf(Phi) = {conds[deg[:3]].tolist()} > "
+            f"(vier12) at t = {tend[deg[:3]].tolist()}: {measure} = {conds[deg[:3]].tolist()} > "
             f"{cond_max:g} (Delta = det Phi = 0 to float64 accuracy); no value past that point is returned"
         )
     stall = np.flatnonzero((steps == -4) & np.all(np.isfinite(y), axis=1))
@@ -243,7 +244,7 @@ def _raise_failed(y, steps, tend, conds, t, cond_max):
             f"rational Taylor flow: trajectories {stall[:10].tolist()} reach the degenerate set Pi_1 (vier12) "
             f"at about t = {tend[stall[:3]].tolist()}: the step size collapsed (below {STALL:.2g} t, or the Taylor "
             "coefficients overflowed) while the "
-            f"state stayed finite and cond_inf(Phi) grew to {conds[stall[:3]].tolist()} (the field's only "
+            f"state stayed finite and {measure} grew to {conds[stall[:3]].tolist()} (the field's only "
             "real singularities are the zeros of Delta = det Phi); no value past that point is returned"
         )
     bad = np.flatnonzero(steps < 0)

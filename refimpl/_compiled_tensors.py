@@ -47,6 +47,7 @@ import numpy as np
 
 from ._compiled_taylor import HAVE_NUMBA
 from ._lru import LRU
+from ._phi import PHI1_TAYLOR
 from .codegen import import_source, loaded_modules
 from .codegen.tensors import generic_source, su2_source
 
@@ -123,7 +124,7 @@ def generic_poisson(
     fc = np.ascontiguousarray(f, dtype=float)
     fidx = np.argwhere(fc != 0).astype(np.int64).reshape(-1, 3)
     fval = fc[fc != 0]
-    phi1c = _phi1_coeffs()
+    phi1c = PHI1_TAYLOR  # the numba kernel sums phi1 itself (compiled per point); its coefficients are the shared ones
     z = np.zeros((n, n))
     r = np.empty(x.shape[0])
     mod.generic(
@@ -145,17 +146,6 @@ def generic_poisson(
         r,
     )
     return r
-
-
-_PHI1 = None
-
-
-def _phi1_coeffs() -> np.ndarray:
-    """``1/(k+1)!`` for ``k = 0..16`` (the Taylor coefficients of phi1, as the numpy path)."""
-    global _PHI1
-    if _PHI1 is None:
-        _PHI1 = np.array([1.0 / np.prod(np.arange(2, k + 2, dtype=float)) for k in range(17)])
-    return _PHI1
 
 
 def compile_count() -> dict:

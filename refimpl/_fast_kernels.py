@@ -10,6 +10,7 @@ import numpy as np
 
 from . import _compiled_tensors as _ctens
 from ._errors import ChartError, DegeneratePointError
+from ._phi import phi1, ps_poly
 from ._validate import (
     MAX_ELEMENTS,
     check_batch_memory,
@@ -332,56 +333,13 @@ def _su2_upsilon_to_tau(u: np.ndarray | None):
 
 
 # ------------------------------------------------------------ generic kernel
-def _ps_poly(W: np.ndarray, coeffs: np.ndarray, eye: np.ndarray) -> np.ndarray:
-    """``sum_k coeffs[k] W^k`` (k = 0..K) by Paterson-Stockmeyer, batched over W's leading axis.
-
-    The powers ``W^0..W^(s-1)`` are combined into all ``K//s + 1`` blocks with
-    one ``tensordot``; Horner in ``W^s`` then costs one matmul per block.
-    """
-    K = len(coeffs) - 1
-    s = max(1, int(np.ceil(np.sqrt(K + 1))))
-    nblocks = K // s + 1
-    pows = np.empty((s,) + W.shape)
-    pows[0] = eye
-    if s > 1:
-        pows[1] = W
-    for i in range(2, s):
-        np.matmul(pows[i - 1], W, out=pows[i])
-    Ws = pows[s - 1] @ W if s > 1 else W
-    cmat = np.zeros((nblocks, s))
-    cmat.reshape(-1)[: K + 1] = coeffs
-    blocks = np.tensordot(cmat, pows, axes=(1, 0))
-    acc = blocks[nblocks - 1]
-    for j in range(nblocks - 2, -1, -1):
-        acc = acc @ Ws
-        acc += blocks[j]
-    return acc
-
-
 def _frame_series(A: np.ndarray, r: float) -> np.ndarray:
     """``L = B(A)`` by the even Bernoulli series; ``r`` bounds ``||A||_2 / 2 pi`` over the batch."""
     n = A.shape[-1]
     eye = np.eye(n)
     K = _series_terms(r)
     coeffs = np.concatenate([[1.0], _bernoulli_even(K)])
-    return _ps_poly(A @ A, coeffs, eye) + 0.5 * A
-
-
-def _phi1_scaling_squaring(M: np.ndarray) -> np.ndarray:
-    """``phi1(M)`` by Taylor (degree 16) on ``M / 2^s`` and ``phi1(2X) = phi1(X)(e^X + 1)/2``."""
-    n = M.shape[-1]
-    eye = np.eye(n)
-    norm = float(np.max(np.sqrt(np.sum(M * M, axis=(-2, -1))))) if M.size else 0.0
-    s = max(0, int(np.ceil(np.log2(max(norm, 1e-300) / 0.25))))
-    X = M / 2.0**s
-    coeffs = np.array([1.0 / np.prod(np.arange(2, k + 2, dtype=float)) for k in range(17)])
-    T = _ps_poly(X, coeffs, eye)
-    E = eye + X @ T
-    for i in range(s):
-        T = 0.5 * (T @ (E + eye))
-        if i < s - 1:
-            E = E @ E
-    return T
+    return ps_poly(A @ A, coeffs, eye) + 0.5 * A
 
 
 SERIES_BINS = (0.25, 0.45, 0.7)  # bins of r = ||ad_x||_2 / 2pi summed by the Bernoulli series
@@ -407,7 +365,7 @@ def _frames_generic(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         lo = hi
     rest = r > SERIES_BINS[-1]
     if rest.any():
-        phi = _phi1_scaling_squaring(-A[rest])
+        phi = phi1(-A[rest])
         L[rest] = _inv_batch(phi)
     return L, r
 
@@ -967,7 +925,7 @@ def _expm_batch(A: np.ndarray, su2: bool) -> np.ndarray:
     s = max(0, int(np.ceil(np.log2(max(norm, 1e-300) / 0.25))))
     X = A / 2.0**s
     coeffs = np.array([1.0 / np.prod(np.arange(1, k + 1, dtype=float)) for k in range(18)])
-    E = _ps_poly(X, coeffs, np.eye(n))
+    E = ps_poly(X, coeffs, np.eye(n))
     for _ in range(s):
         E = E @ E
     return E

@@ -74,6 +74,7 @@ A_LOOSE_FROM = 1e-10  # from here on 30 kappa 1e-13 <= tol for amplifications ka
 PROP_MIN_A = 1e-12  # the proportionality estimate only for A at this local tolerance or looser
 PROP_MIN_B = 1e-14  # ... and B at this local tolerance or looser
 PROP = 30.0  # safety factor of the proportionality estimate err(B) ~ (eps_B / eps_A) |A - B|
+REUSE_B = 10.0  # a held B within this factor of A's next tolerance becomes that A (see _control)
 FIRST = 1e-2  # A's first local tolerance relative to the global one (global/local error ~ 5-20
 # over 10^2-10^3 steps, so one pair of runs usually suffices)
 FAST_UNROLL_TERMS = (
@@ -293,8 +294,8 @@ def local_tolerances(tol: float) -> tuple[float, float]:
     return eps_a, _eps_b(eps_a)
 
 
-def _eps_b(eps_a: float) -> float:
-    return max(min(eps_a * SAFETY, B_MAX), EPS_B_FLOOR)
+def _eps_b(eps_a: float, b_max: float = B_MAX) -> float:
+    return max(min(eps_a * SAFETY, b_max), EPS_B_FLOOR)
 
 
 def _order_b(cf, eps_b: float) -> int:
@@ -325,19 +326,33 @@ def _run_cf(cf, y0, t, eps, order=None):
     return y, steps
 
 
-def _control(model, y0, t, eps_a0, n, tol):
+def _control(model, y0, t, eps_a0, n, tol, *, runner=None, estimate=None, b_max=B_MAX):
     """The two-run control of the module docstring on the rows of ``y0``: ``(B, estimate, steps of B)``.
 
     Trajectories are grouped by their local tolerances (one tolerance per kernel call); a trajectory
-    run again keeps its ``B`` when ``B``'s tolerance does not change (only ``A`` is run again)."""
+    run again keeps its ``B`` when ``B``'s tolerance does not change (only ``A`` is run again).
+    ``runner``: ``(run, order_b)`` as :func:`_runner` gives them, and ``estimate(A, B, n, out)`` the
+    per-row ``|A - B|`` (default: the su(2) quaternion state's; :mod:`refimpl._full_state` passes
+    its own for ``G = rho(g)``); ``b_max``: B's largest local tolerance (:data:`B_MAX`).
+
+    A trajectory whose ``A`` must be tightened to ``new`` while it holds a ``B`` at a tolerance
+    ``eps_B <= REUSE_B * new`` takes that ``B`` as its new ``A`` (one run, the new ``B`` at
+    ``SAFETY eps_B``, instead of two): the estimate asks of the pair only that ``B`` be at least
+    ``1/SAFETY`` times tighter than ``A``, which holds; ``new`` only guesses what will pass, and a pair
+    that does not is run again as any other."""
     N = len(y0)
-    run, order_b = _runner(model, True)
+
+    def eps_b_of(e):
+        return _eps_b(e, b_max)
+
+    run, order_b = _runner(model, True) if runner is None else runner
+    _estimate_ = _estimate if estimate is None else estimate
     if N == 1:  # one trajectory, first pair: scalars only (the common protocol call)
-        eb0 = _eps_b(eps_a0)
+        eb0 = eps_b_of(eps_a0)
         A, _ = run(y0, t, eps_a0)
         B, sB = run(y0, t, eb0, order_b(eb0))
         d1 = np.empty(1)
-        _estimate(A, B, n, d1)
+        _estimate_(A, B, n, d1)
         e1 = float(d1[0])
         if eps_a0 >= PROP_MIN_A and eb0 >= PROP_MIN_B:
             e1 = min(e1, PROP * (eb0 / eps_a0) * e1)
@@ -347,7 +362,7 @@ def _control(model, y0, t, eps_a0, n, tol):
     else:
         first = None
     eps_a = np.full(N, eps_a0)
-    eps_b = np.full(N, _eps_b(eps_a0))
+    eps_b = np.full(N, eps_b_of(eps_a0))
     have_a = np.full(N, -1.0)  # the local tolerances of the A and B held (-1: none yet)
     have_b = np.full(N, -1.0)
     Ares = np.empty_like(y0)
@@ -358,7 +373,7 @@ def _control(model, y0, t, eps_a0, n, tol):
     todo = np.arange(N)
     if first is not None:
         Ares[:], res[:], steps[:] = first
-        have_a[:], have_b[:] = eps_a0, _eps_b(eps_a0)
+        have_a[:], have_b[:] = eps_a0, eps_b_of(eps_a0)
     for _ in range(8):
         for X, have, out, ep, kind in (
             (Ares, have_a, None, eps_a, "A"),
@@ -374,9 +389,9 @@ def _control(model, y0, t, eps_a0, n, tol):
                     out[idx] = st
         di = np.empty(todo.size)
         if N == 1:
-            _estimate(Ares, res, n, di)
+            _estimate_(Ares, res, n, di)
         else:
-            _estimate(Ares[todo], res[todo], n, di)
+            _estimate_(Ares[todo], res[todo], n, di)
         d[todo] = di
         # B is at least 1/SAFETY times tighter than A: |A - B| ~ err(A) > err(B); with a much tighter B the
         # tolerance proportionality of the global error (Shampine 1985) gives the smaller estimate
@@ -400,7 +415,16 @@ def _control(model, y0, t, eps_a0, n, tol):
                 continue
             new = max(eps_a[k] * min(tol / max(d[k], tol) / 10, 0.1), EPS_FLOOR)
             if new < eps_a[k]:
-                eps_a[k], eps_b[k] = new, _eps_b(new)
+                eb_held = eps_b[k]
+                if (
+                    have_b[k] == eb_held
+                    and eb_held <= REUSE_B * new
+                    and eps_b_of(eb_held) < eb_held
+                ):
+                    Ares[k], have_a[k] = res[k], eb_held  # the held B becomes A
+                    eps_a[k], eps_b[k] = eb_held, eps_b_of(eb_held)
+                else:
+                    eps_a[k], eps_b[k] = new, eps_b_of(new)
                 moved = True
         if not moved:
             break

@@ -16,6 +16,7 @@ import numpy as np
 
 from . import _fast_kernels as fast
 from ._algebra import LieAlgebra
+from ._phi import phi1
 from ._reference_core import ReferenceCore
 from ._validate import check_structure_constants
 
@@ -42,7 +43,7 @@ def frames(f: Any, x: Any, *, dps: int | None = None, route: str = "series") -> 
         X = xa.reshape(-1, n)
         adx = (X @ ff.transpose(1, 0, 2).reshape(n, n * n)).reshape(-1, n, n)
         L, _ = fast._frames_generic(adx)
-        A = fast._phi1_scaling_squaring(-adx)
+        A = phi1(-adx)
         Ad = fast._expm_batch(adx, su2=False)
         K = np.linalg.inv(Ad).transpose(0, 2, 1)
         return {k: v.reshape(shape + (n, n)) for k, v in {"A": A, "L": L, "Ad": Ad, "K": K}.items()}

@@ -31,7 +31,9 @@ What is compiled
     ``f``, ``I^-1``, ``Theta``, ``G_L``, ``E_b`` and which entries of ``G`` vary; the numbers are one
     array argument ``c`` (read once per call into locals), the order ``P`` an argument. Files live under
     :func:`refimpl._compiled_taylor.cache_dir`, named by the hash of the source, compiled with
-    ``cache=True``.
+    ``cache=True`` (3-7 s of CPU per structure the first time, :data:`GENERATED_MIN_WORK`). The kernel
+    compiled once for every structure (:mod:`refimpl._full_state_kernel`, the same recurrence from
+    sparse tables, about 2x slower per step) stays as ``FullState.run(generated=False)``.
 
 The output
     ``Ad(g)`` from ``G``: ``G E_b G^-1 = Ad(g)_ab E_a`` (projected on the ``E_a``); ``x`` by the
@@ -43,7 +45,10 @@ The output
 Error control
     The two runs of :mod:`refimpl._flow_compiled` (a checking run ``A`` and the answer ``B``, local
     tolerances from :func:`refimpl._flow_compiled.local_tolerances`), the estimate measured where the
-    user reads the result: ``max(|pi_A - pi_B|, |Ad_A - Ad_B|)`` per trajectory.
+    user reads the result: ``max(|pi_A - pi_B|, |Ad_A - Ad_B|)`` per trajectory; the same control
+    function (:func:`refimpl._flow_compiled._control`) as the su(2) full state: a trajectory over the
+    tolerance keeps its ``B`` when only ``A`` is tightened, and has ``B`` alone tightened when the
+    proportional estimate then passes.
 """
 
 from __future__ import annotations
@@ -51,22 +56,32 @@ from __future__ import annotations
 import numpy as np
 
 from . import _compiled_taylor as _ct
+from . import _full_state_batch as _fsb
 from . import _full_state_kernel as _fk
-from ._flow_compiled import EPS_FLOOR, PROP, PROP_MIN_A, PROP_MIN_B, _eps_b, local_tolerances
+from ._flow_compiled import _control, local_tolerances
 from .codegen import import_source
 from .codegen.full_state import full_state_source
 
 __all__ = ["FullState", "applies", "full_state", "full_state_flow"]
 
 EPS = np.finfo(float).eps
-GENERATED_MIN_WORK = 64.0
+GENERATED_MIN_WORK = 0.0
 """``N |t|`` (trajectories times the time span) from which a flow runs the kernel generated for its
-structure (:func:`refimpl.codegen.full_state.full_state_source`, about 2.2x faster per step: every product unrolled in one loop over the
-terms) instead of the one compiled for every structure (:mod:`refimpl._full_state_kernel`); the
-generated one costs 4-9 s of compilation per structure before the disk cache has it, repaid only by
-long batched flows (the rule of ``BATCH_MIN`` in :mod:`refimpl._compiled_taylor`), and kept out of
-single protocol calls (certification's per-call time budget counts a cold compile). A function of
-the call's inputs, so a call's result never depends on what ran before it."""
+structure (:func:`refimpl.codegen.full_state.full_state_source`: every product unrolled, about 2x
+faster per step) instead of the one compiled for every structure (:mod:`refimpl._full_state_kernel`,
+kept for ``FullState.run(generated=False)``). 0: always the generated one -- its compilation, 3-7 s
+of CPU per structure before the disk cache has it (su(3) the largest measured: 6.9 s; the Horner
+update and the step norms are loops over index tables and the products run in chunks of
+``PRODUCT_CHUNK``, which took su(3) down from 12 s), stays under the 10 s per structure of issue 25.
+A function of the call's inputs, so a call's result never depends on what ran before it."""
+
+
+B_MAX = 3e-14
+"""``B``'s largest local tolerance on the full state (the su(2) quaternion state's is
+:data:`refimpl._flow_compiled.B_MAX`, 1e-13): at the default ``tol = 1e-10`` one pair of runs then
+passes where the global error is up to ~100 times the local tolerance (se(3) Kirchhoff: three runs at
+1e-13), and a retry can take this ``B`` as its ``A`` near the float64 floor (Bianchi VI0: three runs
+instead of four); ``B`` costs about the same (the order rises by one, the steps do not)."""
 
 
 def applies(model) -> bool:
@@ -290,6 +305,9 @@ class FullState:
         y = np.ascontiguousarray(y0, dtype=float)
         out = np.empty_like(y)
         steps = np.zeros(y.shape[0], dtype=np.int64)
+        # issue 25 batch hook: W trajectories at a time in SIMD lanes (refimpl._full_state_batch)
+        if generated and y.shape[0] >= _fsb.LANES:
+            return _fsb.run(self, y, T, tol, P, max_steps)
         if generated:
             self.module().adaptive(
                 y, float(T), float(tol), P, int(max_steps), self.coef, out, steps
@@ -319,6 +337,14 @@ def full_state(model, abelian=None) -> FullState:
         ab = abelian.of(model.f, 1) if (rep.exponential and abelian is not None) else None
         fs = FullState(model, rep, None if ab is None else ab.P)
         fs.abelian = ab
+        if ab is not None:  # the tables of the compiled refine (_fk.abelian_batch)
+            D = np.ascontiguousarray(ab.D, dtype=float)
+            fs.abelian_tables = (
+                np.ascontiguousarray(ab.P, dtype=float),
+                np.ascontiguousarray(np.linalg.pinv(ab.P)),
+                D,
+                np.ascontiguousarray(np.einsum("ak,aij->kij", D, np.asarray(rep.mats).real)),
+            )
         fs.mats = np.ascontiguousarray(rep.mats, dtype=complex if fs.cplx else float)
         fs.proj = np.ascontiguousarray(_projector(rep.mats))
         gv = np.array(fs.gvars, dtype=np.int64).reshape(-1, 3)
@@ -388,6 +414,10 @@ def _x_of(fs: FullState, G, Ad, s) -> np.ndarray:
         xs[j] = fs.rep.log(G[j], Ad[j])
     if fs.abelian is not None:
         P = fs.abelian.P
+        if not fs.cplx:  # compiled (refimpl._full_state_kernel.abelian_batch), the same refine
+            ab = fs.abelian_tables
+            _fk.abelian_batch(G, xs, np.ascontiguousarray(s), *ab, fs.mats, ABELIAN_RTOL)
+            return xs.T.copy()
         for j in range(N):
             sj = s[:, j]
             if np.max(np.abs(P @ xs[j] - sj)) > ABELIAN_RTOL * max(1.0, float(np.max(np.abs(sj)))):
@@ -395,8 +425,8 @@ def _x_of(fs: FullState, G, Ad, s) -> np.ndarray:
     return xs.T.copy()
 
 
-def _run(fs: FullState, y0, t, eps, generated=False):
-    y, steps = fs.run(y0, t, eps, generated=generated)
+def _run(fs: FullState, y0, t, eps, generated=False, order=None):
+    y, steps = fs.run(y0, t, eps, order=order, generated=generated)
     if steps.min() < 0:
         raise ValueError(
             f"compiled Taylor flow: trajectories {np.flatnonzero(steps < 0)[:10].tolist()} became "
@@ -415,12 +445,14 @@ def _estimate(fs: FullState, A, B):
     return est, GB, AdB
 
 
-def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None) -> dict:
+def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=None) -> dict:
     """Full state ``(x, pi)`` of ``N`` trajectories (``x0``, ``pi0`` of shape (n, N)) at time ``t`` with
     the global tolerance ``tol`` (max-norm over ``pi`` and ``Ad(g)`` per trajectory, two runs).
 
     Returns ``pi``, ``Gamma``, ``x``, ``g`` (``rho(g)``, (N, r, r)), ``Ad``, ``rebases`` (zeros: no
-    chart), ``steps``, ``error_estimate`` and ``path``."""
+    chart), ``steps``, ``error_estimate`` and ``path``. ``run``: the kernel, ``run(fs, y0, t, eps,
+    generated) -> (y, steps)`` (default :func:`_run`; :mod:`refimpl._full_state_rational` passes the
+    ``Upsilon != 0`` one; each kernel picks its own order for ``eps``)."""
     fs = full_state(model, abelian)
     n, N = pi0.shape
     G0 = np.empty((N, fs.r, fs.r), dtype=fs.mats.dtype)
@@ -431,34 +463,33 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None) -> di
         Gamma0 = np.einsum("Nmb,m->bN", Ad0, model.gamma)
     s0 = None if fs.abelian is None else fs.abelian.P @ x0
     y0 = _pack(fs, pi0, Gamma0, G0, s0)
-    eps_a, eps_b = local_tolerances(tol)
+    eps_a, _ = local_tolerances(tol)
     gen = N * abs(t) >= GENERATED_MIN_WORK
-    todo = None  # every trajectory (the first pair of runs), then those over the tolerance
-    for _ in range(6):
-        yt = y0 if todo is None else y0[todo]
-        A, _s = _run(fs, yt, t, eps_a, gen)
-        B, sB = _run(fs, yt, t, eps_b, gen)
-        d, GB, AdB = _estimate(fs, A, B)
-        prop = eps_a >= PROP_MIN_A and eps_b >= PROP_MIN_B
-        e = np.minimum(d, PROP * (eps_b / eps_a) * d) if prop else d
-        if todo is None:
-            res, Adres, G, est, steps = B, AdB, GB, e, sB
-            todo = np.arange(N)
-        else:
-            res[todo], Adres[todo], G[todo], est[todo], steps[todo] = B, AdB, GB, e, sB
-        over = todo[e > tol]
-        if over.size == 0:
-            break
-        new = max(eps_a * min(tol / float(np.max(est[over])) / 10, 0.1), EPS_FLOOR)
-        if new >= eps_a:
-            break
-        eps_a, eps_b, todo = new, _eps_b(new), over
+
+    go = _run if run is None else run
+
+    def run_(y, tt, eps, order=None):  # order None: the kernel's own for eps
+        return go(fs, y, tt, eps, gen)
+
+    last = [None, None, None]  # (B, G_B, Ad_B) of the last estimate: the answer's, when it is B
+
+    def estimate(A, B, n_, out):
+        out[:], last[1], last[2] = _estimate(fs, A, B)
+        last[0] = B
+
+    res, est, steps = _control(
+        model, y0, t, eps_a, n, tol, runner=(run_, lambda eps: None), estimate=estimate, b_max=B_MAX
+    )
     over = np.flatnonzero(est > tol)
     if over.size:
         raise ValueError(
             f"compiled Taylor flow: tolerance {tol} not reached on trajectories {over[:10].tolist()} "
             f"(estimated errors {est[over][:3].tolist()}) at the float64 floor of the local tolerance"
         )
+    if last[0] is res:  # N = 1, first pair: G and Ad(g) of the answer already computed
+        G, Adres = last[1], last[2]
+    else:
+        _, G, Adres = _estimate(fs, res, res)
     s = None if fs.abelian is None else res[:, fs.d - fs.n_ab :].T
     x = _x_of(fs, G, Adres, s)
     return {

@@ -504,3 +504,116 @@ def estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est):
             for b in range(n):
                 m = max(m, abs(AdA[it, a, b] - AdB[it, a, b]))
         est[it] = m if math.isfinite(m) else np.inf
+
+
+# ---------------------------------------------------------------------- the abelian part of the log
+@njit(cache=True, nogil=True)
+def _resid(v, mats, G, X, E, R):
+    """``R = exp(rho(v)) - G`` (``X`` receives ``rho(v)``); returns ``max |R|`` (inf when not finite)."""
+    n, r, _ = mats.shape
+    for i in range(r):
+        for j in range(r):
+            acc = 0.0
+            for a in range(n):
+                acc += v[a] * mats[a, i, j]
+            X[i, j] = acc
+    expm(X, E)
+    m = 0.0
+    for i in range(r):
+        for j in range(r):
+            R[i, j] = E[i, j] - G[i, j]
+            m = max(m, abs(R[i, j]))
+    return m if math.isfinite(m) else np.inf
+
+
+@njit(cache=True, nogil=True)
+def refine_abelian(G, x0, s, P, Ppinv, D, Dr, mats, out):
+    """The compiled twin of :meth:`refimpl.flows._common._AbelianPart.refine` for a real representation
+    (the same steps): ``out`` = ``x`` with ``P x = s`` and ``exp(rho(x))`` closest to ``G``, by at most
+    eight Gauss-Newton steps over ``[g, g]`` (directions ``D``, their images ``Dr = D^T rho``) from
+    ``x0 + pinv(P) (s - P x0)``, each kept only when it lowers ``max |exp(rho(x)) - G|``; the Jacobian's
+    columns are the Frechet derivatives ``L(rho(x), Dr_j)``, the upper right block of the exponential of
+    ``[[rho(x), Dr_j], [0, rho(x)]]`` (Higham, Functions of Matrices, 3.2); ``x0`` itself when the fit
+    does not come within ``10 |exp(rho(x0)) - G| + 1e3 eps max(1, |G|)``."""
+    n = x0.shape[0]
+    r = G.shape[0]
+    m = Dr.shape[0]
+    X = np.zeros((r, r))
+    E = np.zeros((r, r))
+    R0 = np.zeros((r, r))
+    Rb = np.zeros((r, r))
+    Rc = np.zeros((r, r))
+    Z = np.zeros((2 * r, 2 * r))
+    EZ = np.zeros((2 * r, 2 * r))
+    J = np.zeros((r * r, m))
+    rhs = np.zeros(r * r)
+    best = x0 + Ppinv @ (s - P @ x0)
+    cand = np.zeros(n)
+    r0 = _resid(x0, mats, G, X, E, R0)
+    rb = _resid(best, mats, G, X, E, Rb)
+    for _ in range(8):
+        _resid(best, mats, G, X, E, Rc)  # X = rho(best)
+        for i in range(2 * r):
+            for j in range(2 * r):
+                Z[i, j] = 0.0
+        for i in range(r):
+            for j in range(r):
+                Z[i, j] = X[i, j]
+                Z[r + i, r + j] = X[i, j]
+        for c in range(m):
+            for i in range(r):
+                for j in range(r):
+                    Z[i, r + j] = Dr[c, i, j]
+            expm(Z, EZ)
+            for i in range(r):
+                for j in range(r):
+                    J[i * r + j, c] = EZ[i, r + j]
+        for i in range(r):
+            for j in range(r):
+                rhs[i * r + j] = -Rb[i, j]
+        if not (np.all(np.isfinite(J)) and np.all(np.isfinite(rhs))):
+            break
+        dw = np.linalg.lstsq(J, rhs)[0]
+        for a in range(n):
+            acc = best[a]
+            for c in range(m):
+                acc += D[a, c] * dw[c]
+            cand[a] = acc
+        rc = _resid(cand, mats, G, X, E, Rc)
+        if not rc < rb:
+            break
+        rb = rc
+        for a in range(n):
+            best[a] = cand[a]
+        for i in range(r):
+            for j in range(r):
+                Rb[i, j] = Rc[i, j]
+    gmax = 0.0
+    for i in range(r):
+        for j in range(r):
+            gmax = max(gmax, abs(G[i, j]))
+    ok = rb <= r0 * 10 + 1e3 * 2.220446049250313e-16 * max(1.0, gmax)
+    for a in range(n):
+        out[a] = best[a] if ok else x0[a]
+
+
+@njit(cache=True, nogil=True)
+def abelian_batch(G, xs, s, P, Ppinv, D, Dr, mats, rtol):
+    """Per row ``j`` of ``xs`` (N, n): when ``max |P xs[j] - s[:, j]| > rtol max(1, max |s[:, j]|)``,
+    ``xs[j]`` is replaced by :func:`refine_abelian` (in place)."""
+    N, n = xs.shape
+    k = P.shape[0]
+    out = np.zeros(n)
+    for j in range(N):
+        dev = 0.0
+        smax = 0.0
+        for ell in range(k):
+            acc = 0.0
+            for a in range(n):
+                acc += P[ell, a] * xs[j, a]
+            dev = max(dev, abs(acc - s[ell, j]))
+            smax = max(smax, abs(s[ell, j]))
+        if dev > rtol * max(1.0, smax):
+            refine_abelian(G[j], xs[j].copy(), s[:, j].copy(), P, Ppinv, D, Dr, mats, out)
+            for a in range(n):
+                xs[j, a] = out[a]

@@ -13,6 +13,7 @@ import sympy
 
 from ._algebra import LieAlgebra
 from ._errors import ChartError, DegeneratePointError
+from ._phi import phi1_mp, phi1_mp_vanloan
 from ._validate import (
     MAX_DPS,
     TWO_PI,
@@ -203,40 +204,6 @@ class ReferenceCore:
         )
 
     # -------------------------------------------------------------- frames
-    @staticmethod
-    def phi1_series(M: mpmath.matrix) -> mpmath.matrix:
-        """``phi1(M) = sum_k M^k / (k+1)!``, summed until the terms fall below the working eps.
-
-        The caller's precision should include guard digits for the
-        cancellation of size ``exp(||M||)``; :meth:`frames` adds them.
-        """
-        n = M.rows
-        total = mpmath.eye(n)
-        term = mpmath.eye(n)
-        k = 0
-        eps = mpmath.eps
-        while True:
-            k += 1
-            term = term * M / (k + 1)
-            total += term
-            if mpmath.mnorm(term, 1) <= eps * mpmath.mnorm(total, 1) and k > 2:
-                break
-            if k > 100000:  # pragma: no cover - entire series; unreachable for finite M
-                raise RuntimeError("phi1 series did not converge")
-        return total
-
-    @staticmethod
-    def phi1_vanloan(M: mpmath.matrix) -> mpmath.matrix:
-        """``phi1(M)`` as the upper-right block of ``expm([[M, 1], [0, 0]])`` (Van Loan)."""
-        n = M.rows
-        big = mpmath.zeros(2 * n, 2 * n)
-        for i in range(n):
-            for j in range(n):
-                big[i, j] = M[i, j]
-            big[i, n + i] = 1
-        e = mpmath.expm(big)
-        return mpmath.matrix([[e[i, n + j] for j in range(n)] for i in range(n)])
-
     def frames_mp(self, F: list, x: mpmath.matrix, route: str = "series") -> dict:
         """``A = L(g^-1, g) = phi1(-ad_x)``, ``L = L(g, e) = A^-1``, ``Ad = exp(ad_x)``, ``K = Ad^-T``.
 
@@ -250,9 +217,9 @@ class ReferenceCore:
         extra = int(mpmath.ceil(norm / mpmath.log(10))) + 5  # cancellation in the series ~ e^||ad||
         with mpmath.extradps(extra):
             if route == "series":
-                A = self.phi1_series(-adx)
+                A = phi1_mp(-adx)
             elif route == "vanloan":
-                A = self.phi1_vanloan(-adx)
+                A = phi1_mp_vanloan(-adx)
             else:
                 raise ValueError(f"unknown frame route {route!r} (series or vanloan)")
             det = mpmath.det(A)

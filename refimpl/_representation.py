@@ -79,6 +79,7 @@ import sympy
 
 from ._algebra import LieAlgebra
 from ._catalogue import CATALOGUE_NAMES, catalogue
+from ._phi import phi1, phi1_mp
 
 __all__ = [
     "Representation",
@@ -602,7 +603,7 @@ class Representation:
             y = self._log_a(R)
             if y is None or not np.all(np.isfinite(y)):
                 break
-            A = _phi1(-np.einsum("a,mab->mb", x, self.f))
+            A = phi1(-np.einsum("a,mab->mb", x, self.f))
             step = np.linalg.solve(A, np.real(y))
             x = x + step / max(1.0, float(np.linalg.norm(step)))  # damped: steps of length <= 1
             if self._accept(x, G):
@@ -766,7 +767,7 @@ class Representation:
         x = mpmath.matrix([mpmath.mpf(float(v)) for v in self.log(Gf, Adf)])
         for _ in range(60):
             y = log_a(mpmath.expm(-self.mp_matrix(x, Fm)) * G)
-            x = x + mpmath.lu_solve(_phi1_mp(-ad_of(x)), y)
+            x = x + mpmath.lu_solve(phi1_mp(-ad_of(x)), y)
             if mpmath.norm(y) < tol and accept(x, G):
                 return x
         raise RepresentationError(
@@ -805,29 +806,6 @@ def _mpnum(v):
         return mpmath.mpc(re_, im_) if im_ else re_
     z = complex(v)
     return mpmath.mpc(z.real, z.imag) if z.imag else mpmath.mpf(z.real)
-
-
-def _phi1(M):
-    """``phi1(M) = sum_k M^k/(k+1)!`` (float)."""
-    n = M.shape[0]
-    out, P = np.eye(n), np.eye(n)
-    for k in range(1, 60):
-        P = P @ M / (k + 1)
-        out = out + P
-        if np.max(np.abs(P)) < EPS * 1e-3:
-            break
-    return out
-
-
-def _phi1_mp(M):
-    n = M.rows
-    out, P = mpmath.eye(n), mpmath.eye(n)
-    for k in range(1, 400):
-        P = P * M / (k + 1)
-        out = out + P
-        if mpmath.mnorm(P, 1) < mpmath.eps:
-            break
-    return out
 
 
 # ---------------------------------------------------------------- construction and checks

@@ -104,6 +104,7 @@ def _phi1_terms(nu: float, prec: int) -> int:
     return N
 
 
+# Not refimpl/_phi.py's phi1: balls with a rigorous tail bound need Arb arithmetic throughout.
 def phi1_ball(M: arb_mat, prec: int) -> arb_mat:
     """``phi1(M) = sum_k M^k/(k+1)!`` as a ball matrix with a rigorous tail bound (module docstring).
 

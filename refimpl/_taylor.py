@@ -63,6 +63,7 @@ from ._lru import LRU
 __all__ = [
     "CHUNK",
     "QuadraticField",
+    "body_field_tables",
     "numpy_taylor_integrator",
     "quadratic_field",
     "quadratic_field_su2_full",
@@ -76,7 +77,11 @@ CHUNK = (
 
 @dataclass(frozen=True)
 class QuadraticField:
-    """``ydot_c = sum quad[c][(i, j)] y_i y_j + sum lin[c][i] y_i`` with ``i <= j``; zeros dropped."""
+    """``ydot_c = sum quad[c][(i, j)] y_i y_j + sum lin[c][i] y_i`` with ``i <= j``; zeros dropped.
+
+    The one quadratic field of the house: the Taylor and Runge-Kutta kernels take it with float
+    coefficients; the rigorous flow (refimpl/_rigorous_flow.py) builds the same tables
+    (:func:`body_field_tables`) with Arb ball coefficients for its enclosures."""
 
     d: int
     lin: tuple
@@ -102,51 +107,75 @@ class QuadraticField:
         return out
 
 
-def quadratic_field(model) -> QuadraticField:
-    """The body field of a :class:`refimpl.model.Model` with ``Upsilon = 0`` as a quadratic polynomial.
+def _is_zero(v) -> bool:
+    """Exactly zero: ``v.is_zero()`` for Arb balls (a ball that merely contains 0 is kept), else ``v == 0``."""
+    z = getattr(v, "is_zero", None)
+    return bool(z()) if callable(z) else v == 0
 
-    Coefficients (``w = I^-1 pi`` eliminated; ``n = dim g``, ``Gamma`` at indices ``n..2n-1``):
 
-    * ``pidot_a``: ``-sum_b f^m_ab (I^-1)_bc`` on ``pi_m pi_c``; ``sum_b Theta_ab (I^-1)_bc`` on ``pi_c``;
-      ``sum_c f^m_ac L^c`` on ``Gamma_m``;
-    * ``Gammadot_mu``: ``sum_b (I^-1)_bc f^a_{b mu}`` on ``pi_c Gamma_a``.
+def body_field_tables(n: int, fI, TI=None, fL=None, IF=None) -> tuple[int, tuple, tuple]:
+    """``(d, lin, quad)`` of the body field (``Upsilon = 0``) from its contractions, in any number
+    type: floats here, Arb balls in refimpl/_rigorous_flow.py -- the one definition of which
+    coefficient multiplies which monomial (``n = dim g``, ``Gamma`` at indices ``n..2n-1``):
+
+    * ``pidot_a``: ``-fI[m, a, c]`` on ``pi_m pi_c``; ``TI[a, c]`` on ``pi_c``; ``fL[a, m]`` on ``Gamma_m``;
+    * ``Gammadot_mu``: ``IF[mu, c, a]`` on ``pi_c Gamma_a``;
+
+    with ``fI[m, a, c] = sum_b f^m_ab (I^-1)_bc``, ``TI = Theta I^-1`` (None for ``Theta = 0``),
+    ``fL[a, m] = sum_c f^m_ac L^c`` and ``IF[mu, c, a] = sum_b (I^-1)_bc f^a_{b mu}`` (both None
+    without gravity). Keys ``(i, j)`` with ``i <= j``; equal monomials summed in the loops' order,
+    exact zeros dropped (:func:`_is_zero`).
     """
+    gravity = fL is not None
+    d = 2 * n if gravity else n
+    lin: list[dict] = [{} for _ in range(d)]
+    quad: list[dict] = [{} for _ in range(d)]
+
+    def add(table, key, v):
+        if not _is_zero(v):
+            table[key] = table[key] + v if key in table else v
+
+    for a in range(n):
+        for m in range(n):
+            for c in range(n):
+                add(quad[a], (min(m, c), max(m, c)), -fI[m, a, c])
+    if TI is not None:
+        for a in range(n):
+            for c in range(n):
+                add(lin[a], c, TI[a, c])
+    if gravity:
+        for a in range(n):
+            for m in range(n):
+                add(lin[a], n + m, fL[a, m])
+        for mu in range(n):
+            for c in range(n):
+                for a in range(n):
+                    add(quad[n + mu], (c, n + a), IF[mu, c, a])
+    lin_t = tuple({k: v for k, v in t.items() if not _is_zero(v)} for t in lin)
+    quad_t = tuple({k: v for k, v in t.items() if not _is_zero(v)} for t in quad)
+    return d, lin_t, quad_t
+
+
+def quadratic_field(model) -> QuadraticField:
+    """The body field of a :class:`refimpl.model.Model` with ``Upsilon = 0`` as a quadratic polynomial
+    (float coefficients; the monomials and their coefficients: :func:`body_field_tables`)."""
     if not model.upsilon_zero:
         raise ValueError(
             "quadratic_field: the body field is a polynomial only for Upsilon = 0 (Phi = 1, vier6)"
         )
     n, f, Ii = model.n, model.f, model.Iinv
-    d = 2 * n if model.gravity else n
-    lin: list[dict] = [{} for _ in range(d)]
-    quad: list[dict] = [{} for _ in range(d)]
-
-    def add(table, key, v):
-        if v != 0:
-            table[key] = table.get(key, 0.0) + float(v)
-
     fI = np.einsum("mab,bc->mac", f, Ii)  # f^m_ab (I^-1)_bc
-    for a in range(n):
-        for m in range(n):
-            for c in range(n):
-                add(quad[a], (min(m, c), max(m, c)), -fI[m, a, c])
-    if not model.theta_zero:
-        TI = model.theta @ Ii
-        for a in range(n):
-            for c in range(n):
-                add(lin[a], c, TI[a, c])
+    TI = None if model.theta_zero else model.theta @ Ii
+    fL = IF = None
     if model.gravity:
         fL = np.einsum("mac,c->am", f, model.Lvec)  # sum_c f^m_ac L^c
-        for a in range(n):
-            for m in range(n):
-                add(lin[a], n + m, fL[a, m])
         IF = np.einsum("bc,abu->uca", Ii, f)  # sum_b (I^-1)_bc f^a_{b mu}
-        for mu in range(n):
-            for c in range(n):
-                for a in range(n):
-                    add(quad[n + mu], (c, n + a), IF[mu, c, a])
-    lin = tuple({k: v for k, v in t.items() if v != 0} for t in lin)
-    quad = tuple({k: v for k, v in t.items() if v != 0} for t in quad)
-    return QuadraticField(d, lin, quad)
+    d, lin, quad = body_field_tables(n, fI, TI, fL, IF)
+    return QuadraticField(
+        d,
+        tuple({k: float(v) for k, v in t.items()} for t in lin),
+        tuple({k: float(v) for k, v in t.items()} for t in quad),
+    )
 
 
 def quadratic_field_su2_full(model) -> QuadraticField:

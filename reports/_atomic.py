@@ -50,34 +50,25 @@ def _umask() -> int:
 def write_bytes(path, data: bytes) -> Path:
     """Write ``data`` to ``path`` atomically (temporary file in the same folder, fsync, replace)."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        os.fchmod(
-            fd, 0o666 & ~_umask()
-        )  # the user's umask, as open() would give (not mkstemp's 0600)
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
+    with replacing(path) as tmp:
+        tmp.write_bytes(data)
+    return path
+
+
+def _fsync_folder(folder: Path) -> None:
     with contextlib.suppress(OSError):  # make the rename itself durable
-        dfd = os.open(path.parent, os.O_RDONLY)
+        dfd = os.open(folder, os.O_RDONLY)
         try:
             os.fsync(dfd)
         finally:
             os.close(dfd)
-    return path
 
 
 @contextlib.contextmanager
 def replacing(path):
     """``with replacing(path) as tmp:`` write ``tmp`` with any writer (a library that wants a
-    path); on success it replaces ``path`` atomically (same folder, umask permissions, fsync)."""
+    path); on success it replaces ``path`` atomically (same folder, the permissions the user's
+    umask gives a new file -- not mkstemp's 0600 --, the data and then the rename fsync-ed)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
@@ -92,6 +83,7 @@ def replacing(path):
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+    _fsync_folder(path.parent)
 
 
 def write_text(path, text: str, encoding: str = "utf-8") -> Path:

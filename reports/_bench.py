@@ -35,8 +35,7 @@ import numpy as np
 import scipy
 from threadpoolctl import threadpool_info, threadpool_limits
 
-from tstarg.refimpl import _compiled_taylor as _ct
-from tstarg.refimpl import catalogue, provides
+from tstarg.refimpl import COMPILED_PATH, catalogue, compile_count, provides
 from tstarg.refimpl.fast import Fast
 from tstarg.refimpl.flows import METHODS, method
 
@@ -238,7 +237,7 @@ def _main(args, problems, protocol, contender, t_start, display: Progress) -> in
         ),
     )
     heyoka = wp.have_heyoka() and not args.no_heyoka
-    report["compiled_path"] = _ct.PATH
+    report["compiled_path"] = COMPILED_PATH
     report["heyoka"] = f"heyoka {wp.heyoka_version()}" if heyoka else "not included"
     items, skipped = [], {}
     for name, ref in zip(problems, refs):
@@ -332,8 +331,8 @@ def _main(args, problems, protocol, contender, t_start, display: Progress) -> in
         _print_flow(report["flows"][name], display)
     report["compile"] = {
         "tstarg": {
-            **_ct.compile_count(),
-            "path": _ct.PATH,
+            **compile_count(),
+            "path": COMPILED_PATH,
             "note": "numba kernels per field structure and order, cached on disk: "
             "'compiled' were built in this run, 'loaded' came from the cache",
         },
@@ -987,7 +986,7 @@ def _batch_heyoka(quick, S, fixed_method, fixed_steps) -> dict:
 
 
 def _ct_path() -> str:
-    return _ct.PATH
+    return COMPILED_PATH
 
 
 # ------------------------------------------------------------------ markdown

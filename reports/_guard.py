@@ -128,6 +128,12 @@ class Guarded:
         theirs = self._target.incidents if isinstance(self._target, CommandImplementation) else []
         return self._own_incidents + list(theirs)
 
+    def _incident(self, method: str, kind: str, detail: str) -> None:
+        """Record one of the guard's own incidents (numbered from 1 in the order they happen)."""
+        self._own_incidents.append(
+            {"id": len(self._own_incidents) + 1, "method": method, "kind": kind, "detail": detail}
+        )
+
     def close(self) -> None:
         if isinstance(self._target, CommandImplementation):
             self._target.close()
@@ -169,14 +175,7 @@ class Guarded:
             if exc.what != "call":
                 raise
             self._timeouts += 1
-            self._own_incidents.append(
-                {
-                    "id": len(self._own_incidents) + 1,
-                    "method": method,
-                    "kind": "hang",
-                    "detail": f"no return within the per-call timeout of {limit:g} s",
-                }
-            )
+            self._incident(method, "hang", f"no return within the per-call timeout of {limit:g} s")
             raise AssertionError(
                 f"{method} did not return within the per-call timeout of {limit:g} s"
                 + (
@@ -186,14 +185,7 @@ class Guarded:
                 )
             ) from None
         except SystemExit as exc:
-            self._own_incidents.append(
-                {
-                    "id": len(self._own_incidents) + 1,
-                    "method": method,
-                    "kind": "exit",
-                    "detail": f"sys.exit({exc.code!r}) inside the method",
-                }
-            )
+            self._incident(method, "exit", f"sys.exit({exc.code!r}) inside the method")
             raise CheckAborted(
                 f"{method} called sys.exit({exc.code!r}): an implementation must return or raise, "
                 "never end the process"

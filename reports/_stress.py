@@ -64,7 +64,6 @@ EPS = float(np.finfo(float).eps)
 D64 = -math.log10(EPS / 2)  # digits float64 can give: 15.95
 JUDGE_MIN_DIGITS = 25  # the judge's two rungs must agree to this many digits
 OUTCOMES = ("ok", "escalated", "flagged", "SILENT FAILURE")
-DEFAULT_IMPLEMENTATION = "tstarg.refimpl.fast:implementation"
 
 
 @dataclass

@@ -33,8 +33,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
-from tstarg.refimpl import catalogue
-from tstarg.refimpl._taylor import quadratic_field
+from tstarg.refimpl import catalogue, quadratic_field
 from tstarg.refimpl.fast import Fast
 from tstarg.refimpl.flows import (
     METHODS,

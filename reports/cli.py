@@ -10,9 +10,9 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
-import subprocess
 import sys
-from pathlib import Path
+
+from . import environment
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -30,29 +30,9 @@ def _modules():
 
 
 def commit() -> str:
-    """The git commit tstarg runs from (``git describe --always --dirty``) when its files are a
-    git checkout of the project (an editable install), else ``"unknown"`` (an installed wheel)."""
-    root = Path(__file__).resolve().parents[1]
-    if not (root / "pyproject.toml").is_file():
-        return "unknown"
-    try:
-        top = subprocess.run(
-            ["git", "-C", str(root), "rev-parse", "--show-toplevel"],
-            capture_output=True,
-            text=True,
-            timeout=10,
-        )
-        if top.returncode != 0 or Path(top.stdout.strip()).resolve() != root:
-            return "unknown"
-        desc = subprocess.run(
-            ["git", "-C", str(root), "describe", "--always", "--dirty", "--abbrev=12"],
-            capture_output=True,
-            text=True,
-            timeout=10,
-        )
-    except (OSError, subprocess.SubprocessError):
-        return "unknown"
-    return desc.stdout.strip() if desc.returncode == 0 and desc.stdout.strip() else "unknown"
+    """The git commit tstarg runs from (:func:`reports.environment.git_commit`), ``"unknown"`` when
+    its files are not a git checkout of the project (an installed wheel)."""
+    return environment.git_commit() or "unknown"
 
 
 def version_line() -> str:

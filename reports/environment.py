@@ -29,26 +29,30 @@ def tstarg_version() -> str:
 
 @functools.cache
 def git_commit() -> str | None:
-    """The commit of the checkout tstarg is imported from (with ``+dirty`` for local changes)."""
-    root = Path(__file__).resolve().parent.parent
+    """The commit of the project's git checkout tstarg is imported from (``<sha>+dirty`` with
+    local changes to tracked files); None when tstarg's files are not that checkout (an installed
+    wheel, also one inside some other repository). The one source of the commit (``tstarg
+    --version``, reports, certificates)."""
+    root = Path(__file__).resolve().parents[1]
+    if not (root / "pyproject.toml").is_file():
+        return None
+
+    def git(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run(
+            ["git", "-C", str(root), *args], capture_output=True, text=True, timeout=10
+        )
+
     try:
-        sha = subprocess.run(
-            ["git", "-C", str(root), "rev-parse", "HEAD"],
-            capture_output=True,
-            text=True,
-            timeout=10,
-            check=True,
-        ).stdout.strip()
-        dirty = subprocess.run(
-            ["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
-            capture_output=True,
-            text=True,
-            timeout=10,
-            check=True,
-        ).stdout.strip()
+        top = git("rev-parse", "--show-toplevel")
+        if top.returncode != 0 or Path(top.stdout.strip()).resolve() != root:
+            return None
+        sha = git("rev-parse", "HEAD")
+        dirty = git("status", "--porcelain", "--untracked-files=no")
     except (OSError, subprocess.SubprocessError):
         return None
-    return f"{sha}+dirty" if dirty else sha or None
+    if sha.returncode != 0 or not sha.stdout.strip():
+        return None
+    return f"{sha.stdout.strip()}+dirty" if dirty.stdout.strip() else sha.stdout.strip()
 
 
 def _blas() -> list[dict]:

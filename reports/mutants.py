@@ -58,6 +58,7 @@ MUTATIONS = {
 }
 
 
+# Independent of refimpl/_phi.py on purpose: Plain is written from the conventions alone (module docstring).
 def _phi1(M):
     n = M.shape[0]
     big = np.zeros((2 * n, 2 * n))

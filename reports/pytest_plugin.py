@@ -47,9 +47,9 @@ def pytest_report_header(config):
 @pytest.fixture(scope="session")
 def tstarg_certificate(pytestconfig):
     from tstarg.properties.runner import limits
+    from tstarg.reports._certify import BUDGETS
     from tstarg.reports._guard import materialize
     from tstarg.reports.certification import certify
-    from tstarg.reports.cmd_certify import BUDGETS
 
     spec = _target(pytestconfig)
     b = BUDGETS["dev"]

@@ -11,7 +11,7 @@ from argparse import Namespace
 
 import pytest
 
-from tstarg.reports import cmd_verify, regression
+from tstarg.reports import _verify, regression
 
 
 @pytest.fixture(scope="module")
@@ -73,9 +73,7 @@ def test_a_much_faster_run_says_the_baseline_is_stale(base, tmp_path, capsys):
         baseline=str(base_file), no_baseline=False, digits_slack=None, speed_factor=None
     )
     results: list = []
-    cmd_verify._compare_with_baseline(
-        args, report, results, tmp_path, cmd_verify._load_baseline(args)
-    )
+    _verify._compare_with_baseline(args, report, results, tmp_path, _verify._load_baseline(args))
     out = capsys.readouterr().out
     assert "the baseline is stale" in out and regression.RENEW in out
     assert report["comparison"]["stale"]

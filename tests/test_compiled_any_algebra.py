@@ -209,3 +209,76 @@ def test_structure_counts_follow_sparsity():
 def test_full_state_against_reference_T10_slow(name):
     """T = 10 (re-based many times in the reference) at the protocol's default tolerance."""
     _check_against_reference(_model(name, seed=1), 10.0, 1e-10, dps=20)
+
+
+@needs_numba
+@pytest.mark.parametrize("kind", ["III", "VI0"])
+def test_compiled_abelian_refine_recovers_x(kind):
+    """The compiled refine of the log's abelian part (fk.abelian_batch, used by the full state on
+    exponential algebras) recovers ``x`` from ``G = exp(rho(x))`` and ``s = P x`` where the principal
+    log is ill-conditioned (a large abelian part, ``G``'s entries spread over ``e^(+-l)``).
+
+    Independent route: ``x_true`` is given, ``G`` is mpmath's ``expm`` at 40 digits rounded to
+    float64. Error model: the ``[g, g]`` part is fitted to ``G`` by least squares, so it moves by
+    ``||J^+||_2 |dG|_F`` with ``J`` the Frechet derivatives along ``[g, g]`` (scipy ``expm_frechet``)
+    and ``|dG|`` the rounding of ``G`` plus the compiled ``expm``'s error, ``c eps r max(1, |G|)`` with
+    ``c = 10^3``; the abelian part is held at ``s`` (to ``1e-13`` relative, the trigger of the refine)."""
+    import mpmath
+
+    from tstarg.refimpl.flows._common import _AbelianPart
+
+    alg = bianchi(kind)
+    f = np.asarray(alg.f, float)
+    rep = representation_for(alg)
+    mats = np.ascontiguousarray(np.asarray(rep.mats).real)
+    ab = _AbelianPart.of(f, 1)
+    P, D = ab.P, ab.D
+    tables = (
+        np.ascontiguousarray(P),
+        np.ascontiguousarray(np.linalg.pinv(P)),
+        np.ascontiguousarray(D),
+        np.ascontiguousarray(np.einsum("ak,aij->kij", D, mats)),
+    )
+    rng = np.random.default_rng(7)
+    for lam in (3.0, 8.0):
+        x_true = D @ rng.standard_normal(D.shape[1]) + lam * P[0]
+        X = mpmath.matrix(np.einsum("a,aij->ij", x_true, mats).tolist())
+        with mpmath.workdps(40):
+            G = np.array(mpmath.expm(X).tolist(), dtype=float)
+        s = P @ x_true
+        # the starting x: the true one pushed off in both the abelian and the [g, g] directions
+        x0 = x_true + 1e-6 * rng.standard_normal(3)
+        xs = np.ascontiguousarray(x0[None].copy())
+        fk.abelian_batch(G[None].copy(), xs, s[:, None].copy(), *tables, mats, 1e-13)
+        x = xs[0]
+        assert np.all(np.isfinite(x))
+        assert np.max(np.abs(P @ x - s)) <= 1e-13 * max(1.0, np.max(np.abs(s)))
+        Xt = np.einsum("a,aij->ij", x_true, mats)
+        Dr = np.einsum("ak,aij->kij", D, mats)
+        J = np.stack([scipy.linalg.expm_frechet(Xt, E, compute_expm=False).ravel() for E in Dr], -1)
+        jinv = 1.0 / np.linalg.svd(J, compute_uv=False)[-1]
+        r = mats.shape[1]
+        bound = jinv * 1e3 * EPS * r * max(1.0, np.max(np.abs(G)))
+        assert np.max(np.abs(x - x_true)) <= bound + 1e3 * EPS * np.max(np.abs(x_true))
+
+
+@needs_numba
+@pytest.mark.parametrize("name", ["se(3)", "Bianchi III + cocycle"])
+def test_generated_kernel_against_the_generic_one(name):
+    """The kernel generated per structure (the flows' default) and the one compiled for every
+    structure (sparse tables) run the same recurrence and step rule: the same step counts (``+- 1``)
+    and end states that differ by rounding only. Error model: each step's rounding, ``c eps
+    max(1, |y|)`` with ``c = 10^2`` (sums of up to ~20 terms, order ~20 Horner), accumulated over
+    the steps and amplified by the flow over ``T = 1`` (factor <= 10)."""
+    alg, theta, ups, inertia, pot, x0, pi0 = _model(name)
+    model = cached_model(alg, theta, ups, inertia, pot)
+    fs = fs_mod.full_state(model)
+    G0 = np.empty((1, fs.r, fs.r), dtype=fs.mats.dtype)
+    fk.exp_batch(np.ascontiguousarray(x0[None]), fs.mats, G0)
+    s0 = None if fs.abelian is None else fs.abelian.P @ x0[:, None]
+    y0 = fs_mod._pack(fs, pi0[:, None], None, G0, s0)
+    yg, sg = fs.run(y0, 1.0, 1e-13, generated=True)
+    yt, st = fs.run(y0, 1.0, 1e-13, generated=False)
+    assert abs(int(sg[0]) - int(st[0])) <= 1 and sg[0] > 0
+    bound = 10 * 1e2 * EPS * int(st[0]) * max(1.0, np.max(np.abs(yt)))
+    assert np.max(np.abs(yg - yt)) <= bound

@@ -284,25 +284,36 @@ def test_registry_applies_only_with_upsilon():
     assert not ok and "Upsilon = 0" in why
 
 
-def test_full_state_off_su2_refused_by_name():
-    """The configuration is carried as a quaternion: the full state is su(2)/so(3) only."""
+@needs_numba
+def test_full_state_off_su2_through_the_representation():
+    """Off su(2) the full state carries ``G = rho(g)`` (refimpl._full_state_rational; checked against
+    the references in tests/test_full_state_rational.py): the result has ``g`` in the 4 x 4
+    representation of SE(3) with ``x`` its logarithm, ``exp(rho(x)) = g`` to rounding."""
+    import scipy.linalg
+
     from tstarg.refimpl import catalogue
 
     alg = catalogue("se(3)")
     rng = np.random.default_rng(3)
     U = rng.normal(size=(6, 6)) * 0.05
     m = NumpyModel(alg.f, np.zeros((6, 6)), U - U.T, np.eye(6), None)
-    with pytest.raises(ValueError, match="su\\(2\\)/so\\(3\\) only"):
-        integrate_fast(
-            m,
-            METHODS["taylor-rational"],
-            np.zeros((6, 1)),
-            np.ones((6, 1)),
-            1.0,
-            None,
-            system="full",
-            tol=1e-8,
-        )
+    out = integrate_fast(
+        m,
+        METHODS["taylor-rational"],
+        np.zeros((6, 1)),
+        np.ones((6, 1)),
+        1.0,
+        None,
+        system="full",
+        tol=1e-8,
+    )
+    mats = np.asarray(m.representation.mats)
+    g = scipy.linalg.expm(np.einsum("a,aij->ij", out.x[:, 0], mats))
+    # exp of a matrix of norm ~ 2: c eps exp(||X||) |g| with c = 100
+    assert out.g.shape == (1, 4, 4)
+    assert np.max(np.abs(g - out.g[0])) <= 100 * EPS * np.exp(np.linalg.norm(g, 1)) * np.max(
+        np.abs(g)
+    )
 
 
 @needs_numba

@@ -154,7 +154,7 @@ LONG = "se(2) (solvable, e0 rotation, e1 e2 translations) with the non-trivial c
 
 
 def test_trajectory_figure_of_tstarg_run(drawn, tmp_path):
-    from tstarg.reports import cmd_run
+    from tstarg.reports import _run as cmd_run
 
     T, N, n = 41, 2, 3
     t = np.linspace(0, 20, T)
@@ -197,7 +197,7 @@ def test_compare_figure_of_verify(drawn, tmp_path):
 
 
 def test_stress_figures(drawn, tmp_path):
-    from tstarg.reports import cmd_stress
+    from tstarg.reports import _stress_run as cmd_stress
 
     rows = []
     for k, p in enumerate([1e1, 1e2, 1e3, 1e5, 1e7, 1e9, 1e11, 1e13, 1e15, math.inf]):

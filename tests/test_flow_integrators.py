@@ -8,7 +8,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from tstarg.refimpl import Model, State, catalogue
+from tstarg.refimpl import Model, State, _compiled_taylor, catalogue
 from tstarg.refimpl.flows import METHODS, FlowResult, StepDoubling, choose, method
 from tstarg.refimpl.flows.base import Adaptive, FixedStep
 
@@ -93,14 +93,17 @@ def test_step_doubling_meets_its_tolerance_against_a_finer_run():
 
 def test_default_choice():
     """The protocol's choice: the compiled Taylor methods on the full state (su(2): quaternion,
-    ``taylor-rational`` with Upsilon; every other algebra with Upsilon = 0: G = rho(g)), else DOP853
-    (the body system) or Gauss6 (Upsilon != 0 off su(2))."""
+    ``taylor-rational`` with Upsilon; every other algebra: G = rho(g), ``taylor`` with Upsilon = 0 and
+    ``taylor-rational`` otherwise), else DOP853 (the body system) or Gauss6 (Upsilon != 0, the body
+    system or no numba)."""
     ups = np.einsum("l,lmn->mn", np.array([0.05, 0.02, -0.03]), SU2.f)
     b3 = catalogue("Bianchi III")
     z3 = np.zeros((3, 3))
     assert choose(Model(b3, z3, z3, I, None), full=True).name == "taylor"
     assert choose(Model(b3, z3, z3, I, None), full=False).name == "dop853"
-    assert choose(Model(b3, z3, ups, I, None), full=True).name == "gauss6"
+    full_ups = "taylor-rational" if _compiled_taylor.HAVE_NUMBA else "gauss6"
+    assert choose(Model(b3, z3, ups, I, None), full=True).name == full_ups
+    assert choose(Model(b3, z3, ups, I, None), full=False).name == "gauss6"
     assert choose(Model(SU2, Z, Z, I, None), full=False).name == "dop853"
 
 

@@ -65,6 +65,19 @@ def test_atomic_write_replaces_whole_and_leaves_no_temporary(tmp_path):
     assert sorted(x.name for x in p.parent.iterdir()) == ["report.json"]
 
 
+def test_atomic_writes_take_the_umask_permissions(tmp_path):
+    """write_text and replacing give the new file the mode open() would (0666 minus the umask), not
+    mkstemp's 0600; independent of the code: the mode of a file made by open() in the same folder."""
+    plain = tmp_path / "plain.txt"
+    plain.write_text("x")
+    want = plain.stat().st_mode & 0o777
+    a = _atomic.write_text(tmp_path / "a.txt", "x")
+    with _atomic.replacing(tmp_path / "b.txt") as tmp:
+        tmp.write_text("y")
+    assert (a.stat().st_mode & 0o777) == want == ((tmp_path / "b.txt").stat().st_mode & 0o777)
+    assert (tmp_path / "b.txt").read_text() == "y"
+
+
 def test_atomic_write_failure_keeps_the_old_file(tmp_path, monkeypatch):
     p = tmp_path / "report.json"
     _atomic.write_text(p, '{"old": 1}')

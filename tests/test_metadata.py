@@ -4,6 +4,7 @@ every file, and a CITATION.cff that cites the paper."""
 
 from __future__ import annotations
 
+import functools
 import re
 import subprocess
 import tomllib
@@ -12,7 +13,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from tstarg.reports import cli
+from tstarg.reports import cli, environment
 
 ROOT = Path(__file__).resolve().parents[1]
 PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
@@ -52,7 +53,7 @@ def test_version_command_prints_version_and_commit(capsys):
     if head.returncode != 0:  # not a git checkout (an sdist unpacked): the commit is unknown
         assert m.group(2) == "unknown"
     else:
-        assert head.stdout.strip().startswith(m.group(2).removesuffix("-dirty"))
+        assert head.stdout.strip() == m.group(2).removesuffix("+dirty")
 
 
 def test_version_is_unknown_outside_a_checkout(tmp_path, monkeypatch):
@@ -60,8 +61,11 @@ def test_version_is_unknown_outside_a_checkout(tmp_path, monkeypatch):
     fake = tmp_path / "site-packages" / "tstarg" / "reports" / "cli.py"
     fake.parent.mkdir(parents=True)
     fake.write_text("")
-    monkeypatch.setattr(cli, "__file__", str(fake))
-    assert cli.commit() == "unknown"
+    monkeypatch.setattr(environment, "__file__", str(fake))
+    monkeypatch.setattr(
+        environment, "git_commit", functools.cache(environment.git_commit.__wrapped__)
+    )
+    assert cli.commit() == "unknown" and environment.git_commit() is None
 
 
 def test_the_licence_is_bsd3_everywhere():

@@ -38,6 +38,7 @@ def test_wheel_installs_one_namespace_with_its_data(wheel):
         assert f"tstarg/{part}/__init__.py" in names
     assert any(n.startswith("tstarg/refimpl/scenes/") and n.endswith(".toml") for n in names)
     assert "tstarg/reports/baseline/report.json" in names
+    assert "tstarg/oracles/registry/deux.toml" in names  # the claims registry (oracles/claims.py)
     entry = next(n for n in names if n.endswith("entry_points.txt"))
     text = zipfile.ZipFile(wheel).read(entry).decode()
     assert "tstarg = tstarg.reports.cli:main" in text

@@ -7,10 +7,10 @@ import json
 
 import pytest
 
-from tstarg.oracles import claim_checks as pc
+from tstarg.oracles import claim_checks as cc
 from tstarg.oracles import paper_index as pi
 
-PAPER = pc.paper_path()
+PAPER = cc.paper_path()
 
 
 @pytest.mark.skipif(PAPER is None, reason="paper.tex not found ($TSTARG_PAPER): nothing to compare")
@@ -28,7 +28,7 @@ def test_shipped_index_is_complete_and_names_the_paper():
     assert ix.title.startswith("Modified Symplectic Structures in Cotangent Bundles of Lie Groups")
     labels = [lab for d in ix.displays for lab in d.labels]
     # the printed label sequence (drie5 twice) as embedded in the registry, from an independent regex
-    assert labels == list(pc.PAPER_LABELS)
+    assert labels == list(cc.PAPER_LABELS)
     ids = [d.id for d in ix.displays] + [s.id for s in ix.sentences]
     assert len(ids) == len(set(ids)) and len(ix.displays) > 60 and len(ix.sentences) > 60
 

@@ -245,8 +245,8 @@ def test_clean_rerun_has_no_accuracy_regression(tmp_path):
 
 def test_committed_baseline_is_a_full_ci_run():
     """The committed baseline is a passing ``--profile ci --seed 0`` run of every default provider."""
-    from tstarg.reports.cmd_verify import PROFILES
-    from tstarg.reports.cmd_verify import PROVIDERS as DEFAULT
+    from tstarg.reports._verify import PROFILES
+    from tstarg.reports._verify import PROVIDERS as DEFAULT
 
     base = regression.load_report(regression.BASELINE)
     assert (base["profile"], base["max_examples"], base["seed"]) == ("ci", PROFILES["ci"], 0)

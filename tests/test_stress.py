@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from tstarg.refimpl.fast import implementation as _fast
-from tstarg.reports import _stress
+from tstarg.reports import _stress, cmd_stress
 from tstarg.reports.cli import build_parser
 
 
@@ -206,14 +206,14 @@ def test_real_long_integration_follows_brouwer(quick_run):
 
 def test_sweep_results_do_not_depend_on_where_they_ran():
     """The same sweep over 2 local processes gives exactly the serial rows (tasks deterministic in their item)."""
-    from tstarg.reports.cmd_stress import run
+    from tstarg.reports._stress_run import run
 
     kw = {
         "quick": True,
         "tol": 1e-10,
         "escalate": True,
         "judge_dps": 50,
-        "implementation": _stress.DEFAULT_IMPLEMENTATION,
+        "implementation": cmd_stress.DEFAULT_IMPLEMENTATION,
         "sweeps": ["degenerate-su2", "brouwer"],
         "brouwer_time": 20.0,
         "brouwer_trajectories": 8,

@@ -8,8 +8,8 @@ import json
 import pytest
 
 from tstarg.properties.runner import CheckResult, run_property
+from tstarg.reports import _verify as verify
 from tstarg.reports import cli
-from tstarg.reports import cmd_verify as verify
 
 
 def passing_provider(max_examples, seed):

@@ -42,7 +42,7 @@ def _errata_markdown() -> str:
     lines = []
     for c in ERRATA:
         # the texts are plain ASCII mathematics: <dV|e_m> must be shown, not taken for an HTML tag
-        claim, erratum = html.escape(c.claim, quote=False), html.escape(c.erratum, quote=False)
+        claim, erratum = html.escape(c.claim, quote=False), html.escape(c.corrected, quote=False)
         lines.append(
             f"- **{c.label}** ({c.section}): {claim}. *Erratum:* {erratum} "
             f"(checks: printed form `{', '.join(c.literal) or '-'}` must fail, "

@@ -14,7 +14,17 @@ import numpy as np
 
 from ._loader import template
 
-__all__ = ["STALL", "kernel_source"]
+__all__ = [
+    "STALL",
+    "adaptive_step_lines",
+    "amax_of",
+    "cauchy_loops",
+    "kernel_source",
+    "prologue_lines",
+    "sensitivity_lines",
+    "solve_lines",
+    "update_lines",
+]
 
 STALL = 64 * float(np.finfo(float).eps)  # a step below STALL * t cannot advance t reliably: stalled
 
@@ -43,9 +53,53 @@ def _sum(terms) -> str:
     return " + ".join(terms) if terms else "0.0"
 
 
-def kernel_source(rf) -> str:
-    """The kernel module for the structure of ``rf`` (see the module docstring)."""
-    n, d = rf.n, rf.d
+CHUNK = 16
+"""Accumulators per Cauchy loop (:func:`cauchy_loops`): more sums side by side than this spill out of
+the registers and multiply the compile time (LLVM's register allocation on one long loop body)."""
+
+
+def cauchy_loops(head: str, lines: list[str]) -> list[str]:
+    """The accumulation ``lines`` under the loop ``head``, in loops of at most :data:`CHUNK` lines
+    (one loop when they fit: the kernels of few pairs, su(2)'s, are unchanged)."""
+    out = []
+    for i in range(0, len(lines), CHUNK):
+        out.append(head)
+        out += ["    " + x for x in lines[i : i + CHUNK]]
+    return out
+
+
+def sensitivity_lines(mi: str, s0: str, unorm: str) -> list[str]:
+    """``cnd = ||Psi_0^-1||_inf (1 + ||S_0||_inf ||Upsilon||_inf)`` where ``cnd`` is finite: the
+    sensitivity of the solve by ``Phi`` to the data (docs/conventions.md), which sees ``Delta -> 0``
+    where the condition number alone cannot (``Phi = (1 - u s) 1`` on 2-dimensional algebras);
+    at least ``cond_inf(Psi_0)`` since ``||Psi_0|| <= 1 + ||Upsilon|| ||S_0||``."""
+    I1, I2, I3 = ("    " * i for i in range(1, 4))
+    return [
+        "if cnd < np.inf:",
+        I1 + "mn = 0.0",
+        I1 + "sn = 0.0",
+        I1 + "for a in range(n):",
+        I2 + "ra = 0.0",
+        I2 + "sa = 0.0",
+        I2 + "for b in range(n):",
+        I3 + f"ra += abs({mi}[a, b])",
+        I3 + f"sa += abs({s0}[a, b])",
+        I2 + "mn = max(mn, ra)",
+        I2 + "sn = max(sn, sa)",
+        I1 + f"cnd = mn * (1.0 + sn * {unorm})",
+    ]
+
+
+def solve_lines(
+    rf, sensitivity: bool = False, compact: bool = False
+) -> tuple[list[str], list[str]]:
+    """The solve by ``Phi`` as a series recurrence, shared by every rational kernel: ``(per_step,
+    per_order)``. ``per_step`` (inside the step loop): ``S_0``, ``Psi_0 = 1 + Upsilon S_0``, its inverse
+    ``Mi`` and condition (``status = -2`` and stop above ``cond_max``), then the line
+    ``for k in range(P):``; ``per_order`` (the body of that loop, unindented): ``Omega_k`` into ``OM``,
+    ``pi_{k+1}`` into ``PI`` and ``Gamma_{k+1}`` into ``GA``, ``ik = 1 / (k + 1)`` set. Arrays and
+    locals as :func:`prologue_lines` allocates them."""
+    n = rf.n
     trip = rf.trip
     nzI = rf.Iinv != 0.0
     nzU = rf.U != 0.0
@@ -53,7 +107,7 @@ def kernel_source(rf) -> str:
     nzG = rf.GL != 0.0
     nzUG = rf.UGL != 0.0
     grav = rf.gravity
-    I1, I2, I3, I4, I5 = ("    " * i for i in range(1, 6))
+    I1, I2, I3 = ("    " * i for i in range(1, 4))
 
     # pairs of the contractions: (S v)_a <- (m, b); (S^T w)_b <- (m, a); Gdot_mu <- (Omega b, Gamma m)
     sv_pairs = sorted({(m, b) for m, a, b in trip})
@@ -69,7 +123,15 @@ def kernel_source(rf) -> str:
 
     body = []
     # ---- Psi_0 = 1 + U S_0 and its inverse; the condition number
-    for a in range(n):
+    if compact:  # S_0 by loops over the index tables TRM, TRA, TRB (the caller defines them)
+        body += [
+            "for a in range(n):",
+            I1 + "for b in range(n):",
+            I2 + "S0[a, b] = -th[a, b]",
+            "for e in range(TRM.shape[0]):",
+            I1 + "S0[TRA[e], TRB[e]] += fv[e] * PI[TRM[e], 0]",
+        ]
+    for a in range(n if not compact else 0):
         for b in range(n):
             terms = [
                 f"fv{t} * PI[{m}, 0]" for t, (m, aa, bb) in enumerate(trip) if (aa, bb) == (a, b)
@@ -85,6 +147,10 @@ def kernel_source(rf) -> str:
         I3 + "acc += U[a, c] * S0[c, b]",
         I2 + "Psi[a, b] = acc",
         "cnd = invert(Psi, Mi, n, GJ)",
+    ]
+    if sensitivity:
+        body += sensitivity_lines("Mi", "S0", "unorm")
+    body += [
         "if not (cnd <= cond_max):",
         I1 + "status = -2",
         I1 + "cond_seen = cnd",
@@ -96,8 +162,10 @@ def kernel_source(rf) -> str:
     kb = []
     # Omega_k: r = Iinv pi_k + UGL Gamma_k - U (sum_{j=1..k} S_j Omega_{k-j})
     kb += [f"po_{m}_{b} = 0.0" for m, b in sv_pairs]
-    kb += ["for j in range(1, k + 1):"]
-    kb += [I1 + f"po_{m}_{b} += PI[{m}, j] * OM[{b}, k - j]" for m, b in sv_pairs]
+    kb += cauchy_loops(
+        "for j in range(1, k + 1):",
+        [f"po_{m}_{b} += PI[{m}, j] * OM[{b}, k - j]" for m, b in sv_pairs],
+    )
     cso = contract("po", lambda m, a, b: a, lambda m, a, b: (m, b))
     kb += [f"cs{a} = {_sum(cso[a])}" for a in range(n)]
     rI = _matvec("Ii", nzI, "PI[{}, k]")
@@ -117,9 +185,11 @@ def kernel_source(rf) -> str:
     # sum_{j=0..k} S_j dK_{k-j} (f part) and sum_{j=1..k} S_j^T w_{k-j}
     kb += [f"pd_{m}_{b} = PI[{m}, 0] * DK[{b}, k]" for m, b in sv_pairs]
     kb += [f"pw_{m}_{a} = 0.0" for m, a in st_pairs]
-    kb += ["for j in range(1, k + 1):"]
-    kb += [I1 + f"pd_{m}_{b} += PI[{m}, j] * DK[{b}, k - j]" for m, b in sv_pairs]
-    kb += [I1 + f"pw_{m}_{a} += PI[{m}, j] * W[{a}, k - j]" for m, a in st_pairs]
+    kb += cauchy_loops(
+        "for j in range(1, k + 1):",
+        [f"pd_{m}_{b} += PI[{m}, j] * DK[{b}, k - j]" for m, b in sv_pairs]
+        + [f"pw_{m}_{a} += PI[{m}, j] * W[{a}, k - j]" for m, a in st_pairs],
+    )
     csd = contract("pd", lambda m, a, b: a, lambda m, a, b: (m, b))
     csw = contract("pw", lambda m, a, b: b, lambda m, a, b: (m, a))
     rTh = _matvec("th", nzT, "DK[{}, k]")
@@ -142,11 +212,95 @@ def kernel_source(rf) -> str:
         kb.append(f"W[{a}, k] = {_sum(wU[a])}")
     if grav:
         kb += [f"og_{b}_{m} = 0.0" for b, m in g_pairs]
-        kb += ["for j in range(k + 1):"]
-        kb += [I1 + f"og_{b}_{m} += OM[{b}, j] * GA[{m}, k - j]" for b, m in g_pairs]
+        kb += cauchy_loops(
+            "for j in range(k + 1):",
+            [f"og_{b}_{m} += OM[{b}, j] * GA[{m}, k - j]" for b, m in g_pairs],
+        )
         cg = contract("og", lambda m, a, b: b, lambda m, a, b: (a, m))
         for mu in range(n):
             kb.append(f"GA[{mu}, k + 1] = ({_sum(cg[mu])}) * {inv}")
+    return body, kb
+
+
+def update_lines(rows: list[tuple[str, object]]) -> list[str]:
+    """After :func:`adaptive_step_lines`: the compensated Horner update of every row ``(array, index)``
+    (``comp[c]`` the compensation of row ``c``), the finiteness check (``status = -1``) and the step
+    budget (``status = -3``)."""
+    I1 = "    "
+    step = []
+    for c, (r, i) in enumerate(rows):
+        step += [
+            f"z = {r}[{i}, P]",
+            "for kk in range(P - 1, 0, -1):",
+            I1 + f"z = z * hs + {r}[{i}, kk]",
+            f"z = z * hs - comp[{c}]",
+            f"w = {r}[{i}, 0] + z",
+            f"comp[{c}] = (w - {r}[{i}, 0]) - z",
+            f"{r}[{i}, 0] = w",
+        ]
+    fin = " and ".join(f"math.isfinite({r}[{i}, 0])" for r, i in rows)
+    step += [
+        "nst += 1",
+        f"if not ({fin}):",
+        I1 + "status = -1",
+        I1 + "break",
+        "if nst > max_steps:",
+        I1 + "status = -3",
+        I1 + "break",
+    ]
+    return step
+
+
+def amax_of(rows: list[tuple[str, object]]):
+    """``amax(k)``: the expression of ``max_c |rows_c[k]|`` (for :func:`adaptive_step_lines`)."""
+
+    def amax(k):
+        e = f"abs({rows[0][0]}[{rows[0][1]}, {k}])"
+        for r, c in rows[1:]:
+            e = f"max({e}, abs({r}[{c}, {k}]))"
+        return e
+
+    return amax
+
+
+def prologue_lines(rf, ncomp: int) -> list[str]:
+    """The kernel's first lines after its ``def``: the dimension, the loaded ``fv{t}``, the work
+    arrays of :func:`solve_lines` (``QQ`` the su(2) quaternion's), ``ncomp`` compensations and the
+    step constants, ending with ``for it in range(N):``."""
+    I1 = "    "
+    src = [I1 + f"n = {rf.n}"]
+    src += [I1 + f"fv{t} = fv[{t}]" for t in range(len(rf.trip))]
+    src += [
+        I1 + "N = y0.shape[0]",
+        I1 + "PI = np.zeros((n, P + 1))",
+        I1 + "GA = np.zeros((n, P + 1))",
+        I1 + "OM = np.zeros((n, P + 1))",
+        I1 + "DK = np.zeros((n, P + 1))",
+        I1 + "W = np.zeros((n, P + 1))",
+        I1 + "QQ = np.zeros((4, P + 1))",
+        I1 + "S0 = np.zeros((n, n))",
+        I1 + "Psi = np.zeros((n, n))",
+        I1 + "Mi = np.zeros((n, n))",
+        I1 + "GJ = np.zeros((n, 2 * n))",
+        I1 + f"comp = np.zeros({ncomp})",
+        I1 + "sgn = 1.0 if T >= 0 else -1.0",
+        I1 + "Tabs = abs(T)",
+        I1 + "damp = math.exp(-0.7 / (P - 1))",
+        I1 + "e1 = 1.0 / (P - 1)",
+        I1 + "e2 = 1.0 / P",
+        I1 + f"stall = {STALL!r}",
+        I1 + "for it in range(N):",
+    ]
+    return src
+
+
+def kernel_source(rf) -> str:
+    """The kernel module for the structure of ``rf`` (see the module docstring)."""
+    n, d = rf.n, rf.d
+    grav = rf.gravity
+    I1, I2, I3 = ("    " * i for i in range(1, 4))
+    inv = "ik"
+    body, kb = solve_lines(rf)
     if rf.quat:
         # the group element as the unit quaternion q (g = q_0 - i q.sigma, refimpl._taylor.
         # quadratic_field_su2_full): dq/dt = q * (0, Omega/2), i.e. dq_0/dt = -1/2 q.Omega and
@@ -173,65 +327,18 @@ def kernel_source(rf) -> str:
     if rf.quat:
         rows += [("QQ", c) for c in range(4)]
 
-    def amax(k):
-        e = f"abs({rows[0][0]}[{rows[0][1]}, {k}])"
-        for r, c in rows[1:]:
-            e = f"max({e}, abs({r}[{c}, {k}]))"
-        return e
-
     # no step (the coefficients overflowed) or a step collapsed below float64's resolution of t:
     # a real singularity of the field ahead (vier12); the caller checks the state is finite
-    step = adaptive_step_lines(amax, I1, "h > stall * t")
-    for c, (r, i) in enumerate(rows):
-        step += [
-            f"z = {r}[{i}, P]",
-            "for kk in range(P - 1, 0, -1):",
-            I1 + f"z = z * hs + {r}[{i}, kk]",
-            f"z = z * hs - comp[{c}]",
-            f"w = {r}[{i}, 0] + z",
-            f"comp[{c}] = (w - {r}[{i}, 0]) - z",
-            f"{r}[{i}, 0] = w",
-        ]
-    fin = " and ".join(f"math.isfinite({r}[{i}, 0])" for r, i in rows)
-    step += [
-        "nst += 1",
-        f"if not ({fin}):",
-        I1 + "status = -1",
-        I1 + "break",
-        "if nst > max_steps:",
-        I1 + "status = -3",
-        I1 + "break",
-    ]
+    step = adaptive_step_lines(amax_of(rows), I1, "h > stall * t")
+    step += update_lines(rows)
 
     src = [
         template("rational_header"),
         "",
         "@njit(cache=True, nogil=True)",
         "def adaptive(y0, T, tol, P, max_steps, fv, th, U, Ii, GL, UGL, cond_max, out, nsteps, tend, conds):",
-        I1 + f"n = {n}",
     ]
-    src += [I1 + f"fv{t} = fv[{t}]" for t in range(len(trip))]
-    src += [
-        I1 + "N = y0.shape[0]",
-        I1 + "PI = np.zeros((n, P + 1))",
-        I1 + "GA = np.zeros((n, P + 1))",
-        I1 + "OM = np.zeros((n, P + 1))",
-        I1 + "DK = np.zeros((n, P + 1))",
-        I1 + "W = np.zeros((n, P + 1))",
-        I1 + "QQ = np.zeros((4, P + 1))",
-        I1 + "S0 = np.zeros((n, n))",
-        I1 + "Psi = np.zeros((n, n))",
-        I1 + "Mi = np.zeros((n, n))",
-        I1 + "GJ = np.zeros((n, 2 * n))",
-        I1 + f"comp = np.zeros({d})",
-        I1 + "sgn = 1.0 if T >= 0 else -1.0",
-        I1 + "Tabs = abs(T)",
-        I1 + "damp = math.exp(-0.7 / (P - 1))",
-        I1 + "e1 = 1.0 / (P - 1)",
-        I1 + "e2 = 1.0 / P",
-        I1 + f"stall = {STALL!r}",
-        I1 + "for it in range(N):",
-    ]
+    src += prologue_lines(rf, d)
     for c, (r, i) in enumerate(rows):
         src.append(I2 + f"{r}[{i}, 0] = y0[it, {c}]")
     src += [
@@ -252,7 +359,6 @@ def kernel_source(rf) -> str:
         I2 + "tend[it] = sgn * t",
         I2 + "conds[it] = cond_seen",
     ]
-    del I4, I5
     return "\n".join(src) + "\n"
 
 

@@ -48,6 +48,7 @@ from .._algebra import LieAlgebra
 from .._errors import DegeneratePointError
 from .._flow_checks import check_time
 from .._integrators import gbs_mp
+from .._phi import phi1_mp
 from .._reference_core import MAX_DPS, _as_float, _to_mpf
 from .._reference_core import ReferenceCore as Reference
 from .._representation import Representation, representation_for
@@ -338,9 +339,10 @@ class ModelMP:
         """``A(x)^T Theta x`` with ``A = phi1(-ad_x)``: the cocycle correction of the momentum map."""
         if self.theta_zero:
             return mpmath.zeros(self.n, 1)
-        A = Reference.phi1_series(-self.ad(x))
+        A = phi1_mp(-self.ad(x))
         return A.T * (self.theta * x)
 
+    # Not refimpl/_phi.py's phi1_mp: A and Ad fused in one loop over plain lists (the flow's hot path).
     def frames_series(self, x):
         """``A = phi1(-ad_x)`` and ``Ad = exp(ad_x)`` from one Taylor loop over the powers of ``M = -ad_x``:
         ``A = sum M^k/(k+1)!``, ``Ad = sum (-1)^k M^k/k!``, summed until a term's largest entry is below
@@ -375,7 +377,7 @@ class ModelMP:
         return mpmath.matrix(A), mpmath.matrix(Ad)
 
     def frame_L(self, x):
-        A = Reference.phi1_series(-self.ad(x))
+        A = phi1_mp(-self.ad(x))
         return A, mpmath.inverse(A)
 
 

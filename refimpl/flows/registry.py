@@ -7,7 +7,7 @@ import importlib
 import pkgutil
 
 from .. import _compiled_taylor as _ct
-from .. import _full_state
+from .. import _full_state, _full_state_rational
 from .._flow_compiled import supports_full
 from ..model import Model
 from . import integrators as _integrators
@@ -49,10 +49,13 @@ def method(name: str) -> Integrator:
 def choose(model: Model, *, full: bool = False) -> Integrator:
     """The fastest method meeting a tolerance: the compiled adaptive Taylor method on the su(2) full
     state (``full``) when numba is present (``taylor``, or ``taylor-rational`` when ``Upsilon != 0``),
-    ``taylor`` on the full state of every other algebra with ``Upsilon = 0`` (:mod:`refimpl._full_state`),
-    else DOP853 (``Upsilon = 0``) or Gauss6 (``Upsilon != 0``)."""
+    ``taylor`` on the full state of every other algebra with ``Upsilon = 0`` (:mod:`refimpl._full_state`)
+    and ``taylor-rational`` with ``Upsilon != 0`` (:mod:`refimpl._full_state_rational`), else DOP853
+    (``Upsilon = 0``) or Gauss6 (``Upsilon != 0``)."""
     if full and _ct.HAVE_NUMBA and supports_full(model):
         return METHODS["taylor"] if model.upsilon_zero else METHODS["taylor-rational"]
     if full and _full_state.applies(model):  # every other algebra with Upsilon = 0 (G = rho(g))
         return METHODS["taylor"]
+    if full and _full_state_rational.applies(model):  # Upsilon != 0 off su(2) (G = rho(g))
+        return METHODS["taylor-rational"]
     return METHODS["dop853"] if model.upsilon_zero else METHODS["gauss6"]

@@ -25,7 +25,7 @@ from functools import lru_cache
 import numpy as np
 
 from tstarg.oracles.float_judge import MatrixGroup
-from tstarg.refimpl import su2
+from tstarg.refimpl import RepresentationError, representation_for, su2
 
 __all__ = ["GROUP_NAMES", "declared_group", "describe_group", "group_for"]
 
@@ -70,8 +70,6 @@ def _trivial_centre(f) -> bool:
 
 @lru_cache(maxsize=64)
 def _default(key: bytes, n: int) -> MatrixGroup | None:
-    from tstarg.refimpl._representation import RepresentationError, representation_for
-
     f = np.frombuffer(key).reshape(n, n, n)
     if _is_su2(f):
         return MatrixGroup(np.asarray(su2().rep), SU2_NAME)

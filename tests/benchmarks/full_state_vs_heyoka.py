@@ -171,7 +171,7 @@ def main(argv=None) -> int:
     ap.add_argument(
         "--generated",
         action="store_true",
-        help="run the kernel generated per structure on every call (GENERATED_MIN_WORK = 0)",
+        help="run the kernel generated per structure on every call (GENERATED_MIN_WORK = 0, the default)",
     )
     ap.add_argument(
         "--batch",

@@ -1,5 +1,5 @@
 """Benchmark script (not a test): ``tstarg verify`` under several seeds and profiles finishes
-within the profile's stated time (``reports.cmd_verify.BUDGETS[profile]["run_seconds"]``).
+within the profile's stated time (``reports._verify.BUDGETS[profile]["run_seconds"]``).
 
 Usage::
 
@@ -23,7 +23,7 @@ import sys
 import time
 from pathlib import Path
 
-from tstarg.reports.cmd_verify import BUDGETS
+from tstarg.reports._verify import BUDGETS
 
 
 def main() -> int:

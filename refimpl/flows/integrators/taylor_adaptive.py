@@ -2,7 +2,7 @@
 order and step from a tolerance, per trajectory (:mod:`refimpl._compiled_taylor`); on su(2)/so(3) the
 full state carries the group element as a quaternion under the two-run control of
 :mod:`refimpl._flow_compiled`; on every other algebra the full state carries ``G = rho(g)`` in the
-faithful representation (:mod:`refimpl._full_state`, one compiled kernel for every structure)."""
+faithful representation (:mod:`refimpl._full_state`, a kernel generated per structure)."""
 
 from __future__ import annotations
 

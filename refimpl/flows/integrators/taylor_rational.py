@@ -3,8 +3,10 @@
 
 from __future__ import annotations
 
+from ... import _full_state_rational
 from ..._compiled_rational import rational_taylor_body
 from ..._flow_compiled import compiled_taylor_flow
+from .._common import _AbelianPart
 from ..base import Adaptive, FlowResult
 
 __all__ = ["INTEGRATORS", "RationalTaylor"]
@@ -12,9 +14,10 @@ __all__ = ["INTEGRATORS", "RationalTaylor"]
 
 class RationalTaylor(Adaptive):
     """Adaptive order and step from a tolerance (Jorba-Zou) on the body system ``(pi[, Gamma])`` with
-    ``Upsilon != 0``, and on su(2)/so(3) the full state ``(pi, [Gamma,] q)`` under the two-run control
-    of :mod:`refimpl._flow_compiled`; raises :class:`refimpl._errors.DegeneratePointError` on the
-    degenerate set."""
+    ``Upsilon != 0``; the full state on su(2)/so(3) as ``(pi, [Gamma,] q)`` under the two-run control
+    of :mod:`refimpl._flow_compiled`, on every other algebra as ``(pi, [Gamma,] G = rho(g))`` under
+    that of :mod:`refimpl._full_state` (:mod:`refimpl._full_state_rational`); raises
+    :class:`refimpl._errors.DegeneratePointError` on the degenerate set."""
 
     def applies(self, model):
         if model.upsilon_zero:
@@ -23,19 +26,24 @@ class RationalTaylor(Adaptive):
                 "Upsilon = 0: the field is polynomial and the method 'taylor' needs no Phi solve",
             )
         if not model.su2:
-            return (
-                True,
-                "body system (pi, Gamma) on this algebra; the full state on su(2)/so(3) only",
-            )
+            if _full_state_rational.applies(model):
+                return True, "body system (pi, Gamma), and the full state with G = rho(g)"
+            return True, "body system (pi, Gamma); the full state needs numba off su(2)/so(3)"
         return True, "body system (pi, Gamma), and the full state with the quaternion (su(2)/so(3))"
 
     def _run(self, model, x0, pi0, t, *, tol, system) -> FlowResult:
         if system == "body":
             return FlowResult(**rational_taylor_body(model, x0, pi0, t, tol=tol))
+        if _full_state_rational.applies(model):  # G = rho(g) in the faithful representation
+            return FlowResult(
+                **_full_state_rational.rational_full_state_flow(
+                    model, x0, pi0, t, tol, abelian=_AbelianPart
+                )
+            )
         if not model.su2:
             raise ValueError(
-                f"method {self.name} integrates the full state on su(2)/so(3) only (the "
-                "configuration as a quaternion); use system='body' or a re-basing method"
+                f"method {self.name} integrates the full state off su(2)/so(3) only with numba "
+                "(G = rho(g)); use system='body' or a re-basing method"
             )
         return FlowResult(**compiled_taylor_flow(model, x0, pi0, t, tol))
 

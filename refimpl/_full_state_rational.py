@@ -1,0 +1,230 @@
+"""The full state with ``Upsilon != 0`` on every algebra: a compiled adaptive Taylor flow.
+
+The field (vier10/vier11, :meth:`refimpl.model.Model.omega_pidot`; docs/conventions.md)
+    ``S(pi)_ab = pi_m f^m_ab - Theta_ab``, ``Psi = 1 + Upsilon S = Phi^T``, ``dK = I^-1 pi``,
+    ``dV = -G_L Gamma`` (gravity, twee15), and
+
+        Psi Omega = dK - Upsilon dV,      Phi pidot = -dV - S dK,
+        Gammadot_mu = Omega^b f^a_{b mu} Gamma_a (twee17, sign corrected),
+        dG/dt = G rho(Omega)   (G = rho(g) in the algebra's faithful representation).
+
+    ``Omega`` and ``pidot`` are rational in ``pi`` (the solve by ``Phi``), so the field is no longer
+    quadratic; the series recurrence of the quotient (Jorba and Zou 2005; :mod:`refimpl._compiled_rational`)
+    matches the coefficients of ``Psi Omega = r``: ``Psi_0 Omega_k = r_k - Upsilon sum_{j>=1} S_j
+    Omega_{k-j}``, likewise for ``pidot``, with one inverse of ``Psi_0`` per step serving every order.
+    ``G`` then follows from the Cauchy products ``G_{k+1} = sum_a G_a M_{k-a} / (k+1)``,
+    ``M_k = rho(Omega_k)``, exactly as in :mod:`refimpl._full_state` (no chart, no re-basing).
+
+What is shared
+    The layout ``(pi, [Gamma,] G entries, [s])``, the starting state, the two-run error control, the
+    ``Ad(g)`` and ``x`` recovery (the project's logarithm and re-basing) are those of
+    :func:`refimpl._full_state.full_state_flow`; only the kernel differs (its ``run`` argument).
+    The kernel is generated per structure by :func:`refimpl.codegen.full_state_rational.
+    full_state_rational_source` (the nonzero patterns of ``f``, ``I^-1``, ``Theta``, ``Upsilon``,
+    ``G_L`` and of the ``E_b``; the numbers are array arguments).
+
+The degenerate set (vier12)
+    As the su(2) rational kernel, with the measure of docs/conventions.md: at every step the
+    sensitivity of the solve ``||Psi_0^-1||_inf (1 + ||S_0||_inf ||Upsilon||_inf)`` (at least
+    ``cond_inf(Psi_0)``; unlike it, it grows as ``Delta -> 0`` on 2-dimensional algebras too, where
+    ``Phi = (1 - u s) 1``; a zero pivot gives ``inf``); above :data:`refimpl._compiled_rational.COND_MAX`
+    the point is on ``Delta = det Phi = 0`` to float64 accuracy and :class:`refimpl._errors.DegeneratePointError` names
+    the trajectory, the time reached and the condition number. A trajectory running into the set
+    shows it first as a collapse of the Jorba-Zou step (the radius of convergence is the distance to
+    the singularity): the same error, with the time reached.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import _compiled_rational as _cr
+from . import _compiled_taylor as _ct
+from . import _full_state as _fs
+from . import _full_state_rational_kernel as _fk
+from .codegen import import_source
+from .codegen.full_state_rational import full_state_rational_source
+
+__all__ = [
+    "ORDER_BIAS",
+    "RationalFullState",
+    "applies",
+    "rational_full_state",
+    "rational_full_state_flow",
+]
+
+ORDER_BIAS = 4
+"""Above Jorba-Zou's order ``ceil(-ln(tol)/2 + 1)``: the per-step inverse of ``Psi_0`` is a fixed cost
+that fewer, longer steps amortise (as :data:`refimpl._full_state.ORDER_BIAS`)."""
+
+
+GENERATED_MIN_WORK = 1024.0
+"""``N |t|`` from which a flow runs the kernel generated for its structure (2-2.5x faster per step
+than the one compiled for every structure: measured 63 us against 153 us for ``T = 2`` on su(3),
+150 us against 380 us on se(3) with gravity) instead of :mod:`refimpl._full_state_rational_kernel`.
+Its compilation costs 15-25 s of CPU per structure before the disk cache has it (su(3), se(3)),
+repaid only by long batched flows; single protocol calls never pay it. A function of the call's
+inputs (the trajectories of one kernel call and the time span)."""
+
+SENSITIVITY = "||Phi^-1|| (1 + ||S|| ||Upsilon||)"
+"""The degeneracy measure of these kernels (inf-norms at the step's start; docs/conventions.md)."""
+
+
+def applies(model) -> bool:
+    """Every algebra but su(2)/so(3) (which carries the quaternion) with ``Upsilon != 0``, numba present."""
+    return bool(_ct.HAVE_NUMBA and not model.upsilon_zero and not model.su2)
+
+
+class RationalFullState:
+    """One model's kernel: the rational body field, the full-state layout and the generated module."""
+
+    def __init__(self, model, fs):
+        self.rf = _cr.RationalField(model)
+        self.fs = fs
+        self.coef = np.ascontiguousarray(fs.coef, dtype=float)
+        self._source = None
+        self._mod = None
+        self._tables = None
+
+    @property
+    def source(self) -> str:
+        """The generated kernel's source (:mod:`refimpl.codegen.full_state_rational`)."""
+        if self._source is None:
+            self._source = full_state_rational_source(self.rf, self.fs)
+        return self._source
+
+    def module(self):
+        if self._mod is None:
+            self._mod = import_source(self.source, "fullrat_")
+        return self._mod
+
+    def tables(self) -> tuple:
+        """The arguments of :func:`refimpl._full_state_rational_kernel.adaptive` between ``max_steps``
+        and ``cond_max`` (built once)."""
+        if self._tables is not None:
+            return self._tables
+        rf, fs = self.rf, self.fs
+        i64 = lambda a: np.ascontiguousarray(np.array(a, dtype=np.int64).reshape(-1))  # noqa: E731
+        trip = rf.trip
+
+        def pairs(key):
+            keys = sorted({key(*t) for t in trip})
+            at = {k: i for i, k in enumerate(keys)}
+            return (
+                i64([k[0] for k in keys]),
+                i64([k[1] for k in keys]),
+                i64([at[key(*t)] for t in trip]),
+            )
+
+        svm, svb, sv_of = pairs(lambda m, a, b: (m, b))
+        stm, sta, st_of = pairs(lambda m, a, b: (m, a))
+        gpa, gpm, gp_of = pairs(lambda m, a, b: (a, m))
+        gnames = [f"g{p}_{i}_{j}" for p, i, j in fs.gvars]
+        gidx = {g: v for v, g in enumerate(gnames)}
+        midx = {f"m{p}_{k}_{j}": e for e, (p, k, j) in enumerate(fs.mv)}
+        mptr, mb, mc = [0], [], []
+        for key in fs.mv:
+            for ci, b in fs.mv[key]:
+                mb.append(b)
+                mc.append(fs.coef[ci])
+            mptr.append(len(mb))
+        gvary = [g for g in gnames if g not in fs.const]
+        prods: dict = {}
+        for g in gvary:
+            for _, u, w in fs.quad[g]:
+                prods.setdefault((u, w), len(prods))
+        gptr, gprod, gsign = [0], [], []
+        for g in gvary:
+            for c, u, w in fs.quad[g]:
+                gprod.append(prods[(u, w)])
+                gsign.append(float(c))
+            gptr.append(len(gprod))
+        Pab = np.zeros((fs.n_ab, fs.n))
+        for ell, s in enumerate(fs.names[fs.d - fs.n_ab :] if fs.n_ab else []):
+            for ci, u in fs.lin[s]:
+                Pab[ell, int(u[2:])] += fs.coef[ci]
+        tarr = rf.trip_arr
+        self._tables = (
+            bool(rf.gravity), rf.theta, rf.U, rf.Iinv, rf.GL, rf.UGL,
+            i64(tarr[:, 0]), i64(tarr[:, 1]), i64(tarr[:, 2]), np.ascontiguousarray(rf.fv),
+            svm, svb, sv_of, stm, sta, st_of, gpa, gpm, gp_of,
+            len(gnames), i64(mptr), i64(mb), np.array(mc, dtype=float),
+            i64([gidx[u] for u, _ in prods]), i64([midx[w] for _, w in prods]),
+            np.array([u in fs.const for u, _ in prods], dtype=np.bool_),
+            i64([gidx[g] for g in gvary]), i64(gptr), i64(gprod), np.array(gsign, dtype=float),
+            Pab,
+        )  # fmt: skip
+        return self._tables
+
+    def run(
+        self,
+        y0,
+        T: float,
+        tol: float,
+        order: int | None = None,
+        max_steps: int = 10_000_000,
+        generated: bool = False,
+    ):
+        """``(y(T), steps, t_end, cond)`` for the rows of ``y0`` (N, d) at the local tolerance ``tol``
+        (``steps`` negative on failure, as :func:`refimpl._compiled_rational.rational_taylor_adaptive`):
+        the kernel generated for the structure (``generated``) or the one compiled for every structure."""
+        P = _ct.adaptive_order(tol) + ORDER_BIAS if order is None else int(order)
+        y = np.ascontiguousarray(y0, dtype=float)
+        if y.ndim != 2 or y.shape[1] != self.fs.d:
+            raise ValueError(f"y0 must have shape (N, {self.fs.d}), got {y.shape}")
+        N = y.shape[0]
+        out = np.empty_like(y)
+        steps = np.zeros(N, dtype=np.int64)
+        tend = np.zeros(N)
+        conds = np.zeros(N)
+        cmax = float(_cr.COND_MAX)
+        if generated:
+            self.module().adaptive(
+                y, float(T), float(tol), P, int(max_steps), *self.rf.args(), self.coef,
+                cmax, out, steps, tend, conds,
+            )  # fmt: skip
+        else:
+            _fk.adaptive(
+                y, float(T), float(tol), P, int(max_steps), *self.tables(), cmax, out, steps,
+                tend, conds,
+            )  # fmt: skip
+        return out, steps, tend, conds
+
+
+def rational_full_state(model, abelian=None) -> RationalFullState:
+    """The kernel of ``model`` kept on the (cached, immutable) model, over the full state of
+    :func:`refimpl._full_state.full_state` (``abelian`` as there)."""
+    fs = _fs.full_state(model, abelian)
+    rfs = model.__dict__.get("_rational_full_state")
+    if rfs is None or rfs.fs is not fs:
+        rfs = RationalFullState(model, fs)
+        model.__dict__["_rational_full_state"] = rfs
+    return rfs
+
+
+def _runner(rfs: RationalFullState):
+    """``run(fs, y0, t, eps, generated)`` for :func:`refimpl._full_state.full_state_flow`: raises
+    :class:`refimpl._errors.DegeneratePointError` on the degenerate set and ``ValueError`` for a
+    non-finite state or the step budget, naming the trajectories (no value past that point)."""
+
+    def run(fs, y0, t, eps, generated=False):
+        gen = y0.shape[0] * abs(t) >= GENERATED_MIN_WORK  # this module's rule, not the caller's
+        y, steps, tend, conds = rfs.run(y0, t, eps, generated=gen)
+        if steps.min() < 0:
+            _cr._raise_failed(y, steps, tend, conds, t, _cr.COND_MAX, SENSITIVITY)
+        return y, steps
+
+    return run
+
+
+def rational_full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None) -> dict:
+    """Full state ``(x, pi)`` of ``N`` trajectories (``x0``, ``pi0`` of shape (n, N)) at time ``t`` with
+    the global tolerance ``tol`` (the two-run control of :func:`refimpl._full_state.full_state_flow`,
+    whose result dict this returns)."""
+    if not applies(model):
+        raise ValueError(
+            "rational full state: for Upsilon != 0 off su(2)/so(3) with numba "
+            f"(Upsilon = 0: {model.upsilon_zero}, su(2): {model.su2}, numba: {_ct.HAVE_NUMBA})"
+        )
+    rfs = rational_full_state(model, abelian)
+    return _fs.full_state_flow(model, x0, pi0, t, tol, abelian=abelian, run=_runner(rfs))

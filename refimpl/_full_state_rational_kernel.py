@@ -1,0 +1,383 @@
+"""The compiled kernel of :mod:`refimpl._full_state_rational` for every structure (``Upsilon != 0``).
+
+The field is given as tables (arguments, never literals), so numba compiles this module once per
+argument types -- once in total -- and ``cache=True`` keeps the machine code on disk: a new algebra,
+inertia, ``Theta``, ``Upsilon`` or representation costs no compilation (the generated kernel of
+:mod:`refimpl.codegen.full_state_rational` unrolls the same recurrence per structure, for long runs).
+
+The recurrence (per step ``S_0``, ``Psi_0 = 1 + Upsilon S_0``, its inverse ``Mi`` and
+``cond_inf(Psi_0)``; per order ``k``, all sums over the nonzero entries of ``f`` and of ``rho``):
+
+    ``r_k = I^-1 pi_k + Upsilon G_L Gamma_k - Upsilon sum_{j=1..k} S_j Omega_{k-j}``,  ``Omega_k = Mi r_k``,
+    ``q_k = G_L Gamma_k + Theta dK_k - sum_{j=0..k} S_j dK_{k-j} - sum_{j=1..k} S_j^T w_{k-j}``,
+    ``pidot_k = Mi^T q_k``, ``pi_{k+1} = pidot_k / (k+1)``, ``w_k = Upsilon^T pidot_k``,
+    ``Gamma_{k+1} = sum_{j=0..k} f.(Omega_j, Gamma_{k-j}) / (k+1)``,
+    ``M_k = rho(Omega_k)``, ``G_{k+1} = sum_{a=0..k} G_a M_{k-a} / (k+1)``, ``s_{k+1} = P Omega_k / (k+1)``
+
+(``S_j = f.pi_j`` for ``j >= 1``, ``dK = I^-1 pi``): the recurrence of :mod:`refimpl._compiled_rational`
+with ``G`` of :mod:`refimpl._full_state`. Tables (``int64`` unless said otherwise):
+
+``tm, ta, tb, fv``
+    the nonzero ``f^m_ab`` (float ``fv``); ``svm, svb`` the distinct pairs ``(m, b)`` and ``sv_of[t]``
+    the pair of entry ``t``; ``stm, sta``, ``st_of`` likewise for ``(m, a)``; ``gpa, gpm``, ``gp_of`` for
+    ``(a, m)`` (gravity);
+``mptr, mb, mc``
+    ``M_k[e] = sum mc[t] Omega_k[mb[t]]`` for ``t`` in ``mptr[e]..mptr[e+1]`` (float ``mc``);
+``pu, pw, pconst``
+    the products ``G[pu] M[pw]`` (``pconst``: ``G[pu]`` is constant, its ``a = 0`` term only);
+``gvar, gptr, gprod, gsign``
+    per varying entry ``gvar[c]`` of ``G``: ``G_{k+1} = sum gsign prod[gprod] / (k+1)``;
+``Pab``
+    ``(n_s, n)`` float, the abelian part's ``ds/dt = P Omega``.
+
+Status codes as the su(2) rational kernel: -1 non-finite, -2 degenerate set (a zero pivot, or the
+sensitivity of the solve ``||Psi_0^-1||_inf (1 + ||S_0||_inf ||Upsilon||_inf) > cond_max``, which is
+at least ``cond_inf(Psi_0)`` and sees ``Delta -> 0`` on 2-dimensional algebras too), -3 step budget, -4 no step (the step fell below ``STALL t`` or the
+coefficients overflowed: a real singularity ahead).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .codegen.rational import STALL
+
+try:
+    from numba import njit
+except ImportError:  # pragma: no cover - the plain-Python path
+
+    def njit(*a, **kw):
+        return (lambda fn: fn) if not a else a[0]
+
+
+__all__ = ["adaptive", "invert_cond"]
+
+
+@njit(cache=True, nogil=True)
+def invert_cond(A, Ainv, M):
+    """Gauss-Jordan with partial pivoting, ``Ainv = A^-1`` (``M`` an (n, 2n) work array); returns
+    ``cond_inf(A)``, ``inf`` when a pivot is zero (the algorithm of the rational kernels' ``invert``)."""
+    n = A.shape[0]
+    anorm = 0.0
+    for i in range(n):
+        r = 0.0
+        for j in range(n):
+            M[i, j] = A[i, j]
+            M[i, n + j] = 1.0 if i == j else 0.0
+            r += abs(A[i, j])
+        anorm = max(anorm, r)
+    for c in range(n):
+        p = c
+        for i in range(c + 1, n):
+            if abs(M[i, c]) > abs(M[p, c]):
+                p = i
+        if not (abs(M[p, c]) > 0.0):
+            return np.inf
+        if p != c:
+            for j in range(2 * n):
+                tmp = M[c, j]
+                M[c, j] = M[p, j]
+                M[p, j] = tmp
+        piv = 1.0 / M[c, c]
+        for j in range(2 * n):
+            M[c, j] *= piv
+        for i in range(n):
+            if i != c:
+                g = M[i, c]
+                if g != 0.0:
+                    for j in range(2 * n):
+                        M[i, j] -= g * M[c, j]
+    inorm = 0.0
+    for i in range(n):
+        r = 0.0
+        for j in range(n):
+            Ainv[i, j] = M[i, n + j]
+            r += abs(M[i, n + j])
+        inorm = max(inorm, r)
+    return anorm * inorm
+
+
+@njit(cache=True, nogil=True, fastmath={"contract"})
+def _pairs(X, xi, Y, yi, j0, k, out):
+    """``out[p] = sum_{j=j0..k} X[xi[p], j] Y[yi[p], k - j]`` (four sums side by side)."""
+    npr = xi.shape[0]
+    p = 0
+    while p + 4 <= npr:
+        u0, u1, u2, u3 = xi[p], xi[p + 1], xi[p + 2], xi[p + 3]
+        w0, w1, w2, w3 = yi[p], yi[p + 1], yi[p + 2], yi[p + 3]
+        s0 = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        s3 = 0.0
+        for j in range(j0, k + 1):
+            b = k - j
+            s0 += X[u0, j] * Y[w0, b]
+            s1 += X[u1, j] * Y[w1, b]
+            s2 += X[u2, j] * Y[w2, b]
+            s3 += X[u3, j] * Y[w3, b]
+        out[p] = s0
+        out[p + 1] = s1
+        out[p + 2] = s2
+        out[p + 3] = s3
+        p += 4
+    while p < npr:
+        u, w = xi[p], yi[p]
+        s = 0.0
+        for j in range(j0, k + 1):
+            s += X[u, j] * Y[w, k - j]
+        out[p] = s
+        p += 1
+
+
+@njit(cache=True, nogil=True, fastmath={"contract"})
+def adaptive(y0, T, tol, P, max_steps, grav, th, U, Ii, GL, UGL, tm, ta, tb, fv, svm, svb, sv_of, stm, sta, st_of, gpa, gpm, gp_of, ng, mptr, mb, mc, pu, pw, pconst, gvar, gptr, gprod, gsign, Pab, cond_max, out, nsteps, tend, conds):  # fmt: skip
+    """Adaptive Taylor over ``[0, T]`` for every row ``(pi, [Gamma,] G entries, [s])`` of ``y0`` (N, d):
+    ``out`` the end states, ``nsteps`` the steps (negative: the status), ``tend`` the time reached,
+    ``conds`` the largest sensitivity seen."""
+    N, d = y0.shape
+    n = th.shape[0]
+    ns = Pab.shape[0]
+    nm = mptr.shape[0] - 1
+    nvar = gvar.shape[0]
+    goff = 2 * n if grav else n
+    soff = goff + ng
+    PI = np.zeros((n, P + 1))
+    GA = np.zeros((n, P + 1))
+    OM = np.zeros((n, P + 1))
+    DK = np.zeros((n, P + 1))
+    W = np.zeros((n, P + 1))
+    GG = np.zeros((max(ng, 1), P + 1))
+    MM = np.zeros((max(nm, 1), P + 1))
+    SS = np.zeros((max(ns, 1), P + 1))
+    S0 = np.zeros((n, n))
+    Psi = np.zeros((n, n))
+    Mi = np.zeros((n, n))
+    GJ = np.zeros((n, 2 * n))
+    po = np.zeros(max(svm.shape[0], 1))
+    pd = np.zeros(max(svm.shape[0], 1))
+    pwv = np.zeros(max(stm.shape[0], 1))
+    og = np.zeros(max(gpa.shape[0], 1))
+    gm = np.zeros(max(pu.shape[0], 1))
+    r = np.zeros(n)
+    q = np.zeros(n)
+    cs = np.zeros(n)
+    nrow = n * (2 if grav else 1) + nvar + ns
+    comp = np.zeros(nrow)
+    sgn = 1.0 if T >= 0 else -1.0
+    Tabs = abs(T)
+    damp = math.exp(-0.7 / (P - 1))
+    e1 = 1.0 / (P - 1)
+    e2 = 1.0 / P
+    stall = STALL
+    unorm = 0.0
+    for a in range(n):
+        ra = 0.0
+        for b in range(n):
+            ra += abs(U[a, b])
+        unorm = max(unorm, ra)
+    ntr = tm.shape[0]
+    for it in range(N):
+        for a in range(n):
+            PI[a, 0] = y0[it, a]
+            if grav:
+                GA[a, 0] = y0[it, n + a]
+        for v in range(ng):
+            GG[v, 0] = y0[it, goff + v]
+        for ell in range(ns):
+            SS[ell, 0] = y0[it, soff + ell]
+        for c in range(nrow):
+            comp[c] = 0.0
+        t = 0.0
+        nst = 0
+        status = 0
+        cond_seen = 0.0
+        while t < Tabs:
+            # ---- Psi_0 = 1 + U S_0, S_0 = f.pi_0 - Theta; its inverse and condition
+            for a in range(n):
+                for b in range(n):
+                    S0[a, b] = -th[a, b]
+            for e in range(ntr):
+                S0[ta[e], tb[e]] += fv[e] * PI[tm[e], 0]
+            for a in range(n):
+                for b in range(n):
+                    acc = 1.0 if a == b else 0.0
+                    for c in range(n):
+                        acc += U[a, c] * S0[c, b]
+                    Psi[a, b] = acc
+            cnd = invert_cond(Psi, Mi, GJ)
+            if (
+                cnd < np.inf
+            ):  # the sensitivity ||Psi_0^-1|| (1 + ||S_0|| ||U||) (docs/conventions.md)
+                mn = 0.0
+                sn = 0.0
+                for a in range(n):
+                    ra = 0.0
+                    sa = 0.0
+                    for b in range(n):
+                        ra += abs(Mi[a, b])
+                        sa += abs(S0[a, b])
+                    mn = max(mn, ra)
+                    sn = max(sn, sa)
+                cnd = mn * (1.0 + sn * unorm)
+            if not (cnd <= cond_max):
+                status = -2
+                cond_seen = cnd
+                break
+            cond_seen = max(cond_seen, cnd)
+            for k in range(P):
+                ik = 1.0 / (k + 1)
+                # Omega_k
+                _pairs(PI, svm, OM, svb, 1, k, po)
+                for a in range(n):
+                    cs[a] = 0.0
+                for e in range(ntr):
+                    cs[ta[e]] += fv[e] * po[sv_of[e]]
+                for a in range(n):
+                    acc = 0.0
+                    for b in range(n):
+                        acc += Ii[a, b] * PI[b, k] - U[a, b] * cs[b]
+                        if grav:
+                            acc += UGL[a, b] * GA[b, k]
+                    r[a] = acc
+                for a in range(n):
+                    acc = 0.0
+                    for b in range(n):
+                        acc += Mi[a, b] * r[b]
+                    OM[a, k] = acc
+                for a in range(n):
+                    acc = 0.0
+                    for b in range(n):
+                        acc += Ii[a, b] * PI[b, k]
+                    DK[a, k] = acc
+                # pidot_k
+                _pairs(PI, svm, DK, svb, 0, k, pd)
+                _pairs(PI, stm, W, sta, 1, k, pwv)
+                for a in range(n):
+                    acc = 0.0
+                    for b in range(n):
+                        acc += th[a, b] * DK[b, k]
+                        if grav:
+                            acc += GL[a, b] * GA[b, k]
+                    q[a] = acc
+                for e in range(ntr):
+                    q[ta[e]] -= fv[e] * pd[sv_of[e]]
+                    q[tb[e]] -= fv[e] * pwv[st_of[e]]
+                for a in range(n):
+                    acc = 0.0
+                    for b in range(n):
+                        acc += Mi[b, a] * q[b]
+                    r[a] = acc  # pidot_k
+                    PI[a, k + 1] = acc * ik
+                for a in range(n):
+                    acc = 0.0
+                    for b in range(n):
+                        acc += U[b, a] * r[b]
+                    W[a, k] = acc
+                if grav:
+                    _pairs(OM, gpa, GA, gpm, 0, k, og)
+                    for a in range(n):
+                        q[a] = 0.0
+                    for e in range(ntr):
+                        q[tb[e]] += fv[e] * og[gp_of[e]]
+                    for a in range(n):
+                        GA[a, k + 1] = q[a] * ik
+                # G_{k+1} from M_k = rho(Omega_k)
+                for e in range(nm):
+                    acc = 0.0
+                    for z in range(mptr[e], mptr[e + 1]):
+                        acc += mc[z] * OM[mb[z], k]
+                    MM[e, k] = acc
+                _pairs(GG, pu, MM, pw, 0, k, gm)
+                for p in range(pu.shape[0]):
+                    if pconst[p]:
+                        gm[p] = GG[pu[p], 0] * MM[pw[p], k]
+                for c in range(nvar):
+                    acc = 0.0
+                    for z in range(gptr[c], gptr[c + 1]):
+                        acc += gsign[z] * gm[gprod[z]]
+                    GG[gvar[c], k + 1] = acc * ik
+                for ell in range(ns):
+                    acc = 0.0
+                    for b in range(n):
+                        acc += Pab[ell, b] * OM[b, k]
+                    SS[ell, k + 1] = acc * ik
+            # ---- the step (Jorba-Zou on pi, Gamma and the varying G)
+            xn = 0.0
+            a1 = 0.0
+            a2 = 0.0
+            for a in range(n):
+                xn = max(xn, abs(PI[a, 0]))
+                a1 = max(a1, abs(PI[a, P - 1]))
+                a2 = max(a2, abs(PI[a, P]))
+                if grav:
+                    xn = max(xn, abs(GA[a, 0]))
+                    a1 = max(a1, abs(GA[a, P - 1]))
+                    a2 = max(a2, abs(GA[a, P]))
+            for c in range(nvar):
+                v = gvar[c]
+                xn = max(xn, abs(GG[v, 0]))
+                a1 = max(a1, abs(GG[v, P - 1]))
+                a2 = max(a2, abs(GG[v, P]))
+            s = tol * max(1.0, xn)
+            h = np.inf
+            if a1 > 0.0:
+                h = (s / a1) ** e1
+            if a2 > 0.0:
+                h = min(h, (s / a2) ** e2)
+            h *= damp
+            if not (h > stall * t):
+                status = -4
+                break
+            if t + h >= Tabs:
+                h = Tabs - t
+                t = Tabs
+            else:
+                t += h
+            hs = sgn * h
+            fin = True
+            c = 0
+            for blk in range(4):
+                if blk == 0:
+                    X = PI
+                    cnt = n
+                elif blk == 1:
+                    X = GA
+                    cnt = n if grav else 0
+                elif blk == 2:
+                    X = GG
+                    cnt = nvar
+                else:
+                    X = SS
+                    cnt = ns
+                for i0 in range(cnt):
+                    i = gvar[i0] if blk == 2 else i0
+                    z = X[i, P]
+                    for kk in range(P - 1, 0, -1):
+                        z = z * hs + X[i, kk]
+                    z = z * hs - comp[c]
+                    w = X[i, 0] + z
+                    comp[c] = (w - X[i, 0]) - z
+                    X[i, 0] = w
+                    if not math.isfinite(w):
+                        fin = False
+                    c += 1
+            nst += 1
+            if not fin:
+                status = -1
+                break
+            if nst > max_steps:
+                status = -3
+                break
+        for a in range(n):
+            out[it, a] = PI[a, 0]
+            if grav:
+                out[it, n + a] = GA[a, 0]
+        for v in range(ng):
+            out[it, goff + v] = GG[v, 0]
+        for ell in range(ns):
+            out[it, soff + ell] = SS[ell, 0]
+        nsteps[it] = nst if status == 0 else status
+        tend[it] = sgn * t
+        conds[it] = cond_seen

@@ -1,0 +1,202 @@
+"""The lane-batched full-state kernel (issue 25; refimpl._full_state_batch, codegen.full_state_batch).
+
+Definition checked: ``W`` trajectories run side by side in SIMD lanes, each with its own Jorba-Zou
+control, step count and failure status; a batched flow returns for each trajectory what the flow of
+that trajectory alone returns, to within the two flows' errors.
+
+Independent routes: the single-trajectory kernel compiled for every structure
+(:func:`refimpl._full_state_kernel.adaptive`, table-driven, no code generation, no lanes) for the
+kernel-level checks, and the protocol flow of each trajectory alone (the single-trajectory path) for
+the batched protocol flow.
+
+Error models.
+- Kernel against kernel (same method, same tolerance, same order): the two differ only in which
+  multiply-adds are fused (one rounding each way) and in the summation shape of the derived and
+  state rows (a balanced tree against a chain, both within ``(terms) eps`` of the exact sum). Each
+  step's local difference is then at most ``c eps max(1, |y|)`` with ``c <= 10^2`` (the order times
+  the terms per row, both below 10 here), carried over ``S`` steps with an amplification of at most
+  10 over the short spans used: ``|a - b| <= 10^3 S eps max(1, |y|)``. The step counts are equal:
+  each trajectory's steps are set by its own coefficients only.
+- Batched flow against single flows: each is within ``K tol max(1, |ref|)`` of the exact flow (the
+  two-run control's promise with the factor ``K = 100`` of tests/test_compiled_any_algebra.py, the
+  estimate being an estimate), so they differ by at most ``2 K tol max(1, |.|)`` plus the rounding
+  floor ``10^3 n eps``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+from tstarg.refimpl import _full_state as fs_mod
+from tstarg.refimpl import _full_state_batch as fsb
+from tstarg.refimpl import _full_state_kernel as fk
+from tstarg.refimpl._catalogue import bianchi
+from tstarg.refimpl._cohomology import cocycle_basis
+from tstarg.refimpl.codegen.full_state_batch import batch_source
+from tstarg.refimpl.fast import implementation as FAST
+from tstarg.refimpl.flows import cached_model
+from tstarg.refimpl.flows._common import _AbelianPart
+
+EPS = np.finfo(float).eps
+K = 100.0
+W = fsb.LANES
+needs_numba = pytest.mark.skipif(not fs_mod._ct.HAVE_NUMBA, reason="numba not importable")
+
+
+def _args():
+    """Bianchi III with a cocycle Theta (a 3-dimensional structure: one cheap compilation)."""
+    alg = bianchi("III")
+    theta = np.asarray(
+        sum(c * b for c, b in zip([0.5, -0.3, 0.2], cocycle_basis(alg, exact=False))), float
+    )
+    rng = np.random.default_rng(2)
+    A = rng.standard_normal((3, 3))
+    inertia = A @ A.T / 3 + np.eye(3)
+    return alg.f, theta, np.zeros((3, 3)), inertia, None
+
+
+def _ad(f, x):
+    return scipy.linalg.expm(np.einsum("a,mab->mb", np.asarray(x, float), np.asarray(f, float)))
+
+
+def _states(fs, model, N, seed=7):
+    """Packed starting rows (N, d) of the full state for N random points."""
+    rng = np.random.default_rng(seed)
+    x0 = 0.3 * rng.standard_normal((3, N))
+    pi0 = rng.standard_normal((3, N))
+    G0 = np.empty((N, fs.r, fs.r), dtype=fs.mats.dtype)
+    fk.exp_batch(np.ascontiguousarray(x0.T), fs.mats, G0)
+    s0 = None if fs.abelian is None else fs.abelian.P @ x0
+    return fs_mod._pack(fs, pi0, None, G0, s0)
+
+
+def _single(fs, y, T, tol, P):
+    """The table-driven single-trajectory kernel (the independent route)."""
+    out = np.empty_like(y)
+    steps = np.zeros(y.shape[0], dtype=np.int64)
+    fk.adaptive(y, T, tol, P, 10**7, *fs.tables(), out, steps)
+    return out, steps
+
+
+@pytest.fixture(scope="module")
+def fs():
+    model = cached_model(*_args())
+    return model, fs_mod.full_state(model, _AbelianPart)
+
+
+def _assert_rounding_close(a, b, steps):
+    bound = 1e3 * np.maximum(steps, 1)[:, None] * EPS * np.maximum(1.0, np.abs(b))
+    assert np.all(np.isfinite(a)) and np.all(np.abs(a - b) <= bound), np.max(np.abs(a - b))
+
+
+@needs_numba
+@pytest.mark.parametrize("N", [1, W - 1, W, W + 1, 3 * W + 2])
+def test_batch_kernel_equals_the_single_kernel(fs, N):
+    """Odd batch sizes (fewer trajectories than lanes, one more, several blocks): every row as the
+    single-trajectory kernel computes it, with the same step count; the input rows are not written."""
+    model, f = fs
+    y = _states(f, model, N)
+    keep = y.copy()
+    T, tol = 1.3, 1e-12
+    P = fs_mod.default_order(tol)
+    out, steps = fsb.run(f, y, T, tol, P, 10**7)
+    ref, rsteps = _single(f, y, T, tol, P)
+    np.testing.assert_array_equal(y, keep)
+    np.testing.assert_array_equal(steps, rsteps)
+    assert np.all(steps > 0)
+    _assert_rounding_close(out, ref, rsteps)
+
+
+@needs_numba
+def test_batch_kernel_backwards_in_time(fs):
+    model, f = fs
+    y = _states(f, model, W + 3, seed=9)
+    T, tol = -0.9, 1e-10
+    P = fs_mod.default_order(tol)
+    out, steps = fsb.run(f, y, T, tol, P, 10**7)
+    ref, rsteps = _single(f, y, T, tol, P)
+    np.testing.assert_array_equal(steps, rsteps)
+    _assert_rounding_close(out, ref, rsteps)
+
+
+@needs_numba
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_a_failing_lane_is_reported_alone(fs, bad):
+    """A non-finite row fails in its own lane (negative status, NaN row); every other row is what it
+    is without the bad one (its lane may change: rounding-level), and the flow's runner refuses the
+    batch naming that row and only it."""
+    model, f = fs
+    y = _states(f, model, 2 * W + 1, seed=3)
+    y[2, 0] = bad
+    T, tol = 0.8, 1e-11
+    P = fs_mod.default_order(tol)
+    out, steps = fsb.run(f, y, T, tol, P, 10**7)
+    assert steps[2] < 0 and np.all(np.isnan(out[2]))
+    good = np.array([i for i in range(y.shape[0]) if i != 2])
+    ref, rsteps = _single(f, np.ascontiguousarray(y[good]), T, tol, P)
+    np.testing.assert_array_equal(steps[good], rsteps)
+    _assert_rounding_close(out[good], ref, rsteps)
+    with pytest.raises(ValueError, match=r"trajectories \[2\] became non-finite"):
+        fs_mod._run(f, y, T, tol, generated=True)
+
+
+@needs_numba
+def test_step_budget_is_reported_per_lane(fs):
+    """``max_steps`` exceeded: status -3 on every row that needs more steps, none dropped."""
+    model, f = fs
+    y = _states(f, model, W + 1, seed=4)
+    out, steps = fsb.run(f, y, 50.0, 1e-12, fs_mod.default_order(1e-12), 3)
+    assert np.all(steps == -3) and np.all(np.isnan(out))
+
+
+@needs_numba
+def test_batched_protocol_flow_equals_single_flows(monkeypatch):
+    """The protocol ``flow`` of a batch large enough for the lane kernel (``N |t| >= 64``; the kernel
+    is seen to run) against each trajectory's flow alone: within the two flows' errors; the caller's
+    arrays are not written."""
+    calls = []
+    real = fsb.run
+
+    def spy(*a, **kw):
+        calls.append(a[1].shape[0])
+        return real(*a, **kw)
+
+    monkeypatch.setattr(fsb, "run", spy)
+    f, theta, ups, inertia, pot = _args()
+    rng = np.random.default_rng(5)
+    N, T = 2 * W + 1, 8.0
+    assert N * T >= fs_mod.GENERATED_MIN_WORK
+    X0 = 0.3 * rng.standard_normal((N, 3))
+    P0 = rng.standard_normal((N, 3))
+    keep = X0.copy(), P0.copy()
+    X, P = FAST.flow(f, theta, ups, inertia, pot, X0, P0, T)
+    np.testing.assert_array_equal(X0, keep[0])
+    np.testing.assert_array_equal(P0, keep[1])
+    assert calls and max(calls) == N
+    tol = FAST.flow_tolerance
+    floor = 1e3 * 3 * EPS
+    for i in [0, W - 1, N - 1]:
+        x1, p1 = FAST.flow(f, theta, ups, inertia, pot, X0[i], P0[i], T)
+        scale = max(1.0, float(np.max(np.abs(p1))))
+        assert np.max(np.abs(P[i] - p1)) <= (2 * K * tol + floor) * scale
+        # Ad(exp x) by scipy's expm (its own rounding, 100 eps exp(|ad x|_1) |Ad|, in the floor's place)
+        Ad, Ad1 = _ad(f, X[i]), _ad(f, x1)
+        cond = np.exp(np.linalg.norm(np.einsum("a,mab->mb", x1, f), 1))
+        scale = max(1.0, float(np.max(np.abs(Ad1))))
+        assert np.max(np.abs(Ad - Ad1)) <= (2 * K * tol + 100 * EPS * cond) * scale
+
+
+def test_source_depends_on_structure_only():
+    """Two inertias (different numbers, same nonzero pattern) give the same kernel source; bad lane
+    counts are refused by name."""
+    f, theta, ups, inertia, pot = _args()
+    srcs = []
+    for scale in (1.0, 2.5):
+        model = cached_model(f, theta, ups, scale * inertia, pot)
+        fsx = fs_mod.FullState(model, model.representation)
+        srcs.append(batch_source(fsx.tables(), fsx.d))
+    assert srcs[0] == srcs[1]
+    with pytest.raises(ValueError, match="lanes W"):
+        batch_source(fsx.tables(), fsx.d, W=0)

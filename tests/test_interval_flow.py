@@ -1,0 +1,208 @@
+"""Compiled double-interval flow enclosures (refimpl/_interval_flow.py, refimpl/_interval_kernel.py).
+
+Independent routes, never the code under test:
+
+* the rounding model (outward widening under round-to-nearest) against exact rational arithmetic
+  (``fractions.Fraction``) on drawn floats, subnormals and binade edges included; a planted mutant
+  that widens by half an ulp (which rounds back: no widening at all) is caught;
+* the 60-digit mpmath reference trajectory (``refimpl.flows.reference_trajectory``, Gragg-Bulirsch-Stoer
+  at 60 digits; its own error is far below every box width here) lies inside the box, and the
+  reference moved by twice the box's radius does not;
+* the box overlaps the Arb balls of ``body_flow_enclosure`` (a separate implementation of the
+  method in ball arithmetic): both contain the exact state, so disjoint would prove one of them wrong;
+* the planted wrong-rounding mutant (no outward widening) misses the reference on a stress case.
+"""
+
+from __future__ import annotations
+
+import math
+from fractions import Fraction
+from functools import lru_cache
+
+import numpy as np
+import pytest
+from hypothesis import assume, example, given
+from hypothesis import strategies as st
+
+from tstarg.refimpl import _interval_kernel as K
+from tstarg.refimpl import catalogue, su2
+from tstarg.refimpl._arb import workprec
+from tstarg.refimpl._interval_flow import (
+    interval_body_enclosure,
+    interval_enclose,
+    interval_tables,
+)
+from tstarg.refimpl._rigorous_flow import body_field
+from tstarg.refimpl.flows import reference_trajectory
+from tstarg.refimpl.rigorous import body_flow_enclosure
+
+Z = np.zeros((3, 3))
+X0, PI0 = np.array([0.1, 0.2, 0.0]), np.array([0.3, 0.2, 2.0])
+GRAV = {"kind": "gravity", "L": np.array([0.0, 0.0, 1.0]), "gamma": np.array([0.0, 0.0, -1.0])}
+TOP = np.diag([1.0, 1.0, 0.5])
+XI = np.array([0.25, 0.0, 0.125])
+SE3_I = np.diag([1.0, 2.0, 3.0, 1.0, 1.5, 2.0])
+SE3_PI0 = np.array([0.3, 0.2, 0.5, 0.1, 0.2, 0.3])
+
+
+def _problem(name):
+    """``(f, theta, inertia, potential, x0, pi0)`` of the three issue-28 problems."""
+    if name == "heavy top":
+        return su2(), Z, TOP, GRAV, X0, PI0
+    if name == "su(2), Theta":
+        return su2(), -np.einsum("k,kab->ab", XI, su2().f), np.diag([1.0, 1.3, 0.5]), None, X0, PI0
+    return catalogue("se(3)"), np.zeros((6, 6)), SE3_I, None, np.zeros(6), SE3_PI0
+
+
+@lru_cache(maxsize=8)
+def _reference(name, t, dps=60):
+    """The reference state at ``t`` (mpf values), cached: it is the costly part of these tests."""
+    f, th, inertia, pot, x0, pi0 = _problem(name)
+    tr = reference_trajectory(
+        f, th, np.zeros_like(th), inertia, pot, x0, pi0, [0, t], dps=dps, system="body"
+    )
+    return tuple(tr.pi[-1]) + (tuple(tr.Gamma[-1]) if tr.Gamma is not None else ())
+
+
+def _enclose(name, t, **kw):
+    f, th, inertia, pot, x0, pi0 = _problem(name)
+    return interval_body_enclosure(f, th, np.zeros_like(th), inertia, pot, x0, pi0, t, **kw)
+
+
+# ------------------------------------------------------------------ the rounding model, exactly
+
+_floats = st.floats(allow_nan=False, allow_infinity=False, width=64).filter(
+    lambda v: abs(v) < 1e300
+)
+_edges = [1.0, 1.0 + 2.0**-52, 2.0 - 2.0**-52, 5e-324, 2.0**-1022, 3.0 * 2.0**-1074, 0.1, -0.7]
+
+
+def _inside(lo, hi, exact):
+    return Fraction(lo) <= exact <= Fraction(hi)
+
+
+@given(_floats, _floats, _floats, _floats)
+@example(1.0 + 2.0**-52, 1.0 + 2.0**-52, 1.0 + 2.0**-52, 1.0 + 2.0**-52)
+@example(2.0**-1022, 2.0**-1022, 0.75, 0.75)
+@example(0.1, 0.1, -0.7, -0.7)
+def test_outward_product_and_sum_contain_the_exact_result(a, b, c, d):
+    """Every bound of ``_mul`` / ``_addlo`` / ``_addhi`` / ``_divk`` / ``_scale`` encloses the exact
+    rational result (point intervals, so the result is one exact number); Dekker's product and TwoSum
+    are exact where they claim to be."""
+    assume(abs(a * c) < 1e300 and abs(b * d) < 1e300)
+    u, eta = K.U, K.ETA
+    lo, hi = K._mul(a, a, c, c, u, eta)
+    assert _inside(lo, hi, Fraction(a) * Fraction(c))
+    assert K._addlo(a, b, u, eta) <= Fraction(a) + Fraction(b) <= K._addhi(a, b, u, eta)
+    for k in (1, 3, 4, 7):
+        lo, hi = K._divk(b, b, k, u, eta)
+        assert _inside(lo, hi, Fraction(b) / k)
+    for sc in (0.125, -2.0, 0.3):
+        if abs(b * sc) < 1e300:
+            lo, hi = K._scale(b, b, sc, u, eta)
+            assert _inside(lo, hi, Fraction(b) * Fraction(sc))
+    p, e, ok = K._two_prod(a, c)  # Dekker: exact where it says so
+    if ok:
+        assert Fraction(p) + Fraction(e) == Fraction(a) * Fraction(c)
+    s, e = K._two_sum(a, b)
+    if abs(a) + abs(b) < 1e300:
+        assert Fraction(s) + Fraction(e) == Fraction(a) + Fraction(b)
+
+
+def test_half_ulp_widening_mutant_is_caught():
+    """``phi = u/2`` instead of ``u (1 + 2 u)``: the widening rounds back to the computed value (no
+    widening at all), so an inexact product is no longer enclosed -- the check above must fail."""
+    bad = []
+    for a in _edges:
+        for c in _edges:
+            lo, hi = K._mul(a, a, c, c, K.U / 2, 0.0)
+            if abs(a * c) >= 2.0**-1022 and not _inside(lo, hi, Fraction(a) * Fraction(c)):
+                bad.append((a, c))
+    assert bad, "the half-ulp mutant escaped the exact check"
+    for a, c in bad:  # the real widening encloses the same products
+        lo, hi = K._mul(a, a, c, c, K.U, K.ETA)
+        assert _inside(lo, hi, Fraction(a) * Fraction(c))
+
+
+# ------------------------------------------------------------------ flows against the references
+
+
+@pytest.mark.parametrize("name", ["heavy top", "su(2), Theta", "free se(3)"])
+def test_box_contains_60_digit_reference_and_overlaps_arb_balls(name):
+    """T = 1: the 60-digit reference inside the box, the reference moved by twice the radius (plus an
+    ulp of the value) outside; the box overlaps the 64-bit Arb enclosure of the same state."""
+    enc = _enclose(name, 1.0, tol=1e-17)
+    assert enc.max_rad() < 1e-12, enc.max_rad()  # double intervals: about 1e-14 here
+    ref = _reference(name, 1.0)
+    assert enc.contains(ref).all(), (enc.lo, enc.hi, [float(v) for v in ref])
+    moved = [v + 2 * r + abs(float(v)) * 2.0**-50 + 1e-300 for v, r in zip(ref, enc.rad)]
+    assert not enc.contains(moved).any()
+    f, th, inertia, pot, x0, pi0 = _problem(name)
+    ball = body_flow_enclosure(
+        f, th, np.zeros_like(th), inertia, pot, x0, pi0, 1.0, prec_bits=64, order=24
+    )
+    balls = list(ball.pi.balls) + (list(ball.Gamma.balls) if ball.Gamma is not None else [])
+    for i, b in enumerate(balls):  # [lo, hi] and the ball intersect
+        assert float(b.lower()) <= enc.hi[i] * (1 + 2.0**-50) + 1e-300, (name, i)
+        assert float(b.upper()) >= enc.lo[i] * (1 - 2.0**-50) - 1e-300, (name, i)
+
+
+def test_heavy_top_t10_radius_and_reference():
+    """The issue's problem at T = 10: double-interval radius about 1.1e-12 at the default order (the
+    issue's target radius 1e-12; the double floor, CAPD's is 3.5e-13 on the same field) and the
+    40-digit reference inside."""
+    enc = _enclose("heavy top", 10.0, tol=1e-17)
+    assert enc.max_rad() < 2e-12, enc.max_rad()
+    assert enc.contains(_reference("heavy top", 10.0, dps=40)).all()
+
+
+def test_no_widening_mutant_misses_the_reference():
+    """The planted wrong-rounding mutant (``rounding = (0, 0)``: bounds rounded to nearest, never
+    widened) on the heavy top to T = 10 with a tiny remainder tolerance: its box is too narrow and
+    excludes the 40-digit reference, which the real kernel's box contains."""
+    f, th, inertia, pot, x0, pi0 = _problem("heavy top")
+    e0 = body_flow_enclosure(f, th, Z, inertia, pot, x0, pi0, 0.0)
+    y0 = [float(b.mid()) for b in list(e0.pi.balls) + list(e0.Gamma.balls)]
+    with workprec(128):
+        F, _ = body_field(f, th, inertia, pot)
+    tab = interval_tables(F)
+    ref = _reference("heavy top", 10.0, dps=40)
+    e0_exact = list(e0.pi.balls) + list(e0.Gamma.balls)
+    # start from the exact double midpoint: the reference starts from the Arb ball of Gamma(0), so
+    # widen the start by that ball (it is ~1e-38 wide) for both
+    lo0 = [math.nextafter(float(b.lower()), -math.inf) for b in e0_exact]
+    hi0 = [math.nextafter(float(b.upper()), math.inf) for b in e0_exact]
+    kw = dict(order=24, jac_order=6, tol=1e-18)
+    lo, hi, _, _ = interval_enclose(tab, lo0, hi0, 10.0, **kw)
+    assert all(float(a) <= v <= float(b) for a, b, v in zip(lo, hi, ref))
+    mlo, mhi, _, _ = interval_enclose(tab, y0, y0, 10.0, rounding=(0.0, 0.0), **kw)
+    assert not all(float(a) <= v <= float(b) for a, b, v in zip(mlo, mhi, ref))
+
+
+# ------------------------------------------------------------------ bad input
+
+
+def test_bad_input_is_refused_by_name():
+    f, th, inertia, pot, x0, pi0 = _problem("heavy top")
+    args = (f, th, Z, inertia, pot, x0)
+    with pytest.raises(ValueError, match="tol"):
+        interval_body_enclosure(*args, pi0, 1.0, tol=-1.0)
+    with pytest.raises(ValueError, match="order"):
+        interval_body_enclosure(*args, pi0, 1.0, order=1)
+    with pytest.raises(ValueError, match="jac_order"):
+        interval_body_enclosure(*args, pi0, 1.0, order=10, jac_order=11)
+    with pytest.raises(ValueError, match="t must be"):
+        interval_body_enclosure(*args, pi0, -1.0)
+    with pytest.raises(ValueError, match="t must be"):
+        interval_body_enclosure(*args, pi0, float("nan"))
+    with pytest.raises(ValueError, match="pi0"):
+        interval_body_enclosure(*args, pi0[:2], 1.0)
+    U = np.array([[0, 0.1, 0], [-0.1, 0, 0], [0, 0, 0]])
+    with pytest.raises(ValueError, match="upsilon"):
+        interval_body_enclosure(f, th, U, inertia, pot, x0, pi0, 1.0)
+    with pytest.raises(ValueError, match="max_steps"):
+        interval_body_enclosure(*args, pi0, 10.0, max_steps=3)
+    p = pi0.copy()
+    enc = interval_body_enclosure(*args, p, 0.5)
+    assert np.array_equal(p, PI0), "the caller's array was mutated"
+    assert enc.steps >= 1 and np.isfinite(enc.lo).all()
