@@ -22,6 +22,11 @@ Core checks (issue "the core"):
 ``precision_ladder``
     the reference at dps 30 and 60 against dps 120, tolerance
     ``10^-(dps-3) * max|P|``;
+``flow_reference_inside_balls`` (vier10, vier11)
+    the flows' second route: the mpmath reference trajectory (30 digits) within its own promise
+    ``10^-22 max(1, |state|)`` of the proven balls of the whole state (refimpl.rigorous's
+    ``judge_flow``, 64 bits: the judge of the certification's ``flow.reference``), ``pi`` and ``x``,
+    both signs of ``t``, ``Upsilon`` of either kind; the digits are the reference's proven digits;
 (``h2_published`` and ``h2_invariants``, judged by published tables, are oracles:
 :mod:`oracles.h2_checks`.)
 """
@@ -51,6 +56,7 @@ __all__ = [
     "fast_matches_reference",
     "precision_ladder",
     "reference_inside_balls",
+    "flow_reference_inside_balls",
 ]
 
 
@@ -127,6 +133,53 @@ def reference_inside_balls(example) -> tuple[float, float] | None:
     return err / (1e-45 * scale), (float("inf") if err == 0 else -math.log10(err / scale))
 
 
+FLOW_REF_DPS = 30
+
+
+@st.composite
+def _flow_model(draw):
+    name, theta, ups, x, pi = draw(
+        _model_and_point([n for n in CATALOGUE_NAMES if catalogue(n).dim <= 4], exact=False)
+    )
+    t = draw(st.sampled_from([0.2, -0.2, 0.5]), label="t")
+    return name, theta, ups, x, pi, t
+
+
+def flow_reference_inside_balls(example) -> tuple[float, float] | None:
+    """The second route of the flow judge: the mpmath reference trajectory (``FLOW_REF_DPS`` digits,
+    Gragg-Bulirsch-Stoer with its own re-basing) against the proven balls of ``judge_flow``: the
+    proven lower bound of its distance to the exact state must be within the reference's promise
+    ``10^-(dps - 8) max(1, |state|)`` (its per-step tolerance is ``10^-(dps + 5)``); the digits are the
+    proven upper bound of its error. A refusal by either route (the degenerate set, no exact
+    representation, the logarithm not proven unique, a budget) is not judged."""
+    from tstarg.refimpl.flows import reference_trajectory
+    from tstarg.refimpl.rigorous import judge_flow
+
+    name, theta, ups, x, pi, t = example
+    alg = catalogue(name)
+    n = alg.dim
+    inertia = np.diag(np.linspace(1.0, 2.0, n))
+    try:
+        e = judge_flow(alg, theta, ups, inertia, None, x, pi, t, max_seconds=4.0)["enclosure"]
+        tr = reference_trajectory(alg, theta, ups, inertia, None, x, pi, [0, t], dps=FLOW_REF_DPS)
+    except ValueError:
+        return None
+    if e.x is None:
+        return None
+    worst, digits = 0.0, math.inf
+    parts = [(e.pi, tr.pi[-1])]
+    if np.max(np.abs(np.array(tr.x[-1], dtype=float) - e.x.mid)) < 1e-8:
+        parts.append((e.x, tr.x[-1]))  # else the reference's x is another logarithm: pi judges
+    for B, ref in parts:
+        ref = np.asarray(ref, dtype=object)
+        lo, hi = B.error_bounds(ref)
+        scale = max(1.0, float(np.max(np.abs(B.mid))))
+        worst = max(worst, float(np.max(lo)) / (10.0 ** -(FLOW_REF_DPS - 8) * scale))
+        err = float(np.max(hi))
+        digits = min(digits, math.inf if err == 0 else -math.log10(err / scale))
+    return worst, digits
+
+
 def precision_ladder(example) -> tuple[float, float] | None:
     name, theta, ups, x, pi = example
     alg = catalogue(name)
@@ -195,6 +248,22 @@ def core_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
             },
         )
     )
+    out.append(
+        run_property(
+            "flow_reference_inside_balls",
+            "vier10, vier11",
+            flow_reference_inside_balls,
+            _flow_model(),
+            max_examples=max(3, max_examples // 4),
+            seed=seed,
+            extra={
+                "tolerance": f"10^-{FLOW_REF_DPS - 8} max(1, |state|) (reference at dps "
+                f"{FLOW_REF_DPS}) from the proven balls",
+                "judge": "refimpl.rigorous.judge_flow (tstarg-rigorous, 64 bits); second route "
+                "refimpl.flows.reference_trajectory",
+            },
+        )
+    )
     return out
 
 
@@ -203,4 +272,5 @@ CORE_CHECKS = (
     "precision_ladder",
     "fast_matches_reference",
     "reference_inside_balls",
+    "flow_reference_inside_balls",
 )

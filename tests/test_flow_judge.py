@@ -58,3 +58,25 @@ def test_certificate_names_the_proven_judge_and_its_error():
     assert judged >= 1, res.extra
     assert 0 < res.extra["judge_error"] < 1e-9
     assert PROVEN_JUDGE in res.extra["judge"]
+
+
+def test_verify_flow_second_route_passes_and_bites(monkeypatch):
+    """verify's ``flow_reference_inside_balls`` on one su(2) example with Upsilon: the true reference
+    passes (ratio <= 1, > 14 proven digits); a reference whose pi is moved by 1e-15 relative (far
+    above its 1e-22 promise, far below any float64 tolerance) fails it."""
+    import tstarg.refimpl.flows as flows
+    from tstarg.properties.core_checks import flow_reference_inside_balls
+
+    ex = ("su(2)", Z3, U_DEG * 0.6, X0, PI0, 0.2)
+    ratio, digits = flow_reference_inside_balls(ex)
+    assert ratio <= 1 and digits > 14
+    real = flows.reference_trajectory
+
+    def moved(*a, **k):
+        tr = real(*a, **k)
+        tr.pi[-1] = tr.pi[-1] * (1 + mpmath.mpf("1e-15"))
+        return tr
+
+    monkeypatch.setattr(flows, "reference_trajectory", moved)
+    bad, _ = flow_reference_inside_balls(ex)
+    assert bad > 1e3
