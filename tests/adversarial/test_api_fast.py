@@ -176,24 +176,20 @@ def test_a_steps_count_inside_its_budget_is_still_refused_in_time():
 def test_step_doubling_is_refused_before_its_first_two_runs(monkeypatch):
     """``F.flow(so4, ..., Upsilon != 0, t = 1e4)`` and ``F.flow(se3, gravity, t = 1e3)`` ran past a
     minute with no message. With the budget patched down to nothing the same calls are refused at
-    once, with the estimate, before any full run."""
+    once, with the estimate, before any full run: the protocol's default (the compiled rational
+    Taylor flow since issue 25) by the adaptive probe, and Gauss6 under step doubling (the route
+    without numba, asked by name here) before its first two runs."""
     from tstarg.refimpl import se3, so4
 
     monkeypatch.setattr(_validate, "TIME_BUDGET_S", 1e-9)
     n = 6
     rng = np.random.default_rng(0)
     A = 0.1 * rng.standard_normal((n, n))
+    args = (so4().f, np.zeros((n, n)), A - A.T, np.eye(n), None, np.full(n, 0.1), np.full(n, 0.2))
+    with pytest.raises(BudgetError, match=r"would take about .* over the time budget"):
+        FAST.flow(*args, 1e4)
     with pytest.raises(BudgetError, match="step doubling's first two runs"):
-        FAST.flow(
-            so4().f,
-            np.zeros((n, n)),
-            A - A.T,
-            np.eye(n),
-            None,
-            np.full(n, 0.1),
-            np.full(n, 0.2),
-            1e4,
-        )
+        fast_flow(*args, 1e4, method_name="gauss6")
     pot = {"kind": "gravity", "L": np.eye(n)[5], "gamma": np.eye(n)[5]}
     with pytest.raises(BudgetError, match="over the time budget"):
         FAST.flow(
