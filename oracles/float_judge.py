@@ -29,6 +29,8 @@ import numpy as np
 import scipy.linalg
 from scipy.integrate import solve_ivp
 
+from tstarg.refimpl import RepresentationError, representation_for
+
 __all__ = [
     "C_CERT",
     "DEGENERATE_APPROACH",
@@ -384,7 +386,6 @@ def centre_representation(f):
     when the centre is non-trivial, where ``Ad(g) = expm(ad_x)`` is blind to the central part of
     ``g``; None for a trivial centre (``Ad`` is then faithful on the image of exp up to the finite
     kernel the flows' ``x`` comparison sees) or when no representation can be built."""
-    from tstarg.refimpl._representation import RepresentationError, representation_for
 
     f = np.asarray(f, dtype=float)
     n = f.shape[0]

@@ -43,8 +43,9 @@ from tstarg.refimpl import CATALOGUE_NAMES, catalogue
 from tstarg.refimpl.accuracy import correct_digits as _digits
 from tstarg.refimpl.accuracy import max_abs_diff as _mp_max_abs_diff
 from tstarg.refimpl.fast import implementation as fast
+from tstarg.refimpl.flows import reference_trajectory
 from tstarg.refimpl.reference import DegeneratePointError, Reference
-from tstarg.refimpl.rigorous import Rigorous, UndecidedError, error_bounds
+from tstarg.refimpl.rigorous import Rigorous, UndecidedError, error_bounds, judge_flow
 
 from .runner import CheckResult, run_property
 from .strategies import REGIMES, cocycles, points, rationals, upsilons
@@ -152,8 +153,6 @@ def flow_reference_inside_balls(example) -> tuple[float, float] | None:
     ``10^-(dps - 8) max(1, |state|)`` (its per-step tolerance is ``10^-(dps + 5)``); the digits are the
     proven upper bound of its error. A refusal by either route (the degenerate set, no exact
     representation, the logarithm not proven unique, a budget) is not judged."""
-    from tstarg.refimpl.flows import reference_trajectory
-    from tstarg.refimpl.rigorous import judge_flow
 
     name, theta, ups, x, pi, t = example
     alg = catalogue(name)

@@ -21,11 +21,13 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
-from flint import arb
+from flint import arb, arb_mat
 
 from . import _interval_kernel as K
+from . import su2
 from ._arb import float_view, workprec
 from ._rigorous_flow import body_field, body_flow_enclosure
+from ._validate import MAX_FLOW_TIME
 
 __all__ = [
     "IntervalEnclosure",
@@ -312,7 +314,6 @@ def interval_body_enclosure(
     e0 = body_flow_enclosure(
         f, theta, upsilon, inertia, potential, x0, pi0, 0.0, prec_bits=SETUP_BITS
     )
-    from ._validate import MAX_FLOW_TIME
 
     tv = float(float_view(t, "t"))
     if not math.isfinite(tv) or not 0 <= tv <= MAX_FLOW_TIME:
@@ -358,9 +359,6 @@ def su2_full_field(theta, inertia, potential) -> tuple[_Field, int]:
     kinematics ``g^-1 dg/dt = Omega^a E_a`` (vier10 with ``Upsilon = 0``: ``Omega = I^-1 pi``) read
     ``dq_0/dt = -1/2 q.Omega``, ``dq/dt = 1/2 (q_0 Omega + q x Omega)`` -- the rows of
     :func:`refimpl._taylor.quadratic_field_su2_full`, here with the ball ``I^-1``."""
-    from flint import arb_mat
-
-    from . import su2
 
     F, n = body_field(su2(), theta, inertia, potential)
     Ii = arb_mat([[arb(v) for v in row] for row in np.asarray(inertia, dtype=float)]).inv()
@@ -409,14 +407,12 @@ def interval_su2_full_enclosure(
     """The full state of an su(2) model (``Upsilon = 0``) at ``t`` in float64 intervals: the box of
     ``(pi, [Gamma,] q)`` with ``g(t) = q_0 - i q.sigma`` (:func:`su2_full_field`). Arguments and checks
     as :func:`interval_body_enclosure` with ``f = su(2)``."""
-    from . import su2
 
     e = interval_body_enclosure(
         su2(), theta, upsilon, inertia, potential, x0, pi0, 0.0, tol=tol, order=order,
         jac_order=jac_order, max_steps=max_steps,
     )  # fmt: skip
     tv = float(float_view(t, "t"))
-    from ._validate import MAX_FLOW_TIME
 
     if not math.isfinite(tv) or not 0 <= tv <= MAX_FLOW_TIME:
         raise ValueError(

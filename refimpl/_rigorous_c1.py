@@ -24,6 +24,7 @@ import numpy as np
 from flint import arb, arb_mat
 
 from ._arb import Balls, exact_source, to_arb, workprec
+from ._rigorous_state import full_state_enclosure
 
 __all__ = ["casimir_drift", "poisson_map_defect", "reduced_poisson_tensor"]
 
@@ -57,7 +58,6 @@ def poisson_map_defect(
     Default: ``J`` and ``pi(t)`` from the C^1 enclosure of the exact flow (its balls contain 0; the radius
     is the proven defect bound). ``jacobian`` (an ``(n, n)`` float array) and ``pi_t`` (``(n,)``) replace
     them by an integrator's: its defect, in exact ball arithmetic on those floats."""
-    from ._rigorous_state import full_state_enclosure
 
     n = np.asarray(pi0).shape[0]
     with workprec(prec_bits):

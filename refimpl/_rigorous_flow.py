@@ -53,8 +53,13 @@ import numpy as np
 from flint import arb, arb_mat
 
 from ._arb import Balls, algebra_balls, exact_source, float_view, to_arb, upper, workprec
+from ._errors import DegeneratePointError
+from ._rigorous_core import MAX_PREC_BITS, check_magnitudes
+from ._rigorous_core import fview as _fview
+from ._rigorous_core import point_view as _point_view
 from ._taylor import body_field_tables
 from ._validate import (
+    MAX_FLOW_TIME,
     check_inertia,
     check_potential,
     check_structure_constants,
@@ -363,8 +368,6 @@ def enclose_quadratic(
             h = (float(left.mid()) if last else h) / 2
             if h < 1e-12 or rejected > max_steps:
                 if getattr(F, "singular", False):
-                    from ._errors import DegeneratePointError
-
                     raise DegeneratePointError(
                         f"rigorous flow: Delta = det Phi is not provably away from 0 along the step at "
                         f"t = {float(tnow.mid())} (the trajectory meets or nears the degenerate set)"
@@ -431,10 +434,6 @@ def body_flow_enclosure(
     ``max_seconds`` bounds the CPU time, estimated from the first steps and refused with the estimate.
     Returns a :class:`FlowEnclosure` whose balls provably contain the exact state at ``t``.
     """
-    from ._rigorous_core import MAX_PREC_BITS, check_magnitudes
-    from ._rigorous_core import fview as _fview
-    from ._rigorous_core import point_view as _point_view
-    from ._validate import MAX_FLOW_TIME
 
     def view(v, name):
         return check_magnitudes(_fview(v, name), name)

@@ -39,13 +39,24 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg
 import sympy
-from flint import arb, arb_mat
+from flint import acb, acb_mat, arb, arb_mat
 
 from ._arb import Balls, algebra_balls, exact_source, to_arb, upper, workprec
 from ._errors import DegeneratePointError
 from ._representation import RepresentationError, representation_for
+from ._rigorous_core import MAX_PREC_BITS, check_frames_budget, check_magnitudes, phi1_ball
+from ._rigorous_core import fview as _fview
+from ._rigorous_core import point_view as _point_view
 from ._rigorous_flow import BallField, body_field, enclose_quadratic
 from ._rigorous_rational import RationalField
+from ._validate import (
+    MAX_FLOW_TIME,
+    check_inertia,
+    check_potential,
+    check_structure_constants,
+    check_theta,
+    check_upsilon,
+)
 
 __all__ = ["StateEnclosure", "full_state_enclosure", "judge_flow"]
 
@@ -265,7 +276,6 @@ class _Log:
         return arb_mat(self.n, 1, self._vec(Dr, Di))
 
     def jacobian(self, X: arb_mat, prec: int) -> arb_mat:
-        from ._rigorous_core import phi1_ball
 
         n = self.n
         ad = arb_mat(n, n, (self.Fad * X).entries())
@@ -438,7 +448,6 @@ def _strip_bound(log: _Log, X: arb_mat) -> bool:
     parts lie in the spectrum of the Hermitian ``H = (M - M^*) / 2i``; bounded by Gershgorin's discs, else
     else by Gershgorin's discs of ``(Q D)^-1 rho(X) (Q D)`` (``Q`` a float Schur basis, ``D`` a diagonal
     scaling: any similarity keeps the spectrum), else by Arb's eigenvalue enclosures of ``H``)."""
-    from flint import acb, acb_mat
 
     n, m = log.n, log.m
     Rm = _comb(log.R, [X[b, 0] for b in range(n)])
@@ -569,17 +578,6 @@ def full_state_enclosure(
     (the Taylor order of the variational equation) to 8, or ``3/4 order`` with ``jacobian=True`` (the
     Jacobian's radius then matches the state's; at 8 it is ~1e-12).
     """
-    from ._rigorous_core import MAX_PREC_BITS, check_frames_budget, check_magnitudes
-    from ._rigorous_core import fview as _fview
-    from ._rigorous_core import point_view as _point_view
-    from ._validate import (
-        MAX_FLOW_TIME,
-        check_inertia,
-        check_potential,
-        check_structure_constants,
-        check_theta,
-        check_upsilon,
-    )
 
     t_start = time.process_time()
     if (

@@ -69,8 +69,6 @@ _OTHERS = (
     "its file belongs to another helper's rework this session; the public name exists in refimpl"
 )
 ALLOWED_PRIVATE: dict[tuple[str, str], str] = {
-    ("oracles.float_judge", "refimpl._representation.RepresentationError"): _OTHERS,
-    ("oracles.float_judge", "refimpl._representation.representation_for"): _OTHERS,
 }
 """``(importing module, imported dotted name)`` -> why it may cross the line."""
 

@@ -12,6 +12,7 @@ given ``steps``). State layout inside is components-first: ``(d, N)`` for ``N`` 
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
@@ -229,7 +230,10 @@ def fast_flow(
             return meth.integrate(model, State(Xs, Ps), tv * frac * k, tol=tol, system="full")
 
         with np.errstate(all="ignore"):
-            StepBudget("fast_flow").calibrate(probe, 1)
+            StepBudget("fast_flow").calibrate(probe, 1)  # pays the one-time costs (compilation)
+            # the call's budget counts from here: a kernel compiled on first use is a one-time cost
+            # of the structure (reported apart by tstarg bench), not work of this call
+            budget.start = time.process_time()
             budget.calibrate(probe, 1)
         budget.before(math.ceil(N / (m * frac)), doing)
     out = meth.integrate(model, State(X, P), tv, tol=tol, steps=steps, system="full")

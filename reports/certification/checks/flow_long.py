@@ -26,6 +26,7 @@ from hypothesis import strategies as st
 
 from tstarg.oracles.float_judge import conditioning, flow_tol, reference_work
 from tstarg.refimpl import catalogue, su2
+from tstarg.refimpl.fast import implementation as fast
 
 from .._common import (
     FLOW_T_MAX,
@@ -180,7 +181,6 @@ class SO3Flow:
             self.group = "SO(3)"
 
     def flow(self, f, theta, upsilon, inertia, potential, x0, pi0, t):
-        from tstarg.refimpl.fast import implementation as fast
 
         x, p = fast.flow(f, theta, upsilon, inertia, potential, x0, pi0, t)
         return _so3_log(np.asarray(f, dtype=float), x), p
@@ -194,7 +194,6 @@ class LooseAfter:
     flow_tolerance = 1e-10  # refimpl.fast's
 
     def flow(self, f, theta, upsilon, inertia, potential, x0, pi0, t):
-        from tstarg.refimpl.fast import implementation as fast
 
         x, p = fast.flow(f, theta, upsilon, inertia, potential, x0, pi0, t)
         if abs(t) > 5:
