@@ -68,8 +68,7 @@ def _is_private(segment: str) -> bool:
 _OTHERS = (
     "its file belongs to another helper's rework this session; the public name exists in refimpl"
 )
-ALLOWED_PRIVATE: dict[tuple[str, str], str] = {
-}
+ALLOWED_PRIVATE: dict[tuple[str, str], str] = {}
 """``(importing module, imported dotted name)`` -> why it may cross the line."""
 
 
