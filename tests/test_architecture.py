@@ -65,9 +65,6 @@ def _is_private(segment: str) -> bool:
     return segment.startswith("_") and not segment.startswith("__")
 
 
-_OTHERS = (
-    "its file belongs to another helper's rework this session; the public name exists in refimpl"
-)
 ALLOWED_PRIVATE: dict[tuple[str, str], str] = {}
 """``(importing module, imported dotted name)`` -> why it may cross the line."""
 
