@@ -286,9 +286,23 @@ def _point_field(y, tab, outlo, outhi, u, eta):
 
 @njit(cache=True)
 def _jac_taylor(Tlo, Thi, J0lo, J0hi, q, tab, Jlo, Jhi, u, eta):
-    """``J_0 .. J_q`` (``Jlo/Jhi[k]``) of ``J' = (A + D(y)) J``, ``J_0 = J0``, along the coefficients ``T``."""
+    """``J_0 .. J_q`` (``Jlo/Jhi[k]``) of ``J' = (A + D(y)) J``, ``J_0 = J0``, along the coefficients ``T``.
+
+    The coefficient products ``q_t y_a[.]`` of the quadratic terms are formed once per call (the same
+    outward products the column loop would form again for every column)."""
     clo, chi, lptr, lidx, llo, lhi, lex, qptr, qpair, qlo, qhi, qex, pj, pk = tab
     d = Tlo.shape[1]
+    nq = qlo.shape[0]
+    Ak = np.empty((nq, max(q, 1), 4))  # [t, a]: q_t y_a[kk] (lo, hi), q_t y_a[j] (lo, hi)
+    for t in range(nq):
+        m = qpair[t]
+        for a in range(q):
+            Ak[t, a, 0], Ak[t, a, 1] = _cmul(
+                qlo[t], qhi[t], qex[t], Tlo[a, pk[m]], Thi[a, pk[m]], u, eta
+            )
+            Ak[t, a, 2], Ak[t, a, 3] = _cmul(
+                qlo[t], qhi[t], qex[t], Tlo[a, pj[m]], Thi[a, pj[m]], u, eta
+            )
     Jlo[0] = J0lo
     Jhi[0] = J0hi
     for k in range(q):
@@ -306,12 +320,14 @@ def _jac_taylor(Tlo, Thi, J0lo, J0hi, q, tab, Jlo, Jhi, u, eta):
                     j = pj[m]
                     kk = pk[m]
                     for a in range(k + 1):  # q (y_a[kk] J_{k-a}[j] + y_a[j] J_{k-a}[kk])
-                        alo, ahi = _cmul(qlo[t], qhi[t], qex[t], Tlo[a, kk], Thi[a, kk], u, eta)
-                        plo, phi = _mul(alo, ahi, Jlo[k - a, j, c], Jhi[k - a, j, c], u, eta)
+                        plo, phi = _mul(
+                            Ak[t, a, 0], Ak[t, a, 1], Jlo[k - a, j, c], Jhi[k - a, j, c], u, eta
+                        )
                         slo = _addlo(slo, plo, u, eta)
                         shi = _addhi(shi, phi, u, eta)
-                        alo, ahi = _cmul(qlo[t], qhi[t], qex[t], Tlo[a, j], Thi[a, j], u, eta)
-                        plo, phi = _mul(alo, ahi, Jlo[k - a, kk, c], Jhi[k - a, kk, c], u, eta)
+                        plo, phi = _mul(
+                            Ak[t, a, 2], Ak[t, a, 3], Jlo[k - a, kk, c], Jhi[k - a, kk, c], u, eta
+                        )
                         slo = _addlo(slo, plo, u, eta)
                         shi = _addhi(shi, phi, u, eta)
                 Jlo[k + 1, i, c], Jhi[k + 1, i, c] = _divk(slo, shi, k + 1, u, eta)

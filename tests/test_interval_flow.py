@@ -161,6 +161,22 @@ def test_heavy_top_t10_radius_and_reference():
     assert enc.contains(_reference("heavy top", 10.0, dps=40)).all()
 
 
+def test_looser_tol_takes_fewer_longer_steps_and_a_wider_box():
+    """The step control follows the asked tolerance (the work, not a timing): on the heavy top to
+    T = 10 at the default orders, a looser per-step ``tol`` gives a lower order, fewer steps (the
+    steps ``h ~ rho tol^(1/P)`` lengthen: ``tol^(1/P)`` is 0.38 at 1e-6 and 0.27 at 1e-16) and a
+    wider box (remainders up to ``tol`` per step); every box contains the reference."""
+    ref = _reference("heavy top", 10.0, dps=40)
+    encs = [_enclose("heavy top", 10.0, tol=tol) for tol in (1e-6, 1e-11, 1e-16)]
+    orders = [e.order for e in encs]
+    steps = [e.steps for e in encs]
+    rads = [e.max_rad() for e in encs]
+    assert orders[0] < orders[1] < orders[2], orders
+    assert steps[0] * 1.15 < steps[2], steps  # about 40 against 60
+    assert rads[0] > 1e3 * rads[2], rads
+    assert all(e.contains(ref).all() for e in encs)
+
+
 def test_no_widening_mutant_misses_the_reference():
     """The planted wrong-rounding mutant (``rounding = (0, 0)``: bounds rounded to nearest, never
     widened) on the heavy top to T = 10 with a tiny remainder tolerance: its box is too narrow and
