@@ -42,7 +42,7 @@ A-priori enclosure (high order, Nedialkov, Jackson and Corliss 1999)
     does not limit ``h`` to about ``1/||DF||``. (:func:`_jac_enclosure` does the same for the
     Jacobian, for callers that enclose the flow's Jacobian; the step below does not need it.)
 
-The step (a C^0 Lohner step, as CAPD's)
+The step (a C^0 Lohner step)
     For ``y0`` in the set ``Y`` (the box of ``yhat + B r``) and ``T_k`` the normalised Taylor
     coefficients, ``phi_h(y0) = sum_{k<=P} T_k(y0) h^k + R`` with ``R`` in ``T_{P+1}(E) h^(P+1)``, and
     ``sum_{k<=P} T_k(y0) h^k = sum_{k<=P} T_k(yhat) h^k + C (y0 - yhat) + D``:
@@ -58,7 +58,7 @@ Steps
     The step ``h`` comes from the point series at the set's centre (Jorba-Zou: the last two terms
     about ``tol``, times a factor learnt from rejections) and from the size of ``D`` at the last
     step (``D ~ h^(q+1)``), rounded down to :data:`STEP_BITS` significant bits (a power of two times
-    1, 1.125, ..., 1.875: a fine grid; ``h^k`` is then outward, not exact); it is accepted when the
+    1, 1.25, 1.5 or 1.75: a finer grid than powers of two; ``h^k`` is then outward, not exact); it is accepted when the
     enclosure exists, the Lagrange remainder over ``E`` is at most ``tol`` and ``D`` at most
     ``JTOL`` times the set's width plus ``tol``, else it shrinks (:data:`SHRINK`). Times are
     float64: the step from ``t`` to ``t' = fl(t + h)`` is ``t' - t``, a point when TwoSum shows it

@@ -12,11 +12,13 @@ Gamma0 = Ad(exp x0)^T (0, 0, -1), x0 = (0.1, 0.2, 0)), the free se(3) body and a
 coboundary, at T = 1 and T = 10. Both tools integrate the same quadratic body field
 (``refimpl._rigorous_flow.body_field`` with the products ``y_j y_k``, ``y_k y_j`` merged,
 ``refimpl._interval_flow.merged_terms``; CAPD receives it as a formula string, a coefficient that is
-not an exact double as a parameter set to the same outward interval as in tstarg's tables) from the same initial box (the outward doubles of the Arb ball of the state at ``t = 0``;
-a point where the state is an exact double).
+not an exact double as a parameter set to the same outward interval as in tstarg's tables) from the
+same initial box (the outward doubles of the Arb ball of the state at ``t = 0``; a point where the
+state is an exact double).
 
-Contenders, interleaved (each repeat runs every contender once; the best of ``--repeat`` CPU times,
-``time.process_time``, BLAS on one thread; every compilation done before timing):
+Contenders, interleaved (each repeat runs every contender once, forward and backward in turn; the best
+of ``--repeat`` CPU times, ``time.process_time``, BLAS on one thread; every compilation done before
+timing):
 
 * ``tstarg`` -- ``interval_body_enclosure`` (compiled double intervals, 53 bits), a ladder of per-step
   tolerances ``tol`` at the default order ``default_order(tol)``. ``CPU call``: the whole call
@@ -39,6 +41,7 @@ Without it the CAPD rows are skipped and only tstarg's curves are printed.
 from __future__ import annotations
 
 import argparse
+import importlib.metadata
 import os
 import platform
 import subprocess
@@ -51,6 +54,8 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
+from tstarg.refimpl import _interval_flow as IF  # noqa: E402
+from tstarg.refimpl import _interval_kernel as K  # noqa: E402
 from tstarg.refimpl import catalogue, su2  # noqa: E402
 from tstarg.refimpl._arb import workprec  # noqa: E402
 from tstarg.refimpl._interval_flow import (  # noqa: E402
@@ -169,6 +174,8 @@ def _capd_run(capd, formula, lo0, hi0, T, order, tol):
     r = tm(capd.Interval(T), s)
     lo = np.array([float(r[i].leftBound()) for i in range(len(lo0))])
     hi = np.array([float(r[i].rightBound()) for i in range(len(lo0))])
+    if IF._LIBM is not None and IF._FE is not None and K.rounding_mode(K.PROBE) != 0:
+        IF._LIBM.fesetround(IF._FE[0])  # CAPD leaves the FPU in directed rounding: give it back
     return lo, hi
 
 
@@ -243,7 +250,9 @@ def run(names=None, times=TIMES, repeat=REPEAT, out=print) -> list:
             boxes: list = [None] * len(cont)
             for rep in range(repeat):  # interleaved: every contender once per repeat
                 print(f"\r{name}, T = {T:g}: repeat {rep + 1}/{repeat}", end="", file=sys.stderr)
-                for i, (_tool, _o, _t, runs) in enumerate(cont):
+                order = range(len(cont)) if rep % 2 == 0 else range(len(cont) - 1, -1, -1)
+                for i in order:  # forward, then backward: no contender always runs first
+                    runs = cont[i][3]
                     for j, r in enumerate(runs):
                         t0 = time.process_time()
                         box = r()
@@ -292,6 +301,34 @@ def _table(rows, header=True) -> list:
     return lines
 
 
+def _capd_version() -> str:
+    try:
+        return importlib.metadata.version("uj-capdpy")
+    except importlib.metadata.PackageNotFoundError:
+        return "?"
+
+
+def _summary(rows) -> list:
+    """Per problem and T: the range of the ratios at equal radius (whole call; from the field)."""
+    out = ["## Summary: tstarg's CPU over CAPD's at equal radius (tstarg rows)", ""]
+    for name in dict.fromkeys(r[0] for r in rows):
+        for T in dict.fromkeys(r[1] for r in rows if r[0] == name):
+            ts = [r for r in rows if r[0] == name and r[1] == T and r[2] == "tstarg"]
+            rs = [r for r in ts if r[8] is not None]
+            if not rs:
+                continue
+            c = [r[8] for r in rs]
+            f = [r[9] for r in rs]
+            tight = min(ts, key=lambda r: r[5])
+            loose = max(ts, key=lambda r: r[5])
+            out.append(
+                f"- {name}, T = {T:g}: ratio call {min(c):.2f}-{max(c):.2f}, field {min(f):.2f}-"
+                f"{max(f):.2f}; tstarg's call {tight[6] * 1e3:.2f} ms at radius {tight[5]:.2g} "
+                f"(tol {tight[4]:g}), {loose[6] * 1e3:.2f} ms at {loose[5]:.2g} (tol {loose[4]:g})"
+            )
+    return out
+
+
 def _commit() -> str:
     try:
         return subprocess.run(
@@ -325,9 +362,10 @@ def main(argv=None) -> int:
             "cores: compare ratios from this run, not times across runs); wall time "
             f"{time.time() - t0:.0f} s",
             "- peer: CAPD's Python bindings "
-            + ("`uj-capdpy` 0.5.1 (module capdpy)" if capd else "NOT INSTALLED (rows skipped)")
-            + " , double intervals, `IOdeSolver` + `ITimeMap` on a `C0HOTripletonSet`",
-            f"- CPU time (`time.process_time`), best of {a.repeat}, contenders interleaved, "
+            + (f"`uj-capdpy` {_capd_version()} (module capdpy)" if capd else "NOT INSTALLED")
+            + ", double intervals, `IOdeSolver` + `ITimeMap` on a `C0HOTripletonSet`",
+            f"- CPU time (`time.process_time`), best of {a.repeat}, contenders interleaved (forward "
+            "and backward in turn), "
             "compilation excluded, BLAS on one thread; both tools run the same merged quadratic "
             "field from the same initial box; every box contains the 200-bit Arb reference",
             "- tstarg: `interval_body_enclosure(..., tol=tol)` at `order = default_order(tol)`, "
@@ -339,7 +377,7 @@ def main(argv=None) -> int:
             "",
         ]
         with open(a.write, "w") as fh:
-            fh.write("\n".join(head + lines) + "\n")
+            fh.write("\n".join(head + _summary(rows) + [""] + lines) + "\n")
     return 0 if rows else 1
 
 
