@@ -285,6 +285,7 @@ def _proven_state(f, theta, ups, inertia, pot, x, pi, t):
                 float(t),
                 prec_bits=PROVEN_PREC_BITS,
                 max_seconds=PROVEN_MAX_SECONDS,
+                route="arb",
             )
         except (ValueError, ArithmeticError) as exc:
             return f"{type(exc).__name__}: {str(exc).split(' (')[0][:100]}"
