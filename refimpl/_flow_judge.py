@@ -82,28 +82,19 @@ def judge_flows(
             if route == "interval":
                 raise
             refused = f"{type(exc).__name__}: {exc}"
-    return [
-        _judged(
-            full_state_enclosure(
-                f,
-                theta,
-                upsilon,
-                inertia,
-                potential,
-                x0,
-                pi0,
-                t,
-                prec_bits=prec_bits,
-                want_ad=want_ad,
-                want_x=want_x,
-                max_seconds=max_seconds,
-                tol=tol,
-            ),
-            arb_judge_name(prec_bits),
-            refused,
-        )  # fmt: skip
-        for t in np.asarray(times, dtype=float).reshape(-1)
-    ]
+    out = []
+    for t in np.asarray(times, dtype=float).reshape(-1):
+        try:
+            e = full_state_enclosure(
+                f, theta, upsilon, inertia, potential, x0, pi0, t, prec_bits=prec_bits,
+                want_ad=want_ad, want_x=want_x, max_seconds=max_seconds, tol=tol,
+            )  # fmt: skip
+        except (ValueError, ArithmeticError) as exc:
+            if refused:  # both routes refused: say why the first did too
+                exc.add_note(f"the interval route refused first: {refused}")
+            raise
+        out.append(_judged(e, arb_judge_name(prec_bits), refused))
+    return out
 
 
 def judge_flow(

@@ -9,6 +9,7 @@ import numpy as np
 
 from tstarg.refimpl import su2
 from tstarg.refimpl.flows import reference_trajectory
+from tstarg.refimpl.rigorous import INTERVAL_JUDGE
 from tstarg.reports.certification import _common
 from tstarg.reports.certification._common import PROVEN_JUDGE, _proven_state
 
@@ -28,7 +29,8 @@ def test_proven_state_holds_the_reference_with_upsilon_and_both_signs():
     for t in (0.5, -0.5):
         out = _proven_state(f, Z3, U_DEG * 0.6, INERTIA, GRAV, X0, PI0, t)
         assert isinstance(out, tuple), out
-        xm, pm, ex, ep = out
+        xm, pm, ex, ep, judge = out
+        assert judge.startswith("tstarg-rigorous (Arb balls")  # Upsilon != 0: the Arb route
         assert ex < 1e-12 and ep < 1e-12
         tr = reference_trajectory(f, Z3, U_DEG * 0.6, INERTIA, GRAV, X0, PI0, [0, t], dps=30)
         xr, pr = tr.x[-1], tr.pi[-1]  # mpf: not rounded to float64
@@ -54,7 +56,7 @@ def test_certificate_names_the_proven_judge_and_its_error():
     cert = certify(fast, max_examples=3, seed=0, checks=["flow.reference"], shrink=False)
     (res,) = cert.checks
     assert res.passed, cert.summary()
-    judged = res.extra.get(f"forward legs judged by {PROVEN_JUDGE}", 0)
+    judged = res.extra.get(f"forward legs judged by {INTERVAL_JUDGE}", 0)
     assert judged >= 1, res.extra
     assert 0 < res.extra["judge_error"] < 1e-9
     assert PROVEN_JUDGE in res.extra["judge"]
