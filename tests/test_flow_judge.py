@@ -83,3 +83,32 @@ def test_verify_flow_second_route_passes_and_bites(monkeypatch):
     monkeypatch.setattr(core_checks, "reference_trajectory", moved)
     bad, _ = flow_reference_inside_balls(ex)
     assert bad > 1e3
+
+
+def test_verify_flow_second_route_holds_both_boxes(monkeypatch):
+    """With Upsilon = 0 the verify check judges the reference against the interval boxes and the Arb
+    balls: the true reference passes with >= 13 proven digits (the boxes' radius ~1e-16 at t = 0.2);
+    a reference whose pi is moved by 1e-12 relative (outside the interval box, whose radius is
+    below 1e-14 here, and far outside the Arb balls) fails."""
+    import tstarg.refimpl.flows as flows
+    from tstarg.properties import core_checks
+    from tstarg.properties.core_checks import flow_reference_inside_balls
+
+    ex = ("su(2)", Z3, Z3, X0, PI0, -0.2)
+    from tstarg.refimpl.rigorous import judge_flow
+
+    assert judge_flow(su2(), Z3, Z3, np.diag([1.0, 1.5, 2.0]), None, X0, PI0, -0.2)["judge"] == (
+        INTERVAL_JUDGE
+    )
+    ratio, digits = flow_reference_inside_balls(ex)
+    assert ratio <= 1 and digits > 13
+    real = flows.reference_trajectory
+
+    def moved(*a, **k):
+        tr = real(*a, **k)
+        tr.pi[-1] = tr.pi[-1] * (1 + mpmath.mpf("1e-12"))
+        return tr
+
+    monkeypatch.setattr(core_checks, "reference_trajectory", moved)
+    ratio, _ = flow_reference_inside_balls(ex)
+    assert ratio > 1
