@@ -24,8 +24,8 @@ import numpy as np
 from flint import arb, arb_mat
 
 from . import _interval_kernel as K
-from . import su2
 from ._arb import float_view, workprec
+from ._catalogue import su2
 from ._rigorous_flow import body_field, body_flow_enclosure
 from ._validate import MAX_FLOW_TIME
 
