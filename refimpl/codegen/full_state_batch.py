@@ -2,16 +2,15 @@
 
 ``W`` trajectories run side by side in lanes (template ``full_state_batch``): the Taylor coefficients
 are laid out ``V[k, row, lane]`` (C order), so the ``W`` lanes of one coefficient are contiguous, and
-every statement of the recurrence sits in a loop ``for l in range(W)`` over the lanes. The Cauchy
-products -- ``(#products) P^2 / 2`` multiply-adds per step, the bulk of the work -- are summed
-``GROUP`` products at a time into rows of ``V`` of their own (``V[k, nv + p, lane]``): LLVM unrolls
-the short lane loop and its SLP vectoriser packs the lanes' adjacent loads, multiply-adds and stores
-into SIMD instructions. Measured (one run each, 1000 trajectories, order 20, CPU time per trajectory
-against the single-trajectory generated kernel of :mod:`refimpl.codegen.full_state`): se(3) 48 us
-against 158 us, so(4) 19 us against 68 us. What did not vectorise: accumulators held in scalars
-(packed across *products*, with shuffles: no gain), groups of 16 products or 8 lanes (the lane loop is
-then too long to unroll: scalar code). No reassociation flag is needed (``fastmath`` is ``contract``
-only, as in the single-trajectory kernels): every lane sums its products in the order ``a = 0..k``.
+every statement of the recurrence sits in a loop ``for l in range(W)`` over the lanes, except the
+Cauchy products -- ``(#products) P^2 / 2`` multiply-adds per step, the bulk of the work -- which are
+summed ``GROUP`` products at a time in one loop over ``a``, with one scalar accumulator per product and
+lane written out (``s{j}_{l}``): the loop body stores nothing, so its sums stay in registers, and LLVM's
+SLP vectoriser packs the ``W`` lanes' adjacent loads and multiply-adds into SIMD instructions; products
+are sorted by their factors, so a group's shared factor is loaded once. No reassociation flag is needed
+(``fastmath`` is ``contract`` only, as in the single-trajectory kernels): every lane sums its products
+in the order ``a = 0..k``. Measured (1000 trajectories, CPU per trajectory, see :data:`GROUP`):
+kirchhoff_se3 at 3e-14 35.6 us against 50.3 us with the sums kept in rows of ``V``.
 
 The source is generated from the sparse tables of :meth:`refimpl._full_state.FullState.tables` (the
 one description of the field, shared with the kernel compiled for every structure): their index
@@ -38,10 +37,13 @@ __all__ = ["GROUP", "LANES", "batch_numbers", "batch_source"]
 LANES = 4
 """Trajectories per lane block (``W``): four float64 lanes fill one 256-bit SIMD register."""
 
-GROUP = 6
-"""General Cauchy products summed in one loop over ``a`` (se(3), order 20, one run: 4, 6 and 8 products
-50, 48 and 50 us per trajectory; 16 products 156 us, not vectorised). Six keeps the unrolled lane loop
-well inside LLVM's full-unroll size on every structure (the group's statements are one product each)."""
+GROUP = 12
+"""General Cauchy products summed in one loop over ``a``, each lane of each product in a scalar
+accumulator (kirchhoff_se3 at 3e-14, order 21, 1000 trajectories, one run each at load ~4.5, kernel CPU
+per trajectory): 6 products 40.7 us, 9 36.7, 12 35.6, 15 34.1, 23 33.9, all 45 at once 46.1 (spills);
+the earlier accumulation into rows of ``V`` (stored on every ``a``: LLVM cannot prove the row apart
+from the loads) 50.3 us at 6. Twelve keeps ``12 W`` accumulators within the sixteen 256-bit registers
+plus spare (AVX2; AVX-512 has 32), a margin for machines without AVX-512."""
 
 
 def _sum(terms: list[str]) -> str:
@@ -81,15 +83,20 @@ def batch_source(tables, d: int, W: int = LANES, group: int = GROUP) -> str:
             + f"{at('k', drow[r], 'l')} = "
             + _sum([f"c{t} * {at('k', didx[t], 'l')}" for t in ts])
         )
-    general = [p for p in range(len(pu)) if pcls[p] == 0]
+    # general products sorted by their factors: a group's products share loads (LLVM keeps one)
+    general = sorted((p for p in range(len(pu)) if pcls[p] == 0), key=lambda p: (pu[p], pw[p]))
     for g0 in range(0, len(general), group):
         grp = general[g0 : g0 + group]
-        kb += [f"for l in range({W}):"] + [I1 + f"{at('k', nv + p, 'l')} = 0.0" for p in grp]
-        kb += ["for a in range(k + 1):", I1 + "b = k - a", I1 + f"for l in range({W}):"]
+        # one scalar accumulator per (product, lane): the loop stores nothing, so nothing it loads
+        # can alias a store and the sums stay in registers; SLP packs each product's W lanes
+        kb += [f"s{j}_{ln} = 0.0" for j in range(len(grp)) for ln in lanes]
+        kb += ["for a in range(k + 1):", I1 + "b = k - a"]
         kb += [
-            2 * I1 + f"{at('k', nv + p, 'l')} += {at('a', pu[p], 'l')} * {at('b', pw[p], 'l')}"
-            for p in grp
+            I1 + f"s{j}_{ln} += {at('a', pu[p], ln)} * {at('b', pw[p], ln)}"
+            for j, p in enumerate(grp)
+            for ln in lanes
         ]
+        kb += [f"{at('k', nv + p, ln)} = s{j}_{ln}" for j, p in enumerate(grp) for ln in lanes]
     kb += ["ik = 1.0 / (k + 1)", f"for l in range({W}):"]
     for p in range(len(pu)):
         u, w, cl = pu[p], pw[p], pcls[p]
