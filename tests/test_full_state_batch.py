@@ -234,18 +234,48 @@ def test_batch_kernel_on_other_algebras_slow(name):
 
 
 def test_lane_kernel_size_rule():
-    """The lane kernel takes small structures (Bianchi III: a few dozen statements) and leaves the
-    largest to the single-trajectory kernel (su(3): 140 general products alone, over MAX_SIZE)."""
+    """Small structures (Bianchi III: a few dozen statements) get every product written out; the
+    largest (su(3): 140 general products alone, over MAX_SIZE) the packed form, whose source does not
+    grow with the products (one fixed block over the index tables)."""
     from tstarg.refimpl._catalogue import catalogue
 
     small = cached_model(*_args())
-    assert fsb.applies(fs_mod.FullState(small, small.representation))
+    fsmall = fs_mod.FullState(small, small.representation)
+    assert fsb.applies(fsmall) and fsb.size(fsmall) <= fsb.MAX_SIZE
     su3 = catalogue("su(3)")
     z = np.zeros((8, 8))
     big = cached_model(su3.f, z, z, np.diag(np.linspace(1.0, 2.0, 8)), None)
     fbig = fs_mod.FullState(big, big.representation)
     assert int((fbig.tables()[7] == 0).sum()) > fsb.MAX_SIZE // 2
-    assert not fsb.applies(fbig)
+    assert fsb.applies(fbig) and fsb.size(fbig) > fsb.MAX_SIZE
+    tb = fbig.tables()
+    packed = batch_source(tb, fbig.d, packed=True)
+    assert "UB[g, a, 0, 0]" in packed
+    assert len(packed) < len(batch_source(tb, fbig.d)) / 2
+
+
+@needs_numba
+@pytest.mark.parametrize("N", [1, W + 1, 2 * W + 3])
+def test_packed_batch_kernel_equals_the_single_kernel(fs, monkeypatch, N):
+    """The packed form (forced on a small structure: MAX_SIZE = 0) against the table-driven single
+    kernel: every row, the same step counts, under the rounding model of the written-out form (the same
+    sums in the same order, FMAs possibly contracted differently); the groups' padding (the zero row
+    into the sink row) changes no row."""
+    model, f = fs
+    monkeypatch.setattr(fsb, "MAX_SIZE", 0)
+    monkeypatch.delitem(f.__dict__, "_batch_kernel", raising=False)
+    y = _states(f, model, N, seed=11)
+    keep = y.copy()
+    T, tol = 1.1, 1e-12
+    P = fs_mod.default_order(tol)
+    gp, gu, gw = fsb.kernel(f)[4:]
+    assert len(gp) % 8 == 0 and len(gp) > int((f.tables()[7] == 0).sum())  # padded
+    out, steps = fsb.run(f, y, T, tol, P, 10**7)
+    f.__dict__.pop("_batch_kernel")  # the next test gets the written-out form again
+    ref, rsteps = _single(f, y, T, tol, P)
+    np.testing.assert_array_equal(y, keep)
+    np.testing.assert_array_equal(steps, rsteps)
+    _assert_rounding_close(out, ref, rsteps)
 
 
 @needs_numba

@@ -12,6 +12,13 @@ are sorted by their factors, so a group's shared factor is loaded once. No reass
 in the order ``a = 0..k``. Measured (1000 trajectories, CPU per trajectory, see :data:`GROUP`):
 kirchhoff_se3 at 3e-14 35.6 us against 50.3 us with the sums kept in rows of ``V``.
 
+The packed form (``packed=True``, for structures too large to write every product out: see
+:data:`refimpl._full_state_batch.MAX_SIZE`) sums the general products :data:`PACK` at a time through
+index tables (:func:`batch_groups`): at each order the ``k``-th coefficients of a group's factors are
+copied into blocks ``UB[g, k, j, lane]``, ``WB[g, k, j, lane]`` and one fixed loop over ``a`` sums them
+with scalar accumulators; the source is then short whatever the number of products (numba's typing and
+lowering, most of a cold compilation, grow with the statements), the sums the same in the same order.
+
 The source is generated from the sparse tables of :meth:`refimpl._full_state.FullState.tables` (the
 one description of the field, shared with the kernel compiled for every structure): their index
 arrays are the structure and are written into the source; their numbers (``dcoef``, ``qcoef``,
@@ -46,6 +53,10 @@ from the loads) 50.3 us at 6. Twelve keeps ``12 W`` accumulators within the sixt
 plus spare (AVX2; AVX-512 has 32), a margin for machines without AVX-512."""
 
 
+PACK = 8
+"""General products per group in the packed form of :func:`batch_source` (``packed=True``)."""
+
+
 def _sum(terms: list[str]) -> str:
     return tree_sum(terms) if terms else "0.0"
 
@@ -55,7 +66,7 @@ def batch_numbers(tables) -> np.ndarray:
     return np.ascontiguousarray(np.concatenate([tables[4], tables[11], tables[14]]), dtype=float)
 
 
-def batch_source(tables, d: int, W: int = LANES, group: int = GROUP) -> str:
+def batch_source(tables, d: int, W: int = LANES, group: int = GROUP, packed: bool = False) -> str:
     """The kernel module ``adaptive_batch(y0, T, tol, P, max_steps, c, vrow, srow, out, nsteps)`` for the
     field given by the sparse ``tables`` of :meth:`refimpl._full_state.FullState.tables` (``d`` state
     variables, ``W`` lanes, the general Cauchy products summed ``group`` at a time); ``c`` is
@@ -83,20 +94,41 @@ def batch_source(tables, d: int, W: int = LANES, group: int = GROUP) -> str:
             + f"{at('k', drow[r], 'l')} = "
             + _sum([f"c{t} * {at('k', didx[t], 'l')}" for t in ts])
         )
-    # general products sorted by their factors: a group's products share loads (LLVM keeps one)
-    general = sorted((p for p in range(len(pu)) if pcls[p] == 0), key=lambda p: (pu[p], pw[p]))
-    for g0 in range(0, len(general), group):
-        grp = general[g0 : g0 + group]
-        # one scalar accumulator per (product, lane): the loop stores nothing, so nothing it loads
-        # can alias a store and the sums stay in registers; SLP packs each product's W lanes
-        kb += [f"s{j}_{ln} = 0.0" for j in range(len(grp)) for ln in lanes]
-        kb += ["for a in range(k + 1):", I1 + "b = k - a"]
+    if packed:
+        G = PACK
         kb += [
-            I1 + f"s{j}_{ln} += {at('a', pu[p], ln)} * {at('b', pw[p], ln)}"
-            for j, p in enumerate(grp)
+            "for g in range(ngrp):",
+            I1 + f"for j in range({G}):",
+            2 * I1 + f"u = gu[g * {G} + j]",
+            2 * I1 + f"w = gw[g * {G} + j]",
+        ]
+        kb += [2 * I1 + f"UB[g, k, j, {ln}] = V[k, u, {ln}]" for ln in lanes]
+        kb += [2 * I1 + f"WB[g, k, j, {ln}] = V[k, w, {ln}]" for ln in lanes]
+        kb += [I1 + f"s{j}_{ln} = 0.0" for j in range(G) for ln in lanes]
+        kb += [I1 + "for a in range(k + 1):", 2 * I1 + "b = k - a"]
+        kb += [
+            2 * I1 + f"s{j}_{ln} += UB[g, a, {j}, {ln}] * WB[g, b, {j}, {ln}]"
+            for j in range(G)
             for ln in lanes
         ]
-        kb += [f"{at('k', nv + p, ln)} = s{j}_{ln}" for j, p in enumerate(grp) for ln in lanes]
+        for j in range(G):
+            kb.append(I1 + f"q = gp[g * {G} + {j}]")
+            kb += [I1 + f"V[k, q, {ln}] = s{j}_{ln}" for ln in lanes]
+    else:
+        # general products sorted by their factors: a group's products share loads (LLVM keeps one)
+        general = sorted((p for p in range(len(pu)) if pcls[p] == 0), key=lambda p: (pu[p], pw[p]))
+        for g0 in range(0, len(general), group):
+            grp = general[g0 : g0 + group]
+            # one scalar accumulator per (product, lane): the loop stores nothing, so nothing it loads
+            # can alias a store and the sums stay in registers; SLP packs each product's W lanes
+            kb += [f"s{j}_{ln} = 0.0" for j in range(len(grp)) for ln in lanes]
+            kb += ["for a in range(k + 1):", I1 + "b = k - a"]
+            kb += [
+                I1 + f"s{j}_{ln} += {at('a', pu[p], ln)} * {at('b', pw[p], ln)}"
+                for j, p in enumerate(grp)
+                for ln in lanes
+            ]
+            kb += [f"{at('k', nv + p, ln)} = s{j}_{ln}" for j, p in enumerate(grp) for ln in lanes]
     kb += ["ik = 1.0 / (k + 1)", f"for l in range({W}):"]
     for p in range(len(pu)):
         u, w, cl = pu[p], pw[p], pcls[p]
@@ -138,7 +170,23 @@ def batch_source(tables, d: int, W: int = LANES, group: int = GROUP) -> str:
                 f"V[0, o, {ln}] = w_{ln}",
             )
         ),
-        NV=str(int(nv) + len(pu)),
+        NV=str(int(nv) + len(pu) + 2),
+        NGRP=str(-(-int((np.asarray(pcls) == 0).sum()) // PACK) if packed else 0),
+        PACK=str(PACK),
         D=str(int(d)),
         W=str(W),
     )
+
+
+def batch_groups(tables) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(gp, gu, gw)``: the general products in groups of :data:`PACK` -- each entry the ``V`` row of
+    the product and of its two factors; the last group padded with products of the zero row
+    (``nv + len(pu)``) written to the sink row (``nv + len(pu) + 1``)."""
+    nv, pu, pw, pcls = int(tables[0]), tables[5], tables[6], tables[7]
+    gen = np.flatnonzero(np.asarray(pcls) == 0)
+    pad = (-len(gen)) % PACK
+    zero, sink = nv + len(pu), nv + len(pu) + 1
+    gp = np.concatenate([nv + gen, np.full(pad, sink)]).astype(np.int64)
+    gu = np.concatenate([np.asarray(pu)[gen], np.full(pad, zero)]).astype(np.int64)
+    gw = np.concatenate([np.asarray(pw)[gen], np.full(pad, zero)]).astype(np.int64)
+    return gp, gu, gw

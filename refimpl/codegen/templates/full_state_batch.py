@@ -21,7 +21,7 @@ lane holds the zero state (a fixed point) and steps by ``0``.
 # ruff: noqa: E402, I001, F401, F841
 # fmt: off
 __LOADS__ = __COEFF__ = __HLOAD__ = __ZLOAD__ = __ZSTEP__ = __ZADD__ = None
-__NV__ = __D__ = __W__ = None
+__NV__ = __D__ = __W__ = __NGRP__ = __PACK__ = None
 # ---- template body ----
 
 import math
@@ -30,11 +30,14 @@ from numba import njit
 
 
 @njit(cache=True, nogil=True, fastmath={'contract'})
-def adaptive_batch(y0, T, tol, P, max_steps, c, vrow, srow, out, nsteps):
+def adaptive_batch(y0, T, tol, P, max_steps, c, vrow, srow, gp, gu, gw, out, nsteps):
     __LOADS__
     N = y0.shape[0]
     nvar = vrow.shape[0]
     V = np.zeros((P + 1, __NV__, __W__))
+    ngrp = __NGRP__
+    UB = np.zeros((max(ngrp, 1), P + 1, __PACK__, __W__))
+    WB = np.zeros((max(ngrp, 1), P + 1, __PACK__, __W__))
     comp = np.zeros((max(nvar, 1), __W__))
     tl = np.zeros(__W__)
     hv = np.zeros(__W__)
