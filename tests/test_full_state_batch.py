@@ -34,7 +34,7 @@ from tstarg.refimpl import _full_state_batch as fsb
 from tstarg.refimpl import _full_state_kernel as fk
 from tstarg.refimpl._catalogue import bianchi
 from tstarg.refimpl._cohomology import cocycle_basis
-from tstarg.refimpl.codegen.full_state_batch import batch_source
+from tstarg.refimpl.codegen.full_state_batch import batch_source, share_groups
 from tstarg.refimpl.fast import implementation as FAST
 from tstarg.refimpl.flows import cached_model
 from tstarg.refimpl.flows._common import _AbelianPart
@@ -231,6 +231,21 @@ def test_batch_kernel_on_other_algebras_slow(name):
     ref, rsteps = _single(f, y, T, tol, P)
     np.testing.assert_array_equal(steps, rsteps)
     _assert_rounding_close(out, ref, rsteps)
+
+
+def test_share_groups_partition_the_products():
+    """Every product in exactly one group of at most ``size``; products of one factor pair with all
+    four of another (a 2 x 4 block) land in one group of 8 with 6 factor rows loaded, not 16."""
+    pu = np.array([0, 0, 0, 0, 1, 1, 1, 1, 2, 3, 4])
+    pw = np.array([5, 6, 7, 8, 5, 6, 7, 8, 9, 9, 9])
+    prods = [0, 4, 1, 5, 2, 6, 3, 7, 8, 9, 10]
+    for size in (1, 3, 8, 12):
+        groups = share_groups(prods, pu, pw, size)
+        assert sorted(p for g in groups for p in g) == sorted(prods)
+        assert all(1 <= len(g) <= size for g in groups)
+    first = share_groups(prods, pu, pw, 8)[0]
+    assert sorted(first) == list(range(8))
+    assert len({pu[p] for p in first}) + len({pw[p] for p in first}) == 6
 
 
 def test_lane_kernel_size_rule():
