@@ -122,12 +122,16 @@ def test_batch_kernel_backwards_in_time(fs):
 
 
 @needs_numba
+@pytest.mark.parametrize("form", ["written", "packed"])
 @pytest.mark.parametrize("bad", [np.nan, np.inf])
-def test_a_failing_lane_is_reported_alone(fs, bad):
+def test_a_failing_lane_is_reported_alone(fs, monkeypatch, bad, form):
     """A non-finite row fails in its own lane (negative status, NaN row); every other row is what it
     is without the bad one (its lane may change: rounding-level), and the flow's runner refuses the
-    batch naming that row and only it."""
+    batch naming that row and only it. Both forms of the kernel (packed: forced by MAX_SIZE = 0)."""
     model, f = fs
+    if form == "packed":
+        monkeypatch.setattr(fsb, "MAX_SIZE", 0)
+        monkeypatch.delitem(f.__dict__, "_batch_kernel", raising=False)
     y = _states(f, model, 2 * W + 1, seed=3)
     y[2, 0] = bad
     T, tol = 0.8, 1e-11
@@ -140,6 +144,7 @@ def test_a_failing_lane_is_reported_alone(fs, bad):
     _assert_rounding_close(out[good], ref, rsteps)
     with pytest.raises(ValueError, match=r"trajectories \[2\] became non-finite"):
         fs_mod._run(f, y, T, tol, generated=True)
+    f.__dict__.pop("_batch_kernel", None)  # the next test builds its own form
 
 
 @needs_numba
