@@ -131,8 +131,12 @@ def batch_source(tables, d: int, W: int = LANES, group: int = GROUP, packed: boo
             2 * I1 + f"u = gu[g * {G} + j]",
             2 * I1 + f"w = gw[g * {G} + j]",
         ]
-        kb += [2 * I1 + f"UB[g, k, j, {ln}] = V[k, u, {ln}]" for ln in lanes]
-        kb += [2 * I1 + f"WB[g, k, j, {ln}] = V[k, w, {ln}]" for ln in lanes]
+        # all loads before the stores: the W lanes then move as one SIMD load and store each (the
+        # blocks are not known apart from V, so a store between two loads would keep them scalar)
+        kb += [2 * I1 + f"t{ln} = V[k, u, {ln}]" for ln in lanes]
+        kb += [2 * I1 + f"r{ln} = V[k, w, {ln}]" for ln in lanes]
+        kb += [2 * I1 + f"UB[g, k, j, {ln}] = t{ln}" for ln in lanes]
+        kb += [2 * I1 + f"WB[g, k, j, {ln}] = r{ln}" for ln in lanes]
         kb += [I1 + f"s{j}_{ln} = 0.0" for j in range(G) for ln in lanes]
         kb += [I1 + "for a in range(k + 1):", 2 * I1 + "b = k - a"]
         kb += [
