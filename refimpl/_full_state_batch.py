@@ -33,11 +33,13 @@ MAX_SIZE = 240
 products plus the terms of the derived and state rows (the statements of the generated recurrence);
 a larger one gets the packed form (:func:`refimpl.codegen.full_state_batch.batch_source`,
 ``packed=True``: the products' loop is one fixed block over index tables, so the source no longer grows
-with them). The cold compilation (numba's typing and lowering dominate, growing with the statements)
-measured, one run each, CPU, load average ~8: written out kirchhoff_se3 (117) 7.1 s, free_su3 (365)
-19.7 s; packed kirchhoff_se3 3.4 s, free_su3 6.4 s. The written-out form is the faster one where it
-fits (kirchhoff_se3 at 3e-14: 37.2 against 86.0 us per trajectory); on free_su3 the packed one takes
-51.2 us per trajectory against 67.4 us for the single-trajectory generated kernel."""
+with them). The cold compilation (numba's typing and lowering dominate, about linear in the
+statements: twelve per written-out product) measured, one run each, CPU, load average 7-8: written
+out kirchhoff_se3 (117) 6.3 s, manakov_so4 (162) 9.2-10.4 s, free_su3 (365) 19.7 s; packed
+kirchhoff_se3 3.4 s, manakov_so4 4.1 s, free_su3 6.4 s. The written-out form is the faster one where it
+fits (per trajectory, 1000 trajectories at 3e-14: kirchhoff_se3 37.2 against 86.0 us, manakov_so4 15.1
+against 36.1 us: its groups share factor loads, the packed blocks cannot); on free_su3 the packed one
+takes 51.2 us per trajectory against 67.4 us for the single-trajectory generated kernel."""
 
 
 def size(fs) -> int:
