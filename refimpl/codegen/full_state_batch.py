@@ -96,10 +96,12 @@ def batch_numbers(tables) -> np.ndarray:
 
 
 def batch_source(tables, d: int, W: int = LANES, group: int = GROUP, packed: bool = False) -> str:
-    """The kernel module ``adaptive_batch(y0, T, tol, P, max_steps, c, vrow, srow, out, nsteps)`` for the
-    field given by the sparse ``tables`` of :meth:`refimpl._full_state.FullState.tables` (``d`` state
-    variables, ``W`` lanes, the general Cauchy products summed ``group`` at a time); ``c`` is
-    :func:`batch_numbers` of the same tables, ``vrow``/``srow`` the tables' rows of the same name."""
+    """The kernel module ``adaptive_batch(y0, T, tol, P, max_steps, c, vrow, srow, gp, gu, gw, out,
+    nsteps)`` for the field given by the sparse ``tables`` of :meth:`refimpl._full_state.FullState.tables`
+    (``d`` state variables, ``W`` lanes, the general Cauchy products written out and summed ``group``
+    at a time, or ``packed`` :data:`PACK` at a time through index tables); ``c`` is
+    :func:`batch_numbers` of the same tables, ``vrow``/``srow`` the tables' rows of the same name,
+    ``gp``/``gu``/``gw`` :func:`batch_groups` (read by the packed form only)."""
     if not (isinstance(W, int) and 1 <= W <= 16):
         raise ValueError(f"lanes W must be an int in 1..16, got {W!r}")
     if not (isinstance(group, int) and group >= 1):

@@ -6,8 +6,10 @@ define the placeholders for the linters; ``__NAME__`` is replaced by :func:`refi
 (a placeholder alone on its line replaces the whole line). The generated blocks are the loads of the
 numbers (``__LOADS__``), the coefficient recurrence of one order ``k`` for every lane (``__COEFF__``)
 and the lanes of the compensated Horner update (``__HLOAD__``, ``__ZLOAD__``, ``__ZSTEP__``,
-``__ZADD__``); ``__NV__`` rows of ``V`` (state, derived, products), ``__D__`` state variables,
-``__W__`` lanes.
+``__ZADD__``); ``__NV__`` rows of ``V`` (state, derived, products, then the zero row and the sink row
+of the packed form's padding), ``__D__`` state variables, ``__W__`` lanes; the packed form's blocks
+``UB``, ``WB``: ``__NGRP__`` groups (0 in the written-out form) of ``__PACK__`` products, whose rows
+``gp``, ``gu``, ``gw`` (arguments) are :func:`refimpl.codegen.full_state_batch.batch_groups`.
 
 Lanes: each lane runs one trajectory with its own time, step and step count -- the step sequence of
 the single-trajectory kernel (:mod:`refimpl._full_state_kernel`), so each trajectory keeps its own
