@@ -76,6 +76,11 @@ update and the step norms are loops over index tables and the products run in ch
 A function of the call's inputs, so a call's result never depends on what ran before it."""
 
 
+PROP_MIN_B = 1e-14
+
+MAX_STEPS = 10_000_000
+"""The kernels' step budget per trajectory (status -3 beyond it)."""
+
 B_MAX = 3e-14
 """``B``'s largest local tolerance on the full state (the su(2) quaternion state's is
 :data:`refimpl._flow_compiled.B_MAX`, 1e-13): at the default ``tol = 1e-10`` one pair of runs then
@@ -297,7 +302,7 @@ class FullState:
         T: float,
         tol: float,
         order: int | None = None,
-        max_steps: int = 10_000_000,
+        max_steps: int = MAX_STEPS,
         generated: bool = False,
     ):
         """``(y(T), steps)`` for the rows of ``y0`` (N, d) at the local tolerance ``tol``."""
@@ -355,6 +360,20 @@ def full_state(model, abelian=None) -> FullState:
             np.ascontiguousarray(gv[:, 2]),
             fs.n * (2 if fs.gravity else 1),
         )
+        # the arguments of the compiled start (_fk.start) and logarithm (_fk.log_refined), built once
+        fs.gamma = np.ascontiguousarray(model.gamma if fs.gravity else np.zeros(fs.n), dtype=float)
+        fs.Pab = np.ascontiguousarray(np.zeros((0, fs.n)) if ab is None else ab.P, dtype=float)
+        fs.refine = ab is not None and not fs.cplx
+        fs.ab_args = (
+            fs.abelian_tables
+            if fs.refine
+            else (
+                np.zeros((0, fs.n)),
+                np.zeros((fs.n, 0)),
+                np.zeros((fs.n, 0)),
+                np.zeros((0, fs.r, fs.r)),
+            )
+        )
         model.__dict__["_full_state"] = fs
     return fs
 
@@ -395,6 +414,8 @@ def _ad_of(fs: FullState, G) -> np.ndarray:
     return out
 
 
+_NO_S = np.zeros((0, 1))
+
 ABELIAN_RTOL = (
     1e-13  # the log's abelian part is kept when it matches the integrated one this closely
 )
@@ -409,7 +430,14 @@ def _x_of(fs: FullState, G, Ad, s) -> np.ndarray:
     xs = np.empty((N, fs.n))
     ok = np.zeros(N, dtype=np.bool_)
     G = np.ascontiguousarray(G, dtype=fs.mats.dtype)
-    _fk.log_batch(G, fs.mats, fs.proj, fs.cplx, xs, ok)
+    if fs.cplx:
+        _fk.log_batch(G, fs.mats, fs.proj, fs.cplx, xs, ok)
+    else:  # the log and, when it accepted every row, the abelian refine in one call
+        s_ = _NO_S if s is None else np.ascontiguousarray(s)
+        if _fk.log_refined(
+            G, fs.mats, fs.proj, False, xs, ok, s_, *fs.ab_args, ABELIAN_RTOL, fs.refine
+        ):
+            return xs.T.copy()
     for j in np.flatnonzero(~ok):
         xs[j] = fs.rep.log(G[j], Ad[j])
     if fs.abelian is not None:
@@ -425,13 +453,17 @@ def _x_of(fs: FullState, G, Ad, s) -> np.ndarray:
     return xs.T.copy()
 
 
-def _run(fs: FullState, y0, t, eps, generated=False, order=None):
-    y, steps = fs.run(y0, t, eps, order=order, generated=generated)
-    if steps.min() < 0:
+def _check_steps(steps, t) -> None:
+    if (steps[0] < 0) if steps.shape[0] == 1 else (steps.min() < 0):
         raise ValueError(
             f"compiled Taylor flow: trajectories {np.flatnonzero(steps < 0)[:10].tolist()} became "
             f"non-finite before t = {t} (diverged); no point is dropped"
         )
+
+
+def _run(fs: FullState, y0, t, eps, generated=False, order=None):
+    y, steps = fs.run(y0, t, eps, order=order, generated=generated)
+    _check_steps(steps, t)
     return y, steps
 
 
@@ -455,21 +487,43 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
     ``Upsilon != 0`` one; each kernel picks its own order for ``eps``)."""
     fs = full_state(model, abelian)
     n, N = pi0.shape
-    G0 = np.empty((N, fs.r, fs.r), dtype=fs.mats.dtype)
-    _fk.exp_batch(np.ascontiguousarray(x0.T), fs.mats, G0)
-    Gamma0 = None
-    if fs.gravity:
-        Ad0 = _ad_of(fs, G0)
-        Gamma0 = np.einsum("Nmb,m->bN", Ad0, model.gamma)
-    s0 = None if fs.abelian is None else fs.abelian.P @ x0
-    y0 = _pack(fs, pi0, Gamma0, G0, s0)
+    y0 = np.empty((N, fs.d))  # (pi, [Gamma,] G, [s]) at t = 0: _pack of exp(rho(x0)), compiled
+    _fk.start(
+        np.ascontiguousarray(x0, dtype=float),
+        np.ascontiguousarray(pi0, dtype=float),
+        fs.mats,
+        fs.proj,
+        fs.cplx,
+        *fs.gidx,
+        fs.gamma,
+        fs.gravity,
+        fs.Pab,
+        y0,
+    )
     eps_a, _ = local_tolerances(tol)
     gen = N * abs(t) >= GENERATED_MIN_WORK
 
-    go = _run if run is None else run
+    if run is not None:
 
-    def run_(y, tt, eps, order=None):  # order None: the kernel's own for eps
-        return go(fs, y, tt, eps, gen)
+        def run_(y, tt, eps, order=None):  # order None: the kernel's own for eps
+            return run(fs, y, tt, eps, gen)
+
+    elif gen and not (N >= _fsb.LANES and _fsb.applies(fs)):
+        kernel = (
+            fs.module().adaptive
+        )  # the generated kernel, called directly (FullState.run's body)
+
+        def run_(y, tt, eps, order=None):
+            out = np.empty_like(y)
+            steps = np.empty(y.shape[0], dtype=np.int64)
+            kernel(y, float(tt), float(eps), default_order(eps), MAX_STEPS, fs.coef, out, steps)
+            _check_steps(steps, tt)
+            return out, steps
+
+    else:
+
+        def run_(y, tt, eps, order=None):
+            return _run(fs, y, tt, eps, gen)
 
     last = [None, None, None]  # (B, G_B, Ad_B) of the last estimate: the answer's, when it is B
 
@@ -478,7 +532,16 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
         last[0] = B
 
     res, est, steps = _control(
-        model, y0, t, eps_a, n, tol, runner=(run_, lambda eps: None), estimate=estimate, b_max=B_MAX
+        model,
+        y0,
+        t,
+        eps_a,
+        n,
+        tol,
+        runner=(run_, lambda eps: None),
+        estimate=estimate,
+        b_max=B_MAX,
+        prop_min_b=PROP_MIN_B,
     )
     over = np.flatnonzero(est > tol)
     if over.size:

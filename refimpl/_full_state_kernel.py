@@ -653,3 +653,55 @@ def abelian_batch(G, xs, s, P, Ppinv, D, Dr, mats, rtol):
             refine_abelian(G[j], xs[j].copy(), s[:, j].copy(), P, Ppinv, D, Dr, mats, out)
             for a in range(n):
                 xs[j, a] = out[a]
+
+
+# ---------------------------------------------------------------------- per-call glue, one call each
+# The starting state and the logarithm of the full state as one compiled call each (the numpy glue
+# they replace cost ~10 us of call overhead apiece on one trajectory; the same formulas as
+# refimpl._full_state._pack and ._x_of, which stay the documentation).
+@njit(cache=True, nogil=True)
+def start(X, Pi, mats, proj, cplx, gpart, gi, gj, off, gamma, grav, Pab, y0):
+    """``y0[N] = (pi, [Gamma,] G entries, [s])`` from ``X``, ``Pi`` (n, N): ``G = exp(rho(x))``,
+    ``Gamma_b = sum_m Ad(g)_mb gamma_m`` (``grav``), ``s = Pab x`` (``Pab`` (k, n), k = 0 without an
+    abelian part)."""
+    n, N = X.shape
+    r = mats.shape[1]
+    d = y0.shape[1]
+    k = Pab.shape[0]
+    xr = np.empty((N, n))
+    for j in range(N):
+        for a in range(n):
+            xr[j, a] = X[a, j]
+            y0[j, a] = Pi[a, j]
+        for ell in range(k):
+            acc = 0.0
+            for a in range(n):
+                acc += Pab[ell, a] * X[a, j]
+            y0[j, d - k + ell] = acc
+    G = np.empty((N, r, r), dtype=mats.dtype)
+    exp_batch(xr, mats, G)
+    if grav:
+        Ad = np.empty((N, n, n))
+        ad_batch(G, mats, proj, cplx, Ad)
+        for j in range(N):
+            for b in range(n):
+                acc = 0.0
+                for m in range(n):
+                    acc += Ad[j, m, b] * gamma[m]
+                y0[j, n + b] = acc
+    pack_G(G, gpart, gi, gj, off, y0)
+
+
+@njit(cache=True, nogil=True)
+def log_refined(G, mats, proj, cplx, xs, ok, s, P, Ppinv, D, Dr, rtol, refine):
+    """:func:`log_batch`; then, when it accepted every row and ``refine`` (a real representation with
+    an abelian part), :func:`abelian_batch` on them (``s`` (k, N) the integrated part). Returns whether
+    the refine ran (else the caller completes the rows: the fallback log first, then the refine)."""
+    log_batch(G, mats, proj, cplx, xs, ok)
+    if not refine:
+        return False
+    for j in range(xs.shape[0]):
+        if not ok[j]:
+            return False
+    abelian_batch(G, xs, s, P, Ppinv, D, Dr, mats, rtol)
+    return True
