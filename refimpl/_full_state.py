@@ -48,7 +48,12 @@ Error control
     user reads the result: ``max(|pi_A - pi_B|, |Ad_A - Ad_B|)`` per trajectory; the same control
     function (:func:`refimpl._flow_compiled._control`) as the su(2) full state: a trajectory over the
     tolerance keeps its ``B`` when only ``A`` is tightened, and has ``B`` alone tightened when the
-    proportional estimate then passes.
+    proportional estimate then passes. On the full state ``B`` runs at most at :data:`B_MAX` = 2e-15
+    (the proportional estimate ``30 (eps_B / eps_A) |A - B|`` kept down to :data:`PROP_MIN_B` = 1e-15),
+    so that one pair passes for flows amplifying their local errors up to ~1700 times at the default
+    tolerance (a third run costs more than the tighter ``B``); the ``Upsilon != 0`` kernel keeps the
+    su(2) values (:data:`B_MAX_RATIONAL`). Every estimate then gets the rounding floor that ``|A - B|``
+    cannot see (:data:`ROUND_PER_STEP`), so it bounds the error of the answer at the float64 floor too.
 """
 
 from __future__ import annotations
@@ -76,17 +81,38 @@ update and the step norms are loops over index tables and the products run in ch
 A function of the call's inputs, so a call's result never depends on what ran before it."""
 
 
-PROP_MIN_B = 1e-14
-
 MAX_STEPS = 10_000_000
 """The kernels' step budget per trajectory (status -3 beyond it)."""
 
-B_MAX = 3e-14
+B_MAX = 2e-15
 """``B``'s largest local tolerance on the full state (the su(2) quaternion state's is
-:data:`refimpl._flow_compiled.B_MAX`, 1e-13): at the default ``tol = 1e-10`` one pair of runs then
-passes where the global error is up to ~100 times the local tolerance (se(3) Kirchhoff: three runs at
-1e-13), and a retry can take this ``B`` as its ``A`` near the float64 floor (Bianchi VI0: three runs
-instead of four); ``B`` costs about the same (the order rises by one, the steps do not)."""
+:data:`refimpl._flow_compiled.B_MAX`, 1e-13). With ``A`` at 1e-8 (the default ``tol = 1e-10``) the
+proportional estimate ``30 (eps_B / eps_A) |A - B|`` passes in one pair of runs while the global
+error of ``A`` is at most ``tol / (30 eps_B) = 1667`` times its local tolerance (at 3e-14: 111).
+Measured ratios global error / local tolerance: up to ~2500 (Bianchi VI0 with a cocycle, T = 10:
+1200 for ``A``), which took a third run at 3e-14; ``B`` costs 3-10 % more here than at 3e-14 (the
+order rises by two, the steps barely), a third run 40-100 %. Kept at or above :data:`PROP_MIN_B`."""
+
+PROP_MIN_B = 1e-15
+"""``B``'s tightest local tolerance for the proportional estimate on the full state (the su(2) state's
+is :data:`refimpl._flow_compiled.PROP_MIN_B`, 1e-14). Its reason there: below it the global error
+stops scaling with ``eps`` (the rounding floor, about ``kappa 1e-14`` for a flow amplifying its
+local errors ``kappa`` times), so ``30 kappa eps_B`` must stay above ``kappa 1e-14``: ``eps_B >=
+3.3e-16``; the full state's update is compensated (Kahan) and :data:`ROUND_PER_STEP` charges the floor
+explicitly."""
+
+B_MAX_RATIONAL, PROP_MIN_B_RATIONAL = 3e-14, 1e-14
+"""The same two for the ``Upsilon != 0`` kernel (:mod:`refimpl._full_state_rational`, its ``run``): its
+steps cost more with the order (one ``Psi_0`` solve per order), so ``B`` at 2e-15 cost 9 % more on the
+bench's modified su(3) for no third run saved."""
+
+ROUND_PER_STEP = 4.0
+"""The rounding floor added to every estimate: ``ROUND_PER_STEP eps (steps + n) max(1, |pi|, |Ad|)``
+(float64 ``eps``; ``steps`` of the answer ``B``). Error model: each step's coefficients and the
+compensated Horner update round to a few units ``eps |y|`` (``|y|`` bounded by the end state's size on
+these bounded flows), and computing ``Ad(g)`` and ``x`` from ``G`` to about ``n eps``; ``|A - B|`` cannot
+see the part both runs share. Measured (free su(3), so(4), T = 10, ``B`` at 1e-15): errors 16-26
+``eps`` at 9-15 steps, where the proportional estimate alone came out 0.2-0.7 of the error."""
 
 
 def applies(model) -> bool:
@@ -540,19 +566,21 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
         tol,
         runner=(run_, lambda eps: None),
         estimate=estimate,
-        b_max=B_MAX,
-        prop_min_b=PROP_MIN_B,
+        b_max=B_MAX if run is None else B_MAX_RATIONAL,
+        prop_min_b=PROP_MIN_B if run is None else PROP_MIN_B_RATIONAL,
     )
-    over = np.flatnonzero(est > tol)
+    if last[0] is res:  # N = 1, first pair: G and Ad(g) of the answer already computed
+        G, Adres = last[1], last[2]
+    else:
+        _, G, Adres = _estimate(fs, res, res)
+    size = np.maximum(np.abs(res[:, :n]).max(axis=1), np.abs(Adres).max(axis=(1, 2)))
+    est = est + ROUND_PER_STEP * EPS * (steps + n) * np.maximum(1.0, size)  # the rounding floor
+    over = np.flatnonzero(~(est <= tol))
     if over.size:
         raise ValueError(
             f"compiled Taylor flow: tolerance {tol} not reached on trajectories {over[:10].tolist()} "
             f"(estimated errors {est[over][:3].tolist()}) at the float64 floor of the local tolerance"
         )
-    if last[0] is res:  # N = 1, first pair: G and Ad(g) of the answer already computed
-        G, Adres = last[1], last[2]
-    else:
-        _, G, Adres = _estimate(fs, res, res)
     s = None if fs.abelian is None else res[:, fs.d - fs.n_ab :].T
     x = _x_of(fs, G, Adres, s)
     return {
