@@ -58,6 +58,8 @@ Error control
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from . import _compiled_taylor as _ct
@@ -449,7 +451,7 @@ ABELIAN_RTOL = (
 
 
 def _x_of(fs: FullState, G, Ad, s) -> np.ndarray:
-    """``x`` (n, N) with ``exp(x) = g``: the principal logarithm of ``G`` when it lies in the algebra
+    """``x`` (N, n) (rows) with ``exp(x) = g``: the principal logarithm of ``G`` when it lies in the algebra
     (compiled, :func:`refimpl._full_state_kernel.log_batch`), else :meth:`Representation.log`; on
     exponential algebras the abelian part from ``s`` when the log's differs from it
     (:class:`refimpl.flows._common._AbelianPart`)."""
@@ -464,7 +466,7 @@ def _x_of(fs: FullState, G, Ad, s) -> np.ndarray:
         if _fk.log_refined(
             G, fs.mats, fs.proj, False, xs, ok, s_, *fs.ab_args, ABELIAN_RTOL, fs.refine
         ):
-            return xs.T.copy()
+            return xs
     for j in np.flatnonzero(~ok):
         xs[j] = fs.rep.log(G[j], Ad[j])
     if fs.abelian is not None:
@@ -472,12 +474,12 @@ def _x_of(fs: FullState, G, Ad, s) -> np.ndarray:
         if not fs.cplx:  # compiled (refimpl._full_state_kernel.abelian_batch), the same refine
             ab = fs.abelian_tables
             _fk.abelian_batch(G, xs, np.ascontiguousarray(s), *ab, fs.mats, ABELIAN_RTOL)
-            return xs.T.copy()
+            return xs
         for j in range(N):
             sj = s[:, j]
             if np.max(np.abs(P @ xs[j] - sj)) > ABELIAN_RTOL * max(1.0, float(np.max(np.abs(sj)))):
                 xs[j] = fs.abelian.refine(fs.rep, G[j], xs[j], sj)
-    return xs.T.copy()
+    return xs
 
 
 def _check_steps(steps, t) -> None:
@@ -494,13 +496,15 @@ def _run(fs: FullState, y0, t, eps, generated=False, order=None):
     return y, steps
 
 
-def _estimate(fs: FullState, A, B):
-    """``(max(|pi_A - pi_B|, |Ad_A - Ad_B|), G_B, Ad_B)`` per trajectory (compiled)."""
+def _estimate(fs: FullState, A, B, size=None):
+    """``(max(|pi_A - pi_B|, |Ad_A - Ad_B|), G_B, Ad_B)`` per trajectory (compiled); ``size``: receives
+    ``max(|pi_B|, |Ad_B|)`` per trajectory."""
     N = A.shape[0]
     GB = np.empty((N, fs.r, fs.r), dtype=fs.mats.dtype)
     AdB = np.empty((N, fs.n, fs.n))
     est = np.empty(N)
-    _fk.estimate(A, B, fs.n, *fs.gidx, fs.unit, fs.mats, fs.proj, fs.cplx, GB, AdB, est)
+    size = np.empty(N) if size is None else size
+    _fk.estimate(A, B, fs.n, *fs.gidx, fs.unit, fs.mats, fs.proj, fs.cplx, GB, AdB, est, size)
     return est, GB, AdB
 
 
@@ -552,15 +556,21 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
         def run_(y, tt, eps, order=None):
             return _run(fs, y, tt, eps, gen)
 
-    last = [None, None, None]  # (B, G_B, Ad_B) of the last estimate: the answer's, when it is B
+    last = [None, None, None, None]  # (B, G_B, Ad_B, size of B) of the last estimate
 
     def estimate(A, B, n_, out):
-        out[:], last[1], last[2] = _estimate(fs, A, B)
-        last[0] = B
+        size = np.empty(B.shape[0])
+        out[:], last[1], last[2] = _estimate(fs, A, B, size)
+        last[0], last[3] = B, size
 
     def floor(B, steps):  # ROUND_PER_STEP's rounding floor of the answer B (pi and Ad(g))
-        Ad = last[2] if last[0] is B else _estimate(fs, B, B)[2]
-        size = np.maximum(np.abs(B[:, :n]).max(axis=1), np.abs(Ad).max(axis=(1, 2)))
+        if last[0] is B:
+            size = last[3]
+        else:
+            size = np.empty(B.shape[0])
+            _estimate(fs, B, B, size)
+        if B.shape[0] == 1:
+            return (ROUND_PER_STEP * EPS * (math.sqrt(steps[0]) + n) * max(1.0, size[0]),)
         return ROUND_PER_STEP * EPS * (np.sqrt(steps) + n) * np.maximum(1.0, size)
 
     res, est, steps = _control(
@@ -581,20 +591,20 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
         G, Adres = last[1], last[2]
     else:
         _, G, Adres = _estimate(fs, res, res)
-    over = np.flatnonzero(~(est <= tol))
-    if over.size:
+    if not (est[0] <= tol if N == 1 else np.all(est <= tol)):
+        over = np.flatnonzero(~(est <= tol))
         raise ValueError(
             f"compiled Taylor flow: tolerance {tol} not reached on trajectories {over[:10].tolist()} "
             f"(estimated errors {est[over][:3].tolist()}) at the float64 floor of the local tolerance"
         )
     s = None if fs.abelian is None else res[:, fs.d - fs.n_ab :].T
-    x = _x_of(fs, G, Adres, s)
+    xs = _x_of(fs, G, Adres, s)  # (N, n)
     # the logarithm's error, measured where the user reads it: |Ad(exp(x)) - Ad(g_B)| (triangle inequality)
-    Gx = np.empty_like(G)
-    _fk.exp_batch(np.ascontiguousarray(x.T), fs.mats, Gx)
-    est = est + np.abs(_ad_of(fs, Gx) - Adres).max(axis=(1, 2))
-    over = np.flatnonzero(~(est <= tol))
-    if over.size:
+    resid = np.empty(N)
+    _fk.log_residual(xs, fs.mats, fs.proj, fs.cplx, Adres, resid)
+    est = est + resid
+    if not (est[0] <= tol if N == 1 else np.all(est <= tol)):
+        over = np.flatnonzero(~(est <= tol))
         raise ValueError(
             f"compiled Taylor flow: tolerance {tol} not reached on trajectories {over[:10].tolist()} "
             f"(estimated errors {est[over][:3].tolist()}, with the logarithm's) at the float64 floor"
@@ -602,7 +612,7 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
     return {
         "pi": res[:, :n].T.copy(),
         "Gamma": res[:, n : 2 * n].T.copy() if fs.gravity else None,
-        "x": x,
+        "x": xs.T.copy(),
         "g": G,
         "Ad": Adres,
         "quat": None,

@@ -485,9 +485,9 @@ def unpack_G(y, gpart, gi, gj, off, G, unit):
 
 
 @njit(cache=True, nogil=True)
-def estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est):
+def estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, size):
     """Per row: ``est = max(|pi_A - pi_B|, |Ad(g_A) - Ad(g_B)|)`` (inf when not finite); ``GB``, ``AdB``
-    the group element and ``Ad`` of ``B``."""
+    the group element and ``Ad`` of ``B``; ``size = max(|pi_B|, |Ad(g_B)|)``."""
     N = A.shape[0]
     r = mats.shape[1]
     GA = np.zeros((N, r, r), dtype=mats.dtype)
@@ -500,10 +500,14 @@ def estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est):
         m = 0.0
         for a in range(n):
             m = max(m, abs(A[it, a] - B[it, a]))
+        z = 0.0
         for a in range(n):
+            z = max(z, abs(B[it, a]))
             for b in range(n):
                 m = max(m, abs(AdA[it, a, b] - AdB[it, a, b]))
+                z = max(z, abs(AdB[it, a, b]))
         est[it] = m if math.isfinite(m) else np.inf
+        size[it] = z
 
 
 # ---------------------------------------------------------------------- the abelian part of the log
@@ -705,3 +709,21 @@ def log_refined(G, mats, proj, cplx, xs, ok, s, P, Ppinv, D, Dr, rtol, refine):
             return False
     abelian_batch(G, xs, s, P, Ppinv, D, Dr, mats, rtol)
     return True
+
+
+@njit(cache=True, nogil=True)
+def log_residual(xs, mats, proj, cplx, Ad, out):
+    """``out[N] = max |Ad(exp(rho(x))) - Ad|`` for the rows of ``xs`` (N, n) (inf when not finite):
+    how far the logarithm's ``x`` moves what the user reads from ``Ad(g)``."""
+    N, n = xs.shape
+    r = mats.shape[1]
+    G = np.empty((N, r, r), dtype=mats.dtype)
+    exp_batch(xs, mats, G)
+    Adx = np.empty((N, n, n))
+    ad_batch(G, mats, proj, cplx, Adx)
+    for it in range(N):
+        m = 0.0
+        for a in range(n):
+            for b in range(n):
+                m = max(m, abs(Adx[it, a, b] - Ad[it, a, b]))
+        out[it] = m if math.isfinite(m) else np.inf
