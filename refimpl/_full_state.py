@@ -58,6 +58,7 @@ Error control
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -356,6 +357,7 @@ ORDER_BIAS = (
 )
 
 
+@functools.lru_cache(maxsize=256)
 def default_order(tol: float) -> int:
     return _ct.adaptive_order(tol) + ORDER_BIAS
 
@@ -602,6 +604,8 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
     # the logarithm's error, measured where the user reads it: |Ad(exp(x)) - Ad(g_B)| (triangle inequality)
     resid = np.empty(N)
     _fk.log_residual(xs, fs.mats, fs.proj, fs.cplx, Adres, resid)
+    if not (math.isfinite(resid[0]) if N == 1 else np.all(np.isfinite(resid))):
+        resid[~np.isfinite(resid)] = 0.0  # no logarithm found (x not finite): the caller names them
     est = est + resid
     if not (est[0] <= tol if N == 1 else np.all(est <= tol)):
         over = np.flatnonzero(~(est <= tol))
