@@ -536,7 +536,9 @@ def refine_abelian(G, x0, s, P, Ppinv, D, Dr, mats, out):
     (the same steps): ``out`` = ``x`` with ``P x = s`` and ``exp(rho(x))`` closest to ``G``, by at most
     eight Gauss-Newton steps over ``[g, g]`` (directions ``D``, their images ``Dr = D^T rho``; each
     step by the normal equations, not scipy's least squares) from
-    ``x0 + pinv(P) (s - P x0)``, each kept only when it lowers ``max |exp(rho(x)) - G|``; the Jacobian's
+    ``x0 + pinv(P) (s - P x0)``, each kept only when it lowers ``max |exp(rho(x)) - G|``, none once that
+    residual is at ``8 r eps max(1, |G|)`` (the rounding of ``exp(rho(x))``: no step can improve it,
+    and one that tried cost another four exponentials); the Jacobian's
     columns are the Frechet derivatives ``L(rho(x), Dr_j)``, the upper right block of the exponential of
     ``[[rho(x), Dr_j], [0, rho(x)]]`` (Higham, Functions of Matrices, 3.2); ``x0`` itself when the fit
     does not come within ``10 |exp(rho(x0)) - G| + 1e3 eps max(1, |G|)``."""
@@ -571,9 +573,17 @@ def refine_abelian(G, x0, s, P, Ppinv, D, Dr, mats, out):
         best[a] = acc
     cand = np.zeros(n)
     r0 = _resid(x0, mats, G, X, E, R0)
-    rb = _resid(best, mats, G, X, E, Rb)
+    gmax = 0.0
+    for i in range(r):
+        for j in range(r):
+            gmax = max(gmax, abs(G[i, j]))
+    at_floor = 8.0 * r * 2.220446049250313e-16 * max(1.0, gmax)
+    rb = _resid(best, mats, G, X, E, Rb)  # X = rho(best) from here on (the last _resid kept)
     for _ in range(8):
-        _resid(best, mats, G, X, E, Rc)  # X = rho(best)
+        if (
+            rb <= at_floor
+        ):  # a residual at the rounding of exp(rho(x)) itself: no step can improve it
+            break
         for i in range(2 * r):
             for j in range(2 * r):
                 Z[i, j] = 0.0
@@ -628,10 +638,6 @@ def refine_abelian(G, x0, s, P, Ppinv, D, Dr, mats, out):
         for i in range(r):
             for j in range(r):
                 Rb[i, j] = Rc[i, j]
-    gmax = 0.0
-    for i in range(r):
-        for j in range(r):
-            gmax = max(gmax, abs(G[i, j]))
     ok = rb <= r0 * 10 + 1e3 * 2.220446049250313e-16 * max(1.0, gmax)
     for a in range(n):
         out[a] = best[a] if ok else x0[a]
