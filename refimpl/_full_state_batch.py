@@ -35,11 +35,12 @@ a larger one gets the packed form (:func:`refimpl.codegen.full_state_batch.batch
 ``packed=True``: the products' loop is one fixed block over index tables, so the source no longer grows
 with them). The cold compilation (numba's typing and lowering dominate, about linear in the
 statements: twelve per written-out product) measured, one run each, CPU, load average 7-8: written
-out kirchhoff_se3 (117) 6.3 s, manakov_so4 (162) 9.2-10.4 s, free_su3 (365) 19.7 s; packed
-kirchhoff_se3 3.4 s, manakov_so4 4.1 s, free_su3 6.4 s. The written-out form is the faster one where it
-fits (per trajectory, 1000 trajectories at 3e-14: kirchhoff_se3 37.2 against 86.0 us, manakov_so4 15.1
-against 36.1 us: its groups share factor loads, the packed blocks cannot); on free_su3 the packed one
-takes 51.2 us per trajectory against 67.4 us for the single-trajectory generated kernel."""
+out kirchhoff_se3 (117) 6.3 s, manakov_so4 (162) 9.2-10.4 s, so(4) with gravity (264) 14.1 s,
+free_su3 (365) 19.7 s; packed kirchhoff_se3 3.4 s, manakov_so4 4.1 s, so(4) with gravity 5.3 s,
+free_su3 6.0 s. The written-out form is the faster one where it fits (per trajectory, kernel alone at
+3e-14: manakov_so4 15.1 against 26.2 us, so(4) with gravity 93.2 against 151.6 us: its groups share
+more factor loads than the packed blocks); on free_su3 the packed form takes 40.4 us per trajectory
+against 67.4 us for the single-trajectory generated kernel."""
 
 
 def size(fs) -> int:

@@ -289,7 +289,15 @@ def test_packed_batch_kernel_equals_the_single_kernel(fs, monkeypatch, N):
     T, tol = 1.1, 1e-12
     P = fs_mod.default_order(tol)
     gp, gu, gw = fsb.kernel(f)[4:]
-    assert len(gp) % 8 == 0 and len(gp) > int((f.tables()[7] == 0).sum())  # padded
+    tb = f.tables()
+    nv, npr = int(tb[0]), len(tb[5])
+    general = nv + np.flatnonzero(tb[7] == 0)
+    # every general product written by exactly one pair of a block, every other pair to the sink row
+    assert sorted(gp[gp != nv + npr + 1].tolist()) == sorted(general.tolist())
+    assert len(gp) == 4 * len(gu) == 2 * len(gw)  # blocks of 2 x 4 pairs
+    real = gp != nv + npr + 1  # each real pair (i, j) of block g: the product u_i w_j
+    assert np.all(tb[5][gp[real] - nv] == gu.reshape(-1, 2).repeat(4, axis=1).ravel()[real])
+    assert np.all(tb[6][gp[real] - nv] == np.tile(gw.reshape(-1, 4), (1, 2)).ravel()[real])
     out, steps = fsb.run(f, y, T, tol, P, 10**7)
     f.__dict__.pop("_batch_kernel")  # the next test gets the written-out form again
     ref, rsteps = _single(f, y, T, tol, P)
