@@ -36,21 +36,36 @@ except ImportError:  # pragma: no cover - the plain-Python path (as refimpl._ful
         return (lambda fn: fn) if not a else a[0]
 
 
-__all__ = ["LANES", "MAX_SIZE", "adaptive_packed", "applies", "kernel", "run", "size"]
+__all__ = [
+    "LANES",
+    "MAX_GENERATED_TERMS",
+    "MAX_SIZE",
+    "adaptive_packed",
+    "applies",
+    "kernel",
+    "run",
+    "size",
+]
 
 MAX_SIZE = 240
 """The largest structure whose lane kernel has every Cauchy product written out, counted as general
 products plus the terms of the derived and state rows (the statements of the generated recurrence);
-a larger one gets the packed form (:func:`adaptive_packed`: one kernel for every structure, the
-field as tables, the products in blocks of factor rows: compiled once, never per structure). The cold compilation (numba's typing and lowering dominate, about linear in the
-statements: twelve per written-out product) measured, one run each, CPU, load average 7-8: written
-out kirchhoff_se3 (117) 6.3 s, manakov_so4 (162) 9.2-10.4 s, so(4) with gravity (264) 14.1 s,
-free_su3 (365) 19.7 s. The packed kernel is compiled once for every structure (about 3 s, then loaded
-from numba's cache). Generating the packed form per structure (tried: the same blocks with the derived
-and state rows written out) was faster per trajectory -- free_su3 40.4, so(4) with gravity 151.6 us,
-against 52.0 and 234.8 us for the one kernel -- but its cold compilation grows with the rows' terms:
-6.0 s on free_su3, 38.4 s on so(5) in its adjoint representation (1480). The written-out form is the
-fastest where it fits (kernel alone at 3e-14, per trajectory: manakov_so4 15.1 us, 34.8 us packed)."""
+a larger one gets the packed form (the products in blocks of factor rows through index tables:
+:func:`refimpl.codegen.full_state_batch.batch_source` ``packed=True``, or :func:`adaptive_packed`
+beyond :data:`MAX_GENERATED_TERMS`). The cold compilation (numba's typing and lowering dominate, about
+linear in the statements: twelve per written-out product) measured, one run each, CPU, load average
+7-8: written out kirchhoff_se3 (117) 6.3 s, manakov_so4 (162) 9.2-10.4 s, so(4) with gravity (264)
+14.1 s, free_su3 (365) 19.7 s; generated packed so(4) with gravity 5.3 s, free_su3 6.0 s. Per
+trajectory, kernel alone at 3e-14: manakov_so4 15.1 us written out, 26.2 us generated packed, 34.8 us
+in :func:`adaptive_packed`; free_su3 40.4 us generated packed, 52.0 us in :func:`adaptive_packed`,
+67.4 us in the single-trajectory generated kernel."""
+
+MAX_GENERATED_TERMS = 300
+"""The most terms (numbers) of the derived and state rows for which the packed form is generated per
+structure: its source, and its cold compilation, grow with them (free_su3, 225 terms: 6.0 s; so(5) in
+its adjoint representation, 820 terms: 38.4 s, one run each at load ~7). Beyond it the one kernel
+compiled for every structure, :func:`adaptive_packed` (about 3 s once, then numba's disk cache), runs:
+the rows from the tables, about 1.3 times slower per trajectory (free_su3 52.0 against 40.4 us)."""
 
 
 def size(fs) -> int:
@@ -66,7 +81,7 @@ def applies(fs) -> bool:
 
 _SIG = (
     "(float64[:, ::1], float64, float64, int64, int64, float64[::1], int64[::1], int64[::1], "
-    "float64[:, ::1], int64[::1])"
+    "int64[::1], int64[::1], int64[::1], float64[:, ::1], int64[::1])"
 )
 _SIG_PACKED = (
     "(float64[:, ::1], float64, float64, int64, int64, int64, int64[::1], int64[::1], int64[::1], "
@@ -94,21 +109,25 @@ def _compile(fn, sig):
 
 def kernel(fs):
     """``(fn, args)`` for the structure of ``fs`` (kept on ``fs``): ``fn(y0, T, tol, P, max_steps,
-    *args, out, nsteps)``. Up to :data:`MAX_SIZE` the module generated for the structure (imported from
-    the kernel cache, :func:`refimpl.codegen.import_source`), beyond it :func:`adaptive_packed` with the
-    tables and the blocks of :func:`refimpl.codegen.full_state_batch.batch_groups`; either compiled with
-    LLVM's SLP vectoriser on (or loaded from numba's disk cache)."""
+    *args, out, nsteps)``. The module generated for the structure (imported from the kernel cache,
+    :func:`refimpl.codegen.import_source`): every product written out up to :data:`MAX_SIZE`, packed
+    beyond; beyond that and :data:`MAX_GENERATED_TERMS` too, :func:`adaptive_packed` with the tables and
+    the blocks of :func:`refimpl.codegen.full_state_batch.batch_groups`. Each compiled with LLVM's SLP
+    vectoriser on (or loaded from numba's disk cache)."""
     kb = fs.__dict__.get("_batch_kernel")
     if kb is not None:
         return kb
     tables = fs.tables()
-    if size(fs) > MAX_SIZE:
+    groups = batch_groups(tables)
+    terms = len(tables[4]) + len(tables[11]) + len(tables[14])
+    if size(fs) > MAX_SIZE and terms > MAX_GENERATED_TERMS:
         _compile(adaptive_packed, _SIG_PACKED)
-        kb = (adaptive_packed, (int(tables[0]), *tables[1:], *batch_groups(tables)))
+        kb = (adaptive_packed, (int(tables[0]), *tables[1:], *groups))
     else:
-        fn = import_source(batch_source(tables, fs.d, LANES, GROUP), "fsbatch_").adaptive_batch
+        src = batch_source(tables, fs.d, LANES, GROUP, packed=size(fs) > MAX_SIZE)
+        fn = import_source(src, "fsbatch_").adaptive_batch
         _compile(fn, _SIG)
-        kb = (fn, (batch_numbers(tables), tables[8], tables[16]))
+        kb = (fn, (batch_numbers(tables), tables[8], tables[16], *groups))
     fs.__dict__["_batch_kernel"] = kb
     return kb
 

@@ -86,6 +86,17 @@ def fs():
     return model, fs_mod.full_state(model, _AbelianPart)
 
 
+def _force(monkeypatch, f, form):
+    """Make ``f`` (a small structure) take the lane kernel ``form``: ``written`` (its own), ``packed``
+    (generated, MAX_SIZE = 0) or ``tables`` (refimpl._full_state_batch.adaptive_packed, also
+    MAX_GENERATED_TERMS = 0)."""
+    if form in ("packed", "tables"):
+        monkeypatch.setattr(fsb, "MAX_SIZE", 0)
+    if form == "tables":
+        monkeypatch.setattr(fsb, "MAX_GENERATED_TERMS", 0)
+    monkeypatch.delitem(f.__dict__, "_batch_kernel", raising=False)
+
+
 def _assert_rounding_close(a, b, steps):
     bound = 1e3 * np.maximum(steps, 1)[:, None] * EPS * np.maximum(1.0, np.abs(b))
     assert np.all(np.isfinite(a)) and np.all(np.abs(a - b) <= bound), np.max(np.abs(a - b))
@@ -122,16 +133,14 @@ def test_batch_kernel_backwards_in_time(fs):
 
 
 @needs_numba
-@pytest.mark.parametrize("form", ["written", "packed"])
+@pytest.mark.parametrize("form", ["written", "packed", "tables"])
 @pytest.mark.parametrize("bad", [np.nan, np.inf])
 def test_a_failing_lane_is_reported_alone(fs, monkeypatch, bad, form):
     """A non-finite row fails in its own lane (negative status, NaN row); every other row is what it
     is without the bad one (its lane may change: rounding-level), and the flow's runner refuses the
-    batch naming that row and only it. Both forms of the kernel (packed: forced by MAX_SIZE = 0)."""
+    batch naming that row and only it. Every form of the kernel (:func:`_force`)."""
     model, f = fs
-    if form == "packed":
-        monkeypatch.setattr(fsb, "MAX_SIZE", 0)
-        monkeypatch.delitem(f.__dict__, "_batch_kernel", raising=False)
+    _force(monkeypatch, f, form)
     y = _states(f, model, 2 * W + 1, seed=3)
     y[2, 0] = bad
     T, tol = 0.8, 1e-11
@@ -255,8 +264,8 @@ def test_share_groups_partition_the_products():
 
 def test_lane_kernel_size_rule():
     """Small structures (Bianchi III: a few dozen statements) get every product written out; the
-    largest (su(3): 140 general products alone, over MAX_SIZE) the packed kernel (one for every
-    structure: no compilation per structure)."""
+    largest (su(3): 140 general products alone, over MAX_SIZE) the packed form, whose source does not
+    grow with the products (one fixed block over the index tables)."""
     from tstarg.refimpl._catalogue import catalogue
 
     small = cached_model(*_args())
@@ -268,24 +277,28 @@ def test_lane_kernel_size_rule():
     fbig = fs_mod.FullState(big, big.representation)
     assert int((fbig.tables()[7] == 0).sum()) > fsb.MAX_SIZE // 2
     assert fsb.applies(fbig) and fsb.size(fbig) > fsb.MAX_SIZE
+    tb = fbig.tables()
+    packed = batch_source(tb, fbig.d, packed=True)
+    assert "UB[g, a, 0, 0]" in packed
+    assert len(packed) < len(batch_source(tb, fbig.d)) / 2
 
 
 @needs_numba
+@pytest.mark.parametrize("form", ["packed", "tables"])
 @pytest.mark.parametrize("N", [1, W + 1, 2 * W + 3])
-def test_packed_batch_kernel_equals_the_single_kernel(fs, monkeypatch, N):
-    """The packed kernel (forced on a small structure: MAX_SIZE = 0) against the table-driven single
-    kernel: every row, the same step counts, under the rounding model of the written-out form (the same
+def test_packed_batch_kernel_equals_the_single_kernel(fs, monkeypatch, N, form):
+    """Both packed kernels (generated, and the one for every structure; forced on a small structure by
+    :func:`_force`) against the table-driven single kernel: every row, the same step counts, under the rounding model of the written-out form (the same
     sums in the same order, FMAs possibly contracted differently); the blocks' pairs that are no
     product (the zero row into the sink row) change no row."""
     model, f = fs
-    monkeypatch.setattr(fsb, "MAX_SIZE", 0)
-    monkeypatch.delitem(f.__dict__, "_batch_kernel", raising=False)
+    _force(monkeypatch, f, form)
     y = _states(f, model, N, seed=11)
     keep = y.copy()
     T, tol = 1.1, 1e-12
     P = fs_mod.default_order(tol)
     fn, args = fsb.kernel(f)
-    assert fn is fsb.adaptive_packed
+    assert (fn is fsb.adaptive_packed) == (form == "tables")
     gp, gu, gw = args[-3:]
     tb = f.tables()
     nv, npr = int(tb[0]), len(tb[5])

@@ -15,13 +15,18 @@ chosen to share factor rows (:func:`share_groups`): loads per ``a`` for all grou
 against 50 sorted by factor (45 products), manakov_so4 48 against 82 (72 products); one run each, load
 ~7.5: kirchhoff_se3 35.4 against 37.6 us, manakov_so4 15.0 against 17.0 us per trajectory.
 
-The packed form (structures too large to write every product out, :data:`refimpl._full_state_batch.
-MAX_SIZE`) is one kernel for every structure, :func:`refimpl._full_state_batch.adaptive_packed`, the
-field as the tables (arguments): the general products in the blocks of :func:`batch_groups` -- two factor
-rows ``u`` and four rows ``w`` whose pairs are (mostly) products, e.g. ``G_ik M_kj`` for each ``k`` --
-whose ``k``-th coefficients are copied into ``UB[g, k, i, lane]``, ``WB[g, k, j, lane]`` and summed by
-one loop over ``a`` with a scalar accumulator per pair and lane (six loads for eight multiply-adds; a
-pair that is no product goes to a sink row).
+The packed form (``packed=True``, for structures too large to write every product out: see
+:data:`refimpl._full_state_batch.MAX_SIZE`) sums the general products in blocks of :data:`BLOCK` through
+index tables (:func:`batch_groups`): a block is two factor rows ``u`` and four rows ``w`` whose pairs
+are (mostly) products -- dG_ij = G_ik M_kj gives such bicliques for each ``k`` -- at each order the
+``k``-th coefficients of its rows are copied into ``UB[g, k, i, lane]``, ``WB[g, k, j, lane]`` and one
+fixed loop over ``a`` sums all eight pairs with scalar accumulators (six loads for eight
+multiply-adds; per trajectory, kernel alone at 3e-14, one run each, load ~7.5: free_su3 40.4 us against
+51.2 us with groups of eight products of their own factors, manakov_so4 forced packed 26.2 against
+36.1); a pair that is no product goes to a sink row. Its source no longer grows with the products, but
+still with the derived and state rows' terms (and their numbers, loaded into locals): beyond
+:data:`refimpl._full_state_batch.MAX_GENERATED_TERMS` the one kernel compiled for every structure,
+:func:`refimpl._full_state_batch.adaptive_packed` (the same blocks, the rows from the tables), runs.
 
 The source is generated from the sparse tables of :meth:`refimpl._full_state.FullState.tables` (the
 one description of the field, shared with the kernel compiled for every structure): their index
@@ -97,12 +102,13 @@ def batch_numbers(tables) -> np.ndarray:
     return np.ascontiguousarray(np.concatenate([tables[4], tables[11], tables[14]]), dtype=float)
 
 
-def batch_source(tables, d: int, W: int = LANES, group: int = GROUP) -> str:
-    """The kernel module ``adaptive_batch(y0, T, tol, P, max_steps, c, vrow, srow, out, nsteps)`` for the
-    field given by the sparse ``tables`` of :meth:`refimpl._full_state.FullState.tables` (``d`` state
-    variables, ``W`` lanes, the general Cauchy products written out and summed ``group`` at a time);
-    ``c`` is :func:`batch_numbers` of the same tables, ``vrow``/``srow`` the tables' rows of the same
-    name."""
+def batch_source(tables, d: int, W: int = LANES, group: int = GROUP, packed: bool = False) -> str:
+    """The kernel module ``adaptive_batch(y0, T, tol, P, max_steps, c, vrow, srow, gp, gu, gw, out,
+    nsteps)`` for the field given by the sparse ``tables`` of :meth:`refimpl._full_state.FullState.tables`
+    (``d`` state variables, ``W`` lanes, the general Cauchy products written out and summed ``group``
+    at a time, or ``packed`` in blocks of :data:`BLOCK` through index tables); ``c`` is
+    :func:`batch_numbers` of the same tables, ``vrow``/``srow`` the tables' rows of the same name,
+    ``gp``/``gu``/``gw`` :func:`batch_groups` (read by the packed form only)."""
     if not (isinstance(W, int) and 1 <= W <= 16):
         raise ValueError(f"lanes W must be an int in 1..16, got {W!r}")
     if not (isinstance(group, int) and group >= 1):
@@ -126,18 +132,39 @@ def batch_source(tables, d: int, W: int = LANES, group: int = GROUP) -> str:
             + f"{at('k', drow[r], 'l')} = "
             + _sum([f"c{t} * {at('k', didx[t], 'l')}" for t in ts])
         )
-    general = [p for p in range(len(pu)) if pcls[p] == 0]
-    for grp in share_groups(general, pu, pw, group):
-        # one scalar accumulator per (product, lane): the loop stores nothing, so nothing it loads
-        # can alias a store and the sums stay in registers; SLP packs each product's W lanes
-        kb += [f"s{j}_{ln} = 0.0" for j in range(len(grp)) for ln in lanes]
-        kb += ["for a in range(k + 1):", I1 + "b = k - a"]
+    if packed:
+        BU, BW = BLOCK
+        kb += ["for g in range(ngrp):"]
+        # all loads before the stores: the W lanes then move as one SIMD load and store each (the
+        # blocks are not known apart from V, so a store between two loads would keep them scalar)
+        for blk, idx, nrow in (("UB", "gu", BU), ("WB", "gw", BW)):
+            kb += [I1 + f"for j in range({nrow}):", 2 * I1 + f"u = {idx}[g * {nrow} + j]"]
+            kb += [2 * I1 + f"t{ln} = V[k, u, {ln}]" for ln in lanes]
+            kb += [2 * I1 + f"{blk}[g, k, j, {ln}] = t{ln}" for ln in lanes]
+        pairs = [(i, j) for i in range(BU) for j in range(BW)]
+        kb += [I1 + f"s{i}{j}_{ln} = 0.0" for i, j in pairs for ln in lanes]
+        kb += [I1 + "for a in range(k + 1):", 2 * I1 + "b = k - a"]
         kb += [
-            I1 + f"s{j}_{ln} += {at('a', pu[p], ln)} * {at('b', pw[p], ln)}"
-            for j, p in enumerate(grp)
+            2 * I1 + f"s{i}{j}_{ln} += UB[g, a, {i}, {ln}] * WB[g, b, {j}, {ln}]"
+            for i, j in pairs
             for ln in lanes
         ]
-        kb += [f"{at('k', nv + p, ln)} = s{j}_{ln}" for j, p in enumerate(grp) for ln in lanes]
+        for i, j in pairs:
+            kb.append(I1 + f"q = gp[g * {BU * BW} + {i * BW + j}]")
+            kb += [I1 + f"V[k, q, {ln}] = s{i}{j}_{ln}" for ln in lanes]
+    else:
+        general = [p for p in range(len(pu)) if pcls[p] == 0]
+        for grp in share_groups(general, pu, pw, group):
+            # one scalar accumulator per (product, lane): the loop stores nothing, so nothing it loads
+            # can alias a store and the sums stay in registers; SLP packs each product's W lanes
+            kb += [f"s{j}_{ln} = 0.0" for j in range(len(grp)) for ln in lanes]
+            kb += ["for a in range(k + 1):", I1 + "b = k - a"]
+            kb += [
+                I1 + f"s{j}_{ln} += {at('a', pu[p], ln)} * {at('b', pw[p], ln)}"
+                for j, p in enumerate(grp)
+                for ln in lanes
+            ]
+            kb += [f"{at('k', nv + p, ln)} = s{j}_{ln}" for j, p in enumerate(grp) for ln in lanes]
     kb += ["ik = 1.0 / (k + 1)", f"for l in range({W}):"]
     for p in range(len(pu)):
         u, w, cl = pu[p], pw[p], pcls[p]
@@ -179,7 +206,10 @@ def batch_source(tables, d: int, W: int = LANES, group: int = GROUP) -> str:
                 f"V[0, o, {ln}] = w_{ln}",
             )
         ),
-        NV=str(int(nv) + len(pu)),
+        NV=str(int(nv) + len(pu) + 2),
+        NGRP=str(len(batch_groups(tables)[1]) // BLOCK[0] if packed else 0),
+        BU=str(BLOCK[0]),
+        BW=str(BLOCK[1]),
         D=str(int(d)),
         W=str(W),
     )
