@@ -21,25 +21,51 @@ Vectorisation
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .codegen import import_source
 from .codegen.full_state_batch import GROUP, LANES, batch_groups, batch_numbers, batch_source
 
-__all__ = ["LANES", "MAX_SIZE", "applies", "kernel", "run", "size"]
+try:
+    from numba import njit
+except ImportError:  # pragma: no cover - the plain-Python path (as refimpl._full_state_kernel)
+
+    def njit(*a, **kw):
+        return (lambda fn: fn) if not a else a[0]
+
+
+__all__ = [
+    "LANES",
+    "MAX_GENERATED_TERMS",
+    "MAX_SIZE",
+    "adaptive_packed",
+    "applies",
+    "kernel",
+    "run",
+    "size",
+]
 
 MAX_SIZE = 240
 """The largest structure whose lane kernel has every Cauchy product written out, counted as general
 products plus the terms of the derived and state rows (the statements of the generated recurrence);
-a larger one gets the packed form (:func:`refimpl.codegen.full_state_batch.batch_source`,
-``packed=True``: the products' loop is one fixed block over index tables, so the source no longer grows
-with them). The cold compilation (numba's typing and lowering dominate, about linear in the
-statements: twelve per written-out product) measured, one run each, CPU, load average 7-8: written
-out kirchhoff_se3 (117) 6.3 s, manakov_so4 (162) 9.2-10.4 s, free_su3 (365) 19.7 s; packed
-kirchhoff_se3 3.4 s, manakov_so4 4.1 s, free_su3 6.4 s. The written-out form is the faster one where it
-fits (per trajectory, 1000 trajectories at 3e-14: kirchhoff_se3 37.2 against 86.0 us, manakov_so4 15.1
-against 36.1 us: its groups share factor loads, the packed blocks cannot); on free_su3 the packed one
-takes 51.2 us per trajectory against 67.4 us for the single-trajectory generated kernel."""
+a larger one gets the packed form (the products in blocks of factor rows through index tables:
+:func:`refimpl.codegen.full_state_batch.batch_source` ``packed=True``, or :func:`adaptive_packed`
+beyond :data:`MAX_GENERATED_TERMS`). The cold compilation (numba's typing and lowering dominate, about
+linear in the statements: twelve per written-out product) measured, one run each, CPU, load average
+7-8: written out kirchhoff_se3 (117) 6.3 s, manakov_so4 (162) 9.2-10.4 s, so(4) with gravity (264)
+14.1 s, free_su3 (365) 19.7 s; generated packed so(4) with gravity 5.3 s, free_su3 6.0 s. Per
+trajectory, kernel alone at 3e-14: manakov_so4 15.1 us written out, 26.2 us generated packed, 34.8 us
+in :func:`adaptive_packed`; free_su3 40.4 us generated packed, 52.0 us in :func:`adaptive_packed`,
+67.4 us in the single-trajectory generated kernel."""
+
+MAX_GENERATED_TERMS = 300
+"""The most terms (numbers) of the derived and state rows for which the packed form is generated per
+structure: its source, and its cold compilation, grow with them (free_su3, 225 terms: 6.0 s; so(5) in
+its adjoint representation, 820 terms: 38.4 s, one run each at load ~7). Beyond it the one kernel
+compiled for every structure, :func:`adaptive_packed` (about 3 s once, then numba's disk cache), runs:
+the rows from the tables, about 1.3 times slower per trajectory (free_su3 52.0 against 40.4 us)."""
 
 
 def size(fs) -> int:
@@ -57,32 +83,51 @@ _SIG = (
     "(float64[:, ::1], float64, float64, int64, int64, float64[::1], int64[::1], int64[::1], "
     "int64[::1], int64[::1], int64[::1], float64[:, ::1], int64[::1])"
 )
+_SIG_PACKED = (
+    "(float64[:, ::1], float64, float64, int64, int64, int64, int64[::1], int64[::1], int64[::1], "
+    "float64[::1], int64[::1], int64[::1], int64[::1], int64[::1], int64[::1], int64[::1], "
+    "float64[::1], int64[::1], int64[::1], float64[::1], bool[::1], int64[::1], int64[::1], "
+    "int64[::1], int64[::1], float64[:, ::1], int64[::1])"
+)
+
+
+def _compile(fn, sig):
+    """Compile ``fn`` for ``sig`` with LLVM's SLP vectoriser on (or load it from numba's disk cache)."""
+    if fn.signatures:
+        return
+    from numba.core import config
+    from numba.core.compiler_lock import global_compiler_lock
+
+    with global_compiler_lock:  # no other compilation sees the flag
+        old = config.SLP_VECTORIZE
+        config.SLP_VECTORIZE = 1
+        try:
+            fn.compile(sig)
+        finally:
+            config.SLP_VECTORIZE = old
 
 
 def kernel(fs):
-    """``(adaptive_batch, c, vrow, srow, gp, gu, gw)`` for the structure of ``fs`` (kept on ``fs``),
-    packed beyond :data:`MAX_SIZE`: the module is
-    imported from the kernel cache (:func:`refimpl.codegen.import_source`) and its one signature
-    compiled with LLVM's SLP vectoriser on (or loaded from numba's disk cache)."""
+    """``(fn, args)`` for the structure of ``fs`` (kept on ``fs``): ``fn(y0, T, tol, P, max_steps,
+    *args, out, nsteps)``. The module generated for the structure (imported from the kernel cache,
+    :func:`refimpl.codegen.import_source`): every product written out up to :data:`MAX_SIZE`, packed
+    beyond; beyond that and :data:`MAX_GENERATED_TERMS` too, :func:`adaptive_packed` with the tables and
+    the blocks of :func:`refimpl.codegen.full_state_batch.batch_groups`. Each compiled with LLVM's SLP
+    vectoriser on (or loaded from numba's disk cache)."""
     kb = fs.__dict__.get("_batch_kernel")
     if kb is not None:
         return kb
     tables = fs.tables()
-    src = batch_source(tables, fs.d, LANES, GROUP, packed=size(fs) > MAX_SIZE)
-    mod = import_source(src, "fsbatch_")
-    fn = mod.adaptive_batch
-    if not fn.signatures:
-        from numba.core import config
-        from numba.core.compiler_lock import global_compiler_lock
-
-        with global_compiler_lock:  # no other compilation sees the flag
-            old = config.SLP_VECTORIZE
-            config.SLP_VECTORIZE = 1
-            try:
-                fn.compile(_SIG)
-            finally:
-                config.SLP_VECTORIZE = old
-    kb = (fn, batch_numbers(tables), tables[8], tables[16], *batch_groups(tables))
+    groups = batch_groups(tables)
+    terms = len(tables[4]) + len(tables[11]) + len(tables[14])
+    if size(fs) > MAX_SIZE and terms > MAX_GENERATED_TERMS:
+        _compile(adaptive_packed, _SIG_PACKED)
+        kb = (adaptive_packed, (int(tables[0]), *tables[1:], *groups))
+    else:
+        src = batch_source(tables, fs.d, LANES, GROUP, packed=size(fs) > MAX_SIZE)
+        fn = import_source(src, "fsbatch_").adaptive_batch
+        _compile(fn, _SIG)
+        kb = (fn, (batch_numbers(tables), tables[8], tables[16], *groups))
     fs.__dict__["_batch_kernel"] = kb
     return kb
 
@@ -90,9 +135,315 @@ def kernel(fs):
 def run(fs, y0, T: float, tol: float, P: int, max_steps: int):
     """``(y(T), steps)`` for the rows of ``y0`` (N, d) at the local tolerance ``tol`` and order ``P``,
     ``W`` rows at a time (``y0`` is only read)."""
-    fn, c, vrow, srow, gp, gu, gw = kernel(fs)
+    fn, args = kernel(fs)
     y = np.ascontiguousarray(y0, dtype=float)
     out = np.empty_like(y)
     steps = np.zeros(y.shape[0], dtype=np.int64)
-    fn(y, float(T), float(tol), int(P), int(max_steps), c, vrow, srow, gp, gu, gw, out, steps)
+    fn(y, float(T), float(tol), int(P), int(max_steps), *args, out, steps)
     return out, steps
+
+
+# ---------------------------------------------------------------------- the packed lane kernel
+# One machine-code function for every structure beyond MAX_SIZE (the field as the sparse tables of
+# FullState.tables, arguments, never literals): compiled once, kept by numba's disk cache. Four lanes
+# written out (LANES).
+
+
+@njit(cache=True, nogil=True, fastmath={"contract"})
+def adaptive_packed(y0, T, tol, P, max_steps, nv, drow, dptr, didx, dcoef, pu, pw, pcls, vrow, qptr, qprod, qcoef, lptr, lvar, lcoef, lcon, srow, gp, gu, gw, out, nsteps):  # fmt: skip
+    """The packed lane kernel: :func:`refimpl._full_state_kernel.adaptive` (the same tables, the same
+    results per row) with the rows of ``y0`` four at a time in lanes, each lane its own trajectory,
+    step, step count and status (a finished lane takes the next row of the queue, an idle one holds
+    the zero state and steps by 0); the general products in the 2 x 4 blocks ``gp, gu, gw`` of
+    :func:`refimpl.codegen.full_state_batch.batch_groups` (``V`` rows: the tables' ``nv`` named rows,
+    the products, the zero row, the sink row)."""
+    N, d = y0.shape
+    npr = pu.shape[0]
+    V = np.zeros((P + 1, nv + npr + 2, 4))
+    ngrp = gu.shape[0] // 2
+    UB = np.zeros((max(ngrp, 1), P + 1, 2, 4))
+    WB = np.zeros((max(ngrp, 1), P + 1, 4, 4))
+    nvar = vrow.shape[0]
+    comp = np.zeros((max(nvar, 1), 4))
+    tl = np.zeros(4)
+    hv = np.zeros(4)
+    who = np.full(4, -1, dtype=np.int64)
+    nst = np.zeros(4, dtype=np.int64)
+    stat = np.zeros(4, dtype=np.int64)
+    sgn = 1.0 if T >= 0 else -1.0
+    Tabs = abs(T)
+    damp = math.exp(-0.7 / (P - 1))
+    e1 = 1.0 / (P - 1)
+    e2 = 1.0 / P
+    nd = drow.shape[0]
+    nxt = 0
+    live = 0
+    for ln in range(4):
+        if nxt < N:
+            for q in range(d):
+                V[0, q, ln] = y0[nxt, q]
+            who[ln] = nxt
+            nxt += 1
+            live += 1
+    while live > 0:
+        # the Taylor coefficients V[1..P] (the recurrence of _full_state_kernel.coefficients, four lanes)
+        for k in range(P):
+            for r in range(nd):
+                a0 = 0.0
+                a1 = 0.0
+                a2 = 0.0
+                a3 = 0.0
+                for t in range(dptr[r], dptr[r + 1]):
+                    cf = dcoef[t]
+                    i = didx[t]
+                    a0 += cf * V[k, i, 0]
+                    a1 += cf * V[k, i, 1]
+                    a2 += cf * V[k, i, 2]
+                    a3 += cf * V[k, i, 3]
+                o = drow[r]
+                V[k, o, 0] = a0
+                V[k, o, 1] = a1
+                V[k, o, 2] = a2
+                V[k, o, 3] = a3
+            # the general products in blocks of 2 x 4 factor rows: the k-th coefficients copied into
+            # UB, WB (all lanes loaded before they are stored: one SIMD load and store each), then one
+            # loop over a with a scalar accumulator per pair and lane (nothing stored inside)
+            for g in range(ngrp):
+                for j in range(2):
+                    u = gu[g * 2 + j]
+                    t0 = V[k, u, 0]
+                    t1 = V[k, u, 1]
+                    t2 = V[k, u, 2]
+                    t3 = V[k, u, 3]
+                    UB[g, k, j, 0] = t0
+                    UB[g, k, j, 1] = t1
+                    UB[g, k, j, 2] = t2
+                    UB[g, k, j, 3] = t3
+                for j in range(4):
+                    u = gw[g * 4 + j]
+                    t0 = V[k, u, 0]
+                    t1 = V[k, u, 1]
+                    t2 = V[k, u, 2]
+                    t3 = V[k, u, 3]
+                    WB[g, k, j, 0] = t0
+                    WB[g, k, j, 1] = t1
+                    WB[g, k, j, 2] = t2
+                    WB[g, k, j, 3] = t3
+                s00_0 = s00_1 = s00_2 = s00_3 = 0.0
+                s01_0 = s01_1 = s01_2 = s01_3 = 0.0
+                s02_0 = s02_1 = s02_2 = s02_3 = 0.0
+                s03_0 = s03_1 = s03_2 = s03_3 = 0.0
+                s10_0 = s10_1 = s10_2 = s10_3 = 0.0
+                s11_0 = s11_1 = s11_2 = s11_3 = 0.0
+                s12_0 = s12_1 = s12_2 = s12_3 = 0.0
+                s13_0 = s13_1 = s13_2 = s13_3 = 0.0
+                for a in range(k + 1):
+                    b = k - a
+                    s00_0 += UB[g, a, 0, 0] * WB[g, b, 0, 0]
+                    s00_1 += UB[g, a, 0, 1] * WB[g, b, 0, 1]
+                    s00_2 += UB[g, a, 0, 2] * WB[g, b, 0, 2]
+                    s00_3 += UB[g, a, 0, 3] * WB[g, b, 0, 3]
+                    s01_0 += UB[g, a, 0, 0] * WB[g, b, 1, 0]
+                    s01_1 += UB[g, a, 0, 1] * WB[g, b, 1, 1]
+                    s01_2 += UB[g, a, 0, 2] * WB[g, b, 1, 2]
+                    s01_3 += UB[g, a, 0, 3] * WB[g, b, 1, 3]
+                    s02_0 += UB[g, a, 0, 0] * WB[g, b, 2, 0]
+                    s02_1 += UB[g, a, 0, 1] * WB[g, b, 2, 1]
+                    s02_2 += UB[g, a, 0, 2] * WB[g, b, 2, 2]
+                    s02_3 += UB[g, a, 0, 3] * WB[g, b, 2, 3]
+                    s03_0 += UB[g, a, 0, 0] * WB[g, b, 3, 0]
+                    s03_1 += UB[g, a, 0, 1] * WB[g, b, 3, 1]
+                    s03_2 += UB[g, a, 0, 2] * WB[g, b, 3, 2]
+                    s03_3 += UB[g, a, 0, 3] * WB[g, b, 3, 3]
+                    s10_0 += UB[g, a, 1, 0] * WB[g, b, 0, 0]
+                    s10_1 += UB[g, a, 1, 1] * WB[g, b, 0, 1]
+                    s10_2 += UB[g, a, 1, 2] * WB[g, b, 0, 2]
+                    s10_3 += UB[g, a, 1, 3] * WB[g, b, 0, 3]
+                    s11_0 += UB[g, a, 1, 0] * WB[g, b, 1, 0]
+                    s11_1 += UB[g, a, 1, 1] * WB[g, b, 1, 1]
+                    s11_2 += UB[g, a, 1, 2] * WB[g, b, 1, 2]
+                    s11_3 += UB[g, a, 1, 3] * WB[g, b, 1, 3]
+                    s12_0 += UB[g, a, 1, 0] * WB[g, b, 2, 0]
+                    s12_1 += UB[g, a, 1, 1] * WB[g, b, 2, 1]
+                    s12_2 += UB[g, a, 1, 2] * WB[g, b, 2, 2]
+                    s12_3 += UB[g, a, 1, 3] * WB[g, b, 2, 3]
+                    s13_0 += UB[g, a, 1, 0] * WB[g, b, 3, 0]
+                    s13_1 += UB[g, a, 1, 1] * WB[g, b, 3, 1]
+                    s13_2 += UB[g, a, 1, 2] * WB[g, b, 3, 2]
+                    s13_3 += UB[g, a, 1, 3] * WB[g, b, 3, 3]
+                q = gp[g * 8 + 0]
+                V[k, q, 0] = s00_0
+                V[k, q, 1] = s00_1
+                V[k, q, 2] = s00_2
+                V[k, q, 3] = s00_3
+                q = gp[g * 8 + 1]
+                V[k, q, 0] = s01_0
+                V[k, q, 1] = s01_1
+                V[k, q, 2] = s01_2
+                V[k, q, 3] = s01_3
+                q = gp[g * 8 + 2]
+                V[k, q, 0] = s02_0
+                V[k, q, 1] = s02_1
+                V[k, q, 2] = s02_2
+                V[k, q, 3] = s02_3
+                q = gp[g * 8 + 3]
+                V[k, q, 0] = s03_0
+                V[k, q, 1] = s03_1
+                V[k, q, 2] = s03_2
+                V[k, q, 3] = s03_3
+                q = gp[g * 8 + 4]
+                V[k, q, 0] = s10_0
+                V[k, q, 1] = s10_1
+                V[k, q, 2] = s10_2
+                V[k, q, 3] = s10_3
+                q = gp[g * 8 + 5]
+                V[k, q, 0] = s11_0
+                V[k, q, 1] = s11_1
+                V[k, q, 2] = s11_2
+                V[k, q, 3] = s11_3
+                q = gp[g * 8 + 6]
+                V[k, q, 0] = s12_0
+                V[k, q, 1] = s12_1
+                V[k, q, 2] = s12_2
+                V[k, q, 3] = s12_3
+                q = gp[g * 8 + 7]
+                V[k, q, 0] = s13_0
+                V[k, q, 1] = s13_1
+                V[k, q, 2] = s13_2
+                V[k, q, 3] = s13_3
+            for p in range(npr):
+                c = pcls[p]
+                if c == 0 or c == 5:
+                    continue  # general (the blocks above) or the tables' padding (never read)
+                u = pu[p]
+                w = pw[p]
+                for ln in range(4):
+                    if c == 1:
+                        V[k, nv + p, ln] = V[0, u, ln] * V[k, w, ln]
+                    elif c == 2:
+                        V[k, nv + p, ln] = V[k, u, ln] * V[0, w, ln]
+                    elif c == 3:
+                        V[k, nv + p, ln] = V[0, u, ln] * V[0, w, ln] if k == 0 else 0.0
+            ik = 1.0 / (k + 1)
+            for c in range(nvar):
+                a0 = 0.0
+                a1 = 0.0
+                a2 = 0.0
+                a3 = 0.0
+                for t in range(qptr[c], qptr[c + 1]):
+                    cf = qcoef[t]
+                    q = nv + qprod[t]
+                    a0 += cf * V[k, q, 0]
+                    a1 += cf * V[k, q, 1]
+                    a2 += cf * V[k, q, 2]
+                    a3 += cf * V[k, q, 3]
+                for t in range(lptr[c], lptr[c + 1]):
+                    cf = lcoef[t]
+                    i = lvar[t]
+                    if lcon[t]:
+                        if k == 0:
+                            a0 += cf * V[0, i, 0]
+                            a1 += cf * V[0, i, 1]
+                            a2 += cf * V[0, i, 2]
+                            a3 += cf * V[0, i, 3]
+                    else:
+                        a0 += cf * V[k, i, 0]
+                        a1 += cf * V[k, i, 1]
+                        a2 += cf * V[k, i, 2]
+                        a3 += cf * V[k, i, 3]
+                o = vrow[c]
+                V[k + 1, o, 0] = a0 * ik
+                V[k + 1, o, 1] = a1 * ik
+                V[k + 1, o, 2] = a2 * ik
+                V[k + 1, o, 3] = a3 * ik
+        for ln in range(4):
+            hv[ln] = 0.0
+            if who[ln] < 0:
+                continue
+            xn = 0.0
+            m1 = 0.0
+            m2 = 0.0
+            for q in range(srow.shape[0]):
+                o = srow[q]
+                xn = max(xn, abs(V[0, o, ln]))
+                m1 = max(m1, abs(V[P - 1, o, ln]))
+                m2 = max(m2, abs(V[P, o, ln]))
+            s = tol * max(1.0, xn)
+            h = np.inf
+            if m1 > 0.0:
+                h = (s / m1) ** e1
+            if m2 > 0.0:
+                h = min(h, (s / m2) ** e2)
+            h *= damp
+            if not (h > 0.0):
+                stat[ln] = -4
+                continue
+            if tl[ln] + h >= Tabs:
+                h = Tabs - tl[ln]
+                tl[ln] = Tabs
+            else:
+                tl[ln] += h
+            hv[ln] = sgn * h
+        h0, h1, h2, h3 = hv[0], hv[1], hv[2], hv[3]
+        for c in range(nvar):
+            o = vrow[c]
+            z0 = V[P, o, 0]
+            z1 = V[P, o, 1]
+            z2 = V[P, o, 2]
+            z3 = V[P, o, 3]
+            for kk in range(P - 1, 0, -1):
+                z0 = z0 * h0 + V[kk, o, 0]
+                z1 = z1 * h1 + V[kk, o, 1]
+                z2 = z2 * h2 + V[kk, o, 2]
+                z3 = z3 * h3 + V[kk, o, 3]
+            z0 = z0 * h0 - comp[c, 0]
+            z1 = z1 * h1 - comp[c, 1]
+            z2 = z2 * h2 - comp[c, 2]
+            z3 = z3 * h3 - comp[c, 3]
+            v0 = V[0, o, 0]
+            v1 = V[0, o, 1]
+            v2 = V[0, o, 2]
+            v3 = V[0, o, 3]
+            w0 = v0 + z0
+            w1 = v1 + z1
+            w2 = v2 + z2
+            w3 = v3 + z3
+            comp[c, 0] = (w0 - v0) - z0
+            comp[c, 1] = (w1 - v1) - z1
+            comp[c, 2] = (w2 - v2) - z2
+            comp[c, 3] = (w3 - v3) - z3
+            V[0, o, 0] = w0
+            V[0, o, 1] = w1
+            V[0, o, 2] = w2
+            V[0, o, 3] = w3
+        for ln in range(4):
+            if who[ln] < 0:
+                continue
+            if stat[ln] == 0:
+                nst[ln] += 1
+                for c in range(nvar):
+                    if not math.isfinite(V[0, vrow[c], ln]):
+                        stat[ln] = -1
+                if nst[ln] > max_steps:
+                    stat[ln] = -3
+            if stat[ln] == 0 and tl[ln] < Tabs:
+                continue
+            it = who[ln]
+            for q in range(d):
+                out[it, q] = V[0, q, ln] if stat[ln] == 0 else np.nan
+            nsteps[it] = nst[ln] if stat[ln] == 0 else stat[ln]
+            for c in range(nvar):
+                comp[c, ln] = 0.0
+            tl[ln] = 0.0
+            nst[ln] = 0
+            stat[ln] = 0
+            if nxt < N:
+                for q in range(d):
+                    V[0, q, ln] = y0[nxt, q]
+                who[ln] = nxt
+                nxt += 1
+            else:
+                for q in range(d):
+                    V[0, q, ln] = 0.0
+                who[ln] = -1
+                live -= 1

@@ -86,6 +86,17 @@ def fs():
     return model, fs_mod.full_state(model, _AbelianPart)
 
 
+def _force(monkeypatch, f, form):
+    """Make ``f`` (a small structure) take the lane kernel ``form``: ``written`` (its own), ``packed``
+    (generated, MAX_SIZE = 0) or ``tables`` (refimpl._full_state_batch.adaptive_packed, also
+    MAX_GENERATED_TERMS = 0)."""
+    if form in ("packed", "tables"):
+        monkeypatch.setattr(fsb, "MAX_SIZE", 0)
+    if form == "tables":
+        monkeypatch.setattr(fsb, "MAX_GENERATED_TERMS", 0)
+    monkeypatch.delitem(f.__dict__, "_batch_kernel", raising=False)
+
+
 def _assert_rounding_close(a, b, steps):
     bound = 1e3 * np.maximum(steps, 1)[:, None] * EPS * np.maximum(1.0, np.abs(b))
     assert np.all(np.isfinite(a)) and np.all(np.abs(a - b) <= bound), np.max(np.abs(a - b))
@@ -122,16 +133,14 @@ def test_batch_kernel_backwards_in_time(fs):
 
 
 @needs_numba
-@pytest.mark.parametrize("form", ["written", "packed"])
+@pytest.mark.parametrize("form", ["written", "packed", "tables"])
 @pytest.mark.parametrize("bad", [np.nan, np.inf])
 def test_a_failing_lane_is_reported_alone(fs, monkeypatch, bad, form):
     """A non-finite row fails in its own lane (negative status, NaN row); every other row is what it
     is without the bad one (its lane may change: rounding-level), and the flow's runner refuses the
-    batch naming that row and only it. Both forms of the kernel (packed: forced by MAX_SIZE = 0)."""
+    batch naming that row and only it. Every form of the kernel (:func:`_force`)."""
     model, f = fs
-    if form == "packed":
-        monkeypatch.setattr(fsb, "MAX_SIZE", 0)
-        monkeypatch.delitem(f.__dict__, "_batch_kernel", raising=False)
+    _force(monkeypatch, f, form)
     y = _states(f, model, 2 * W + 1, seed=3)
     y[2, 0] = bad
     T, tol = 0.8, 1e-11
@@ -275,21 +284,31 @@ def test_lane_kernel_size_rule():
 
 
 @needs_numba
+@pytest.mark.parametrize("form", ["packed", "tables"])
 @pytest.mark.parametrize("N", [1, W + 1, 2 * W + 3])
-def test_packed_batch_kernel_equals_the_single_kernel(fs, monkeypatch, N):
-    """The packed form (forced on a small structure: MAX_SIZE = 0) against the table-driven single
-    kernel: every row, the same step counts, under the rounding model of the written-out form (the same
-    sums in the same order, FMAs possibly contracted differently); the groups' padding (the zero row
-    into the sink row) changes no row."""
+def test_packed_batch_kernel_equals_the_single_kernel(fs, monkeypatch, N, form):
+    """Both packed kernels (generated, and the one for every structure; forced on a small structure by
+    :func:`_force`) against the table-driven single kernel: every row, the same step counts, under the rounding model of the written-out form (the same
+    sums in the same order, FMAs possibly contracted differently); the blocks' pairs that are no
+    product (the zero row into the sink row) change no row."""
     model, f = fs
-    monkeypatch.setattr(fsb, "MAX_SIZE", 0)
-    monkeypatch.delitem(f.__dict__, "_batch_kernel", raising=False)
+    _force(monkeypatch, f, form)
     y = _states(f, model, N, seed=11)
     keep = y.copy()
     T, tol = 1.1, 1e-12
     P = fs_mod.default_order(tol)
-    gp, gu, gw = fsb.kernel(f)[4:]
-    assert len(gp) % 8 == 0 and len(gp) > int((f.tables()[7] == 0).sum())  # padded
+    fn, args = fsb.kernel(f)
+    assert (fn is fsb.adaptive_packed) == (form == "tables")
+    gp, gu, gw = args[-3:]
+    tb = f.tables()
+    nv, npr = int(tb[0]), len(tb[5])
+    general = nv + np.flatnonzero(tb[7] == 0)
+    # every general product written by exactly one pair of a block, every other pair to the sink row
+    assert sorted(gp[gp != nv + npr + 1].tolist()) == sorted(general.tolist())
+    assert len(gp) == 4 * len(gu) == 2 * len(gw)  # blocks of 2 x 4 pairs
+    real = gp != nv + npr + 1  # each real pair (i, j) of block g: the product u_i w_j
+    assert np.all(tb[5][gp[real] - nv] == gu.reshape(-1, 2).repeat(4, axis=1).ravel()[real])
+    assert np.all(tb[6][gp[real] - nv] == np.tile(gw.reshape(-1, 4), (1, 2)).ravel()[real])
     out, steps = fsb.run(f, y, T, tol, P, 10**7)
     f.__dict__.pop("_batch_kernel")  # the next test gets the written-out form again
     ref, rsteps = _single(f, y, T, tol, P)

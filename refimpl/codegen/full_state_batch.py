@@ -16,11 +16,17 @@ against 50 sorted by factor (45 products), manakov_so4 48 against 82 (72 product
 ~7.5: kirchhoff_se3 35.4 against 37.6 us, manakov_so4 15.0 against 17.0 us per trajectory.
 
 The packed form (``packed=True``, for structures too large to write every product out: see
-:data:`refimpl._full_state_batch.MAX_SIZE`) sums the general products :data:`PACK` at a time through
-index tables (:func:`batch_groups`): at each order the ``k``-th coefficients of a group's factors are
-copied into blocks ``UB[g, k, j, lane]``, ``WB[g, k, j, lane]`` and one fixed loop over ``a`` sums them
-with scalar accumulators; the source is then short whatever the number of products (numba's typing and
-lowering, most of a cold compilation, grow with the statements), the sums the same in the same order.
+:data:`refimpl._full_state_batch.MAX_SIZE`) sums the general products in blocks of :data:`BLOCK` through
+index tables (:func:`batch_groups`): a block is two factor rows ``u`` and four rows ``w`` whose pairs
+are (mostly) products -- dG_ij = G_ik M_kj gives such bicliques for each ``k`` -- at each order the
+``k``-th coefficients of its rows are copied into ``UB[g, k, i, lane]``, ``WB[g, k, j, lane]`` and one
+fixed loop over ``a`` sums all eight pairs with scalar accumulators (six loads for eight
+multiply-adds; per trajectory, kernel alone at 3e-14, one run each, load ~7.5: free_su3 40.4 us against
+51.2 us with groups of eight products of their own factors, manakov_so4 forced packed 26.2 against
+36.1); a pair that is no product goes to a sink row. Its source no longer grows with the products, but
+still with the derived and state rows' terms (and their numbers, loaded into locals): beyond
+:data:`refimpl._full_state_batch.MAX_GENERATED_TERMS` the one kernel compiled for every structure,
+:func:`refimpl._full_state_batch.adaptive_packed` (the same blocks, the rows from the tables), runs.
 
 The source is generated from the sparse tables of :meth:`refimpl._full_state.FullState.tables` (the
 one description of the field, shared with the kernel compiled for every structure): their index
@@ -56,8 +62,9 @@ from the loads) 50.3 us at 6. Twelve keeps ``12 W`` accumulators within the sixt
 plus spare (AVX2; AVX-512 has 32), a margin for machines without AVX-512."""
 
 
-PACK = 8
-"""General products per group in the packed form of :func:`batch_source` (``packed=True``)."""
+BLOCK = (2, 4)
+"""``(BU, BW)``: the packed form's blocks of products ``u_i w_j`` (two rows ``u``, four rows ``w``):
+per ``a``, six loads for eight multiply-adds."""
 
 
 def _sum(terms: list[str]) -> str:
@@ -99,7 +106,7 @@ def batch_source(tables, d: int, W: int = LANES, group: int = GROUP, packed: boo
     """The kernel module ``adaptive_batch(y0, T, tol, P, max_steps, c, vrow, srow, gp, gu, gw, out,
     nsteps)`` for the field given by the sparse ``tables`` of :meth:`refimpl._full_state.FullState.tables`
     (``d`` state variables, ``W`` lanes, the general Cauchy products written out and summed ``group``
-    at a time, or ``packed`` :data:`PACK` at a time through index tables); ``c`` is
+    at a time, or ``packed`` in blocks of :data:`BLOCK` through index tables); ``c`` is
     :func:`batch_numbers` of the same tables, ``vrow``/``srow`` the tables' rows of the same name,
     ``gp``/``gu``/``gw`` :func:`batch_groups` (read by the packed form only)."""
     if not (isinstance(W, int) and 1 <= W <= 16):
@@ -126,29 +133,25 @@ def batch_source(tables, d: int, W: int = LANES, group: int = GROUP, packed: boo
             + _sum([f"c{t} * {at('k', didx[t], 'l')}" for t in ts])
         )
     if packed:
-        G = PACK
-        kb += [
-            "for g in range(ngrp):",
-            I1 + f"for j in range({G}):",
-            2 * I1 + f"u = gu[g * {G} + j]",
-            2 * I1 + f"w = gw[g * {G} + j]",
-        ]
+        BU, BW = BLOCK
+        kb += ["for g in range(ngrp):"]
         # all loads before the stores: the W lanes then move as one SIMD load and store each (the
         # blocks are not known apart from V, so a store between two loads would keep them scalar)
-        kb += [2 * I1 + f"t{ln} = V[k, u, {ln}]" for ln in lanes]
-        kb += [2 * I1 + f"r{ln} = V[k, w, {ln}]" for ln in lanes]
-        kb += [2 * I1 + f"UB[g, k, j, {ln}] = t{ln}" for ln in lanes]
-        kb += [2 * I1 + f"WB[g, k, j, {ln}] = r{ln}" for ln in lanes]
-        kb += [I1 + f"s{j}_{ln} = 0.0" for j in range(G) for ln in lanes]
+        for blk, idx, nrow in (("UB", "gu", BU), ("WB", "gw", BW)):
+            kb += [I1 + f"for j in range({nrow}):", 2 * I1 + f"u = {idx}[g * {nrow} + j]"]
+            kb += [2 * I1 + f"t{ln} = V[k, u, {ln}]" for ln in lanes]
+            kb += [2 * I1 + f"{blk}[g, k, j, {ln}] = t{ln}" for ln in lanes]
+        pairs = [(i, j) for i in range(BU) for j in range(BW)]
+        kb += [I1 + f"s{i}{j}_{ln} = 0.0" for i, j in pairs for ln in lanes]
         kb += [I1 + "for a in range(k + 1):", 2 * I1 + "b = k - a"]
         kb += [
-            2 * I1 + f"s{j}_{ln} += UB[g, a, {j}, {ln}] * WB[g, b, {j}, {ln}]"
-            for j in range(G)
+            2 * I1 + f"s{i}{j}_{ln} += UB[g, a, {i}, {ln}] * WB[g, b, {j}, {ln}]"
+            for i, j in pairs
             for ln in lanes
         ]
-        for j in range(G):
-            kb.append(I1 + f"q = gp[g * {G} + {j}]")
-            kb += [I1 + f"V[k, q, {ln}] = s{j}_{ln}" for ln in lanes]
+        for i, j in pairs:
+            kb.append(I1 + f"q = gp[g * {BU * BW} + {i * BW + j}]")
+            kb += [I1 + f"V[k, q, {ln}] = s{i}{j}_{ln}" for ln in lanes]
     else:
         general = [p for p in range(len(pu)) if pcls[p] == 0]
         for grp in share_groups(general, pu, pw, group):
@@ -204,22 +207,60 @@ def batch_source(tables, d: int, W: int = LANES, group: int = GROUP, packed: boo
             )
         ),
         NV=str(int(nv) + len(pu) + 2),
-        NGRP=str(-(-int((np.asarray(pcls) == 0).sum()) // PACK) if packed else 0),
-        PACK=str(PACK),
+        NGRP=str(len(batch_groups(tables)[1]) // BLOCK[0] if packed else 0),
+        BU=str(BLOCK[0]),
+        BW=str(BLOCK[1]),
         D=str(int(d)),
         W=str(W),
     )
 
 
 def batch_groups(tables) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(gp, gu, gw)``: the general products in groups of :data:`PACK` -- each entry the ``V`` row of
-    the product and of its two factors; the last group padded with products of the zero row
-    (``nv + len(pu)``) written to the sink row (``nv + len(pu) + 1``)."""
-    nv, pu, pw, pcls = int(tables[0]), tables[5], tables[6], tables[7]
-    gen = np.flatnonzero(np.asarray(pcls) == 0)
-    pad = (-len(gen)) % PACK
+    """``(gp, gu, gw)`` of the packed form: the general products covered by blocks of ``BU x BW`` =
+    :data:`BLOCK` (``gu``: a block's ``BU`` factor rows ``u``, ``gw``: its ``BW`` rows ``w``, ``gp``: the
+    ``V`` row of the product of each pair ``(u_i, w_j)``, row-major), every product in exactly one block;
+    a pair that is no product multiplies or is written to rows nobody reads (the zero row ``nv +
+    len(pu)`` as a missing factor, the sink row ``nv + len(pu) + 1`` as its output).
+
+    Greedy, from the structure only: the ``u`` with the most products left opens a block, the ``u``
+    sharing most of its ``w`` joins it (up to ``BU``), and the block takes up to ``BW`` of the ``w``
+    they share most (ties: the smallest row)."""
+    nv, pu, pw, pcls = int(tables[0]), np.asarray(tables[5]), np.asarray(tables[6]), tables[7]
+    BU, BW = BLOCK
     zero, sink = nv + len(pu), nv + len(pu) + 1
-    gp = np.concatenate([nv + gen, np.full(pad, sink)]).astype(np.int64)
-    gu = np.concatenate([np.asarray(pu)[gen], np.full(pad, zero)]).astype(np.int64)
-    gw = np.concatenate([np.asarray(pw)[gen], np.full(pad, zero)]).astype(np.int64)
-    return gp, gu, gw
+    left: dict[int, dict[int, int]] = {}  # u -> {w: product}
+    for q in np.flatnonzero(np.asarray(pcls) == 0):
+        left.setdefault(int(pu[q]), {})[int(pw[q])] = int(q)
+    gp: list[int] = []
+    gu: list[int] = []
+    gw: list[int] = []
+    while left:
+        u0 = min(left, key=lambda u: (-len(left[u]), u))
+        us = [u0]
+        while len(us) < BU:
+            cands = [u for u in left if u not in us]
+            if not cands:
+                break
+            best = min(cands, key=lambda u: (-len(left[u].keys() & left[u0].keys()), u))
+            if not left[best].keys() & left[u0].keys():
+                break
+            us.append(best)
+        ws = sorted(
+            {w for u in us for w in left[u]},
+            key=lambda w: (-sum(w in left[u] for u in us), w),
+        )[:BW]
+        for u in us:
+            gu.append(u)
+        gu += [zero] * (BU - len(us))
+        gw += ws + [zero] * (BW - len(ws))
+        for i in range(BU):
+            for j in range(BW):
+                u = us[i] if i < len(us) else None
+                w = ws[j] if j < len(ws) else None
+                q = left.get(u, {}).pop(w, None) if u is not None and w is not None else None
+                gp.append(sink if q is None else nv + q)
+        for u in us:
+            if not left[u]:
+                del left[u]
+    i64 = lambda a: np.array(a, dtype=np.int64)  # noqa: E731
+    return i64(gp), i64(gu), i64(gw)

@@ -377,7 +377,8 @@ def protocol_batch(names: str, M: int, K: int, repeats: int, compact: bool) -> i
         ratio = f"{r['ratio']:.3f}" if r["ratio"] is not None else "-"
         print(
             f"[{name}] ours {o['per_traj'] * 1e6:.1f} us/traj (worst sampled error {o['error']:.2e}, "
-            f"first call {o['first_call']:.2f} s) | {hy_txt} | ratio {ratio}",
+            f"first call {o['first_call']:.2f} s) | {hy_txt} | ratio {ratio}"
+            + (f" ({r['note']})" if r.get("note") else ""),
             flush=True,
         )
     return 0

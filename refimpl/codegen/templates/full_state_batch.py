@@ -8,7 +8,7 @@ numbers (``__LOADS__``), the coefficient recurrence of one order ``k`` for every
 and the lanes of the compensated Horner update (``__HLOAD__``, ``__ZLOAD__``, ``__ZSTEP__``,
 ``__ZADD__``); ``__NV__`` rows of ``V`` (state, derived, products, then the zero row and the sink row
 of the packed form's padding), ``__D__`` state variables, ``__W__`` lanes; the packed form's blocks
-``UB``, ``WB``: ``__NGRP__`` groups (0 in the written-out form) of ``__PACK__`` products, whose rows
+``UB``, ``WB``: ``__NGRP__`` blocks (0 in the written-out form) of ``__BU__`` x ``__BW__`` products, whose rows
 ``gp``, ``gu``, ``gw`` (arguments) are :func:`refimpl.codegen.full_state_batch.batch_groups`.
 
 Lanes: each lane runs one trajectory with its own time, step and step count -- the step sequence of
@@ -23,7 +23,7 @@ lane holds the zero state (a fixed point) and steps by ``0``.
 # ruff: noqa: E402, I001, F401, F841
 # fmt: off
 __LOADS__ = __COEFF__ = __HLOAD__ = __ZLOAD__ = __ZSTEP__ = __ZADD__ = None
-__NV__ = __D__ = __W__ = __NGRP__ = __PACK__ = None
+__NV__ = __D__ = __W__ = __NGRP__ = __BU__ = __BW__ = None
 # ---- template body ----
 
 import math
@@ -38,8 +38,8 @@ def adaptive_batch(y0, T, tol, P, max_steps, c, vrow, srow, gp, gu, gw, out, nst
     nvar = vrow.shape[0]
     V = np.zeros((P + 1, __NV__, __W__))
     ngrp = __NGRP__
-    UB = np.zeros((max(ngrp, 1), P + 1, __PACK__, __W__))
-    WB = np.zeros((max(ngrp, 1), P + 1, __PACK__, __W__))
+    UB = np.zeros((max(ngrp, 1), P + 1, __BU__, __W__))
+    WB = np.zeros((max(ngrp, 1), P + 1, __BW__, __W__))
     comp = np.zeros((max(nvar, 1), __W__))
     tl = np.zeros(__W__)
     hv = np.zeros(__W__)
