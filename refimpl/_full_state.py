@@ -84,6 +84,17 @@ update and the step norms are loops over index tables and the products run in ch
 A function of the call's inputs, so a call's result never depends on what ran before it."""
 
 
+GENERATED_MAX_PRODUCTS = 400
+"""Structures with more distinct Cauchy products than this (the free so(5) and sp(4, R) tops in the
+adjoint representation: 660; su(3): 140, se(3), so(4) fewer) run the generated kernel only from
+``N |t| >= GENERATED_MIN_WORK_LARGE``: its first compilation costs them 17 s of CPU (load 6), over
+issue 25's 10 s per structure, while the kernel compiled for every structure costs nothing per
+structure and about 2x per step. A function of the call's inputs and the structure."""
+
+GENERATED_MIN_WORK_LARGE = 1024.0
+"""``N |t|`` from which a structure above :data:`GENERATED_MAX_PRODUCTS` runs its generated kernel
+(as the rational path's ``GENERATED_MIN_WORK``)."""
+
 MAX_STEPS = 10_000_000
 """The kernels' step budget per trajectory (status -3 beyond it)."""
 
@@ -238,6 +249,7 @@ class FullState:
         self.coef = np.array(coef, dtype=float)
         self.step_vars = [v for v in pi + ga + [gname[g] for g in gvars] if v not in const]
         self.var = [v for v in names if v not in const]
+        self.n_products = len({(u, w) for v in names for _, u, w in quad[v]})
         self.source = full_state_source(self)
         self._mod = None
 
@@ -543,7 +555,9 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
         y0,
     )
     eps_a = local_tolerances(tol)[0] if run is not None or tol < A_LOOSE_FROM else A_LOOSE
-    gen = N * abs(t) >= GENERATED_MIN_WORK
+    gen = N * abs(t) >= (
+        GENERATED_MIN_WORK if fs.n_products <= GENERATED_MAX_PRODUCTS else GENERATED_MIN_WORK_LARGE
+    )
 
     if run is not None:
 

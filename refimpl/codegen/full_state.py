@@ -12,6 +12,8 @@ structure, same recurrence; this one unrolls the products: about 2.2x faster per
 
 from __future__ import annotations
 
+import re
+
 from .rational import adaptive_step_lines
 from .taylor import _JIT, tree_sum
 
@@ -22,6 +24,14 @@ PRODUCT_CHUNK = 16
 """Cauchy products summed side by side in one loop over ``a`` (each sum in the order ``a = 0..k``);
 more products than this take several loops (compile time grows faster than linearly with a loop's
 body)."""
+
+DERIVED_TABLE_FROM = 64
+"""Derived rows (``Omega_k``, the entries of ``M_k``) above this many are computed by one loop over a
+table (target row, its terms' source rows and coefficient indices) instead of one generated line
+each: the free so(5) top (adjoint representation) has 180, and each generated line costs numba
+about 20 ms of compile time; a table costs a few ns of indirection per term, small beside the
+products (su(2), su(3), se(3), so(4) stay unrolled: 6-30 rows).
+Sums in the order of the terms (``a`` fixed), as the unrolled lines' trees up to rounding."""
 
 HELPER_PRODUCTS = 64  # 0: all products in one helper
 """Cauchy products per generated helper function ``_prods{i}(V, k)`` (its chunk loops, returning the
@@ -59,13 +69,35 @@ def full_state_source(fs) -> str:
 
     I1, I2, I3, I4, I5 = ("    " * i for i in range(1, 6))
     kb = []
-    # derived at order k
-    for b in range(fs.n):
-        v = f"om{b}"
-        kb.append(f"{V(v, 'k')} = " + _sum([f"c{ci} * {V(p, 'k')}" for ci, p in fs.om[b]]))
-    for (pa, k, j), t in fs.mv.items():
-        v = f"m{pa}_{k}_{j}"
-        kb.append(f"{V(v, 'k')} = " + _sum([f"c{ci} * {V(f'om{b}', 'k')}" for ci, b in t]))
+    # derived at order k: Omega_k, then M_k (rows in this order: M reads Omega)
+    derived = [(f"om{b}", list(fs.om[b])) for b in range(fs.n)]
+    derived += [
+        (f"m{pa}_{k}_{j}", [(ci, f"om{b}") for ci, b in t]) for (pa, k, j), t in fs.mv.items()
+    ]
+    tables = []
+    if len(derived) > DERIVED_TABLE_FROM:  # one loop over a table (compile time), else unrolled
+        dptr, dsrc, dci = [0], [], []
+        for _, terms in derived:
+            dsrc += [idx[u] for _, u in terms]
+            dci += [ci for ci, _ in terms]
+            dptr.append(len(dsrc))
+        for name, vals in (
+            ("DR", [idx[v] for v, _ in derived]),
+            ("DP", dptr),
+            ("DS", dsrc),
+            ("DC", dci),
+        ):
+            tables.append(I1 + f"{name} = np.array([{', '.join(map(str, vals))}], dtype=np.int64)")
+        kb += [
+            "for ri in range(DR.shape[0]):",
+            I1 + "dsum = 0.0",
+            I1 + "for ti in range(DP[ri], DP[ri + 1]):",
+            I2 + "dsum += c[DC[ti]] * V[DS[ti], k]",
+            I1 + "V[DR[ri], k] = dsum",
+        ]
+    else:
+        for v, terms in derived:
+            kb.append(f"{V(v, 'k')} = " + _sum([f"c{ci} * {V(u, 'k')}" for ci, u in terms]))
     # products: distinct pairs
     prods: dict[tuple[str, str], str] = {}
     for v in names:
@@ -171,7 +203,9 @@ def full_state_source(fs) -> str:
         I1
         + (f"SR = np.array([{sr}], dtype=np.int64)" if sr else "SR = np.zeros(0, dtype=np.int64)"),
     ]
-    src += [I1 + f"c{i} = c[{i}]" for i in range(ncoef)]
+    src += tables
+    used = set(re.findall(r"\bc(\d+)\b", "\n".join(kb)))  # the table rows read c[...] directly
+    src += [I1 + f"c{i} = c[{i}]" for i in range(ncoef) if str(i) in used]
     src += [
         I1 + "N = y0.shape[0]",
         I1 + f"V = np.zeros(({nv}, P + 1))",
