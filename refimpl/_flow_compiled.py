@@ -330,14 +330,32 @@ def _run_cf(cf, y0, t, eps, order=None):
     return y, steps
 
 
-def _control(model, y0, t, eps_a0, n, tol, *, runner=None, estimate=None, b_max=B_MAX):
+def _control(
+    model,
+    y0,
+    t,
+    eps_a0,
+    n,
+    tol,
+    *,
+    runner=None,
+    estimate=None,
+    b_max=B_MAX,
+    prop_min_b=PROP_MIN_B,
+    reuse_b=REUSE_B,
+    floor=None,
+):
     """The two-run control of the module docstring on the rows of ``y0``: ``(B, estimate, steps of B)``.
 
     Trajectories are grouped by their local tolerances (one tolerance per kernel call); a trajectory
     run again keeps its ``B`` when ``B``'s tolerance does not change (only ``A`` is run again).
     ``runner``: ``(run, order_b)`` as :func:`_runner` gives them, and ``estimate(A, B, n, out)`` the
     per-row ``|A - B|`` (default: the su(2) quaternion state's; :mod:`refimpl._full_state` passes
-    its own for ``G = rho(g)``); ``b_max``: B's largest local tolerance (:data:`B_MAX`).
+    its own for ``G = rho(g)``); ``b_max``: B's largest local tolerance (:data:`B_MAX`);
+    ``prop_min_b``: B's tightest local tolerance for the proportional estimate (:data:`PROP_MIN_B`);
+    ``reuse_b``: :data:`REUSE_B` (0: a held ``B`` never becomes ``A``); ``floor(B, steps)``: per row, a
+    term added to every estimate (the rounding floor both runs share, unseen by ``|A - B|``; a retry
+    then aims at ``tol`` minus it), default none.
 
     A trajectory whose ``A`` must be tightened to ``new`` while it holds a ``B`` at a tolerance
     ``eps_B <= REUSE_B * new`` takes that ``B`` as its new ``A`` (one run, the new ``B`` at
@@ -358,8 +376,10 @@ def _control(model, y0, t, eps_a0, n, tol, *, runner=None, estimate=None, b_max=
         d1 = np.empty(1)
         _estimate_(A, B, n, d1)
         e1 = float(d1[0])
-        if eps_a0 >= PROP_MIN_A and eb0 >= PROP_MIN_B:
+        if eps_a0 >= PROP_MIN_A and eb0 >= prop_min_b:
             e1 = min(e1, PROP * (eb0 / eps_a0) * e1)
+        if floor is not None:
+            e1 += float(floor(B, sB)[0])
         if e1 <= tol:
             return B, np.array([e1]), sB
         first = (A, B, sB)  # kept: the loop below starts from this pair
@@ -374,6 +394,7 @@ def _control(model, y0, t, eps_a0, n, tol, *, runner=None, estimate=None, b_max=
     est = np.full(N, np.inf)
     steps = np.zeros(N, dtype=np.int64)
     d = np.empty(N)
+    fl = np.zeros(N)
     todo = np.arange(N)
     if first is not None:
         Ares[:], res[:], steps[:] = first
@@ -403,8 +424,10 @@ def _control(model, y0, t, eps_a0, n, tol, *, runner=None, estimate=None, b_max=
         # global error stops scaling with eps (A at 1e-12 or looser, B at 1e-14 or looser: the estimate
         # 30 kappa eps_B then exceeds the floor, about kappa 1e-14 on the heavy and the asymmetric top)
         ea, eb = eps_a[todo], eps_b[todo]
-        prop = (ea >= PROP_MIN_A) & (eb >= PROP_MIN_B)
-        est[todo] = np.where(prop, np.minimum(di, PROP * (eb / ea) * di), di)
+        prop = (ea >= PROP_MIN_A) & (eb >= prop_min_b)
+        if floor is not None:
+            fl[todo] = floor(res if N == 1 else res[todo], steps[todo])
+        est[todo] = np.where(prop, np.minimum(di, PROP * (eb / ea) * di), di) + fl[todo]
         over = todo[est[todo] > tol]
         if over.size == 0:
             break
@@ -412,8 +435,8 @@ def _control(model, y0, t, eps_a0, n, tol, *, runner=None, estimate=None, b_max=
         # is kept: one run), else a tighter A (and B with it) by the observed excess, times 10
         moved = False
         for k in over.tolist():
-            eb_req = tol * eps_a[k] / (PROP * max(d[k], 1e-300)) / 2
-            if eps_a[k] >= PROP_MIN_A and PROP_MIN_B <= eb_req < eps_b[k]:
+            eb_req = (tol - fl[k]) * eps_a[k] / (PROP * max(d[k], 1e-300)) / 2
+            if eps_a[k] >= PROP_MIN_A and prop_min_b <= eb_req < eps_b[k]:
                 eps_b[k] = eb_req
                 moved = True
                 continue
@@ -422,7 +445,7 @@ def _control(model, y0, t, eps_a0, n, tol, *, runner=None, estimate=None, b_max=
                 eb_held = eps_b[k]
                 if (
                     have_b[k] == eb_held
-                    and eb_held <= REUSE_B * new
+                    and eb_held <= reuse_b * new
                     and eps_b_of(eb_held) < eb_held
                 ):
                     Ares[k], have_a[k] = res[k], eb_held  # the held B becomes A

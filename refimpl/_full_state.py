@@ -48,17 +48,25 @@ Error control
     user reads the result: ``max(|pi_A - pi_B|, |Ad_A - Ad_B|)`` per trajectory; the same control
     function (:func:`refimpl._flow_compiled._control`) as the su(2) full state: a trajectory over the
     tolerance keeps its ``B`` when only ``A`` is tightened, and has ``B`` alone tightened when the
-    proportional estimate then passes.
+    proportional estimate then passes. On the full state ``B`` runs at most at :data:`B_MAX` = 2e-15
+    (the proportional estimate ``30 (eps_B / eps_A) |A - B|`` kept down to :data:`PROP_MIN_B` = 1e-15),
+    so that one pair passes for flows amplifying their local errors up to ~1700 times at the default
+    tolerance (a third run costs more than the tighter ``B``); the ``Upsilon != 0`` kernel keeps the
+    su(2) values (:data:`B_MAX_RATIONAL`). Every estimate then gets the rounding floor that ``|A - B|``
+    cannot see (:data:`ROUND_PER_STEP`), so it bounds the error of the answer at the float64 floor too.
 """
 
 from __future__ import annotations
+
+import functools
+import math
 
 import numpy as np
 
 from . import _compiled_taylor as _ct
 from . import _full_state_batch as _fsb
 from . import _full_state_kernel as _fk
-from ._flow_compiled import _control, local_tolerances
+from ._flow_compiled import A_LOOSE_FROM, REUSE_B, _control, local_tolerances
 from .codegen import import_source
 from .codegen.full_state import full_state_source
 
@@ -76,12 +84,48 @@ update and the step norms are loops over index tables and the products run in ch
 A function of the call's inputs, so a call's result never depends on what ran before it."""
 
 
-B_MAX = 3e-14
+MAX_STEPS = 10_000_000
+"""The kernels' step budget per trajectory (status -3 beyond it)."""
+
+B_MAX = 2e-15
 """``B``'s largest local tolerance on the full state (the su(2) quaternion state's is
-:data:`refimpl._flow_compiled.B_MAX`, 1e-13): at the default ``tol = 1e-10`` one pair of runs then
-passes where the global error is up to ~100 times the local tolerance (se(3) Kirchhoff: three runs at
-1e-13), and a retry can take this ``B`` as its ``A`` near the float64 floor (Bianchi VI0: three runs
-instead of four); ``B`` costs about the same (the order rises by one, the steps do not)."""
+:data:`refimpl._flow_compiled.B_MAX`, 1e-13). With ``A`` at 1e-8 (the default ``tol = 1e-10``) the
+proportional estimate ``30 (eps_B / eps_A) |A - B|`` passes in one pair of runs while the global
+error of ``A`` is at most ``tol / (30 eps_B) = 1667`` times its local tolerance (at 3e-14: 111).
+Measured ratios global error / local tolerance: up to ~2500 (Bianchi VI0 with a cocycle, T = 10:
+1200 for ``A``), which took a third run at 3e-14; ``B`` costs 3-10 % more here than at 3e-14 (the
+order rises by two, the steps barely), a third run 40-100 %. Kept at or above :data:`PROP_MIN_B`."""
+
+PROP_MIN_B = 1e-15
+"""``B``'s tightest local tolerance for the proportional estimate on the full state (the su(2) state's
+is :data:`refimpl._flow_compiled.PROP_MIN_B`, 1e-14). Its reason there: below it the global error
+stops scaling with ``eps`` (the rounding floor, about ``kappa 1e-14`` for a flow amplifying its
+local errors ``kappa`` times), so ``30 kappa eps_B`` must stay above ``kappa 1e-14``: ``eps_B >=
+3.3e-16``; the full state's update is compensated (Kahan) and :data:`ROUND_PER_STEP` charges the floor
+explicitly."""
+
+A_LOOSE = 1e-6
+"""``A``'s local tolerance on the full state for ``tol >= A_LOOSE_FROM`` (the su(2) state's is
+:data:`refimpl._flow_compiled.A_LOOSE`, 1e-8): the estimate is then the proportional one, whose pass
+condition ``kappa_A <= tol / (30 eps_B)`` does not depend on ``eps_A``, and ``A`` costs 30-35 % less
+than at 1e-8 (bench problems, T = 10: so(4) 26 vs 39 us, se(3) 45 vs 69, su(3) 23 vs 33, Bianchi VI0 10
+vs 15). Measured ratios ``kappa = error / eps`` of ``A`` at 1e-6 and ``B`` at 2e-15 (generated kernels,
+``ORDER_BIAS``): se(3) 18 and 39, Bianchi VI0 770 and 910; so(4) and su(3) 0.05 and 1 with ``B`` at the
+rounding floor (covered by :data:`ROUND_PER_STEP`): within the safety factor 30."""
+
+B_MAX_RATIONAL, PROP_MIN_B_RATIONAL = 3e-14, 1e-14
+"""The same two for the ``Upsilon != 0`` kernel (:mod:`refimpl._full_state_rational`, its ``run``): its
+steps cost more with the order (one ``Psi_0`` solve per order), so ``B`` at 2e-15 cost 9 % more on the
+bench's modified su(3) for no third run saved."""
+
+ROUND_PER_STEP = 4.0
+"""The rounding floor added to every estimate: ``ROUND_PER_STEP eps (sqrt(steps) + n) max(1, |pi|, |Ad|)``
+(float64 ``eps``; ``steps`` of the answer ``B``). Error model: each step's coefficients and the
+compensated Horner update round to a few units ``eps |y|``, independently from step to step (a random
+walk: ``sqrt(steps)``), and ``Ad(g)`` from ``G`` to about ``n eps |Ad|``; ``|A - B|`` cannot see the part
+both runs share. Measured (free su(3), so(4), T = 10, ``B`` at 1e-15 and 2e-15): errors 16-26 ``eps``
+at 9-15 steps, where the proportional estimate alone came out 0.2-0.7 of the error. The logarithm's
+own error is measured, not modelled: ``max |Ad(exp(x)) - Ad(g_B)|`` is added to the estimate too."""
 
 
 def applies(model) -> bool:
@@ -297,7 +341,7 @@ class FullState:
         T: float,
         tol: float,
         order: int | None = None,
-        max_steps: int = 10_000_000,
+        max_steps: int = MAX_STEPS,
         generated: bool = False,
     ):
         """``(y(T), steps)`` for the rows of ``y0`` (N, d) at the local tolerance ``tol``."""
@@ -322,6 +366,7 @@ ORDER_BIAS = (
 )
 
 
+@functools.lru_cache(maxsize=256)
 def default_order(tol: float) -> int:
     return _ct.adaptive_order(tol) + ORDER_BIAS
 
@@ -354,6 +399,20 @@ def full_state(model, abelian=None) -> FullState:
             np.ascontiguousarray(gv[:, 1]),
             np.ascontiguousarray(gv[:, 2]),
             fs.n * (2 if fs.gravity else 1),
+        )
+        # the arguments of the compiled start (_fk.start) and logarithm (_fk.log_refined), built once
+        fs.gamma = np.ascontiguousarray(model.gamma if fs.gravity else np.zeros(fs.n), dtype=float)
+        fs.Pab = np.ascontiguousarray(np.zeros((0, fs.n)) if ab is None else ab.P, dtype=float)
+        fs.refine = ab is not None and not fs.cplx
+        fs.ab_args = (
+            fs.abelian_tables
+            if fs.refine
+            else (
+                np.zeros((0, fs.n)),
+                np.zeros((fs.n, 0)),
+                np.zeros((fs.n, 0)),
+                np.zeros((0, fs.r, fs.r)),
+            )
         )
         model.__dict__["_full_state"] = fs
     return fs
@@ -395,13 +454,15 @@ def _ad_of(fs: FullState, G) -> np.ndarray:
     return out
 
 
+_NO_S = np.zeros((0, 1))
+
 ABELIAN_RTOL = (
     1e-13  # the log's abelian part is kept when it matches the integrated one this closely
 )
 
 
 def _x_of(fs: FullState, G, Ad, s) -> np.ndarray:
-    """``x`` (n, N) with ``exp(x) = g``: the principal logarithm of ``G`` when it lies in the algebra
+    """``x`` (N, n) (rows) with ``exp(x) = g``: the principal logarithm of ``G`` when it lies in the algebra
     (compiled, :func:`refimpl._full_state_kernel.log_batch`), else :meth:`Representation.log`; on
     exponential algebras the abelian part from ``s`` when the log's differs from it
     (:class:`refimpl.flows._common._AbelianPart`)."""
@@ -409,7 +470,14 @@ def _x_of(fs: FullState, G, Ad, s) -> np.ndarray:
     xs = np.empty((N, fs.n))
     ok = np.zeros(N, dtype=np.bool_)
     G = np.ascontiguousarray(G, dtype=fs.mats.dtype)
-    _fk.log_batch(G, fs.mats, fs.proj, fs.cplx, xs, ok)
+    if fs.cplx:
+        _fk.log_batch(G, fs.mats, fs.proj, fs.cplx, xs, ok)
+    else:  # the log and, when it accepted every row, the abelian refine in one call
+        s_ = _NO_S if s is None else np.ascontiguousarray(s)
+        if _fk.log_refined(
+            G, fs.mats, fs.proj, False, xs, ok, s_, *fs.ab_args, ABELIAN_RTOL, fs.refine
+        ):
+            return xs
     for j in np.flatnonzero(~ok):
         xs[j] = fs.rep.log(G[j], Ad[j])
     if fs.abelian is not None:
@@ -417,31 +485,37 @@ def _x_of(fs: FullState, G, Ad, s) -> np.ndarray:
         if not fs.cplx:  # compiled (refimpl._full_state_kernel.abelian_batch), the same refine
             ab = fs.abelian_tables
             _fk.abelian_batch(G, xs, np.ascontiguousarray(s), *ab, fs.mats, ABELIAN_RTOL)
-            return xs.T.copy()
+            return xs
         for j in range(N):
             sj = s[:, j]
             if np.max(np.abs(P @ xs[j] - sj)) > ABELIAN_RTOL * max(1.0, float(np.max(np.abs(sj)))):
                 xs[j] = fs.abelian.refine(fs.rep, G[j], xs[j], sj)
-    return xs.T.copy()
+    return xs
 
 
-def _run(fs: FullState, y0, t, eps, generated=False, order=None):
-    y, steps = fs.run(y0, t, eps, order=order, generated=generated)
-    if steps.min() < 0:
+def _check_steps(steps, t) -> None:
+    if (steps[0] < 0) if steps.shape[0] == 1 else (steps.min() < 0):
         raise ValueError(
             f"compiled Taylor flow: trajectories {np.flatnonzero(steps < 0)[:10].tolist()} became "
             f"non-finite before t = {t} (diverged); no point is dropped"
         )
+
+
+def _run(fs: FullState, y0, t, eps, generated=False, order=None):
+    y, steps = fs.run(y0, t, eps, order=order, generated=generated)
+    _check_steps(steps, t)
     return y, steps
 
 
-def _estimate(fs: FullState, A, B):
-    """``(max(|pi_A - pi_B|, |Ad_A - Ad_B|), G_B, Ad_B)`` per trajectory (compiled)."""
+def _estimate(fs: FullState, A, B, size=None):
+    """``(max(|pi_A - pi_B|, |Ad_A - Ad_B|), G_B, Ad_B)`` per trajectory (compiled); ``size``: receives
+    ``max(|pi_B|, |Ad_B|)`` per trajectory."""
     N = A.shape[0]
     GB = np.empty((N, fs.r, fs.r), dtype=fs.mats.dtype)
     AdB = np.empty((N, fs.n, fs.n))
     est = np.empty(N)
-    _fk.estimate(A, B, fs.n, *fs.gidx, fs.unit, fs.mats, fs.proj, fs.cplx, GB, AdB, est)
+    size = np.empty(N) if size is None else size
+    _fk.estimate(A, B, fs.n, *fs.gidx, fs.unit, fs.mats, fs.proj, fs.cplx, GB, AdB, est, size)
     return est, GB, AdB
 
 
@@ -455,47 +529,103 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
     ``Upsilon != 0`` one; each kernel picks its own order for ``eps``)."""
     fs = full_state(model, abelian)
     n, N = pi0.shape
-    G0 = np.empty((N, fs.r, fs.r), dtype=fs.mats.dtype)
-    _fk.exp_batch(np.ascontiguousarray(x0.T), fs.mats, G0)
-    Gamma0 = None
-    if fs.gravity:
-        Ad0 = _ad_of(fs, G0)
-        Gamma0 = np.einsum("Nmb,m->bN", Ad0, model.gamma)
-    s0 = None if fs.abelian is None else fs.abelian.P @ x0
-    y0 = _pack(fs, pi0, Gamma0, G0, s0)
-    eps_a, _ = local_tolerances(tol)
+    y0 = np.empty((N, fs.d))  # (pi, [Gamma,] G, [s]) at t = 0: _pack of exp(rho(x0)), compiled
+    _fk.start(
+        np.ascontiguousarray(x0, dtype=float),
+        np.ascontiguousarray(pi0, dtype=float),
+        fs.mats,
+        fs.proj,
+        fs.cplx,
+        *fs.gidx,
+        fs.gamma,
+        fs.gravity,
+        fs.Pab,
+        y0,
+    )
+    eps_a = local_tolerances(tol)[0] if run is not None or tol < A_LOOSE_FROM else A_LOOSE
     gen = N * abs(t) >= GENERATED_MIN_WORK
 
-    go = _run if run is None else run
+    if run is not None:
 
-    def run_(y, tt, eps, order=None):  # order None: the kernel's own for eps
-        return go(fs, y, tt, eps, gen)
+        def run_(y, tt, eps, order=None):  # order None: the kernel's own for eps
+            return run(fs, y, tt, eps, gen)
 
-    last = [None, None, None]  # (B, G_B, Ad_B) of the last estimate: the answer's, when it is B
+    elif gen and not (N >= _fsb.LANES and _fsb.applies(fs)):
+        kernel = (
+            fs.module().adaptive
+        )  # the generated kernel, called directly (FullState.run's body)
+
+        def run_(y, tt, eps, order=None):
+            out = np.empty_like(y)
+            steps = np.empty(y.shape[0], dtype=np.int64)
+            kernel(y, float(tt), float(eps), default_order(eps), MAX_STEPS, fs.coef, out, steps)
+            _check_steps(steps, tt)
+            return out, steps
+
+    else:
+
+        def run_(y, tt, eps, order=None):
+            return _run(fs, y, tt, eps, gen)
+
+    last = [None, None, None, None]  # (B, G_B, Ad_B, size of B) of the last estimate
 
     def estimate(A, B, n_, out):
-        out[:], last[1], last[2] = _estimate(fs, A, B)
-        last[0] = B
+        size = np.empty(B.shape[0])
+        out[:], last[1], last[2] = _estimate(fs, A, B, size)
+        last[0], last[3] = B, size
+
+    def floor(B, steps):  # ROUND_PER_STEP's rounding floor of the answer B (pi and Ad(g))
+        if last[0] is B:
+            size = last[3]
+        else:
+            size = np.empty(B.shape[0])
+            _estimate(fs, B, B, size)
+        if B.shape[0] == 1:
+            return (ROUND_PER_STEP * EPS * (math.sqrt(steps[0]) + n) * max(1.0, size[0]),)
+        return ROUND_PER_STEP * EPS * (np.sqrt(steps) + n) * np.maximum(1.0, size)
 
     res, est, steps = _control(
-        model, y0, t, eps_a, n, tol, runner=(run_, lambda eps: None), estimate=estimate, b_max=B_MAX
+        model,
+        y0,
+        t,
+        eps_a,
+        n,
+        tol,
+        runner=(run_, lambda eps: None),
+        estimate=estimate,
+        b_max=B_MAX if run is None else B_MAX_RATIONAL,
+        prop_min_b=PROP_MIN_B if run is None else PROP_MIN_B_RATIONAL,
+        reuse_b=0.0 if run is None else REUSE_B,
+        floor=floor,
     )
-    over = np.flatnonzero(est > tol)
-    if over.size:
-        raise ValueError(
-            f"compiled Taylor flow: tolerance {tol} not reached on trajectories {over[:10].tolist()} "
-            f"(estimated errors {est[over][:3].tolist()}) at the float64 floor of the local tolerance"
-        )
     if last[0] is res:  # N = 1, first pair: G and Ad(g) of the answer already computed
         G, Adres = last[1], last[2]
     else:
         _, G, Adres = _estimate(fs, res, res)
+    if not (est[0] <= tol if N == 1 else np.all(est <= tol)):
+        over = np.flatnonzero(~(est <= tol))
+        raise ValueError(
+            f"compiled Taylor flow: tolerance {tol} not reached on trajectories {over[:10].tolist()} "
+            f"(estimated errors {est[over][:3].tolist()}) at the float64 floor of the local tolerance"
+        )
     s = None if fs.abelian is None else res[:, fs.d - fs.n_ab :].T
-    x = _x_of(fs, G, Adres, s)
+    xs = _x_of(fs, G, Adres, s)  # (N, n)
+    # the logarithm's error, measured where the user reads it: |Ad(exp(x)) - Ad(g_B)| (triangle inequality)
+    resid = np.empty(N)
+    _fk.log_residual(xs, fs.mats, fs.proj, fs.cplx, Adres, resid)
+    if not (math.isfinite(resid[0]) if N == 1 else np.all(np.isfinite(resid))):
+        resid[~np.isfinite(resid)] = 0.0  # no logarithm found (x not finite): the caller names them
+    est = est + resid
+    if not (est[0] <= tol if N == 1 else np.all(est <= tol)):
+        over = np.flatnonzero(~(est <= tol))
+        raise ValueError(
+            f"compiled Taylor flow: tolerance {tol} not reached on trajectories {over[:10].tolist()} "
+            f"(estimated errors {est[over][:3].tolist()}, with the logarithm's) at the float64 floor"
+        )
     return {
         "pi": res[:, :n].T.copy(),
         "Gamma": res[:, n : 2 * n].T.copy() if fs.gravity else None,
-        "x": x,
+        "x": xs.T.copy(),
         "g": G,
         "Ad": Adres,
         "quat": None,

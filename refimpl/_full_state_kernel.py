@@ -485,9 +485,9 @@ def unpack_G(y, gpart, gi, gj, off, G, unit):
 
 
 @njit(cache=True, nogil=True)
-def estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est):
+def estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, size):
     """Per row: ``est = max(|pi_A - pi_B|, |Ad(g_A) - Ad(g_B)|)`` (inf when not finite); ``GB``, ``AdB``
-    the group element and ``Ad`` of ``B``."""
+    the group element and ``Ad`` of ``B``; ``size = max(|pi_B|, |Ad(g_B)|)``."""
     N = A.shape[0]
     r = mats.shape[1]
     GA = np.zeros((N, r, r), dtype=mats.dtype)
@@ -500,10 +500,14 @@ def estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est):
         m = 0.0
         for a in range(n):
             m = max(m, abs(A[it, a] - B[it, a]))
+        z = 0.0
         for a in range(n):
+            z = max(z, abs(B[it, a]))
             for b in range(n):
                 m = max(m, abs(AdA[it, a, b] - AdB[it, a, b]))
+                z = max(z, abs(AdB[it, a, b]))
         est[it] = m if math.isfinite(m) else np.inf
+        size[it] = z
 
 
 # ---------------------------------------------------------------------- the abelian part of the log
@@ -532,7 +536,9 @@ def refine_abelian(G, x0, s, P, Ppinv, D, Dr, mats, out):
     (the same steps): ``out`` = ``x`` with ``P x = s`` and ``exp(rho(x))`` closest to ``G``, by at most
     eight Gauss-Newton steps over ``[g, g]`` (directions ``D``, their images ``Dr = D^T rho``; each
     step by the normal equations, not scipy's least squares) from
-    ``x0 + pinv(P) (s - P x0)``, each kept only when it lowers ``max |exp(rho(x)) - G|``; the Jacobian's
+    ``x0 + pinv(P) (s - P x0)``, each kept only when it lowers ``max |exp(rho(x)) - G|``, none once that
+    residual is at ``8 r eps max(1, |G|)`` (the rounding of ``exp(rho(x))``: no step can improve it,
+    and one that tried cost another four exponentials); the Jacobian's
     columns are the Frechet derivatives ``L(rho(x), Dr_j)``, the upper right block of the exponential of
     ``[[rho(x), Dr_j], [0, rho(x)]]`` (Higham, Functions of Matrices, 3.2); ``x0`` itself when the fit
     does not come within ``10 |exp(rho(x0)) - G| + 1e3 eps max(1, |G|)``."""
@@ -567,9 +573,17 @@ def refine_abelian(G, x0, s, P, Ppinv, D, Dr, mats, out):
         best[a] = acc
     cand = np.zeros(n)
     r0 = _resid(x0, mats, G, X, E, R0)
-    rb = _resid(best, mats, G, X, E, Rb)
+    gmax = 0.0
+    for i in range(r):
+        for j in range(r):
+            gmax = max(gmax, abs(G[i, j]))
+    at_floor = 8.0 * r * 2.220446049250313e-16 * max(1.0, gmax)
+    rb = _resid(best, mats, G, X, E, Rb)  # X = rho(best) from here on (the last _resid kept)
     for _ in range(8):
-        _resid(best, mats, G, X, E, Rc)  # X = rho(best)
+        if (
+            rb <= at_floor
+        ):  # a residual at the rounding of exp(rho(x)) itself: no step can improve it
+            break
         for i in range(2 * r):
             for j in range(2 * r):
                 Z[i, j] = 0.0
@@ -624,10 +638,6 @@ def refine_abelian(G, x0, s, P, Ppinv, D, Dr, mats, out):
         for i in range(r):
             for j in range(r):
                 Rb[i, j] = Rc[i, j]
-    gmax = 0.0
-    for i in range(r):
-        for j in range(r):
-            gmax = max(gmax, abs(G[i, j]))
     ok = rb <= r0 * 10 + 1e3 * 2.220446049250313e-16 * max(1.0, gmax)
     for a in range(n):
         out[a] = best[a] if ok else x0[a]
@@ -653,3 +663,73 @@ def abelian_batch(G, xs, s, P, Ppinv, D, Dr, mats, rtol):
             refine_abelian(G[j], xs[j].copy(), s[:, j].copy(), P, Ppinv, D, Dr, mats, out)
             for a in range(n):
                 xs[j, a] = out[a]
+
+
+# ---------------------------------------------------------------------- per-call glue, one call each
+# The starting state and the logarithm of the full state as one compiled call each (the numpy glue
+# they replace cost ~10 us of call overhead apiece on one trajectory; the same formulas as
+# refimpl._full_state._pack and ._x_of, which stay the documentation).
+@njit(cache=True, nogil=True)
+def start(X, Pi, mats, proj, cplx, gpart, gi, gj, off, gamma, grav, Pab, y0):
+    """``y0[N] = (pi, [Gamma,] G entries, [s])`` from ``X``, ``Pi`` (n, N): ``G = exp(rho(x))``,
+    ``Gamma_b = sum_m Ad(g)_mb gamma_m`` (``grav``), ``s = Pab x`` (``Pab`` (k, n), k = 0 without an
+    abelian part)."""
+    n, N = X.shape
+    r = mats.shape[1]
+    d = y0.shape[1]
+    k = Pab.shape[0]
+    xr = np.empty((N, n))
+    for j in range(N):
+        for a in range(n):
+            xr[j, a] = X[a, j]
+            y0[j, a] = Pi[a, j]
+        for ell in range(k):
+            acc = 0.0
+            for a in range(n):
+                acc += Pab[ell, a] * X[a, j]
+            y0[j, d - k + ell] = acc
+    G = np.empty((N, r, r), dtype=mats.dtype)
+    exp_batch(xr, mats, G)
+    if grav:
+        Ad = np.empty((N, n, n))
+        ad_batch(G, mats, proj, cplx, Ad)
+        for j in range(N):
+            for b in range(n):
+                acc = 0.0
+                for m in range(n):
+                    acc += Ad[j, m, b] * gamma[m]
+                y0[j, n + b] = acc
+    pack_G(G, gpart, gi, gj, off, y0)
+
+
+@njit(cache=True, nogil=True)
+def log_refined(G, mats, proj, cplx, xs, ok, s, P, Ppinv, D, Dr, rtol, refine):
+    """:func:`log_batch`; then, when it accepted every row and ``refine`` (a real representation with
+    an abelian part), :func:`abelian_batch` on them (``s`` (k, N) the integrated part). Returns whether
+    the refine ran (else the caller completes the rows: the fallback log first, then the refine)."""
+    log_batch(G, mats, proj, cplx, xs, ok)
+    if not refine:
+        return False
+    for j in range(xs.shape[0]):
+        if not ok[j]:
+            return False
+    abelian_batch(G, xs, s, P, Ppinv, D, Dr, mats, rtol)
+    return True
+
+
+@njit(cache=True, nogil=True)
+def log_residual(xs, mats, proj, cplx, Ad, out):
+    """``out[N] = max |Ad(exp(rho(x))) - Ad|`` for the rows of ``xs`` (N, n) (inf when not finite):
+    how far the logarithm's ``x`` moves what the user reads from ``Ad(g)``."""
+    N, n = xs.shape
+    r = mats.shape[1]
+    G = np.empty((N, r, r), dtype=mats.dtype)
+    exp_batch(xs, mats, G)
+    Adx = np.empty((N, n, n))
+    ad_batch(G, mats, proj, cplx, Adx)
+    for it in range(N):
+        m = 0.0
+        for a in range(n):
+            for b in range(n):
+                m = max(m, abs(Adx[it, a, b] - Ad[it, a, b]))
+        out[it] = m if math.isfinite(m) else np.inf

@@ -22,6 +22,7 @@ from .._flow_checks import check_time
 from .._flow_compiled import compiled_taylor_samples, quat_to_x
 from .._lru import LRU
 from .._validate import (
+    MAX_MAGNITUDE,
     StepBudget,
     check_flow_rates,
     check_flow_request,
@@ -121,11 +122,21 @@ def _points(x0, pi0, n: int):
         and pi0.dtype == np.float64
         and x0.shape == pi0.shape
         and x0.shape[-1:] == (n,)
-        and within_boundary(x0)  # issue 30: finite and |v| <= MAX_MAGNITUDE (refimpl._validate)
-        and within_boundary(pi0)
+        and _bounded(x0)  # issue 30: finite and |v| <= MAX_MAGNITUDE (refimpl._validate)
+        and _bounded(pi0)
     ):
         return x0, pi0
     return check_points(x0, pi0, n, batched=True)
+
+
+SMALL = 32  # arrays up to this size are checked entry by entry in Python (cheaper than numpy calls)
+
+
+def _bounded(a) -> bool:
+    """:func:`within_boundary` (NaN fails every comparison); small arrays without numpy reductions."""
+    if a.size <= SMALL:
+        return all(-MAX_MAGNITUDE <= v <= MAX_MAGNITUDE for v in a.ravel().tolist())
+    return within_boundary(a)
 
 
 def _check_rates(model: NumpyModel, pa, tv: float) -> None:
@@ -133,7 +144,10 @@ def _check_rates(model: NumpyModel, pa, tv: float) -> None:
     computed once per model; the check itself runs (and raises, naming the point) only when the same
     bound, evaluated here on ``max |pi|`` over the batch, could exceed the budget."""
     c = model.rate_const
-    size = float(np.max(np.abs(pa))) * math.sqrt(model.n) if pa.size else 0.0
+    if pa.size <= SMALL:
+        size = max((abs(v) for v in pa.ravel().tolist()), default=0.0) * math.sqrt(model.n)
+    else:
+        size = float(np.max(np.abs(pa))) * math.sqrt(model.n)
     if not abs(tv) * c * max(1.0, size) <= 0.5 * 2.0**14 * (2 + abs(tv)):  # half the budget: margin
         check_flow_rates(model.f, model.inertia, pa, tv)
 
@@ -196,7 +210,8 @@ def fast_flow(
     if steps is not None and (not isinstance(steps, (int, np.integer)) or steps < 1):
         raise ValueError(f"steps must be a positive int, got {steps!r}")
     budget = StepBudget("fast_flow")  # issue 30: a count budget holds in time (refimpl._validate)
-    doing = f"{meth.name} on {X.shape[1]} trajectories to t = {tv:g}"
+    if not meth.adaptive or X.shape[1] * abs(tv) >= 256:
+        doing = f"{meth.name} on {X.shape[1]} trajectories to t = {tv:g}"
     if not meth.adaptive:
         N0 = int(steps) if steps is not None else int(8 + 4 * np.ceil(abs(tv)))
         if (
