@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import mpmath
 import numpy as np
+import pytest
 
 from tstarg.refimpl import su2
 from tstarg.refimpl.flows import reference_trajectory
@@ -112,3 +113,38 @@ def test_verify_flow_second_route_holds_both_boxes(monkeypatch):
     monkeypatch.setattr(core_checks, "reference_trajectory", moved)
     ratio, _ = flow_reference_inside_balls(ex)
     assert ratio > 1
+
+
+def test_flow_long_judges_by_the_boxes_and_accepts_a_flow_that_does_not_rebase():
+    """flow.long on the closed form of the free top with I = 1, x0 = 0 (Omega = pi constant, so
+    x(t) = t pi0 exactly, carried on without re-basing): at pi0 = (0, 0, 1.5) it reaches |x| = 15 at
+    t = 10, a rotation whose principal SU(2) logarithm is (0, 0, 15 - 4 pi); the boxes judge it (their
+    x is principal, the flow's is not: rho(g) and Ad(g) decide, chart-free) and it passes; the same
+    flow off by 1e-6 in pi past |t| = 5 fails against the boxes."""
+    from tstarg.reports.certification import REGISTRY
+    from tstarg.reports.certification.checks.flow_long import FlowLongExample
+    from tstarg.reports.certification.domain import Domain
+    from tstarg.reports.certification.models import Hamiltonian
+
+    class Closed:
+        name, version, flow_tolerance = "closed form", "test", 1e-12
+        off = 0.0
+
+        def flow(self, f, theta, upsilon, inertia, potential, x0, pi0, t):
+            p = np.array(pi0, dtype=float)
+            return np.asarray(x0, dtype=float) + t * p, p * (1 + (self.off if abs(t) > 5 else 0))
+
+    f = su2().f
+    model = ("su(2)", f, Z3, Z3, np.zeros(3), np.array([0.0, 0.0, 1.5]))
+    ex = FlowLongExample(Hamiltonian(model, np.eye(3), None), 0.5, 1.0)
+    stats: dict = {}
+    body, _ = REGISTRY["flow.long"].build(Closed(), Domain(), stats)
+    ratio, _ = body(ex)
+    assert ratio <= 1 and stats.get(f"examples judged by {INTERVAL_JUDGE}") == 1, stats
+    assert stats["judge error (proven, worst) / tolerance"] < 0.01
+    assert stats["largest |t| judged"] == 10.0
+    bad = Closed()
+    bad.off = 1e-6
+    body, _ = REGISTRY["flow.long"].build(bad, Domain(), {})
+    with pytest.raises(AssertionError, match="ratio"):
+        body(ex)
