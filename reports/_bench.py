@@ -1216,7 +1216,9 @@ def _protocol_markdown(pr: dict) -> list[str]:
                 else f" | {fmt_time(b['ours']['per_traj'])}, {fmt_err(b['ours']['error'])} | "
                 + (
                     f"{fmt_time(bb['time'] / b['M'])} (tol {bb['tol']:.2e}, width {bb['width']}) | "
-                    f"{b['ratio']:.3g} |"
+                    f"{b['ratio']:.3g}"
+                    + (" (heyoka's most accurate: it does not reach ours)" if b.get("note") else "")
+                    + " |"
                     if bb
                     else "not reached | - |"
                 )
@@ -1231,6 +1233,8 @@ def _protocol_markdown(pr: dict) -> list[str]:
         L.append(f"- judge: {ref['how']} ({ref['seconds']:.1f} s)")
         if r["note"]:
             L.append(f"- {r['note']}")
+        if r["batch"].get("note"):
+            L.append(f"- batch: {r['batch']['note']}")
         if "min_abs_delta" in ref:
             L.append(
                 f"- away from the degenerate set: along the trajectory (401 points) min |Delta| = "
