@@ -344,6 +344,7 @@ def _control(
     prop_min_b=PROP_MIN_B,
     reuse_b=REUSE_B,
     floor=None,
+    reuse_last=False,
 ):
     """The two-run control of the module docstring on the rows of ``y0``: ``(B, estimate, steps of B)``.
 
@@ -353,9 +354,11 @@ def _control(
     per-row ``|A - B|`` (default: the su(2) quaternion state's; :mod:`refimpl._full_state` passes
     its own for ``G = rho(g)``); ``b_max``: B's largest local tolerance (:data:`B_MAX`);
     ``prop_min_b``: B's tightest local tolerance for the proportional estimate (:data:`PROP_MIN_B`);
-    ``reuse_b``: :data:`REUSE_B` (0: a held ``B`` never becomes ``A``); ``floor(B, steps)``: per row, a
+    ``reuse_b``: :data:`REUSE_B` (0: a held ``B`` never becomes ``A``); ``floor(B, steps, kappa)``: per row, a
     term added to every estimate (the rounding floor both runs share, unseen by ``|A - B|``; a retry
-    then aims at ``tol`` minus it), default none.
+    then aims at ``tol`` minus it; its third argument: per row the largest ``|A - B| / eps_A`` seen),
+    default none; ``reuse_last``: when ``A`` cannot be tightened further
+    (at :data:`EPS_FLOOR`), its held ``B`` becomes ``A`` once as a last resort (with ``reuse_b = 0``).
 
     A trajectory whose ``A`` must be tightened to ``new`` while it holds a ``B`` at a tolerance
     ``eps_B <= REUSE_B * new`` takes that ``B`` as its new ``A`` (one run, the new ``B`` at
@@ -376,10 +379,11 @@ def _control(
         d1 = np.empty(1)
         _estimate_(A, B, n, d1)
         e1 = float(d1[0])
+        kap1 = e1 / eps_a0
         if eps_a0 >= PROP_MIN_A and eb0 >= prop_min_b:
             e1 = min(e1, PROP * (eb0 / eps_a0) * e1)
         if floor is not None:
-            e1 += float(floor(B, sB)[0])
+            e1 += float(floor(B, sB, np.array([kap1]))[0])
         if e1 <= tol:
             return B, np.array([e1]), sB
         first = (A, B, sB)  # kept: the loop below starts from this pair
@@ -395,9 +399,13 @@ def _control(
     steps = np.zeros(N, dtype=np.int64)
     d = np.empty(N)
     fl = np.zeros(N)
+    kap = np.zeros(
+        N
+    )  # the largest |A - B| / eps_A seen per row (the flow's amplification of local errors)
     todo = np.arange(N)
     if first is not None:
         Ares[:], res[:], steps[:] = first
+        kap[:] = kap1
         have_a[:], have_b[:] = eps_a0, eps_b_of(eps_a0)
     for _ in range(8):
         for X, have, out, ep, kind in (
@@ -425,8 +433,9 @@ def _control(
         # 30 kappa eps_B then exceeds the floor, about kappa 1e-14 on the heavy and the asymmetric top)
         ea, eb = eps_a[todo], eps_b[todo]
         prop = (ea >= PROP_MIN_A) & (eb >= prop_min_b)
+        kap[todo] = np.maximum(kap[todo], di / eps_a[todo])
         if floor is not None:
-            fl[todo] = floor(res if N == 1 else res[todo], steps[todo])
+            fl[todo] = floor(res if N == 1 else res[todo], steps[todo], kap[todo])
         est[todo] = np.where(prop, np.minimum(di, PROP * (eb / ea) * di), di) + fl[todo]
         over = todo[est[todo] > tol]
         if over.size == 0:
@@ -453,6 +462,13 @@ def _control(
                 else:
                     eps_a[k], eps_b[k] = new, eps_b_of(new)
                 moved = True
+        if not moved and reuse_last:  # A at its floor: the held B becomes A, once
+            for k in over.tolist():
+                eb_held = eps_b[k]
+                if have_b[k] == eb_held and eps_a[k] >= EPS_FLOOR and eps_b_of(eb_held) < eb_held:
+                    Ares[k], have_a[k] = res[k], eb_held
+                    eps_a[k], eps_b[k] = eb_held, eps_b_of(eb_held)
+                    moved = True
         if not moved:
             break
         todo = over
