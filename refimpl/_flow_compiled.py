@@ -31,7 +31,8 @@ Error control (per trajectory, never shared)
     :data:`REUSE_B` of that new ``eps_A``, that ``B`` becomes the new ``A`` and only a new ``B`` (at
     ``SAFETY`` times its tolerance) is run -- the pair still has ``r <= SAFETY``, all the estimate
     asks of it. The full state of every other algebra (:mod:`refimpl._full_state`) runs this same
-    control with its own kernel and estimate and ``B`` capped at 3e-14. Not seen by ``d``: the rounding of the
+    control with its own kernel, estimate and constants (``A`` at 1e-6, ``B`` at most 2e-15, the
+    proportional estimate down to 1e-15, a rounding floor added through ``floor``). Not seen by ``d``: the rounding of the
     starting point (the same in both runs) amplified by the flow's sensitivity -- about 1e-13 on the
     heavy top over ``T = 100``, 1e-11 on the asymmetric top; tolerances near that floor are refused when
     ``d`` sees it, and are not certified by the two runs otherwise.

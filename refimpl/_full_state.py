@@ -43,17 +43,25 @@ The output
     with its abelian part replaced by the integrated ``s`` (:class:`refimpl.flows._common._AbelianPart`).
 
 Error control
-    The two runs of :mod:`refimpl._flow_compiled` (a checking run ``A`` and the answer ``B``, local
-    tolerances from :func:`refimpl._flow_compiled.local_tolerances`), the estimate measured where the
-    user reads the result: ``max(|pi_A - pi_B|, |Ad_A - Ad_B|)`` per trajectory; the same control
-    function (:func:`refimpl._flow_compiled._control`) as the su(2) full state: a trajectory over the
-    tolerance keeps its ``B`` when only ``A`` is tightened, and has ``B`` alone tightened when the
-    proportional estimate then passes. On the full state ``B`` runs at most at :data:`B_MAX` = 2e-15
-    (the proportional estimate ``30 (eps_B / eps_A) |A - B|`` kept down to :data:`PROP_MIN_B` = 1e-15),
-    so that one pair passes for flows amplifying their local errors up to ~1700 times at the default
-    tolerance (a third run costs more than the tighter ``B``); the ``Upsilon != 0`` kernel keeps the
-    su(2) values (:data:`B_MAX_RATIONAL`). Every estimate then gets the rounding floor that ``|A - B|``
-    cannot see (:data:`ROUND_PER_STEP`), so it bounds the error of the answer at the float64 floor too.
+    The two runs of :mod:`refimpl._flow_compiled` (a checking run ``A`` and the answer ``B``), the
+    estimate measured where the user reads the result: ``max(|pi_A - pi_B|, |Ad_A - Ad_B|)`` per
+    trajectory, through the same control function (:func:`refimpl._flow_compiled._control`) as the
+    su(2) full state, with the full state's own constants (``Upsilon != 0`` keeps the su(2) ones,
+    :data:`B_MAX_RATIONAL`):
+
+    * ``A`` at :data:`A_LOOSE` = 1e-6 and ``B`` at :data:`B_MAX` = 2e-15 for ``tol >= 1e-10``; the
+      proportional estimate ``30 (eps_B / eps_A) |A - B|`` (Shampine's two tolerances) is kept down to
+      :data:`PROP_MIN_B` = 1e-15, so one pair passes wherever the flow amplifies its local errors at
+      most ``tol / (30 eps_B)`` (1667) times -- a third run costs more than the tighter ``B``;
+    * a trajectory over ``tol`` gets ``B`` alone tightened when the proportional estimate then passes,
+      else ``A`` tightened (``B`` kept: never a held ``B`` as ``A``, whose pair would sit at the float64
+      floor), and as a last resort, with ``A`` at its floor, the held ``B`` becomes ``A`` once;
+    * every estimate gets the rounding floor that ``|A - B|`` cannot see, since both runs share it
+      (:data:`ROUND_PER_STEP` per step, :data:`ROUND_AMPLIFIED` times the observed amplification), and,
+      for one trajectory inside the control (so that a retry sees it), the logarithm's measured error
+      ``max |Ad(exp(x)) - Ad(g_B)|``: by the triangle inequality the estimate then bounds the error of
+      the ``x`` and ``pi`` returned, checked against the mpmath reference in
+      ``tests/test_full_state_estimate.py``.
 """
 
 from __future__ import annotations
@@ -89,11 +97,11 @@ MAX_STEPS = 10_000_000
 
 B_MAX = 2e-15
 """``B``'s largest local tolerance on the full state (the su(2) quaternion state's is
-:data:`refimpl._flow_compiled.B_MAX`, 1e-13). With ``A`` at 1e-8 (the default ``tol = 1e-10``) the
+:data:`refimpl._flow_compiled.B_MAX`, 1e-13). With ``A`` at :data:`A_LOOSE` (the default ``tol = 1e-10``) the
 proportional estimate ``30 (eps_B / eps_A) |A - B|`` passes in one pair of runs while the global
 error of ``A`` is at most ``tol / (30 eps_B) = 1667`` times its local tolerance (at 3e-14: 111).
 Measured ratios global error / local tolerance: up to ~2500 (Bianchi VI0 with a cocycle, T = 10:
-1200 for ``A``), which took a third run at 3e-14; ``B`` costs 3-10 % more here than at 3e-14 (the
+1200 for ``A`` at 1e-8, 770 at 1e-6), which took a third run with ``B`` at 3e-14; ``B`` costs 3-10 % more here than at 3e-14 (the
 order rises by two, the steps barely), a third run 40-100 %. Kept at or above :data:`PROP_MIN_B`."""
 
 PROP_MIN_B = 1e-15
