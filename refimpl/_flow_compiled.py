@@ -40,6 +40,8 @@ Error control (per trajectory, never shared)
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from . import _compiled_rational as _cr
@@ -331,6 +333,20 @@ def _run_cf(cf, y0, t, eps, order=None):
     return y, steps
 
 
+GRID = (
+    8  # retried tolerances are rounded down onto 10^(-k/GRID): rows of a batch share kernel calls
+)
+
+
+def _grid_down(e: float) -> float:
+    """``e`` rounded down (tighter) onto the grid ``10^(-k/GRID)``, so that the retried rows of a batch
+    fall into few tolerance groups (one kernel call each; measured on a 10^4 se(3) batch: 564 rows in
+    546 calls before) at most ``10^(1/GRID)`` = 1.33 times tighter than asked."""
+    if not e > 0.0:
+        return e
+    return 10.0 ** (math.floor(GRID * math.log10(e) + 1e-9) / GRID)
+
+
 def _control(
     model,
     y0,
@@ -445,12 +461,12 @@ def _control(
         # is kept: one run), else a tighter A (and B with it) by the observed excess, times 10
         moved = False
         for k in over.tolist():
-            eb_req = (tol - fl[k]) * eps_a[k] / (PROP * max(d[k], 1e-300)) / 2
+            eb_req = _grid_down((tol - fl[k]) * eps_a[k] / (PROP * max(d[k], 1e-300)) / 2)
             if eps_a[k] >= PROP_MIN_A and prop_min_b <= eb_req < eps_b[k]:
                 eps_b[k] = eb_req
                 moved = True
                 continue
-            new = max(eps_a[k] * min(tol / max(d[k], tol) / 10, 0.1), EPS_FLOOR)
+            new = max(_grid_down(eps_a[k] * min(tol / max(d[k], tol) / 10, 0.1)), EPS_FLOOR)
             if new < eps_a[k]:
                 eb_held = eps_b[k]
                 if (
