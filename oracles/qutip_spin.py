@@ -33,10 +33,10 @@ import mpmath
 import numpy as np
 import qutip
 from scipy.integrate import solve_ivp
-from scipy.linalg import expm
 from scipy.special import ellipj
 
 from .closed_forms import rigid_body_solution
+from .float_judge import expm
 
 __all__ = [
     "adjoint_from_spin_half",

