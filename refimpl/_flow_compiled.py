@@ -469,9 +469,12 @@ def _control(
             new = max(_grid_down(eps_a[k] * min(tol / max(d[k], tol) / 10, 0.1)), EPS_FLOOR)
             if new < eps_a[k]:
                 eb_held = eps_b[k]
+                # reuse_last: a tighter A that the observed amplification already says fails
+                # (kappa new > tol / 2) is skipped for the last resort
+                hopeless = reuse_last and new == EPS_FLOOR and kap[k] * new > tol / 2
                 if (
                     have_b[k] == eb_held
-                    and eb_held <= reuse_b * new
+                    and (eb_held <= reuse_b * new or hopeless)
                     and eps_b_of(eb_held) < eb_held
                 ):
                     Ares[k], have_a[k] = res[k], eb_held  # the held B becomes A
