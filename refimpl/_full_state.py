@@ -55,7 +55,8 @@ Error control
       most ``tol / (30 eps_B)`` (1667) times -- a third run costs more than the tighter ``B``;
     * a trajectory over ``tol`` gets ``B`` alone tightened when the proportional estimate then passes,
       else ``A`` tightened (``B`` kept: never a held ``B`` as ``A``, whose pair would sit at the float64
-      floor), and as a last resort, with ``A`` at its floor, the held ``B`` becomes ``A`` once;
+      floor), and as a last resort, with ``A`` at its floor (or the observed amplification saying that a
+      tighter ``A`` fails), the held ``B`` becomes ``A`` once;
     * every estimate gets the rounding floor that ``|A - B|`` cannot see, since both runs share it
       (:data:`ROUND_PER_STEP` per step, :data:`ROUND_AMPLIFIED` times the observed amplification), and,
       for one trajectory inside the control (so that a retry sees it), the logarithm's measured error
