@@ -24,9 +24,11 @@ Core checks (issue "the core"):
     ``10^-(dps-3) * max|P|``;
 ``flow_reference_inside_balls`` (vier10, vier11)
     the flows' second route: the mpmath reference trajectory (30 digits) within its own promise
-    ``10^-22 max(1, |state|)`` of the proven balls of the whole state (refimpl.rigorous's
-    ``judge_flow``, 64 bits: the judge of the certification's ``flow.reference``), ``pi`` and ``x``,
-    both signs of ``t``, ``Upsilon`` of either kind; the digits are the reference's proven digits;
+    ``10^-22 max(1, |state|)`` of the proven boxes of the whole state (refimpl.rigorous's
+    ``judge_flow``, the judge of the certification's flow checks: float64 intervals where
+    ``Upsilon = 0``, checked against the 64-bit Arb balls too; the Arb balls otherwise), ``pi`` and
+    ``x``, both signs of ``t``, ``Upsilon`` of either kind; the digits are the reference's proven
+    digits;
 (``h2_published`` and ``h2_invariants``, judged by published tables, are oracles:
 :mod:`oracles.h2_checks`.)
 """
@@ -45,7 +47,13 @@ from tstarg.refimpl.accuracy import max_abs_diff as _mp_max_abs_diff
 from tstarg.refimpl.fast import implementation as fast
 from tstarg.refimpl.flows import reference_trajectory
 from tstarg.refimpl.reference import DegeneratePointError, Reference
-from tstarg.refimpl.rigorous import Rigorous, UndecidedError, error_bounds, judge_flow
+from tstarg.refimpl.rigorous import (
+    INTERVAL_JUDGE,
+    Rigorous,
+    UndecidedError,
+    error_bounds,
+    judge_flow,
+)
 
 from .runner import CheckResult, run_property
 from .strategies import REGIMES, cocycles, points, rationals, upsilons
@@ -148,34 +156,43 @@ def _flow_model(draw):
 
 def flow_reference_inside_balls(example) -> tuple[float, float] | None:
     """The second route of the flow judge: the mpmath reference trajectory (``FLOW_REF_DPS`` digits,
-    Gragg-Bulirsch-Stoer with its own re-basing) against the proven balls of ``judge_flow``: the
-    proven lower bound of its distance to the exact state must be within the reference's promise
-    ``10^-(dps - 8) max(1, |state|)`` (its per-step tolerance is ``10^-(dps + 5)``); the digits are the
-    proven upper bound of its error. A refusal by either route (the degenerate set, no exact
-    representation, the logarithm not proven unique, a budget) is not judged."""
+    Gragg-Bulirsch-Stoer with its own re-basing) against the proven boxes of ``judge_flow`` -- the
+    route that judges (float64 intervals with Lohner's wrapping where ``Upsilon = 0``, Arb balls at 64
+    bits otherwise) and, where that was the interval route, the Arb balls too (two proven enclosures
+    of one state: the reference must lie in both): the proven lower bound of its distance to the
+    exact state must be within the reference's promise ``10^-(dps - 8) max(1, |state|)`` (its
+    per-step tolerance is ``10^-(dps + 5)``); the digits are the proven upper bound of its error by the
+    judging route. A refusal by either route (the degenerate set, no exact representation, the
+    logarithm not proven unique, a budget) is not judged."""
 
     name, theta, ups, x, pi, t = example
     alg = catalogue(name)
     n = alg.dim
     inertia = np.diag(np.linspace(1.0, 2.0, n))
     try:
-        e = judge_flow(alg, theta, ups, inertia, None, x, pi, t, max_seconds=4.0)["enclosure"]
+        judged = judge_flow(alg, theta, ups, inertia, None, x, pi, t, max_seconds=4.0)
+        encs = [judged["enclosure"]]
+        if judged["judge"] == INTERVAL_JUDGE:
+            a = judge_flow(alg, theta, ups, inertia, None, x, pi, t, max_seconds=4.0, route="arb")
+            encs.append(a["enclosure"])
         tr = reference_trajectory(alg, theta, ups, inertia, None, x, pi, [0, t], dps=FLOW_REF_DPS)
     except ValueError:
         return None
-    if e.x is None:
+    if any(e.x is None for e in encs):
         return None
     worst, digits = 0.0, math.inf
-    parts = [(e.pi, tr.pi[-1])]
-    if np.max(np.abs(np.array(tr.x[-1], dtype=float) - e.x.mid)) < 1e-8:
-        parts.append((e.x, tr.x[-1]))  # else the reference's x is another logarithm: pi judges
-    for B, ref in parts:
-        ref = np.asarray(ref, dtype=object)
-        lo, hi = B.error_bounds(ref)
-        scale = max(1.0, float(np.max(np.abs(B.mid))))
-        worst = max(worst, float(np.max(lo)) / (10.0 ** -(FLOW_REF_DPS - 8) * scale))
-        err = float(np.max(hi))
-        digits = min(digits, math.inf if err == 0 else -math.log10(err / scale))
+    for k, e in enumerate(encs):
+        parts = [(e.pi, tr.pi[-1])]
+        if np.max(np.abs(np.array(tr.x[-1], dtype=float) - e.x.mid)) < 1e-8:
+            parts.append((e.x, tr.x[-1]))  # else the reference's x is another logarithm: pi judges
+        for B, ref in parts:
+            ref = np.asarray(ref, dtype=object)
+            lo, hi = B.error_bounds(ref)
+            scale = max(1.0, float(np.max(np.abs(B.mid))))
+            worst = max(worst, float(np.max(lo)) / (10.0 ** -(FLOW_REF_DPS - 8) * scale))
+            if k == 0:
+                err = float(np.max(hi))
+                digits = min(digits, math.inf if err == 0 else -math.log10(err / scale))
     return worst, digits
 
 
@@ -258,8 +275,9 @@ def core_checks(max_examples: int, seed: int | None = 0) -> list[CheckResult]:
             extra={
                 "tolerance": f"10^-{FLOW_REF_DPS - 8} max(1, |state|) (reference at dps "
                 f"{FLOW_REF_DPS}) from the proven balls",
-                "judge": "refimpl.rigorous.judge_flow (tstarg-rigorous, 64 bits); second route "
-                "refimpl.flows.reference_trajectory",
+                "judge": f"refimpl.rigorous.judge_flow ({INTERVAL_JUDGE} where Upsilon = 0, "
+                "checked against tstarg-rigorous (Arb balls, 64 bits) too; the Arb balls where "
+                "Upsilon != 0); second route refimpl.flows.reference_trajectory",
             },
         )
     )

@@ -28,8 +28,8 @@ Rounding model (outward rounding under IEEE 754 round-to-nearest-even, no direct
     ``down`` is non-decreasing, so it also bounds a minimum of rounded results (interval products take
     the min/max of the four bound products) from below; sums add bounds. Two operations
     are exact and not widened: adding to an exact 0, and multiplying by a coefficient ``+-2^k``,
-    ``k >= 0``, or by a power-of-two step ``h^k`` or ``1/k`` (scalings, exact while the result is
-    normal; flagged per coefficient by the caller). The new centre ``yhat'`` of each step is
+    ``k >= 0``, or by a step power ``h^k`` or ``1/k`` that is a power of two (scalings, exact while
+    the result is normal; flagged per coefficient by the caller). The new centre ``yhat'`` of each step is
     ``fl(yhat + m)`` with its rounding error taken exactly by Knuth's TwoSum, and the dominant term of
     the point series, ``F(yhat)``, is computed with Dekker's exact products and TwoSum
     (:func:`_point_field`), about one rounding wide: the radius at ``T`` is mostly the sum of these
@@ -38,15 +38,29 @@ Rounding model (outward rounding under IEEE 754 round-to-nearest-even, no direct
 
 A-priori enclosure (high order, Nedialkov, Jackson and Corliss 1999)
     ``E`` with ``sum_{k<=P} F_k(Y) [0, h]^k + F_{P+1}(E) [0, h]^(P+1)`` strictly inside ``E``
-    (:func:`_enclosure`), the same for the Jacobian (:func:`_jac_enclosure`); unlike the first-order
-    (Picard) box of :mod:`refimpl._rigorous_flow` this does not limit ``h`` to about ``1/||DF||``.
+    (:func:`_enclosure`); unlike the first-order (Picard) box of :mod:`refimpl._rigorous_flow` this
+    does not limit ``h`` to about ``1/||DF||``. (:func:`_jac_enclosure` does the same for the
+    Jacobian, for callers that enclose the flow's Jacobian; the step below does not need it.)
+
+The step (a C^0 Lohner step)
+    For ``y0`` in the set ``Y`` (the box of ``yhat + B r``) and ``T_k`` the normalised Taylor
+    coefficients, ``phi_h(y0) = sum_{k<=P} T_k(y0) h^k + R`` with ``R`` in ``T_{P+1}(E) h^(P+1)``, and
+    ``sum_{k<=P} T_k(y0) h^k = sum_{k<=P} T_k(yhat) h^k + C (y0 - yhat) + D``:
+    ``C = sum_{k<=q} J_k(Y) h^k`` by the mean-value theorem (``J_k = D_y T_k``, the variational
+    series with ``J_0 = I`` evaluated over ``Y``: it contains ``D_y T_k`` at every point of ``Y``), and
+    ``D`` in ``sum_{q<k<=P} (T_k(Y) - T_k(yhat)) h^k`` (bounded symmetrically) -- the terms above the
+    Jacobian order ``q`` by plain interval evaluation over ``Y``. ``R`` and ``D`` join the error box
+    of the Lohner update, ``C B`` its linear part. No a-priori enclosure of the Jacobian is needed
+    (no Jacobian remainder); ``D`` is small when ``q`` is large enough for the step: it is held at
+    most ``JTOL`` times the set's width plus ``tol``.
 
 Steps
     The step ``h`` comes from the point series at the set's centre (Jorba-Zou: the last two terms
-    about ``tol``, times a factor learnt from rejections), rounded down to a power of two; it is
-    accepted when the enclosures exist, the Lagrange remainder over ``E`` is at most ``tol`` and the
-    Jacobian's remainder at most :data:`JTOL` (its width multiplies the set's radius every step), else
-    it is halved. Times are
+    about ``tol``, times a factor learnt from rejections) and from the size of ``D`` at the last
+    step (``D ~ h^(q+1)``), rounded down to :data:`STEP_BITS` significant bits (a power of two times
+    1, 1.25, 1.5 or 1.75: a finer grid than powers of two; ``h^k`` is then outward, not exact); it is accepted when the
+    enclosure exists, the Lagrange remainder over ``E`` is at most ``tol`` and ``D`` at most
+    ``JTOL`` times the set's width plus ``tol``, else it shrinks (:data:`SHRINK`). Times are
     float64: the step from ``t`` to ``t' = fl(t + h)`` is ``t' - t``, a point when TwoSum shows it
     exact, else that difference enclosed outward (every solution operator of length in the interval
     is enclosed), and the last step ends on
@@ -76,9 +90,9 @@ U = 2.0**-53 + 2.0**-105  # the relative widening u (1 + 2 u), u = 2^-53 (module
 ETA = 5e-324  # 2^-1074, the smallest subnormal: >= every gap
 
 OK, UNDERFLOW, NONFINITE, MAXSTEPS, NOT_NEAREST = 0, 1, 2, 3, 4
-JTOL = (
-    1e-4  # the largest accepted Jacobian remainder per step: the set grows by about d JTOL per step
-)
+STEP_BITS = 3  # significant bits of the step h (module docstring, Steps)
+SHRINK = 0.75  # a rejected step and the learnt factor shrink by this
+JTOL = 1e-4  # the largest accepted D per step, relative to the set's width (module docstring)
 
 
 @njit(cache=True)
@@ -272,9 +286,23 @@ def _point_field(y, tab, outlo, outhi, u, eta):
 
 @njit(cache=True)
 def _jac_taylor(Tlo, Thi, J0lo, J0hi, q, tab, Jlo, Jhi, u, eta):
-    """``J_0 .. J_q`` (``Jlo/Jhi[k]``) of ``J' = (A + D(y)) J``, ``J_0 = J0``, along the coefficients ``T``."""
+    """``J_0 .. J_q`` (``Jlo/Jhi[k]``) of ``J' = (A + D(y)) J``, ``J_0 = J0``, along the coefficients ``T``.
+
+    The coefficient products ``q_t y_a[.]`` of the quadratic terms are formed once per call (the same
+    outward products the column loop would form again for every column)."""
     clo, chi, lptr, lidx, llo, lhi, lex, qptr, qpair, qlo, qhi, qex, pj, pk = tab
     d = Tlo.shape[1]
+    nq = qlo.shape[0]
+    Ak = np.empty((nq, max(q, 1), 4))  # [t, a]: q_t y_a[kk] (lo, hi), q_t y_a[j] (lo, hi)
+    for t in range(nq):
+        m = qpair[t]
+        for a in range(q):
+            Ak[t, a, 0], Ak[t, a, 1] = _cmul(
+                qlo[t], qhi[t], qex[t], Tlo[a, pk[m]], Thi[a, pk[m]], u, eta
+            )
+            Ak[t, a, 2], Ak[t, a, 3] = _cmul(
+                qlo[t], qhi[t], qex[t], Tlo[a, pj[m]], Thi[a, pj[m]], u, eta
+            )
     Jlo[0] = J0lo
     Jhi[0] = J0hi
     for k in range(q):
@@ -292,12 +320,14 @@ def _jac_taylor(Tlo, Thi, J0lo, J0hi, q, tab, Jlo, Jhi, u, eta):
                     j = pj[m]
                     kk = pk[m]
                     for a in range(k + 1):  # q (y_a[kk] J_{k-a}[j] + y_a[j] J_{k-a}[kk])
-                        alo, ahi = _cmul(qlo[t], qhi[t], qex[t], Tlo[a, kk], Thi[a, kk], u, eta)
-                        plo, phi = _mul(alo, ahi, Jlo[k - a, j, c], Jhi[k - a, j, c], u, eta)
+                        plo, phi = _mul(
+                            Ak[t, a, 0], Ak[t, a, 1], Jlo[k - a, j, c], Jhi[k - a, j, c], u, eta
+                        )
                         slo = _addlo(slo, plo, u, eta)
                         shi = _addhi(shi, phi, u, eta)
-                        alo, ahi = _cmul(qlo[t], qhi[t], qex[t], Tlo[a, j], Thi[a, j], u, eta)
-                        plo, phi = _mul(alo, ahi, Jlo[k - a, kk, c], Jhi[k - a, kk, c], u, eta)
+                        plo, phi = _mul(
+                            Ak[t, a, 2], Ak[t, a, 3], Jlo[k - a, kk, c], Jhi[k - a, kk, c], u, eta
+                        )
                         slo = _addlo(slo, plo, u, eta)
                         shi = _addhi(shi, phi, u, eta)
                 Jlo[k + 1, i, c], Jhi[k + 1, i, c] = _divk(slo, shi, k + 1, u, eta)
@@ -584,12 +614,8 @@ def enclose(tab, y0lo, y0hi, T, P, q, tol, h0, max_steps, u, eta, probe):
     TYhi = np.zeros((P + 2, d))
     Ylo = np.empty(d)
     Yhi = np.empty(d)
-    EJlo = np.empty((d, d))
-    EJhi = np.empty((d, d))
     Jlo = np.zeros((q + 2, d, d))
     Jhi = np.zeros((q + 2, d, d))
-    JRlo = np.zeros((q + 2, d, d))
-    JRhi = np.zeros((q + 2, d, d))
     Ilo = np.eye(d)
     Clo = np.empty((d, d))
     Chi = np.empty((d, d))
@@ -609,6 +635,8 @@ def enclose(tab, y0lo, y0hi, T, P, q, tol, h0, max_steps, u, eta, probe):
     n2hi = np.empty((d, 1))
     h = h0
     fac = 0.8  # the step as a fraction of the point series' estimate, learnt from rejections
+    hjac = 1e300  # the step the last set-dependent width predicts (below)
+    Dw = np.empty(d)
     while t < T:
         if steps >= max_steps:
             return yhat, yhat, steps, rejected, MAXSTEPS
@@ -631,14 +659,17 @@ def enclose(tab, y0lo, y0hi, T, P, q, tol, h0, max_steps, u, eta, probe):
             hest = min(hest, (tol / a1) ** (1.0 / P))
         if a2 > 0.0:
             hest = min(hest, (tol / a2) ** (1.0 / (P + 1)))
-        h = min(fac * hest, 2.0 * h)
+        h = min(fac * hest, 2.0 * h, hjac)
         TYlo[0] = Ylo
         TYhi[0] = Yhi
         _taylor(TYlo, TYhi, P, tab, conv, u, eta)
         _jac_taylor(TYlo, TYhi, Ilo, Ilo, q, tab, Jlo, Jhi, u, eta)
         accepted = False
         for _try in range(60):
-            h = math.ldexp(1.0, math.frexp(h)[1] - 1)  # a power of two: exact scalings by h^k
+            # h rounded down to STEP_BITS significant bits (a power of two when STEP_BITS = 1: then
+            # the scalings by h^k are exact; otherwise outward, a rounding each, and the grid is finer)
+            mh, eh = math.frexp(h)
+            h = math.ldexp(math.floor(mh * 2.0**STEP_BITS) / 2.0**STEP_BITS, eh)
             last = t + h >= T
             tn = T if last else t + h
             hh = tn - t
@@ -651,6 +682,7 @@ def enclose(tab, y0lo, y0hi, T, P, q, tol, h0, max_steps, u, eta, probe):
                 hlo = max(0.0, _dn(hh, u, eta))
                 hhi = _up(hh, u, eta)
             hk = _powers(hhi, P + 1, u, eta)
+            dfail = False
             ok = _enclosure(TYlo, TYhi, P, hk, tol, tab, conv, Elo, Ehi, TElo, TEhi, u, eta)
             if ok:
                 hplo = 1.0
@@ -662,23 +694,40 @@ def enclose(tab, y0lo, y0hi, T, P, q, tol, h0, max_steps, u, eta, probe):
                     a, b = _mul(TElo[P + 1, i], TEhi[P + 1, i], hplo, hphi, u, eta)
                     remmax = max(remmax, abs(a), abs(b))
                 if remmax <= tol:
-                    ok = _jac_enclosure(
-                        Jlo, Jhi, q, hk, tab, TElo, TEhi, EJlo, EJhi, JRlo, JRhi, u, eta
-                    )
-                    if ok:  # the Jacobian's truncation width multiplies the set: keep it small
-                        jrem = 0.0
-                        for i in range(d):
-                            for c in range(d):
-                                jrem = max(jrem, abs(JRlo[q + 1, i, c]), abs(JRhi[q + 1, i, c]))
-                        ok = jrem * hk[q + 1] <= JTOL
+                    # D: the set-dependent part of the terms q < k <= P, T_k(Y) - T_k(yhat), over
+                    # the step (symmetric bound); it joins the error box, so keep it small against
+                    # the set's width (it plays the part of a Jacobian remainder)
+                    dmax = 0.0
+                    ywid = 0.0
+                    for i in range(d):
+                        s_ = 0.0
+                        for k in range(P, q, -1):
+                            dlo = _dn(TYlo[k, i] - Phi[k, i], u, eta)
+                            dhi = _up(TYhi[k, i] - Plo[k, i], u, eta)
+                            s_ = _up(s_ + _up(max(-dlo, dhi) * hk[k], u, eta), u, eta)
+                        Dw[i] = s_
+                        dmax = max(dmax, s_)
+                        ywid = max(ywid, Yhi[i] - Ylo[i])
+                    dlim = JTOL * ywid + tol
+                    if dmax > dlim:
+                        ok = False
+                        dfail = True
+                        hjac = SHRINK * hh * (dlim / dmax) ** (1.0 / (q + 1))
+                    elif dmax > 0.0:
+                        hjac = 0.9 * hh * (dlim / dmax) ** (1.0 / (q + 1))
+                    else:
+                        hjac = 1e300
                 else:
                     ok = False
             if ok:
                 accepted = True
                 break
             rejected += 1
-            h = 0.5 * (tn - t)
-            fac = 0.5 * fac
+            if dfail:  # the set-dependent width: the step it predicts
+                h = hjac
+            else:  # the enclosure or the remainder: the point series' factor shrinks
+                fac = SHRINK * fac
+                h = SHRINK * (tn - t)
             if h < 1e-12 * (1.0 + T):
                 return yhat, yhat, steps, rejected, UNDERFLOW
         if not accepted:
@@ -689,11 +738,8 @@ def enclose(tab, y0lo, y0hi, T, P, q, tol, h0, max_steps, u, eta, probe):
             a, b = _mul(TElo[P + 1, i], TEhi[P + 1, i], hplo, hphi, u, eta)
             philo[i] = _dn(philo[i] + a, u, eta)  # the tail: phi = yhat + tail
             phihi[i] = _up(phihi[i] + b, u, eta)
-        # C: the Jacobian of the step over the set (series over Y, remainder over (E, E_J))
-        hqlo = 1.0
-        hqhi = 1.0
-        for _k in range(q + 1):
-            hqlo, hqhi = _mul(hqlo, hqhi, hlo, hhi, u, eta)
+        # C: the Jacobian of the terms k <= q over the set (the series of D_y T_k over Y); the terms
+        # q < k <= P enter through D, the remainder through the tail (module docstring, Steps)
         for i in range(d):
             for c in range(d):
                 slo = Jlo[q, i, c]
@@ -702,9 +748,8 @@ def enclose(tab, y0lo, y0hi, T, P, q, tol, h0, max_steps, u, eta, probe):
                     a, b = _mul(slo, shi, hlo, hhi, u, eta)
                     slo = _dn(Jlo[k, i, c] + a, u, eta)
                     shi = _up(Jhi[k, i, c] + b, u, eta)
-                a, b = _mul(JRlo[q + 1, i, c], JRhi[q + 1, i, c], hqlo, hqhi, u, eta)
-                Clo[i, c] = _dn(slo + a, u, eta)
-                Chi[i, c] = _up(shi + b, u, eta)
+                Clo[i, c] = slo
+                Chi[i, c] = shi
         # Lohner: M = C B, B' = Q(mid M), yhat' = mid(phi), r' = (B'^-1 M) r + B'^-1 (phi - yhat')
         _matmul(Clo, Chi, B, B, Mlo, Mhi, u, eta)
         Mm = 0.5 * Mlo + 0.5 * Mhi
@@ -724,8 +769,8 @@ def enclose(tab, y0lo, y0hi, T, P, q, tol, h0, max_steps, u, eta, probe):
             sm = yhat[i] + m
             bb = sm - yhat[i]
             err = (yhat[i] - (sm - bb)) + (m - bb)
-            elo[i, 0] = _dn(err + _dn(philo[i] - m, u, eta), u, eta)
-            ehi[i, 0] = _up(err + _up(phihi[i] - m, u, eta), u, eta)
+            elo[i, 0] = _dn(_dn(err + _dn(philo[i] - m, u, eta), u, eta) - Dw[i], u, eta)
+            ehi[i, 0] = _up(_up(err + _up(phihi[i] - m, u, eta), u, eta) + Dw[i], u, eta)
             yhat[i] = sm
         _matmul(Xlo, Xhi, Mlo, Mhi, XMlo, XMhi, u, eta)
         _matmul(XMlo, XMhi, rlo, rhi, n1lo, n1hi, u, eta)

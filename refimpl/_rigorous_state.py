@@ -59,7 +59,7 @@ from ._validate import (
     check_upsilon,
 )
 
-__all__ = ["StateEnclosure", "full_state_enclosure", "judge_flow"]
+__all__ = ["StateEnclosure", "full_state_enclosure"]
 
 
 @dataclass
@@ -87,6 +87,7 @@ class StateEnclosure:
     seconds: float
     layout: dict = field(default_factory=dict)
     jacobian: Balls | None = None
+    method: str = "Arb balls"
 
     def max_rad(self) -> float:
         parts = [self.pi, self.Gamma, self.rho_g, self.rho_g_imag, self.Ad_g, self.x]
@@ -549,6 +550,181 @@ def _principal_log(log: _Log, Gr: arb_mat, Gi: arb_mat | None, prec: int) -> arb
 
 
 # ------------------------------------------------------------------ the entry point
+@dataclass
+class _Setup:
+    """What both routes of the whole state share (:func:`_setup`): the checked inputs, the field of the
+    whole state (``fld``, for ``sign * t >= 0``: reversed for ``t < 0``), its start ``y0`` in balls, the
+    layout (``offs``: where ``G_r``, ``G_i``, ``Ad`` start), ``m = dim rho`` and the logarithm's prover."""
+
+    fld: object
+    y0: list
+    offs: dict
+    m: int
+    n: int
+    tv: float
+    pot: dict | None
+    cplx: bool
+    log: _Log | None
+    rational: bool
+
+    def layout(self) -> dict:
+        n = self.n
+        out = {"pi": (0, n)}
+        if self.pot is not None:
+            out["Gamma"] = (n, 2 * n)
+        for k, o in self.offs.items():
+            out[k] = (o, o + (n * n if k == "Ad" else self.m * self.m))
+        return out
+
+    def G_of(self, y) -> tuple:
+        m, o = self.m, self.offs
+        Gr = arb_mat(m, m, y[o["G_r"] : o["G_r"] + m * m])
+        Gi = arb_mat(m, m, y[o["G_i"] : o["G_i"] + m * m]) if self.cplx else None
+        return Gr, Gi
+
+
+def _setup(f, theta, upsilon, inertia, potential, x0, pi0, t, prec_bits, want_x, want_ad) -> _Setup:
+    """Check the inputs (module docstring of :mod:`refimpl.rigorous`: magnitudes, chart and work budget
+    at ``x0``; ``|t| <= MAX_FLOW_TIME``) and build the whole state's field and its start in balls at
+    ``prec_bits`` (the caller's :func:`workprec`)."""
+    ff = check_structure_constants(
+        check_magnitudes(_fview(f, "structure constants f"), "structure constants f")
+    )
+    n = ff.shape[0]
+    check_theta(check_magnitudes(_fview(theta, "theta"), "theta"), ff)
+    check_upsilon(check_magnitudes(_fview(upsilon, "upsilon"), "upsilon"), n)
+    check_inertia(check_magnitudes(_fview(inertia, "inertia"), "inertia"), n)
+    pot = None
+    if potential is not None:
+        pot = check_potential(
+            {
+                k: (
+                    check_magnitudes(_fview(v, f"potential[{k!r}]"), f"potential[{k!r}]")
+                    if k != "kind"
+                    else v
+                )
+                for k, v in potential.items()
+            },
+            n,
+        )
+    xf = _point_view(x0, n, "x0")
+    _point_view(pi0, n, "pi0")
+    check_frames_budget(ff, xf)
+    tv = float(check_magnitudes(_fview(t, "t"), "t"))
+    if not abs(tv) <= MAX_FLOW_TIME:
+        raise ValueError(
+            f"t must be in [-{MAX_FLOW_TIME:g}, {MAX_FLOW_TIME:g}] (the flow budget), got {t!r}"
+        )
+    rep = representation_for(f)
+    Ub = [to_arb(v, "upsilon") for v in np.asarray(upsilon, dtype=object).flat]
+    Ii_m = arb_mat(
+        [[to_arb(v, "inertia") for v in row] for row in np.asarray(inertia, dtype=object)]
+    ).inv()
+    Ii = np.array(Ii_m.entries(), dtype=object).reshape(n, n)
+    src = exact_source(f)
+    F3 = [[[to_arb(src[k, a, j], "f") for j in range(n)] for a in range(n)] for k in range(n)]
+    R, J = _rep_balls(rep)
+    rational = not all(u.is_zero() for u in Ub)
+    if not rational:
+        body, _ = body_field(f, theta, inertia, None if pot is None else potential)
+        field_, offs, m = _state_field(body, n, Ii, R, J, F3, want_ad)
+        if tv < 0:  # y(t) for t < 0 is the state at |t| of the time-reversed field y' = -F(y)
+            field_ = _reversed(field_)
+    else:  # the rational field: the solve by Phi as a ball Taylor recurrence
+        th = arb_mat(n, n, [to_arb(v, "theta") for v in np.asarray(theta, dtype=object).flat])
+        Lb = (
+            None
+            if pot is None
+            else [to_arb(v, "potential['L']") for v in np.asarray(potential["L"], dtype=object)]
+        )
+        field_ = RationalField(
+            F3, th, arb_mat(n, n, Ub), Ii_m, Lb, R, J, want_ad, sign=-1 if tv < 0 else 1
+        )
+        offs = {k: v for k, v in field_.offs.items() if k in ("G_r", "G_i", "Ad")}
+        m = field_.m
+        pi_b = arb_mat(n, 1, [to_arb(v, "pi0") for v in np.asarray(pi0, dtype=object).flat])
+        Phi0 = field_.eye_n + (field_._comb(field_.Fm, pi_b) - th) * field_.U
+        try:
+            Phi0.inv()
+        except ZeroDivisionError:
+            raise DegeneratePointError(
+                "full_state_enclosure: Delta = det Phi(pi0) is not provably nonzero at the start "
+                "(pi0 on or within rounding of the degenerate set Pi_1, vier12)"
+            ) from None
+    Fad, _, _ = algebra_balls(f, prec_bits)
+    xv = arb_mat(n, 1, [to_arb(v, "x0") for v in np.asarray(x0, dtype=object).reshape(-1)])
+    adx = arb_mat(n, n, (Fad * xv).entries())
+    Ad0 = adx.exp()
+    y0 = [to_arb(v, "pi0") for v in np.asarray(pi0, dtype=object).reshape(-1)]
+    if pot is not None:
+        gam = arb_mat(
+            n,
+            1,
+            [to_arb(v, "potential['gamma']") for v in np.asarray(potential["gamma"], dtype=object)],
+        )
+        y0 += (Ad0.transpose() * gam).entries()
+    Rx = _comb(R, [xv[b, 0] for b in range(n)])
+    Jx = _comb(J, [xv[b, 0] for b in range(n)]) if J is not None else None
+    E0 = _embed(Rx, Jx).exp()
+    y0 += [E0[i, j] for i in range(m) for j in range(m)]
+    if J is not None:
+        y0 += [E0[m + i, j] for i in range(m) for j in range(m)]
+    if want_ad:
+        y0 += Ad0.entries()
+    log = _Log(Fad, n, R, J, xf) if want_x else None
+    return _Setup(field_, y0, offs, m, n, tv, pot, J is not None, log, rational)
+
+
+def _finish(S: _Setup, y, prec_bits, steps, rejected, t_start, want_x, jac=None) -> StateEnclosure:
+    """The :class:`StateEnclosure` of the carried state ``y`` (balls) at ``S.tv``, with ``x`` proven
+    from its ``rho(g)`` balls by :func:`_principal_log` (at ``prec_bits``, the caller's precision)."""
+    xb, note = None, "x not asked for (want_x=False)"
+    if want_x:
+        Gr, Gi = S.G_of(y)
+        try:
+            xb = Balls(
+                np.array(_principal_log(S.log, Gr, Gi, prec_bits).entries(), dtype=object),
+                prec_bits,
+            )
+            note = ""
+        except _NoLog as exc:
+            note = f"x not recovered: {exc}"
+    layout = S.layout()
+    n, m = S.n, S.m
+
+    def part(k, shape):
+        a, b = layout[k]
+        return Balls(np.array(y[a:b], dtype=object).reshape(shape), prec_bits)
+
+    return StateEnclosure(
+        t=S.tv,
+        pi=part("pi", (n,)),
+        Gamma=part("Gamma", (n,)) if S.pot is not None else None,
+        rho_g=part("G_r", (m, m)),
+        rho_g_imag=part("G_i", (m, m)) if S.cplx else None,
+        Ad_g=part("Ad", (n, n)) if "Ad" in S.offs else None,
+        x=xb,
+        x_note=note,
+        steps=steps,
+        rejected=rejected,
+        prec_bits=prec_bits,
+        seconds=time.process_time() - t_start,
+        layout=layout,
+        jacobian=None
+        if jac is None
+        else Balls(np.array(jac.entries(), dtype=object).reshape(S.fld.d, S.fld.d), prec_bits),
+    )
+
+
+def _check_prec(prec_bits) -> None:
+    if (
+        not isinstance(prec_bits, int)
+        or isinstance(prec_bits, bool)
+        or not 53 <= prec_bits <= MAX_PREC_BITS
+    ):
+        raise ValueError(f"prec_bits must be an int in [53, {MAX_PREC_BITS}], got {prec_bits!r}")
+
+
 def full_state_enclosure(
     f,
     theta,
@@ -581,40 +757,7 @@ def full_state_enclosure(
     """
 
     t_start = time.process_time()
-    if (
-        not isinstance(prec_bits, int)
-        or isinstance(prec_bits, bool)
-        or not 53 <= prec_bits <= MAX_PREC_BITS
-    ):
-        raise ValueError(f"prec_bits must be an int in [53, {MAX_PREC_BITS}], got {prec_bits!r}")
-    ff = check_structure_constants(
-        check_magnitudes(_fview(f, "structure constants f"), "structure constants f")
-    )
-    n = ff.shape[0]
-    check_theta(check_magnitudes(_fview(theta, "theta"), "theta"), ff)
-    check_upsilon(check_magnitudes(_fview(upsilon, "upsilon"), "upsilon"), n)
-    check_inertia(check_magnitudes(_fview(inertia, "inertia"), "inertia"), n)
-    pot = None
-    if potential is not None:
-        pot = check_potential(
-            {
-                k: (
-                    check_magnitudes(_fview(v, f"potential[{k!r}]"), f"potential[{k!r}]")
-                    if k != "kind"
-                    else v
-                )
-                for k, v in potential.items()
-            },
-            n,
-        )
-    xf = _point_view(x0, n, "x0")
-    _point_view(pi0, n, "pi0")
-    check_frames_budget(ff, xf)
-    tv = float(check_magnitudes(_fview(t, "t"), "t"))
-    if not abs(tv) <= MAX_FLOW_TIME:
-        raise ValueError(
-            f"t must be in [-{MAX_FLOW_TIME:g}, {MAX_FLOW_TIME:g}] (the flow budget), got {t!r}"
-        )
+    _check_prec(prec_bits)
     if order is None:
         order = max(12, prec_bits // 5)
     if (
@@ -624,76 +767,11 @@ def full_state_enclosure(
     tol = 2.0 ** -(prec_bits - 16) if tol is None else float(tol)
     if not tol > 0:
         raise ValueError(f"tol must be > 0, got {tol!r}")
-    rep = representation_for(f)
     with workprec(prec_bits):
-        Ub = [to_arb(v, "upsilon") for v in np.asarray(upsilon, dtype=object).flat]
-        Ii_m = arb_mat(
-            [[to_arb(v, "inertia") for v in row] for row in np.asarray(inertia, dtype=object)]
-        ).inv()
-        Ii = np.array(Ii_m.entries(), dtype=object).reshape(n, n)
-        src = exact_source(f)
-        F3 = [[[to_arb(src[k, a, j], "f") for j in range(n)] for a in range(n)] for k in range(n)]
-        R, J = _rep_balls(rep)
-        if all(u.is_zero() for u in Ub):
-            body, _ = body_field(f, theta, inertia, None if pot is None else potential)
-            field_, offs, m = _state_field(body, n, Ii, R, J, F3, want_ad)
-            if tv < 0:  # y(t) for t < 0 is the state at |t| of the time-reversed field y' = -F(y)
-                field_ = _reversed(field_)
-        else:  # the rational field: the solve by Phi as a ball Taylor recurrence
-            th = arb_mat(n, n, [to_arb(v, "theta") for v in np.asarray(theta, dtype=object).flat])
-            Lb = (
-                None
-                if pot is None
-                else [to_arb(v, "potential['L']") for v in np.asarray(potential["L"], dtype=object)]
-            )
-            field_ = RationalField(
-                F3, th, arb_mat(n, n, Ub), Ii_m, Lb, R, J, want_ad, sign=-1 if tv < 0 else 1
-            )
-            offs = {k: v for k, v in field_.offs.items() if k in ("G_r", "G_i", "Ad")}
-            m = field_.m
-            pi_b = arb_mat(n, 1, [to_arb(v, "pi0") for v in np.asarray(pi0, dtype=object).flat])
-            Phi0 = field_.eye_n + (field_._comb(field_.Fm, pi_b) - th) * field_.U
-            try:
-                Phi0.inv()
-            except ZeroDivisionError:
-                raise DegeneratePointError(
-                    "full_state_enclosure: Delta = det Phi(pi0) is not provably nonzero at the start "
-                    "(pi0 on or within rounding of the degenerate set Pi_1, vier12)"
-                ) from None
-        Fad, _, _ = algebra_balls(f, prec_bits)
-        xv = arb_mat(n, 1, [to_arb(v, "x0") for v in np.asarray(x0, dtype=object).reshape(-1)])
-        adx = arb_mat(n, n, (Fad * xv).entries())
-        Ad0 = adx.exp()
-        y0 = [to_arb(v, "pi0") for v in np.asarray(pi0, dtype=object).reshape(-1)]
-        if pot is not None:
-            gam = arb_mat(
-                n,
-                1,
-                [
-                    to_arb(v, "potential['gamma']")
-                    for v in np.asarray(potential["gamma"], dtype=object)
-                ],
-            )
-            y0 += (Ad0.transpose() * gam).entries()
-        Rx = _comb(R, [xv[b, 0] for b in range(n)])
-        Jx = _comb(J, [xv[b, 0] for b in range(n)]) if J is not None else None
-        E0 = _embed(Rx, Jx).exp()
-        y0 += [E0[i, j] for i in range(m) for j in range(m)]
-        if J is not None:
-            y0 += [E0[m + i, j] for i in range(m) for j in range(m)]
-        if want_ad:
-            y0 += Ad0.entries()
-
-        def G_of(y):
-            Gr = arb_mat(m, m, y[offs["G_r"] : offs["G_r"] + m * m])
-            Gi = arb_mat(m, m, y[offs["G_i"] : offs["G_i"] + m * m]) if J is not None else None
-            return Gr, Gi
-
-        log = _Log(Fad, n, R, J, xf) if want_x else None
-
+        S = _setup(f, theta, upsilon, inertia, potential, x0, pi0, t, prec_bits, want_x, want_ad)
         res = enclose_quadratic(
-            field_,
-            y0,
+            S.fld,
+            S.y0,
             abs(to_arb(t, "t")),
             order=order,
             jac_order=jac_order,
@@ -703,107 +781,6 @@ def full_state_enclosure(
             max_seconds=max_seconds,
         )
         y, steps, rejected = res[:3]
-        Gr, Gi = G_of(y)
-        xb, note = None, "x not asked for (want_x=False)"
-        if want_x:
-            try:
-                xb = Balls(
-                    np.array(_principal_log(log, Gr, Gi, prec_bits).entries(), dtype=object),
-                    prec_bits,
-                )
-                note = ""
-            except _NoLog as exc:
-                note = f"x not recovered: {exc}"
-    layout = {"pi": (0, n)}
-    if pot is not None:
-        layout["Gamma"] = (n, 2 * n)
-    for k, o in offs.items():
-        layout[k] = (o, o + (n * n if k == "Ad" else m * m))
-
-    def part(k, shape):
-        a, b = layout[k]
-        return Balls(np.array(y[a:b], dtype=object).reshape(shape), prec_bits)
-
-    return StateEnclosure(
-        t=tv,
-        pi=part("pi", (n,)),
-        Gamma=part("Gamma", (n,)) if pot is not None else None,
-        rho_g=part("G_r", (m, m)),
-        rho_g_imag=part("G_i", (m, m)) if J is not None else None,
-        Ad_g=part("Ad", (n, n)) if want_ad else None,
-        x=xb,
-        x_note=note,
-        steps=steps,
-        rejected=rejected,
-        prec_bits=prec_bits,
-        seconds=time.process_time() - t_start,
-        layout=layout,
-        jacobian=Balls(
-            np.array(res[3].entries(), dtype=object).reshape(field_.d, field_.d), prec_bits
+        return _finish(
+            S, y, prec_bits, steps, rejected, t_start, want_x, res[3] if jacobian else None
         )
-        if jacobian
-        else None,
-    )
-
-
-# ------------------------------------------------------------------ the flow judge
-def judge_flow(
-    f,
-    theta,
-    upsilon,
-    inertia,
-    potential,
-    x0,
-    pi0,
-    t,
-    *,
-    prec_bits: int = 64,
-    want_ad: bool = False,
-    max_seconds: float = 30.0,
-    tol: float | None = None,
-) -> dict:
-    """Proven balls for a float64 flow answer at time ``t`` (the judge of ``verify`` / ``certify``).
-
-    Returns ``{"pi": (mid, rad), "x": (mid, rad) or None, "Gamma": ..., "rho_g": (mid, rad),
-    "rho_g_imag": ..., "Ad_g": ..., "x_note": str, "prec_bits": int, "seconds": float,
-    "enclosure": StateEnclosure}``: float64 midpoints and radii (upper bounds) with
-    ``|exact - mid| <= rad + ulp(mid)/2`` per entry; use ``enclosure.<part>.error_bounds(value)`` for
-    proven ``lo <= |value - exact| <= hi``. ``x`` is the principal logarithm of ``rho(g(t))`` (the
-    flows' documented choice (a)), or None with the reason in ``x_note``. ``DegeneratePointError``
-    where ``Delta = det Phi`` is not proven away from 0 along the trajectory (``Upsilon != 0``).
-    ``t`` may be negative. ``tol``: :func:`full_state_enclosure`'s per-step remainder (default
-    ``2^-(prec_bits - 16)``; measured on certify's flow.reference at 15 examples: ``2^-40`` saves ~17%
-    of the judge's CPU but its error grows from 1.4e-12 to 1.7e-10, too near the 1e-9 tolerances).
-    Default 64 bits: radii ~1e-17 at ``|t| <= 1`` (seen up to 1.4e-12 for x), far below float64
-    flow errors.
-    """
-    e = full_state_enclosure(
-        f,
-        theta,
-        upsilon,
-        inertia,
-        potential,
-        x0,
-        pi0,
-        t,
-        prec_bits=prec_bits,
-        want_ad=want_ad,
-        max_seconds=max_seconds,
-        tol=tol,
-    )
-
-    def mr(b):
-        return None if b is None else (b.mid, b.rad)
-
-    return {
-        "pi": mr(e.pi),
-        "x": mr(e.x),
-        "Gamma": mr(e.Gamma),
-        "rho_g": mr(e.rho_g),
-        "rho_g_imag": mr(e.rho_g_imag),
-        "Ad_g": mr(e.Ad_g),
-        "x_note": e.x_note,
-        "prec_bits": prec_bits,
-        "seconds": e.seconds,
-        "enclosure": e,
-    }

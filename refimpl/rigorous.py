@@ -47,8 +47,10 @@ excludes 0, the balls are answered (tests/test_rigorous_boundary.py checks them 
 
 Flows: :func:`body_flow_enclosure` (pi, Gamma; ``Upsilon = 0``) and :func:`full_state_enclosure` (pi,
 Gamma, rho(g), Ad(g), x, and the C^1 enclosure; ``Upsilon != 0`` by the rational field of
-refimpl/_rigorous_rational.py, either time sign); :func:`judge_flow` is the flow judge
-(refimpl/_rigorous_state.py); :func:`poisson_map_defect` and :func:`casimir_drift` use the C^1
+refimpl/_rigorous_rational.py, either time sign); :func:`interval_state_enclosure` the same state
+(``Upsilon = 0``) in compiled float64 intervals (refimpl/_interval_state.py, ~10-100 ms per flow);
+:func:`judge_flow` is the flow judge (refimpl/_flow_judge.py: the interval route first, the Arb
+route where ``Upsilon != 0`` or the intervals refuse); :func:`poisson_map_defect` and :func:`casimir_drift` use the C^1
 enclosure (refimpl/_rigorous_c1.py).
 
 Protocol (docs/design.md): ``poisson_tensor`` and ``hamiltonian_vector_field`` return float64
@@ -93,6 +95,8 @@ from ._arb import (
     workprec,
 )
 from ._errors import ChartError, DegeneratePointError
+from ._flow_judge import INTERVAL_JUDGE, arb_judge_name, judge_flow, judge_flows
+from ._interval_state import interval_state_enclosure, interval_state_enclosures
 from ._reference_core import MAX_DPS
 from ._rigorous_c1 import casimir_drift, poisson_map_defect
 from ._rigorous_core import (
@@ -106,7 +110,7 @@ from ._rigorous_core import (
 from ._rigorous_core import fview as _fview
 from ._rigorous_core import point_view as _point_view
 from ._rigorous_flow import body_flow_enclosure
-from ._rigorous_state import full_state_enclosure, judge_flow
+from ._rigorous_state import full_state_enclosure
 from ._validate import (
     check_inertia,
     check_potential,
@@ -129,7 +133,12 @@ __all__ = [
     "error_bounds",
     "implementation",
     "full_state_enclosure",
+    "INTERVAL_JUDGE",
+    "arb_judge_name",
+    "interval_state_enclosure",
+    "interval_state_enclosures",
     "judge_flow",
+    "judge_flows",
     "judge_poisson",
     "judge_vector_field",
     "poisson_map_defect",

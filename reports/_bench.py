@@ -1206,6 +1206,7 @@ def _protocol_markdown(pr: dict) -> list[str]:
             + (
                 f"{fmt_time(hb['time'])}, {hb['tol']:.2e}, {'compact' if hb['compact_mode'] else 'full'}, "
                 f"{fmt_err(hb['error'])} | {r['ratio']:.3g}"
+                + (" (heyoka's most accurate: it does not reach ours)" if r["note"] else "")
                 if hb
                 else f"{r['note']} | -"
             )
@@ -1228,6 +1229,8 @@ def _protocol_markdown(pr: dict) -> list[str]:
         L += [f"### {name}: {r['title']}, T = {r['T']:g}", ""]
         L += [f"- {h}" for h in r["how"]]
         L.append(f"- judge: {ref['how']} ({ref['seconds']:.1f} s)")
+        if r["note"]:
+            L.append(f"- {r['note']}")
         if "min_abs_delta" in ref:
             L.append(
                 f"- away from the degenerate set: along the trajectory (401 points) min |Delta| = "

@@ -736,11 +736,16 @@ def measure_problem(name: str, quick: bool, ref: dict, rounds: int, modes=(False
 
     grid = grid_tolerances()
     errs, meet = _walk(hy_err, grid, e_ours)
+    reached = bool(meet)
+    if (
+        not reached
+    ):  # heyoka's grid never reaches our error: charged its most accurate rung (said so)
+        meet = [min(errs, key=lambda k: (errs[k], -k))]
     cands = []  # (tol, compact, error)
     for k in meet:
         for compact in modes:
             e = errs[k] if compact else hy_err(grid[k], compact=False)
-            if e <= e_ours:
+            if e <= e_ours or not reached:
                 cands.append((grid[k], compact, e))
     calls = [lambda: implementation.flow(*args)]
     for tol, compact, _ in cands:
@@ -776,7 +781,14 @@ def measure_problem(name: str, quick: bool, ref: dict, rounds: int, modes=(False
         "heyoka": hy_rows,
         "heyoka_best": best,
         "ratio": t_ours / best["time"] if best else None,
-        "note": "" if best else "heyoka's grid (down to 1e-16) does not reach our error",
+        "note": (
+            ""
+            if reached
+            else f"heyoka's grid (down to 1e-16) does not reach our error {e_ours:.2e}: charged its most "
+            f"accurate rung (error {best['error']:.2e}), which favours heyoka"
+            if best
+            else "heyoka's grid (down to 1e-16) does not reach our error"
+        ),
     }
 
 

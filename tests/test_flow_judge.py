@@ -9,6 +9,7 @@ import numpy as np
 
 from tstarg.refimpl import su2
 from tstarg.refimpl.flows import reference_trajectory
+from tstarg.refimpl.rigorous import INTERVAL_JUDGE
 from tstarg.reports.certification import _common
 from tstarg.reports.certification._common import PROVEN_JUDGE, _proven_state
 
@@ -28,7 +29,8 @@ def test_proven_state_holds_the_reference_with_upsilon_and_both_signs():
     for t in (0.5, -0.5):
         out = _proven_state(f, Z3, U_DEG * 0.6, INERTIA, GRAV, X0, PI0, t)
         assert isinstance(out, tuple), out
-        xm, pm, ex, ep = out
+        xm, pm, ex, ep, judge = out
+        assert judge.startswith("tstarg-rigorous (Arb balls")  # Upsilon != 0: the Arb route
         assert ex < 1e-12 and ep < 1e-12
         tr = reference_trajectory(f, Z3, U_DEG * 0.6, INERTIA, GRAV, X0, PI0, [0, t], dps=30)
         xr, pr = tr.x[-1], tr.pi[-1]  # mpf: not rounded to float64
@@ -54,7 +56,7 @@ def test_certificate_names_the_proven_judge_and_its_error():
     cert = certify(fast, max_examples=3, seed=0, checks=["flow.reference"], shrink=False)
     (res,) = cert.checks
     assert res.passed, cert.summary()
-    judged = res.extra.get(f"forward legs judged by {PROVEN_JUDGE}", 0)
+    judged = res.extra.get(f"forward legs judged by {INTERVAL_JUDGE}", 0)
     assert judged >= 1, res.extra
     assert 0 < res.extra["judge_error"] < 1e-9
     assert PROVEN_JUDGE in res.extra["judge"]
@@ -81,3 +83,32 @@ def test_verify_flow_second_route_passes_and_bites(monkeypatch):
     monkeypatch.setattr(core_checks, "reference_trajectory", moved)
     bad, _ = flow_reference_inside_balls(ex)
     assert bad > 1e3
+
+
+def test_verify_flow_second_route_holds_both_boxes(monkeypatch):
+    """With Upsilon = 0 the verify check judges the reference against the interval boxes and the Arb
+    balls: the true reference passes with >= 13 proven digits (the boxes' radius ~1e-16 at t = 0.2);
+    a reference whose pi is moved by 1e-12 relative (outside the interval box, whose radius is
+    below 1e-14 here, and far outside the Arb balls) fails."""
+    import tstarg.refimpl.flows as flows
+    from tstarg.properties import core_checks
+    from tstarg.properties.core_checks import flow_reference_inside_balls
+
+    ex = ("su(2)", Z3, Z3, X0, PI0, -0.2)
+    from tstarg.refimpl.rigorous import judge_flow
+
+    assert judge_flow(su2(), Z3, Z3, np.diag([1.0, 1.5, 2.0]), None, X0, PI0, -0.2)["judge"] == (
+        INTERVAL_JUDGE
+    )
+    ratio, digits = flow_reference_inside_balls(ex)
+    assert ratio <= 1 and digits > 13
+    real = flows.reference_trajectory
+
+    def moved(*a, **k):
+        tr = real(*a, **k)
+        tr.pi[-1] = tr.pi[-1] * (1 + mpmath.mpf("1e-12"))
+        return tr
+
+    monkeypatch.setattr(core_checks, "reference_trajectory", moved)
+    ratio, _ = flow_reference_inside_balls(ex)
+    assert ratio > 1

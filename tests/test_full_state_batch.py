@@ -34,7 +34,7 @@ from tstarg.refimpl import _full_state_batch as fsb
 from tstarg.refimpl import _full_state_kernel as fk
 from tstarg.refimpl._catalogue import bianchi
 from tstarg.refimpl._cohomology import cocycle_basis
-from tstarg.refimpl.codegen.full_state_batch import batch_source
+from tstarg.refimpl.codegen.full_state_batch import batch_source, share_groups
 from tstarg.refimpl.fast import implementation as FAST
 from tstarg.refimpl.flows import cached_model
 from tstarg.refimpl.flows._common import _AbelianPart
@@ -122,12 +122,16 @@ def test_batch_kernel_backwards_in_time(fs):
 
 
 @needs_numba
+@pytest.mark.parametrize("form", ["written", "packed"])
 @pytest.mark.parametrize("bad", [np.nan, np.inf])
-def test_a_failing_lane_is_reported_alone(fs, bad):
+def test_a_failing_lane_is_reported_alone(fs, monkeypatch, bad, form):
     """A non-finite row fails in its own lane (negative status, NaN row); every other row is what it
     is without the bad one (its lane may change: rounding-level), and the flow's runner refuses the
-    batch naming that row and only it."""
+    batch naming that row and only it. Both forms of the kernel (packed: forced by MAX_SIZE = 0)."""
     model, f = fs
+    if form == "packed":
+        monkeypatch.setattr(fsb, "MAX_SIZE", 0)
+        monkeypatch.delitem(f.__dict__, "_batch_kernel", raising=False)
     y = _states(f, model, 2 * W + 1, seed=3)
     y[2, 0] = bad
     T, tol = 0.8, 1e-11
@@ -140,6 +144,7 @@ def test_a_failing_lane_is_reported_alone(fs, bad):
     _assert_rounding_close(out[good], ref, rsteps)
     with pytest.raises(ValueError, match=r"trajectories \[2\] became non-finite"):
         fs_mod._run(f, y, T, tol, generated=True)
+    f.__dict__.pop("_batch_kernel", None)  # the next test builds its own form
 
 
 @needs_numba
@@ -233,19 +238,64 @@ def test_batch_kernel_on_other_algebras_slow(name):
     _assert_rounding_close(out, ref, rsteps)
 
 
+def test_share_groups_partition_the_products():
+    """Every product in exactly one group of at most ``size``; products of one factor pair with all
+    four of another (a 2 x 4 block) land in one group of 8 with 6 factor rows loaded, not 16."""
+    pu = np.array([0, 0, 0, 0, 1, 1, 1, 1, 2, 3, 4])
+    pw = np.array([5, 6, 7, 8, 5, 6, 7, 8, 9, 9, 9])
+    prods = [0, 4, 1, 5, 2, 6, 3, 7, 8, 9, 10]
+    for size in (1, 3, 8, 12):
+        groups = share_groups(prods, pu, pw, size)
+        assert sorted(p for g in groups for p in g) == sorted(prods)
+        assert all(1 <= len(g) <= size for g in groups)
+    first = share_groups(prods, pu, pw, 8)[0]
+    assert sorted(first) == list(range(8))
+    assert len({pu[p] for p in first}) + len({pw[p] for p in first}) == 6
+
+
 def test_lane_kernel_size_rule():
-    """The lane kernel takes small structures (Bianchi III: a few dozen statements) and leaves the
-    largest to the single-trajectory kernel (su(3): 140 general products alone, over MAX_SIZE)."""
+    """Small structures (Bianchi III: a few dozen statements) get every product written out; the
+    largest (su(3): 140 general products alone, over MAX_SIZE) the packed form, whose source does not
+    grow with the products (one fixed block over the index tables)."""
     from tstarg.refimpl._catalogue import catalogue
 
     small = cached_model(*_args())
-    assert fsb.applies(fs_mod.FullState(small, small.representation))
+    fsmall = fs_mod.FullState(small, small.representation)
+    assert fsb.applies(fsmall) and fsb.size(fsmall) <= fsb.MAX_SIZE
     su3 = catalogue("su(3)")
     z = np.zeros((8, 8))
     big = cached_model(su3.f, z, z, np.diag(np.linspace(1.0, 2.0, 8)), None)
     fbig = fs_mod.FullState(big, big.representation)
     assert int((fbig.tables()[7] == 0).sum()) > fsb.MAX_SIZE // 2
-    assert not fsb.applies(fbig)
+    assert fsb.applies(fbig) and fsb.size(fbig) > fsb.MAX_SIZE
+    tb = fbig.tables()
+    packed = batch_source(tb, fbig.d, packed=True)
+    assert "UB[g, a, 0, 0]" in packed
+    assert len(packed) < len(batch_source(tb, fbig.d)) / 2
+
+
+@needs_numba
+@pytest.mark.parametrize("N", [1, W + 1, 2 * W + 3])
+def test_packed_batch_kernel_equals_the_single_kernel(fs, monkeypatch, N):
+    """The packed form (forced on a small structure: MAX_SIZE = 0) against the table-driven single
+    kernel: every row, the same step counts, under the rounding model of the written-out form (the same
+    sums in the same order, FMAs possibly contracted differently); the groups' padding (the zero row
+    into the sink row) changes no row."""
+    model, f = fs
+    monkeypatch.setattr(fsb, "MAX_SIZE", 0)
+    monkeypatch.delitem(f.__dict__, "_batch_kernel", raising=False)
+    y = _states(f, model, N, seed=11)
+    keep = y.copy()
+    T, tol = 1.1, 1e-12
+    P = fs_mod.default_order(tol)
+    gp, gu, gw = fsb.kernel(f)[4:]
+    assert len(gp) % 8 == 0 and len(gp) > int((f.tables()[7] == 0).sum())  # padded
+    out, steps = fsb.run(f, y, T, tol, P, 10**7)
+    f.__dict__.pop("_batch_kernel")  # the next test gets the written-out form again
+    ref, rsteps = _single(f, y, T, tol, P)
+    np.testing.assert_array_equal(y, keep)
+    np.testing.assert_array_equal(steps, rsteps)
+    _assert_rounding_close(out, ref, rsteps)
 
 
 @needs_numba

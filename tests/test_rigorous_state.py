@@ -140,7 +140,7 @@ def test_judge_flow_api_and_refusals():
     with pytest.raises(ValueError, match="pi0"):
         judge_flow(su2(), Z3, Z3, TOP, GRAV, X0, PI0 * 1e301, 0.5)
     with pytest.raises(ValueError, match="budget"):
-        judge_flow(su2(), Z3, Z3, TOP, GRAV, X0, PI0, 5.0, max_seconds=0.01)
+        judge_flow(su2(), Z3, Z3, TOP, GRAV, X0, PI0, 5.0, max_seconds=0.01, route="arb")
 
 
 @pytest.mark.parametrize("t", [0.5, -0.4])

@@ -3,8 +3,9 @@
 The source depends only on the structure of the field -- which variables exist, which are constant,
 the nonzero patterns of ``I^-1``, ``f``, ``Theta``, ``G_L`` and of the representation's ``E_b`` --
 and reads every number from one array ``c`` (locals ``c{i}`` loaded once per call). Per order ``k``:
-the derived rows (``Omega_k``, then ``M_k = rho(Omega_k)``), every Cauchy product in one loop over the
-terms (independent sums side by side), the state rows from their terms. Step control and the
+the derived rows (``Omega_k``, then ``M_k = rho(Omega_k)``), the Cauchy products (independent sums
+side by side, in generated helpers of :data:`HELPER_PRODUCTS` products: compile time), the state rows
+from their terms. Step control and the
 compensated Horner update as :mod:`refimpl._full_state_kernel` (the kernel compiled for every
 structure, same recurrence; this one unrolls the products: about 2.2x faster per step).
 """
@@ -21,6 +22,14 @@ PRODUCT_CHUNK = 16
 """Cauchy products summed side by side in one loop over ``a`` (each sum in the order ``a = 0..k``);
 more products than this take several loops (compile time grows faster than linearly with a loop's
 body)."""
+
+HELPER_PRODUCTS = 64  # 0: all products in one helper
+"""Cauchy products per generated helper function ``_prods{i}(V, k)`` (its chunk loops, returning the
+sums as a tuple). numba's compile time grows faster than linearly with one function's size (its SSA
+reconstruction and rewrites walk every variable over every block), so the products leave the kernel
+in helpers of this many: the free so(5) top (adjoint representation, 660 products) compiled in 31 s
+as one function and in 16 s so split (load 7; 4 to 64 products per helper within 1 s of each
+other). Same arithmetic: each sum is accumulated in the order ``a = 0..k`` as before."""
 
 
 def _sum(terms: list[str]) -> str:
@@ -67,13 +76,23 @@ def full_state_source(fs) -> str:
     full = [
         (key, p) for key, p in prods.items() if key[0] not in allconst and key[1] not in allconst
     ]
-    kb += [f"{p} = 0.0" for _, p in full]
-    for lo in range(0, len(full), PRODUCT_CHUNK):  # independent sums side by side, a chunk per loop
-        kb.append("for a in range(k + 1):")
-        kb += [
-            I1 + f"{p} += {V(u, 'a')} * {V(w, 'k - a')}"
-            for (u, w), p in full[lo : lo + PRODUCT_CHUNK]
-        ]
+    helpers = []  # the general products, HELPER_PRODUCTS per generated function (compile time)
+    per = HELPER_PRODUCTS or max(len(full), 1)
+    for h, lo in enumerate(range(0, len(full), per)):
+        part = full[lo : lo + per]
+        hb = [_JIT, f"def _prods{h}(V, k):"] + [I1 + f"{p} = 0.0" for _, p in part]
+        for c0 in range(
+            0, len(part), PRODUCT_CHUNK
+        ):  # independent sums side by side, a chunk per loop
+            hb.append(I1 + "for a in range(k + 1):")
+            hb += [
+                I2 + f"{p} += {V(u, 'a')} * {V(w, 'k - a')}"
+                for (u, w), p in part[c0 : c0 + PRODUCT_CHUNK]
+            ]
+        names_h = ", ".join(p for _, p in part)
+        hb += [I1 + f"return ({names_h},)", "", ""]
+        helpers += hb
+        kb.append(f"({names_h},) = _prods{h}(V, k)")
     for (u, w), p in prods.items():
         if u in allconst and w in allconst:
             kb.append(f"{p} = {V(u, 0)} * {V(w, 0)} if k == 0 else 0.0")
@@ -144,6 +163,7 @@ def full_state_source(fs) -> str:
         I1 + "return m",
         "",
         "",
+        *helpers,
         _JIT,
         "def adaptive(y0, T, tol, P, max_steps, c, out, nsteps):",
         I1

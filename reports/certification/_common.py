@@ -10,6 +10,7 @@ import inspect
 import json
 import math
 import os
+import re
 from collections import OrderedDict
 from pathlib import Path
 
@@ -19,6 +20,7 @@ from hypothesis import target as hyp_target
 
 from tstarg.oracles.float_judge import (
     FloatJudge,
+    MatrixGroup,
     ad,
     compare_state,
     conditioning,
@@ -29,11 +31,22 @@ from tstarg.oracles.float_judge import (
     sensitivity_at,
 )
 from tstarg.properties.runner import note
-from tstarg.refimpl import CATALOGUE_NAMES, catalogue, provides
+from tstarg.refimpl import (
+    CATALOGUE_NAMES,
+    RepresentationError,
+    catalogue,
+    provides,
+    representation_for,
+)
 from tstarg.refimpl.flows import reference as _flow_reference
 from tstarg.refimpl.flows import reference_flow
 from tstarg.refimpl.reference import Reference
-from tstarg.refimpl.rigorous import Rigorous, judge_flow
+from tstarg.refimpl.rigorous import (
+    INTERVAL_JUDGE,
+    Rigorous,
+    arb_judge_name,
+    judge_flows,
+)
 
 from .._atomic import write_text
 
@@ -42,26 +55,42 @@ _REF = Reference(30)
 _JUDGE = Rigorous(200)
 
 PROVEN_PREC_BITS = 64
-"""Working precision of the proven flow judge (:func:`_proven_state`): its balls' radii are ~1e-17 at
-``|t| <= 1``, far below every float64 flow tolerance (>= 1e-9 for a declared ``flow_tolerance``)."""
+"""Working precision of the proven flow judge's Arb route (:func:`_proven_state`; ``Upsilon != 0`` or
+where the intervals refuse): its balls' radii are ~1e-17 at ``|t| <= 1``, far below every float64 flow
+tolerance (>= 1e-9 for a declared ``flow_tolerance``)."""
 
 PROVEN_MAX_SECONDS = 4.0
-"""CPU budget of one proven flow enclosure (estimated from its first steps; over it the balls refuse
-and the mpmath reference judges, named in the certificate's counts)."""
+"""CPU budget of one proven flow enclosure by the Arb route (estimated from its first steps; over it
+the balls refuse and the mpmath reference judges, named in the certificate's counts)."""
 
-PROVEN_JUDGE = f"tstarg-rigorous (Arb balls, {PROVEN_PREC_BITS} bits)"
-"""The name of the proven flow judge in certificates and reports."""
+LONG_ROUTE = "interval"
+"""The proven judge's route in ``flow.long``, ``flow.order`` and ``protocol.inputs``: the interval
+route only. The Arb route (``Upsilon != 0``) was measured there on refimpl.fast and the plain RK4
+(ci budget, seed 0): within a 1 s budget it answered none of 23 examples (its rational field at
+``|t|`` up to 10 takes 0.16-12 s per example) and spent up to 6.7 s on a refusal; the float64 judge
+answers those (counted by reason)."""
+
+ARB_JUDGE = arb_judge_name(PROVEN_PREC_BITS)
+"""The name of the proven flow judge's second route."""
+
+PROVEN_JUDGE = (
+    f"{INTERVAL_JUDGE} where Upsilon = 0, {ARB_JUDGE} where Upsilon != 0 or the intervals refuse"
+)
+"""The name of the proven flow judge in certificates and reports (each check counts the examples
+by the route that answered: :data:`INTERVAL_JUDGE` or :data:`ARB_JUDGE`)."""
 
 JUDGE = (
     "brackets: refimpl.rigorous (Arb balls, 200 bits; errors are proven upper bounds, digits proven "
-    f"digits); flow.reference: {PROVEN_JUDGE}, the whole state enclosed by an interval Taylor method "
-    "with Lohner's wrapping and x by a proven principal logarithm (its error: the balls' radius, "
-    "proven), refimpl.reference (mpmath, 25 digits) where the balls refuse (counted by reason); "
-    "vector fields: refimpl.reference (mpmath, 25-30 digits); flow.long, "
-    "flow.order and the flows of protocol.inputs: oracles.float_judge.FloatJudge (scipy DOP853 at "
-    "rtol 1e-13 on the body system, on the flow's group; its error estimated by a run at rtol 1e-12, "
-    "examples where it exceeds a tenth of the tolerance drawn again; the worst estimate per check "
-    "is in the notes)"
+    f"digits); flow.reference: {PROVEN_JUDGE}; flow.long, flow.order, protocol.inputs: "
+    f"{INTERVAL_JUDGE} where Upsilon = 0 (refimpl.rigorous.judge_flow): the whole state (pi, Gamma, rho(g), Ad(g)) enclosed by an "
+    "interval Taylor method with Lohner's wrapping and x by a proven principal logarithm (its error: "
+    "the boxes' radius plus half an ulp, proven, added to every tolerance); where no box is given "
+    "(counted by reason in each check): flow.reference by refimpl.reference (mpmath, 25 digits), the "
+    "others by oracles.float_judge.FloatJudge (scipy DOP853 at rtol 1e-13 on the body system, on the "
+    "flow's group; its error estimated by a run at rtol 1e-12, examples where it exceeds a tenth of "
+    "the tolerance drawn again); flow.drift and flow.poisson_map need no flow judge (the energy and "
+    "Casimir of the implementation's own states against their start values; D Phi P D Phi^T against "
+    "P o Phi with P from the mpmath reference); vector fields: refimpl.reference (mpmath, 25-30 digits)"
 )
 
 FLOW_T_MAX = 10.0
@@ -204,12 +233,27 @@ def _cheap_flow(model, inertia, pot, pts, t) -> bool:
     return True
 
 
-def _judge_state(f, theta, ups, inertia, pot, x, pi, t):
-    """``((x, pi, Ad), errors)`` of the float64 judge, cached by value."""
-    return _FLOW_CACHE.get(
-        ("judge",) + _key(f, theta, ups, inertia, pot, x, pi, float(t)),
-        lambda: FloatJudge(f, theta, ups, inertia, pot).judged(x, pi, t),
-    )
+def _judge_state(f, theta, ups, inertia, pot, x, pi, t, stats=None):
+    """``((x, pi, Ad), errors)`` at ``t``: the proven judge's box midpoints and proven errors
+    (:func:`_proven_flows` by :data:`LONG_ROUTE`; ``x`` None where it is not proven), or where no box is given (counted by
+    reason in ``stats``) the float64 judge's state and estimated errors; cached by value."""
+    out = _proven_flows(
+        f, theta, ups, inertia, pot, x, pi, (float(t),), want_ad=True, arb_seconds=0.0,
+        route=LONG_ROUTE,
+    )  # fmt: skip
+    if isinstance(out, str):
+        if stats is not None:
+            _count(stats, f"float64 judge (no box: {out})")
+        return _FLOW_CACHE.get(
+            ("judge",) + _key(f, theta, ups, inertia, pot, x, pi, float(t)),
+            lambda: FloatJudge(f, theta, ups, inertia, pot).judged(x, pi, t),
+        )
+    (o,) = out
+    if stats is not None:
+        _count(stats, f"judged by {o['judge']}")
+    xm = None if o["x"] is None else o["x"][0]
+    ex = None if o["x"] is None else _proven_err(o["x"])
+    return (xm, o["pi"][0], o["Ad_g"][0]), (ex, _proven_err(o["pi"]), _proven_err(o["Ad_g"]))
 
 
 def _judge_group(f, theta, ups, inertia, pot, x, pi, t):
@@ -239,6 +283,132 @@ def _judge_on(group, f, theta, ups, inertia, pot, x, pi, times):
     )
 
 
+def _proven_err(mr) -> float:
+    """A proven bound of ``|exact - mid|`` over a part ``(mid, rad)`` of the judge's answer: the radius
+    plus half an ulp of the float64 midpoint."""
+    mid, rad = mr
+    return float(np.max(rad + 0.5 * np.spacing(np.abs(mid)), initial=0.0))
+
+
+def _short(text: str) -> str:
+    """A refusal's message as a count key: its first clause, decimal numbers replaced by ``#`` (so that the
+    same reason counts once, whatever the example)."""
+    text = text.split(" (")[0].split(": ", 1)[-1]
+    return re.sub(r"\d+\.\d+([eE][-+]?\d+)?|\d+[eE][-+]?\d+|\d{2,}", "#", text)[:90]
+
+
+def _reason(exc: BaseException) -> str:
+    """Why the proven judge gave no box: the Arb route's reason, and the interval route's before it."""
+    out = f"{type(exc).__name__}: {_short(str(exc))}"
+    for n in getattr(exc, "__notes__", ()):
+        if n.startswith("the interval route refused first: "):
+            first = n.removeprefix("the interval route refused first: ")
+            out = f"intervals: {_short(first)}; Arb balls: {out}"
+    return out
+
+
+def _proven_flows(
+    f, theta, ups, inertia, pot, x, pi, times, *, want_ad, arb_seconds, want_x=True, route="auto"
+):
+    """:func:`refimpl.rigorous.judge_flows` at ``times`` (one sign; ``route="auto"``: the interval
+    route first, the Arb route at :data:`PROVEN_PREC_BITS` within ``arb_seconds``; ``"interval"``: that
+    one only), or a string, the reason no box is given; cached by value."""
+    times = tuple(float(t) for t in times)
+
+    def compute():
+        try:
+            return judge_flows(
+                f, theta, ups, inertia, pot, x, pi, times, prec_bits=PROVEN_PREC_BITS,
+                want_ad=want_ad, want_x=want_x, max_seconds=arb_seconds, route=route,
+            )  # fmt: skip
+        except (ValueError, ArithmeticError) as exc:
+            return _reason(exc)
+
+    return _FLOW_CACHE.get(
+        ("proven-flows", PROVEN_PREC_BITS, times, want_ad, want_x, arb_seconds, route)
+        + _key(f, theta, ups, inertia, pot, x, pi),
+        compute,
+    )
+
+
+@functools.lru_cache(maxsize=64)
+def _faithful_mats(key: bytes, n: int):
+    """The realified matrices of refimpl's faithful representation of ``f`` (those the judge's
+    ``rho(g)`` is carried in), as :class:`MatrixGroup` stores them; None without one."""
+    try:
+        return MatrixGroup(representation_for(np.frombuffer(key).reshape(n, n, n)).mats, "").mats
+    except RepresentationError:
+        return None
+
+
+def _proven_on(group, f, theta, ups, inertia, pot, x, pi, times):
+    """The proven judge at every time of ``times`` (one sign), in the shape of :func:`_judge_on`:
+    ``(states, Gs, errors, sensitivities, judge)`` -- box midpoints ``(x or None, pi, Ad)``, ``G`` on
+    ``group`` (the box of ``rho(g)`` realified when ``group`` is refimpl's faithful representation,
+    of ``Ad(g)`` when it is the adjoint group), proven errors ``(x, pi, Ad[, G])`` (radius plus half an
+    ulp), and the flow's condition estimated as :func:`sensitivity_at` does, from a second box run
+    from a start moved by ``h u``; ``judge`` names the route. A string where no box is given (the
+    reason), or where ``group`` is a declared representation (no box of it is carried). By
+    :data:`LONG_ROUTE`."""
+    f = np.ascontiguousarray(np.asarray(f, dtype=float))
+    n = f.shape[0]
+    mode = None
+    if group is not None:
+        rho = _faithful_mats(f.tobytes(), n)
+        if rho is not None and np.array_equal(group.mats, rho):
+            mode = "rho"
+        elif np.array_equal(group.mats, np.transpose(f, (1, 0, 2))):
+            mode = "Ad"
+        else:
+            return "a declared representation (no box of its rho(g) is carried)"
+    kw = {"want_ad": True, "arb_seconds": 0.0, "route": LONG_ROUTE}
+    out = _proven_flows(f, theta, ups, inertia, pot, x, pi, times, **kw)
+    if isinstance(out, str):
+        return out
+    u = np.cos(np.arange(1, 2 * n + 1) * 1.618)  # sensitivity_at's fixed direction
+    u /= np.linalg.norm(u)
+    x, pi = np.asarray(x, dtype=float), np.asarray(pi, dtype=float)
+    h = 1e-6 * max(1.0, float(np.max(np.abs(np.concatenate([x, pi])))))
+    moved = _proven_flows(
+        f, theta, ups, inertia, pot, x + h * u[:n], pi + h * u[n:], times, want_x=False, **kw
+    )
+    if isinstance(moved, str):
+        return f"the moved start of the condition estimate: {moved}"
+
+    def G_of(o):
+        if mode == "Ad":
+            return o["Ad_g"][0], _proven_err(o["Ad_g"])
+        re, im = o["rho_g"], o["rho_g_imag"]
+        if im is None:
+            return re[0], _proven_err(re)
+        return np.block([[re[0], -im[0]], [im[0], re[0]]]), max(_proven_err(re), _proven_err(im))
+
+    states, Gs, errs, sens = [], [], [], []
+    for o, m in zip(out, moved):
+        xm = None if o["x"] is None else o["x"][0]
+        states.append((xm, o["pi"][0], o["Ad_g"][0]))
+        e = (
+            None if o["x"] is None else _proven_err(o["x"]),
+            _proven_err(o["pi"]),
+            _proven_err(o["Ad_g"]),
+        )
+        G = None
+        if mode is not None:
+            G, eG = G_of(o)
+            e += (eG,)
+        Gs.append(G)
+        errs.append(e)
+        # sqrt(2n) |Phi(z0 + h u) - Phi(z0)|_inf / h over pi, Ad(g), rho(g): the boxes' midpoints
+        # err by their radii (<= 1e-10 here), i.e. <= 1e-4 of the estimate's unit floor of 1
+        d = max(
+            float(np.max(np.abs(o[k][0] - m[k][0])))
+            for k in ("pi", "Ad_g", "rho_g", "rho_g_imag")
+            if o[k] is not None
+        )
+        sens.append(max(1.0, math.sqrt(2 * n) * d / h))
+    return states, Gs, errs, sens, out[0]["judge"]
+
+
 def _judged_state_ratio(impl, f, t, got, want, tol, judge_err, G, group) -> float:
     """The worst error/tolerance of a flow's ``(x(t), pi(t))`` against the judge's state ``want =
     (x or None, pi, Ad)`` and ``G = rho(g(t))`` on ``group``. A failure is raised here with what
@@ -266,40 +436,23 @@ def _judged_state_ratio(impl, f, t, got, want, tol, judge_err, G, group) -> floa
 
 
 def _proven_state(f, theta, ups, inertia, pot, x, pi, t):
-    """The proven flow judge: ``(x, pi, x_err, pi_err)`` at ``t`` (either sign) from Arb balls
-    (:func:`refimpl.rigorous.judge_flow` at :data:`PROVEN_PREC_BITS`), where ``x_err``/``pi_err`` are
-    proven upper bounds of ``|exact - value|`` per part (the radius plus half an ulp of the rounded
-    midpoint); or a string, the reason the balls refused (``Upsilon != 0``, no exact representation,
-    the logarithm not proven unique, over :data:`PROVEN_MAX_SECONDS`). Cached by value."""
-
-    def compute():
-        try:
-            out = judge_flow(
-                f,
-                theta,
-                ups,
-                inertia,
-                pot,
-                x,
-                pi,
-                float(t),
-                prec_bits=PROVEN_PREC_BITS,
-                max_seconds=PROVEN_MAX_SECONDS,
-            )
-        except (ValueError, ArithmeticError) as exc:
-            return f"{type(exc).__name__}: {str(exc).split(' (')[0][:100]}"
-        if out["x"] is None:
-            return out["x_note"].split(" (")[0][:100]
-
-        def err(mr):
-            mid, rad = mr
-            return float(np.max(rad + 0.5 * np.spacing(np.abs(mid)), initial=0.0))
-
-        return out["x"][0], out["pi"][0], err(out["x"]), err(out["pi"])
-
-    return _FLOW_CACHE.get(
-        ("proven", PROVEN_PREC_BITS) + _key(f, theta, ups, inertia, pot, x, pi, float(t)), compute
-    )
+    """The proven flow judge: ``(x, pi, x_err, pi_err, judge)`` at ``t`` (either sign) from
+    :func:`refimpl.rigorous.judge_flow` (the interval route where ``Upsilon = 0``, the Arb route at
+    :data:`PROVEN_PREC_BITS` otherwise or where the intervals refuse; ``judge`` names the one that
+    answered), where ``x_err``/``pi_err`` are proven upper bounds of ``|exact - value|`` per part (the
+    radius plus half an ulp of the rounded midpoint); or a string, the reason no box is given (no exact
+    representation, the logarithm not proven unique, the degenerate set, over
+    :data:`PROVEN_MAX_SECONDS`). Cached by value."""
+    out = _proven_flows(
+        f, theta, ups, inertia, pot, x, pi, (float(t),), want_ad=False,
+        arb_seconds=PROVEN_MAX_SECONDS,
+    )  # fmt: skip
+    if isinstance(out, str):
+        return out
+    (o,) = out
+    if o["x"] is None:
+        return o["x_note"].split(" (")[0][:100]
+    return o["x"][0], o["pi"][0], _proven_err(o["x"]), _proven_err(o["pi"]), o["judge"]
 
 
 def _judge_errors(f, x, ex: float, ep: float, group) -> tuple:

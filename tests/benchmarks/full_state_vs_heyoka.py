@@ -2,6 +2,7 @@
 
     python tests/benchmarks/full_state_vs_heyoka.py [--problems se3,so4,...] [--repeats 5]
     python tests/benchmarks/full_state_vs_heyoka.py --protocol all   # the committed report's problems
+    python tests/benchmarks/full_state_vs_heyoka.py --protocol-batch kirchhoff_se3   # one batch row
 
 Method (the issue's):
 * heyoka integrates ``(pi, R = Ad(g))`` with ``dR/dt = R ad(Omega)``, ``Omega = I^-1 pi`` (and
@@ -188,7 +189,25 @@ def main(argv=None) -> int:
         "kirchhoff_se3,manakov_so4,free_su3,bianchi_cocycle,heavy_top_full; 'all' for every one), "
         "judged by heyoka in long double at tol 1e-19, heyoka in its faster mode (full or compact)",
     )
+    ap.add_argument(
+        "--protocol-batch",
+        default="",
+        help="instead: the batch column of the committed report for these problems alone "
+        "(reports._bench_protocol.measure_batch: M trajectories in one flow call against "
+        "taylor_adaptive_batch at equal worst sampled error)",
+    )
+    ap.add_argument("--M", type=int, default=10_000, help="trajectories of --protocol-batch")
+    ap.add_argument(
+        "--sample", type=int, default=64, help="trajectories of --protocol-batch judged"
+    )
+    ap.add_argument(
+        "--compact",
+        action="store_true",
+        help="--protocol-batch: heyoka in compact mode (default: full, the single-trajectory winner)",
+    )
     args = ap.parse_args(argv)
+    if args.protocol_batch:
+        return protocol_batch(args.protocol_batch, args.M, args.sample, args.repeats, args.compact)
     if args.protocol:
         return protocol(args.protocol, args.repeats)
     if args.batch:
@@ -340,6 +359,34 @@ def protocol(names: str, repeats: int) -> int:
         print(
             f"| {name} | {t_o * 1e6:.1f} us, error {e_o:.1e} | {t_h * 1e6:.1f} us ({mode}, tol "
             f"{tol:.1e}, error {e_h:.1e}) | **{r:.2f}** | {first:.2f} s |"
+        )
+    return 0
+
+
+def protocol_batch(names: str, M: int, K: int, repeats: int, compact: bool) -> int:
+    """The report's batch column (:func:`reports._bench_protocol.measure_batch`) for ``names`` alone:
+    the judges of the first ``K`` trajectories (heyoka long double, tol 1e-19), then ours against
+    ``taylor_adaptive_batch`` at equal worst sampled error, ``min(3, repeats)`` interleaved rounds."""
+    from tstarg.reports import _bench_protocol as bp
+
+    for name in names.split(","):
+        refs = []
+        for j in range(K):
+            refs.append(bp.batch_reference_task((name, False, M, j)))
+            print(f"\r[{name}] judge {j + 1}/{K}", end="", flush=True)
+        print(f"\n[{name}] batch of {M}: ours against taylor_adaptive_batch ...", flush=True)
+        r = bp.measure_batch(name, False, M, refs, min(3, repeats), compact)
+        o, b = r["ours"], r["heyoka_best"]
+        hy_txt = (
+            f"heyoka {b['time'] / M * 1e6:.1f} us/traj (tol {b['tol']:.2e}, error {b['error']:.2e})"
+            if b
+            else "heyoka's grid does not reach our error"
+        )
+        ratio = f"{r['ratio']:.3f}" if r["ratio"] is not None else "-"
+        print(
+            f"[{name}] ours {o['per_traj'] * 1e6:.1f} us/traj (worst sampled error {o['error']:.2e}, "
+            f"first call {o['first_call']:.2f} s) | {hy_txt} | ratio {ratio}",
+            flush=True,
         )
     return 0
 

@@ -6,8 +6,10 @@ define the placeholders for the linters; ``__NAME__`` is replaced by :func:`refi
 (a placeholder alone on its line replaces the whole line). The generated blocks are the loads of the
 numbers (``__LOADS__``), the coefficient recurrence of one order ``k`` for every lane (``__COEFF__``)
 and the lanes of the compensated Horner update (``__HLOAD__``, ``__ZLOAD__``, ``__ZSTEP__``,
-``__ZADD__``); ``__NV__`` rows of ``V`` (state, derived, products), ``__D__`` state variables,
-``__W__`` lanes.
+``__ZADD__``); ``__NV__`` rows of ``V`` (state, derived, products, then the zero row and the sink row
+of the packed form's padding), ``__D__`` state variables, ``__W__`` lanes; the packed form's blocks
+``UB``, ``WB``: ``__NGRP__`` groups (0 in the written-out form) of ``__PACK__`` products, whose rows
+``gp``, ``gu``, ``gw`` (arguments) are :func:`refimpl.codegen.full_state_batch.batch_groups`.
 
 Lanes: each lane runs one trajectory with its own time, step and step count -- the step sequence of
 the single-trajectory kernel (:mod:`refimpl._full_state_kernel`), so each trajectory keeps its own
@@ -21,7 +23,7 @@ lane holds the zero state (a fixed point) and steps by ``0``.
 # ruff: noqa: E402, I001, F401, F841
 # fmt: off
 __LOADS__ = __COEFF__ = __HLOAD__ = __ZLOAD__ = __ZSTEP__ = __ZADD__ = None
-__NV__ = __D__ = __W__ = None
+__NV__ = __D__ = __W__ = __NGRP__ = __PACK__ = None
 # ---- template body ----
 
 import math
@@ -30,11 +32,14 @@ from numba import njit
 
 
 @njit(cache=True, nogil=True, fastmath={'contract'})
-def adaptive_batch(y0, T, tol, P, max_steps, c, vrow, srow, out, nsteps):
+def adaptive_batch(y0, T, tol, P, max_steps, c, vrow, srow, gp, gu, gw, out, nsteps):
     __LOADS__
     N = y0.shape[0]
     nvar = vrow.shape[0]
     V = np.zeros((P + 1, __NV__, __W__))
+    ngrp = __NGRP__
+    UB = np.zeros((max(ngrp, 1), P + 1, __PACK__, __W__))
+    WB = np.zeros((max(ngrp, 1), P + 1, __PACK__, __W__))
     comp = np.zeros((max(nvar, 1), __W__))
     tl = np.zeros(__W__)
     hv = np.zeros(__W__)

@@ -1,5 +1,6 @@
-"""The state at ``|t| <= 1`` vs the proven balls of the whole state (``_common._proven_state``: Arb,
-64 bits; x by a proven principal logarithm), gravity and non-diagonal inertia included; negative
+"""The state at ``|t| <= 1`` vs the proven boxes of the whole state (``_common._proven_state``:
+float64 intervals where ``Upsilon = 0``, Arb balls at 64 bits otherwise; x by a proven principal
+logarithm), gravity and non-diagonal inertia included; negative
 times from the judge's end point back, against the balls of the backward flow from there. Where the
 balls refuse (counted by reason in the certificate) the mpmath reference judges, with negative
 times by the round trip ``flow(flow_ref(z0, |t|), -|t|) = z0``. Each example's reference
@@ -81,8 +82,8 @@ def _flow_reference(impl, dom, stats):
         ta = abs(t)
         proven = _proven_state(*model, x, pi, ta)
         if isinstance(proven, tuple):
-            xr, pr, ex_, ep_ = proven
-            _count(stats, f"forward legs judged by {PROVEN_JUDGE}")
+            xr, pr, ex_, ep_, name = proven
+            _count(stats, f"forward legs judged by {name}")
         else:  # the balls refuse (named): the mpmath reference judges, unproven
             _count(stats, f"balls refused: {proven}")
             xr, pr = reference((*model, x, pi), ta)
@@ -96,7 +97,7 @@ def _flow_reference(impl, dom, stats):
         if _time_ok(dom, -ta):
             back = _proven_state(*model, xr, pr, -ta) if isinstance(proven, tuple) else None
             if isinstance(back, tuple):
-                legs.append((-ta, (xr, pr), back[:2], back[2:]))
+                legs.append((-ta, (xr, pr), back[:2], back[2:4]))
             else:
                 if back is not None:
                     _count(stats, f"backward legs by the round trip (balls refused: {back})")

@@ -1,0 +1,202 @@
+"""The protocol flow's first call from an empty kernel cache, per structure, each in a fresh process.
+
+    python tests/benchmarks/cold_first_call.py                       # every structure below
+    python tests/benchmarks/cold_first_call.py --only heavy_top_full,so5 --batch 64
+    python tests/benchmarks/cold_first_call.py --numba-warm          # the package's own kernels cached
+
+What a new user waits for once per structure (issue 25's target: at most 10 s): a child process
+imports tstarg, builds the problem (untimed), then times one ``refimpl.fast.implementation.flow``
+call at its default accuracy -- generating, compiling and running that structure's kernels -- in CPU
+time (``time.process_time``) and wall time; ``--batch M`` then times a first call of ``M``
+trajectories (the SIMD batch kernels; the run itself included). Each child gets a fresh empty
+``TSTARG_CACHE_DIR`` (the generated kernels) and, unless ``--numba-warm``, a fresh empty
+``NUMBA_CACHE_DIR`` too (the package's own compiled functions, built once per installation and
+argument types: the column then includes them, as a user's very first call does). ``--numba-warm``
+runs each structure first in an untimed child (its own throwaway kernel cache) sharing one
+``NUMBA_CACHE_DIR`` with the timed one, so the figure is the structure's generated kernels alone
+(numba keys a generated module's machine code on its file's path, which differs between the two). The load average is printed with each figure: CPU time on a loaded machine is
+inflated too (shared caches and cores), so compare figures from one run.
+
+Structures: the committed report's protocol problems (``reports._bench_protocol``: su(2) heavy top,
+free su(3), se(3), so(4), Bianchi VI0 with a cocycle, su(3) with Theta and Upsilon != 0), the Lagrange
+top on su(2), and free tops on so(5), sp(4, R) and sl(3, R) (dimension 10, 10, 8; not in the
+catalogue: built here from matrix bases).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+BENCH_PROBLEMS = (
+    "heavy_top_full",
+    "free_su3",
+    "kirchhoff_se3",
+    "manakov_so4",
+    "bianchi_cocycle",
+    "modified_su3",
+)
+EXTRA = ("lagrange_top", "so5", "sp4", "sl3")
+
+CHILD = r"""
+import json, os, sys, time
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+import numpy as np
+import sympy
+from tstarg.refimpl import LieAlgebra, catalogue
+from tstarg.refimpl.fast import implementation as FAST
+from tstarg.reports import _bench_protocol as bp
+
+name, M = sys.argv[1], int(sys.argv[2])
+
+
+def free_top(alg, seed, scale=1.0, T=10.0):
+    f = np.array(alg.f, dtype=float)
+    n = f.shape[0]
+    rng = np.random.default_rng(seed)
+    Q, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    inertia = Q @ np.diag(rng.uniform(1.0, 3.0, n)) @ Q.T
+    z = np.zeros((n, n))
+    x0, pi0 = 0.3 * rng.standard_normal(n), scale * rng.standard_normal(n)
+    return (f, z, z, inertia, None, x0, pi0, T)
+
+
+def so5():
+    mats = []
+    for i in range(5):
+        for j in range(i + 1, 5):
+            m = sympy.zeros(5, 5)
+            m[i, j], m[j, i] = 1, -1
+            mats.append(m)
+    return LieAlgebra.from_matrix_basis(mats, name="so(5)")
+
+
+def sp4():  # [[A, B], [C, -A^T]], B and C symmetric: X^T J + J X = 0
+    mats = []
+    for i in range(2):
+        for j in range(2):
+            m = sympy.zeros(4, 4)
+            m[i, j], m[2 + j, 2 + i] = 1, -1
+            mats.append(m)
+    for off in (0, 2):
+        for i, j in ((0, 0), (1, 1), (0, 1)):
+            m = sympy.zeros(4, 4)
+            r, c = (i, 2 + j) if off == 0 else (2 + i, j)
+            m[r, c] = 1
+            if i != j:
+                r2, c2 = (j, 2 + i) if off == 0 else (2 + j, i)
+                m[r2, c2] = 1
+            mats.append(m)
+    return LieAlgebra.from_matrix_basis(mats, name="sp(4,R)")
+
+
+if name in bp.PROTOCOL_PROBLEMS:
+    args = bp.protocol_problem(name).args()
+elif name == "lagrange_top":
+    z3 = np.zeros((3, 3))
+    pot = {"kind": "gravity", "L": np.array([0.0, 0.0, 1.0]), "gamma": np.array([0.0, 0.0, -1.0])}
+    args = (np.array(catalogue("su(2)").f, dtype=float), z3, z3, np.diag([1.0, 1.0, 0.5]), pot,
+            np.array([0.1, 0.2, 0.0]), np.array([0.3, 0.2, 2.0]), 100.0)
+elif name == "so5":
+    args = free_top(so5(), 5)
+elif name == "sp4":
+    args = free_top(sp4(), 4, 0.3, 2.0)  # non-compact: Ad(g) grows, so a short, slow run
+elif name == "sl3":
+    args = free_top(catalogue("sl(3,R)"), 3, 0.3, 2.0)
+else:
+    raise SystemExit(f"unknown structure {name!r}")
+out = {"n": int(args[0].shape[0])}
+w0, c0 = time.perf_counter(), time.process_time()
+try:
+    FAST.flow(*args)
+except ValueError as exc:  # a refusal still compiled (and ran) the kernels: timed, and said
+    out["refused"] = str(exc)[:200]
+out["single_cpu"], out["single_wall"] = time.process_time() - c0, time.perf_counter() - w0
+if M > 0 and "refused" not in out:
+    rng = np.random.default_rng(3)
+    n = out["n"]
+    X0 = np.asarray(args[5])[:, None] + 0.01 * rng.standard_normal((n, M))
+    P0 = np.asarray(args[6])[:, None] + 0.01 * rng.standard_normal((n, M))
+    bargs = args[:5] + (X0.T.copy(), P0.T.copy(), args[7])
+    w0, c0 = time.perf_counter(), time.process_time()
+    FAST.flow(*bargs)
+    out["batch_cpu"], out["batch_wall"] = time.process_time() - c0, time.perf_counter() - w0
+print("RESULT " + json.dumps(out))
+"""
+
+
+def run_child(name: str, M: int, numba_dir: str | None) -> dict:
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    with tempfile.TemporaryDirectory(prefix="tstarg_cold_") as tmp:
+        env["TSTARG_CACHE_DIR"] = os.path.join(tmp, "tstarg")
+        env["NUMBA_CACHE_DIR"] = numba_dir or os.path.join(tmp, "numba")
+        res = subprocess.run(
+            [sys.executable, "-c", CHILD, name, str(M)],
+            env=env,
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+    for line in res.stdout.splitlines():
+        if line.startswith("RESULT "):
+            return json.loads(line[len("RESULT ") :])
+    raise RuntimeError(f"{name}: the child failed:\n{res.stderr[-3000:]}")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--only", default="", help="comma-separated structures (default: all)")
+    ap.add_argument(
+        "--batch", type=int, default=0, help="also a first batch call of M trajectories"
+    )
+    ap.add_argument(
+        "--numba-warm",
+        action="store_true",
+        help="share one warmed NUMBA_CACHE_DIR: the structure's generated kernels alone",
+    )
+    args = ap.parse_args(argv)
+    names = args.only.split(",") if args.only else list(BENCH_PROBLEMS + EXTRA)
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="tstarg_numba_") as shared:
+        numba_dir = shared if args.numba_warm else None
+        for k, name in enumerate(names, 1):
+            if (
+                numba_dir
+            ):  # the package's own functions at this structure's types (complex G on su(3))
+                print(f"[{k}/{len(names)}] {name}: warm-up child (untimed) ...", flush=True)
+                run_child(name, 0, numba_dir)
+            print(f"[{k}/{len(names)}] {name}: fresh process, empty cache ...", flush=True)
+            t0 = time.perf_counter()
+            r = run_child(name, args.batch, numba_dir)
+            load = os.getloadavg()[0]
+            rows.append((name, r, load))
+            extra = (
+                f", batch of {args.batch}: {r['batch_cpu']:.2f} s CPU" if "batch_cpu" in r else ""
+            )
+            if "refused" in r:
+                extra += f" (the flow refused: {r['refused']})"
+            print(
+                f"[{k}/{len(names)}] {name} (n = {r['n']}): first call {r['single_cpu']:.2f} s CPU, "
+                f"{r['single_wall']:.2f} s wall{extra} (child {time.perf_counter() - t0:.1f} s, "
+                f"load {load:.2f})",
+                flush=True,
+            )
+    what = "generated kernels only" if args.numba_warm else "every kernel (numba cache empty too)"
+    print(f"\n| structure | n | first call, CPU ({what}) | wall | batch first call, CPU | load |")
+    print("|---|---|---|---|---|---|")
+    for name, r, load in rows:
+        b = f"{r['batch_cpu']:.2f} s" if "batch_cpu" in r else "-"
+        print(
+            f"| {name} | {r['n']} | {r['single_cpu']:.2f} s | {r['single_wall']:.2f} s | {b} | "
+            f"{load:.2f} |"
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
