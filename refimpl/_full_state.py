@@ -668,6 +668,21 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
     else:
         xs, resid = _log_of(fs, res, G, Adres)
         est = est + resid
+    if N > 1 and not np.all(est <= tol):
+        # rows the batch's control passed before the log's residual was added (the control sees it
+        # only for one trajectory): each such row again alone, where a retry sees the residual too
+        for k in np.flatnonzero(~(est <= tol)).tolist():
+            try:
+                one = full_state_flow(
+                    model, x0[:, k : k + 1], pi0[:, k : k + 1], t, tol, abelian=abelian, run=run
+                )
+            except ValueError:
+                continue  # stays over tol: refused below with the batch's other rows
+            res[k, :n] = one["pi"][:, 0]
+            if fs.gravity:
+                res[k, n : 2 * n] = one["Gamma"][:, 0]
+            xs[k], G[k], Adres[k] = one["x"][:, 0], one["g"][0], one["Ad"][0]
+            steps[k], est[k] = one["steps"][0], one["error_estimate"][0]
     if not (est[0] <= tol if N == 1 else np.all(est <= tol)):
         over = np.flatnonzero(~(est <= tol))
         raise ValueError(
