@@ -31,6 +31,7 @@ from ._validate import MAX_FLOW_TIME
 
 __all__ = [
     "IntervalEnclosure",
+    "check_settings",
     "interval_body_enclosure",
     "interval_enclose",
     "interval_su2_full_enclosure",
@@ -283,6 +284,26 @@ class IntervalEnclosure:
         )
 
 
+def check_settings(tol, order, jac_order, max_steps) -> tuple[float, int]:
+    """``(tol, order)`` after checking the interval route's settings (``order`` None: the default of
+    ``tol``); a ``ValueError`` naming the setting and its range otherwise."""
+    if (
+        not isinstance(tol, (float, int))
+        or isinstance(tol, bool)
+        or not math.isfinite(tol)
+        or not 1e-300 < tol < 1.0
+    ):
+        raise ValueError(f"tol must be a float in (1e-300, 1), got {tol!r}")
+    order = default_order(float(tol)) if order is None else order
+    if not isinstance(order, int) or isinstance(order, bool) or not 2 <= order <= 200:
+        raise ValueError(f"order must be an int in [2, 200], got {order!r}")
+    if not isinstance(jac_order, int) or isinstance(jac_order, bool) or not 1 <= jac_order <= order:
+        raise ValueError(f"jac_order must be an int in [1, order = {order}], got {jac_order!r}")
+    if not isinstance(max_steps, int) or isinstance(max_steps, bool) or max_steps < 1:
+        raise ValueError(f"max_steps must be an int >= 1, got {max_steps!r}")
+    return float(tol), order
+
+
 def interval_body_enclosure(
     f,
     theta,
@@ -304,20 +325,7 @@ def interval_body_enclosure(
     double floor); ``order``: the Taylor order (default :func:`default_order` of ``tol``);
     ``jac_order``: of the Jacobian series (at most ``order``).
     """
-    if (
-        not isinstance(tol, (float, int))
-        or isinstance(tol, bool)
-        or not math.isfinite(tol)
-        or not 1e-300 < tol < 1.0
-    ):
-        raise ValueError(f"tol must be a float in (1e-300, 1), got {tol!r}")
-    order = default_order(float(tol)) if order is None else order
-    if not isinstance(order, int) or isinstance(order, bool) or not 2 <= order <= 200:
-        raise ValueError(f"order must be an int in [2, 200], got {order!r}")
-    if not isinstance(jac_order, int) or isinstance(jac_order, bool) or not 1 <= jac_order <= order:
-        raise ValueError(f"jac_order must be an int in [1, order = {order}], got {jac_order!r}")
-    if not isinstance(max_steps, int) or isinstance(max_steps, bool) or max_steps < 1:
-        raise ValueError(f"max_steps must be an int >= 1, got {max_steps!r}")
+    order = check_settings(tol, order, jac_order, max_steps)[1]
     # the checks (and the Arb initial state) of the ball route, at t = 0; then t by the same rule
     e0 = body_flow_enclosure(
         f, theta, upsilon, inertia, potential, x0, pi0, 0.0, prec_bits=SETUP_BITS

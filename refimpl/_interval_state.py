@@ -27,7 +27,6 @@ floor is that of doubles: about ``1e-13`` relative at ``|t| = 10`` on the heavy 
 
 from __future__ import annotations
 
-import math
 import time
 from fractions import Fraction
 
@@ -35,7 +34,13 @@ import numpy as np
 from flint import arb
 
 from ._arb import workprec
-from ._interval_flow import SETUP_BITS, _bounds, default_order, interval_enclose, interval_tables
+from ._interval_flow import (
+    SETUP_BITS,
+    _bounds,
+    check_settings,
+    interval_enclose,
+    interval_tables,
+)
 from ._rigorous_state import StateEnclosure, _finish, _setup
 
 __all__ = ["INTERVAL_METHOD", "LOG_BITS", "interval_state_enclosure", "interval_state_enclosures"]
@@ -50,24 +55,6 @@ INTERVAL_METHOD = "float64 intervals, Lohner"
 
 class UpsilonError(ValueError):
     """The interval route carries polynomial fields only: ``Upsilon != 0`` is the Arb route's."""
-
-
-def _check(tol, order, jac_order, max_steps) -> tuple[float, int]:
-    if (
-        not isinstance(tol, (float, int))
-        or isinstance(tol, bool)
-        or not math.isfinite(tol)
-        or not 1e-300 < tol < 1.0
-    ):
-        raise ValueError(f"tol must be a float in (1e-300, 1), got {tol!r}")
-    order = default_order(float(tol)) if order is None else order
-    if not isinstance(order, int) or isinstance(order, bool) or not 2 <= order <= 200:
-        raise ValueError(f"order must be an int in [2, 200], got {order!r}")
-    if not isinstance(jac_order, int) or isinstance(jac_order, bool) or not 1 <= jac_order <= order:
-        raise ValueError(f"jac_order must be an int in [1, order = {order}], got {jac_order!r}")
-    if not isinstance(max_steps, int) or isinstance(max_steps, bool) or max_steps < 1:
-        raise ValueError(f"max_steps must be an int >= 1, got {max_steps!r}")
-    return float(tol), order
 
 
 def interval_state_enclosures(
@@ -93,7 +80,7 @@ def interval_state_enclosures(
     (default :func:`refimpl._interval_flow.default_order` of ``tol``); ``jac_order``: of the Jacobian
     series (at most ``order``). The inputs pass the Arb route's checks."""
     t_start = time.process_time()
-    tol, order = _check(tol, order, jac_order, max_steps)
+    tol, order = check_settings(tol, order, jac_order, max_steps)
     tvals = [float(v) for v in np.asarray(times, dtype=float).reshape(-1)]
     if not tvals:
         raise ValueError("times must hold at least one time")
