@@ -346,13 +346,13 @@ def test_time_probe_runs_on_a_sample_of_the_batch(monkeypatch):
         FAST.flow(f, theta, ups, inertia, pot, X0, P0, T)
 
 
-def test_batch_rows_near_the_float64_floor_are_retried_alone():
-    """A batch row whose estimate passes the control but exceeds ``tol`` once the logarithm's
-    residual is added (the control sees that residual for one trajectory only) is flowed again alone:
-    the batch answers wherever each row alone answers. The bench's Bianchi VI0 with a cocycle, rows
-    drawn as in its batch column: rows 2 and 13 (estimates 1.07e-10 and 1.17e-10 in the batch before
-    the retry, tol 1e-10) pass alone. Expected: the single flows, within the module's
-    batched-against-single model ``2 K tol max(1, |.|) + 10^3 n eps``."""
+def test_batch_rows_near_the_float64_floor_are_retried_by_the_control():
+    """The control adds the logarithm's residual to every row's estimate (its ``floor`` hook), so a
+    batch row over ``tol`` only once that residual is added is retried by the control as a single
+    trajectory is: the batch answers wherever each row alone answers. The bench's Bianchi VI0 with a
+    cocycle, rows drawn as in its batch column: rows 2 and 13 (estimates 1.07e-10 and 1.17e-10 when the
+    control did not see the residual, tol 1e-10) pass alone. Expected: the single flows, within the
+    module's batched-against-single model ``2 K tol max(1, |.|) + 10^3 n eps`` (and no row refused)."""
     from tstarg.reports import _bench_protocol as bp
 
     p = bp.protocol_problem("bianchi_cocycle")
