@@ -69,11 +69,18 @@ _MODELS = LRU(
 )  # validated models kept (keyed on the bytes of the inputs), least recently used dropped
 
 
+_F64 = np.dtype(np.float64)
+_F64_STR = _F64.str
+
+
 def _numeric_key(a):
     """``(dtype, shape, bytes)`` of a plain numeric array-like, or None (not cacheable: object arrays,
     LieAlgebra instances, strings; those take the uncached route through full validation)."""
     if type(a) is np.ndarray:  # the common call: no conversion
-        return (a.dtype.str, a.shape, a.tobytes()) if a.dtype.kind in "fiub" else None
+        dt = a.dtype
+        if dt is _F64:  # native float64 (its ``str`` read once)
+            return (_F64_STR, a.shape, a.tobytes())
+        return (dt.str, a.shape, a.tobytes()) if dt.kind in "fiub" else None
     if isinstance(a, LieAlgebra):
         return None
     try:
@@ -140,10 +147,13 @@ def _points(x0, pi0, n: int):
 SMALL = 32  # arrays up to this size are checked entry by entry in Python (cheaper than numpy calls)
 
 
+_WITHIN = float(MAX_MAGNITUDE).__ge__  # M >= |v|: False for NaN and infinities
+
+
 def _bounded(a) -> bool:
     """:func:`within_boundary` (NaN fails every comparison); small arrays without numpy reductions."""
     if a.size <= SMALL:
-        return all(-MAX_MAGNITUDE <= v <= MAX_MAGNITUDE for v in a.ravel().tolist())
+        return all(map(_WITHIN, map(abs, a.ravel().tolist())))
     return within_boundary(a)
 
 
@@ -153,7 +163,7 @@ def _check_rates(model: NumpyModel, pa, tv: float) -> None:
     bound, evaluated here on ``max |pi|`` over the batch, could exceed the budget."""
     c = model.rate_const
     if pa.size <= SMALL:
-        size = max((abs(v) for v in pa.ravel().tolist()), default=0.0) * math.sqrt(model.n)
+        size = max(map(abs, pa.ravel().tolist()), default=0.0) * math.sqrt(model.n)
     else:
         size = float(np.max(np.abs(pa))) * math.sqrt(model.n)
     if not abs(tv) * c * max(1.0, size) <= 0.5 * 2.0**14 * (2 + abs(tv)):  # half the budget: margin
@@ -196,7 +206,7 @@ def fast_flow(
     # plain float t: the exact conversion of check_time is the identity (the same checks, no mpmath)
     tv = float(t) if type(t) in (float, np.float64) and math.isfinite(t) else None
     tv = check_time(t, allow_negative=True) if tv is None else tv
-    tol = check_tolerance(tol)
+    tol = tol if type(tol) is float and 0.0 < tol < math.inf else check_tolerance(tol)
     check_flow_request(tv, tol, steps, method_name, METHODS)  # issue 15 hook: the stated budget
     model = cached_model(f, theta, upsilon, inertia, potential)
     n = model.n
