@@ -67,6 +67,7 @@ For nilpotent algebras ``exp`` is a global diffeomorphism and ``phi1(-ad_x)`` ne
 
 from __future__ import annotations
 
+import functools
 import itertools
 import warnings
 from dataclasses import dataclass, field
@@ -662,10 +663,7 @@ class Representation:
             used |= {k, kc}
             pairs.append((k, kc))
         adb = np.array([self.f[:, a, :] for a in range(n)])
-        shifts = sorted(
-            itertools.product(range(-2, 3), repeat=len(pairs)), key=lambda m: (sum(map(abs, m)), m)
-        )
-        for m in shifts[:4000]:
+        for m in _shifts(len(pairs)):
             L = L0.copy()
             for (k, kc), mk in zip(pairs, m):
                 L[k] += 2j * np.pi * mk
@@ -803,6 +801,18 @@ class Representation:
         raise RepresentationError(
             "no logarithm of g found on the cut locus (Newton did not converge)"
         )
+
+
+@functools.lru_cache(maxsize=16)
+def _shifts(k: int) -> tuple:
+    """The branch shifts of :meth:`Representation._log_branches` for ``k`` conjugate pairs: ``m`` in
+    ``{0, +-1, +-2}^k`` by increasing ``sum |m|`` (then lexicographically), the first 4000 (built once
+    per ``k``)."""
+    return tuple(
+        sorted(itertools.product(range(-2, 3), repeat=k), key=lambda m: (sum(map(abs, m)), m))[
+            :4000
+        ]
+    )
 
 
 def _min_norm(rows, X):
