@@ -443,8 +443,43 @@ and the roots leave, as in scipy's inverse scaling and squaring."""
 
 
 @njit(cache=True, nogil=True)
+def _log_unipotent(G, L, N, P, W):
+    """``L = log G = sum_(k<r) (-1)^(k+1) N^k / k`` when ``N = G - I`` is nilpotent with ``N^r = 0``
+    exactly in floating point (a unipotent ``G`` whose ``N`` is strictly triangular in the
+    representation's basis, as on nilpotent algebras: the products' zeros are structural); the series
+    then is the logarithm itself, with no square roots. False otherwise (``L`` then holds a partial
+    sum, overwritten by the caller)."""
+    r = G.shape[0]
+    for i in range(r):
+        for j in range(r):
+            N[i, j] = G[i, j] - (1.0 if i == j else 0.0)
+            P[i, j] = N[i, j]
+            L[i, j] = 0.0
+    for k in range(1, r + 1):  # P = N^k; after the loop's last product N^(r)
+        zero = True
+        for i in range(r):
+            for j in range(r):
+                if P[i, j] != 0.0:
+                    zero = False
+        if zero:
+            return True
+        if k == r:
+            return False
+        c = (1.0 if k % 2 == 1 else -1.0) / k
+        for i in range(r):
+            for j in range(r):
+                L[i, j] += c * P[i, j]
+        _matmul(P, N, W)
+        for i in range(r):
+            for j in range(r):
+                P[i, j] = W[i, j]
+    return False
+
+
+@njit(cache=True, nogil=True)
 def logm(G, L):
-    """Principal logarithm: square roots (:func:`_sqrtm`) until ``||G^(1/2^s) - 1||_1 <=``
+    """Principal logarithm: the finite series of a unipotent ``G`` (:func:`_log_unipotent`), else square
+    roots (:func:`_sqrtm`) until ``||G^(1/2^s) - 1||_1 <=``
     :data:`LOG_SERIES_RADIUS`, then ``log A = 2 atanh(Z)``, ``Z = (A - 1)(A + 1)^-1`` (the series
     ``2 (Z + Z^3/3 + ...)``), times ``2^s``. False when a square root fails or more than 40 are needed.
     One workspace allocation per call."""
@@ -464,6 +499,8 @@ def logm(G, L):
     for i in range(r):
         for j in range(r):
             A[i, j] = G[i, j]
+    if _log_unipotent(G, L, ws[6, :, :r], ws[6, :, r:], ws[7, :, :r]):
+        return True
     s = 0
     while True:
         d = 0.0

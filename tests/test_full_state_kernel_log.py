@@ -47,11 +47,17 @@ def _mp_logm(G):
 
 
 def _cases():
-    """(label, G): exp of random elements of se(3), su(3), so(4), sl(3, R) in their faithful
-    representations, and of the affine Bianchi VI0 elements ``[[0, a, 2], [a, 0, -1], [0, 0, 0]]``."""
+    """(label, G): exp of random elements of se(3), su(3), so(4), sl(3, R) and h(3) (unipotent: the
+    finite series) in their faithful representations, and of the affine Bianchi VI0 elements ``[[0, a, 2], [a, 0, -1], [0, 0, 0]]``."""
     rng = np.random.default_rng(11)
     out = []
-    for name, scale in [("se(3)", 2.0), ("su(3)", 1.0), ("so(4)", 1.0), ("sl(3,R)", 1.0)]:
+    for name, scale in [
+        ("se(3)", 2.0),
+        ("su(3)", 1.0),
+        ("so(4)", 1.0),
+        ("sl(3,R)", 1.0),
+        ("h(3)", 3.0),
+    ]:
         alg = catalogue(name)
         mats = np.asarray(representation_for(alg).mats)
         for k in range(2):
