@@ -613,16 +613,23 @@ def log_batch(G, mats, proj, cplx, out, ok):
     """``out[N]``: the coordinates of the principal logarithm of ``G[N]`` on the ``E_a``; ``ok[N]``
     when it exists and ``exp(rho(x)) = G`` to ``1e3 eps cond max(1, |G|) r`` (``cond = exp(||rho(x)||_1)``,
     the acceptance test of Representation._accept)."""
+    log_batch_exp(G, mats, proj, cplx, out, ok, np.empty_like(G))
+
+
+@njit(cache=True, nogil=True)
+def log_batch_exp(G, mats, proj, cplx, out, ok, Ex):
+    """:func:`log_batch`, keeping ``Ex[N] = exp(rho(x))`` of the acceptance test (what
+    :func:`log_residual` computes again from ``x``: the same arithmetic) for the rows reaching it."""
     N, r, _ = G.shape
     n = mats.shape[0]
     L = np.zeros((r, r), dtype=G.dtype)
     X = np.zeros((r, r), dtype=G.dtype)
-    E = np.zeros((r, r), dtype=G.dtype)
     x = np.zeros(n)
     eps = 2.220446049250313e-16
     for it in range(N):
         ok[it] = False
         Gt = G[it]
+        E = Ex[it]
         if not logm(Gt, L):
             continue
         _project(L, proj, cplx, x)
@@ -901,12 +908,19 @@ def log_residual(xs, mats, proj, cplx, Ad, out):
 
 
 @njit(cache=True, nogil=True)
-def _residual_final(xs, mats, proj, cplx, Ad, resid):
-    """:func:`log_residual`, 0 where not finite (no logarithm found there: the caller names those rows)."""
-    log_residual(xs, mats, proj, cplx, Ad, resid)
-    for j in range(xs.shape[0]):
-        if not math.isfinite(resid[j]):
-            resid[j] = 0.0
+def _residual_final(Ex, mats, proj, cplx, Ad, resid):
+    """:func:`log_residual` from ``Ex[N] = exp(rho(x))`` already computed, 0 where not finite (no
+    logarithm found there: the caller names those rows)."""
+    N = Ex.shape[0]
+    n = mats.shape[0]
+    Adx = np.empty((N, n, n))
+    ad_batch(Ex, mats, proj, cplx, Adx)
+    for it in range(N):
+        m = 0.0
+        for a in range(n):
+            for b in range(n):
+                m = max(m, abs(Adx[it, a, b] - Ad[it, a, b]))
+        resid[it] = m if math.isfinite(m) else 0.0
 
 
 @njit(cache=True, nogil=True)
@@ -916,13 +930,14 @@ def log_state(G, Ad, mats, proj, cplx, ab_mode, xs, ok, resid):
     complex representation with an abelian part, refined by the caller), ``resid`` by
     :func:`log_residual` against ``Ad``. Returns whether ``xs`` and ``resid`` are final (else the
     caller completes them, ``refimpl._full_state._log_complete``)."""
-    log_batch(G, mats, proj, cplx, xs, ok)
+    Ex = np.empty_like(G)
+    log_batch_exp(G, mats, proj, cplx, xs, ok, Ex)
     for j in range(xs.shape[0]):
         if not ok[j]:
             return False
     if ab_mode != 0:
         return False
-    _residual_final(xs, mats, proj, cplx, Ad, resid)
+    _residual_final(Ex, mats, proj, cplx, Ad, resid)
     return True
 
 
@@ -931,8 +946,9 @@ def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid
     """:func:`log_state` of a real representation with an abelian part: after :func:`log_batch` (when
     it accepted every row) :func:`abelian_batch` with ``s`` the last ``k = P.shape[0]`` entries of the
     states ``B`` (N, d), then ``resid``. Returns whether ``xs`` and ``resid`` are final."""
-    log_batch(G, mats, proj, False, xs, ok)
-    N = xs.shape[0]
+    Ex = np.empty_like(G)
+    log_batch_exp(G, mats, proj, False, xs, ok, Ex)
+    N, n = xs.shape
     for j in range(N):
         if not ok[j]:
             return False
@@ -942,8 +958,14 @@ def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid
     for j in range(N):
         for ell in range(k):
             s[ell, j] = B[j, d - k + ell]
+    x0 = xs.copy()
     abelian_batch(G, xs, s, P, Ppinv, D, Dr, mats, rtol)
-    _residual_final(xs, mats, proj, False, Ad, resid)
+    for j in range(N):  # rows the refine moved: their exp(rho(x)) again
+        for a in range(n):
+            if xs[j, a] != x0[j, a]:
+                exp_batch(xs[j : j + 1], mats, Ex[j : j + 1])
+                break
+    _residual_final(Ex, mats, proj, False, Ad, resid)
     return True
 
 
