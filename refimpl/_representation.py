@@ -595,14 +595,18 @@ class Representation:
         return self._log_cut(G, Ad)
 
     def _candidates(self, G, Ad):
-        """(a) and (b) as callables; (b) left out where it is (a) again: the adjoint representation of
-        an algebra without centre given ``G = Ad`` (the same logarithm projected on the same basis)."""
+        """(a) and (b) as callables; (b) left out where it is (a) again (:meth:`_is_ad`)."""
         a = lambda: self._log_a(G)  # noqa: E731
-        if self.kind == "adjoint" and self.centre.shape[1] == 0 and np.array_equal(G, Ad):
+        return (a,) if self._is_ad(G, Ad) else (a, lambda: self._log_b(G, Ad))
+
+    def _is_ad(self, G, Ad) -> bool:
+        """The adjoint representation of an algebra without centre (``rho = ad``): ``G`` is ``Ad(g)``
+        itself (``Ad`` the same matrix up to the rounding of its computation), so (b), the log of
+        ``Ad`` projected on the same basis, repeats (a) and is left out."""
+        if self.kind == "adjoint" and self.centre.shape[1] == 0 and G.shape == Ad.shape:
             n = self.f.shape[0]
-            if np.array_equal(self.mats, np.array([self.f[:, b, :] for b in range(n)])):
-                return (a,)
-        return (a, lambda: self._log_b(G, Ad))
+            return np.array_equal(self.mats, np.array([self.f[:, b, :] for b in range(n)]))
+        return False
 
     def _direction(self):
         n = self.f.shape[0]
@@ -614,7 +618,10 @@ class Representation:
         d = self._direction()
         s = 1e-6
         Gp = G @ expm(-s * self.matrix(d))
-        Adp = Ad @ expm(-s * np.einsum("a,mab->mb", d, self.f))
+        if self._is_ad(G, Ad):  # Ad(g exp(-s d)) is that same matrix: (b) stays left out
+            Adp = Gp
+        else:
+            Adp = Ad @ expm(-s * np.einsum("a,mab->mb", d, self.f))
         x = None
         for cand in self._candidates(Gp, Adp):
             with np.errstate(all="ignore"):
