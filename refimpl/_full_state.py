@@ -59,10 +59,12 @@ Error control
       tighter ``A`` fails), the held ``B`` becomes ``A`` once;
     * every estimate gets the rounding floor that ``|A - B|`` cannot see, since both runs share it
       (:data:`ROUND_PER_STEP` per step, :data:`ROUND_AMPLIFIED` times the observed amplification), and,
-      for one trajectory inside the control (so that a retry sees it), the logarithm's measured error
-      ``max |Ad(exp(x)) - Ad(g_B)|``: by the triangle inequality the estimate then bounds the error of
-      the ``x`` and ``pi`` returned, checked against the mpmath reference in
-      ``tests/test_full_state_estimate.py``.
+      for every row inside the control (its ``floor`` hook, :class:`_Answer`: a retry sees it, in a
+      batch as alone), the logarithm's measured error ``max |Ad(exp(x)) - Ad(g_B)|``: by the triangle
+      inequality the estimate then bounds the error of the ``x`` and ``pi`` returned, checked against
+      the mpmath reference in ``tests/test_full_state_estimate.py``. The estimate, ``G``, ``Ad(g)``,
+      the logarithm and its residual of a pair are one compiled call
+      (:func:`refimpl._full_state_kernel.pair_log`).
 """
 
 from __future__ import annotations
