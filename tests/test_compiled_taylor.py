@@ -351,3 +351,63 @@ def test_model_cache_keys_on_values_not_identity():
     assert np.array_equal(outs[0][1], outs[2][1])
     assert np.array_equal(outs[1][1], fresh[1]) and np.array_equal(outs[1][0], fresh[0])
     assert not np.array_equal(outs[0][1], outs[1][1])
+
+
+HEAVY = {"kind": "gravity", "L": np.array([0.2, 0.1, 1.0]), "gamma": np.array([0.0, 0.0, -1.0])}
+LAGRANGE = {"kind": "gravity", "L": np.array([0.0, 0.0, 1.0]), "gamma": np.array([0.0, 0.0, -1.0])}
+
+
+@needs_numba
+@pytest.mark.parametrize(
+    "I, pot",
+    [((1.0, 1.3, 0.6), HEAVY), ((1.0, 1.0, 0.5), LAGRANGE)],
+    ids=["asymmetric heavy top", "Lagrange top"],
+)
+def test_checking_run_at_a_loose_full_keeps_the_proportional_estimate_a_bound(I, pot):
+    """Issue 25's heavy tops over T = 100 (x0 = (0.1, 0.2, 0), pi0 = (0.3, 0.2, 2), gamma = -e3).
+
+    1. The premise of the proportional estimate with ``A`` at ``A_LOOSE_FULL`` (refimpl._flow_compiled):
+       a pair at ``B``'s order with ``B`` at 1e-9 (its error ~1e-9, measurable against the reference)
+       has ``err(B) <= PROP (eps_B / eps_A) |A - B|``.
+    2. The protocol's default ``tol = 1e-10``: the returned error is at most the estimate, which is at
+       most ``tol``.
+
+    Reference: scipy's DOP853 on the 12 variables ``(pi, Ad(g))`` at rtol 3e-14, its own error bounded
+    by 10 times its distance to the run at rtol 1e-13 (measured 2e-11; checked below 1e-10);
+    every comparison adds it."""
+    from tstarg.refimpl import _flow_compiled as fc
+    from tstarg.refimpl._flow_compiled import compiled_taylor_flow
+
+    args = (SU2.f, Z, Z, np.diag(I), pot)
+    x0, pi0, T = np.array([0.1, 0.2, 0.0]), np.array([0.3, 0.2, 2.0]), 100.0
+    r13 = _reference_full(args, x0, pi0, T, 3e-14)
+    ref_err = 10 * np.max(np.abs(r13 - _reference_full(args, x0, pi0, T, 1e-13)))
+    assert ref_err < 1e-10
+
+    def err_of(pi, quat):
+        Ad = quat_rotation(quat)[0]
+        return max(np.max(np.abs(pi - r13[:3])), np.max(np.abs(Ad.ravel() - r13[3:])))
+
+    model = NumpyModel(*args)
+    cf = model.compiled_full_field
+    y0 = np.empty((1, 10))
+    fc._start(x0[:, None].copy(), pi0[:, None].copy(), pot["gamma"], True, y0)
+    ea, eb = fc.A_LOOSE_FULL, 1e-9
+    P = fc._order_b(cf, fc.B_MAX)
+    A, _ = ct.taylor_adaptive(cf, y0, T, ea, P)
+    B, _ = ct.taylor_adaptive(cf, y0, T, eb, P)
+    d = np.empty(1)
+    fc._estimate(A, B, 3, d)
+    err_b = err_of(B[0, :3], B[:, -4:].T)
+    assert (
+        np.isfinite(d[0]) and err_b > 10 * ref_err
+    )  # the check below is not decided by the reference
+    assert err_b <= fc.PROP * (eb / ea) * d[0] + ref_err, (err_b, d[0])
+
+    out = compiled_taylor_flow(model, x0[:, None], pi0[:, None], T, 1e-10)
+    err = err_of(out["pi"][:, 0], out["quat"])
+    assert np.isfinite(err) and err <= out["error_estimate"][0] + ref_err <= 1e-10 + ref_err, (
+        err,
+        out["error_estimate"],
+        ref_err,
+    )
