@@ -236,6 +236,11 @@ def _log_py(B, x):
     x[:] = quat_to_x(B[:, -4:].T).T
 
 
+def _finish_py(A, B, n, est, x):
+    _estimate_py(A, B, n, est)
+    _log_py(B, x)
+
+
 if _ct.HAVE_NUMBA:
     import math
 
@@ -284,6 +289,11 @@ if _ct.HAVE_NUMBA:
             est[j] = m if math.isfinite(m) else np.inf
 
     @njit(cache=True, nogil=True)
+    def _finish(A, B, n, est, x):  # pragma: no cover - compiled; same as _finish_py
+        _estimate(A, B, n, est)
+        _log(B, x)
+
+    @njit(cache=True, nogil=True)
     def _log(B, x):  # pragma: no cover - compiled; same as _log_py
         d = B.shape[1]
         for j in range(B.shape[0]):
@@ -293,6 +303,10 @@ if _ct.HAVE_NUMBA:
             x[0, j], x[1, j], x[2, j] = a * fac, b * fac, c * fac
 else:  # pragma: no cover - exercised only where numba is missing
     _start, _estimate, _log = _start_py, _estimate_py, _log_py
+
+    def _finish(A, B, n, est, x):
+        _estimate(A, B, n, est)
+        _log(B, x)
 
 
 def _full_field(model) -> _ct.CompiledField:
@@ -346,12 +360,56 @@ def _run_cf(cf, y0, t, eps, order=None):
     # inside its safety factor PROP = 30
     order = _order_b(cf, _eps_b(eps)) if order is None else order
     y, steps = _ct.taylor_adaptive(cf, y0, t, eps, order)
-    if np.any(steps < 0):
-        raise ValueError(
-            f"compiled Taylor flow: trajectories {np.flatnonzero(steps < 0)[:10].tolist()} became non-finite "
-            f"before t = {t} (diverged); no point is dropped"
-        )
+    if steps.min() < 0:
+        _diverged(steps, t)
     return y, steps
+
+
+def _diverged(steps, t):
+    raise ValueError(
+        f"compiled Taylor flow: trajectories {np.flatnonzero(steps < 0)[:10].tolist()} became non-finite "
+        f"before t = {t} (diverged); no point is dropped"
+    )
+
+
+MAX_STEPS = (
+    10_000_000  # the kernels' step budget per trajectory (as _compiled_taylor.taylor_adaptive's)
+)
+
+
+def _first_pair(model, y0, t, eps_a, eps_b, n, tol):
+    """One trajectory, ``Upsilon = 0``: the first pair of :func:`_control` (``A`` at ``eps_a`` and ``B`` at
+    ``eps_b``, both at ``B``'s order as :func:`_run_cf` runs them) on the unrolled kernel called directly,
+    and its estimate and logarithm in one compiled call (``_finish``), with none of the per-call checks
+    of the general path (about 25 us of Python on the protocol call). Returns ``(B, steps of B, x,
+    estimate)`` when the pair passes (the estimate of :func:`_control`'s first pair: ``|A - B|`` or its
+    proportional form), ``(A, B, steps of B)`` for :func:`_control` to go on from when it does not,
+    or None where the kernel is not unrolled (the general path runs). Raises as :func:`_run_cf`."""
+    cf = model.compiled_full_field
+    key = ("first", eps_b)
+    P = cf._kernels.get(key)
+    if P is None:
+        P = cf._kernels[key] = _order_b(cf, eps_b)
+    kern = _ct.unrolled_adaptive(cf, P)
+    if kern is None:
+        return None
+    A, B = np.empty_like(y0), np.empty_like(y0)
+    sA, sB = np.empty(1, dtype=np.int64), np.empty(1, dtype=np.int64)
+    kern(y0, t, eps_a, MAX_STEPS, cf.qcoef, cf.lcoef, A, sA)
+    kern(y0, t, eps_b, MAX_STEPS, cf.qcoef, cf.lcoef, B, sB)
+    if sA[0] < 0:
+        _diverged(sA, t)
+    if sB[0] < 0:
+        _diverged(sB, t)
+    est, x = np.empty(1), np.empty((n, 1))
+    _finish(A, B, n, est, x)
+    e = float(est[0])
+    if eps_a >= PROP_MIN_A and eps_b >= PROP_MIN_B:  # as _control's first pair (default prop_min_b)
+        e = min(e, PROP * (eps_b / eps_a) * e)
+    if e <= tol:
+        est[0] = e
+        return B, sB, x, est
+    return A, B, sB
 
 
 GRID = (
@@ -383,6 +441,7 @@ def _control(
     reuse_b=REUSE_B,
     floor=None,
     reuse_last=False,
+    first=None,
 ):
     """The two-run control of the module docstring on the rows of ``y0``: ``(B, estimate, steps of B)``.
 
@@ -396,7 +455,8 @@ def _control(
     term added to every estimate (the rounding floor both runs share, unseen by ``|A - B|``; a retry
     then aims at ``tol`` minus it; its third argument: per row the largest ``|A - B| / eps_A`` seen),
     default none; ``reuse_last``: when ``A`` cannot be tightened further
-    (at :data:`EPS_FLOOR`), its held ``B`` becomes ``A`` once as a last resort (with ``reuse_b = 0``).
+    (at :data:`EPS_FLOOR`), its held ``B`` becomes ``A`` once as a last resort (with ``reuse_b = 0``);
+    ``first``: ``(A, B, steps of B)`` of the first pair already run (one trajectory; default: run here).
 
     A trajectory whose ``A`` must be tightened to ``new`` while it holds a ``B`` at a tolerance
     ``eps_B <= REUSE_B * new`` takes that ``B`` as its new ``A`` (one run, the new ``B`` at
@@ -412,8 +472,11 @@ def _control(
     _estimate_ = _estimate if estimate is None else estimate
     if N == 1:  # one trajectory, first pair: scalars only (the common protocol call)
         eb0 = eps_b_of(eps_a0)
-        A, _ = run(y0, t, eps_a0)
-        B, sB = run(y0, t, eb0, order_b(eb0))
+        if first is None:
+            A, _ = run(y0, t, eps_a0)
+            B, sB = run(y0, t, eb0, order_b(eb0))
+        else:  # su2 hook: the pair of _first_pair
+            A, B, sB = first
         d1 = np.empty(1)
         _estimate_(A, B, n, d1)
         e1 = float(d1[0])
@@ -605,23 +668,29 @@ def compiled_taylor_flow(model, x0, pi0, t: float, tol: float) -> dict:
     if not supports_full(model):
         raise ValueError("compiled Taylor full state: written for su(2)/so(3)")
     n, N = pi0.shape
-    d = n + (n if model.gravity else 0) + 4
+    grav = model.gravity
+    d = n + (n if grav else 0) + 4
     y0 = np.empty((N, d))
-    _start(x0, pi0, model.gamma if model.gravity else _NO_GAMMA, model.gravity, y0)
-    eps_a, _ = local_tolerances(tol, A_LOOSE_FULL if model.upsilon_zero else A_LOOSE)
-    res, est, steps = _control(model, y0, t, eps_a, n, tol)
-    over = np.flatnonzero(est > tol)
-    if over.size:
-        raise ValueError(
-            f"compiled Taylor flow: tolerance {tol} not reached on trajectories {over[:10].tolist()} "
-            f"(estimated errors {est[over][:3].tolist()}) at the float64 floor of the local tolerance"
-        )
-    x = np.empty((n, N))
-    _log(res, x)
+    _start(x0, pi0, model.gamma if grav else _NO_GAMMA, grav, y0)
+    uz = model.upsilon_zero
+    eps_a, eps_b = local_tolerances(tol, A_LOOSE_FULL if uz else A_LOOSE)
+    first = _first_pair(model, y0, t, eps_a, eps_b, n, tol) if N == 1 and uz else None
+    if first is not None and len(first) == 4:  # the common protocol call: one pair passed
+        res, steps, x, est = first
+    else:
+        res, est, steps = _control(model, y0, t, eps_a, n, tol, first=first)
+        over = np.flatnonzero(est > tol)
+        if over.size:
+            raise ValueError(
+                f"compiled Taylor flow: tolerance {tol} not reached on trajectories {over[:10].tolist()} "
+                f"(estimated errors {est[over][:3].tolist()}) at the float64 floor of the local tolerance"
+            )
+        x = np.empty((n, N))
+        _log(res, x)
     res = res.T
     return {
         "pi": res[:n],
-        "Gamma": res[n : 2 * n] if model.gravity else None,
+        "Gamma": res[n : 2 * n] if grav else None,
         "quat": res[-4:],
         "x": x,
         "Ad": None,

@@ -411,3 +411,35 @@ def test_checking_run_at_a_loose_full_keeps_the_proportional_estimate_a_bound(I,
         out["error_estimate"],
         ref_err,
     )
+
+
+@needs_numba
+@pytest.mark.parametrize(
+    "I, pot, T, tol",
+    [
+        ((1.0, 1.3, 0.6), HEAVY, 30.0, 1e-10),  # the first pair passes
+        ((1.0, 2.0, 3.0), LAGRANGE, 100.0, 1e-10),  # it does not (kappa_A ~ 2e3): control goes on
+        ((1.0, 1.3, 0.6), None, 5.0, 1e-7),  # free top, A at FIRST * tol
+    ],
+    ids=["passes", "goes on", "free"],
+)
+def test_one_trajectory_path_equals_the_general_control(I, pot, T, tol):
+    """The protocol's one-trajectory call (refimpl._flow_compiled._first_pair: the kernel called
+    directly, estimate and logarithm in one compiled call) returns bit for bit what the general
+    two-run control returns for the same trajectory inside a batch of two (the same runs, row by row):
+    ``pi``, ``Gamma``, ``quat``, ``x``, ``steps``, ``error_estimate``."""
+    from tstarg.refimpl._flow_compiled import compiled_taylor_flow
+
+    model = NumpyModel(SU2.f, Z, Z, np.diag(I), pot)
+    x0, pi0 = np.array([0.1, 0.2, 0.0]), np.array([0.3, 0.2, 2.0])
+    one = compiled_taylor_flow(model, x0[:, None], pi0[:, None], T, tol)
+    two = compiled_taylor_flow(
+        model, np.repeat(x0[:, None], 2, 1), np.repeat(pi0[:, None], 2, 1), T, tol
+    )
+    for k in ("pi", "Gamma", "quat", "x", "steps", "error_estimate"):
+        if one[k] is None:
+            assert two[k] is None and pot is None
+            continue
+        assert one[k].shape[-1] == 1 and np.array_equal(one[k][..., 0], two[k][..., 0]), k
+        assert np.array_equal(two[k][..., 0], two[k][..., 1]), k
+    assert np.all(np.isfinite(one["error_estimate"])) and one["error_estimate"][0] <= tol
