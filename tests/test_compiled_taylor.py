@@ -359,12 +359,18 @@ LAGRANGE = {"kind": "gravity", "L": np.array([0.0, 0.0, 1.0]), "gamma": np.array
 
 @needs_numba
 @pytest.mark.parametrize(
-    "I, pot",
-    [((1.0, 1.3, 0.6), HEAVY), ((1.0, 1.0, 0.5), LAGRANGE)],
-    ids=["asymmetric heavy top", "Lagrange top"],
+    "I, pot, pi3",
+    [
+        ((1.0, 1.3, 0.6), HEAVY, 2.0),
+        ((1.0, 1.0, 0.5), LAGRANGE, 2.0),
+        ((1.0, 1.3, 0.6), HEAVY, 1.99),
+    ],
+    ids=["asymmetric heavy top", "Lagrange top", "heavy top, A retried"],
 )
-def test_checking_run_at_a_loose_full_keeps_the_proportional_estimate_a_bound(I, pot):
-    """Issue 25's heavy tops over T = 100 (x0 = (0.1, 0.2, 0), pi0 = (0.3, 0.2, 2), gamma = -e3).
+def test_checking_run_at_a_loose_full_keeps_the_proportional_estimate_a_bound(I, pot, pi3):
+    """Issue 25's heavy tops over T = 100 (x0 = (0.1, 0.2, 0), pi0 = (0.3, 0.2, pi3), gamma = -e3; at
+    pi3 = 1.99 the first pair does not pass and ``A`` alone runs again at ``A_LOOSE``, the control's
+    ``a_retry``).
 
     1. The premise of the proportional estimate with ``A`` at ``A_LOOSE_FULL`` (refimpl._flow_compiled):
        a pair at ``B``'s order with ``B`` at 1e-9 (its error ~1e-9, measurable against the reference)
@@ -379,7 +385,7 @@ def test_checking_run_at_a_loose_full_keeps_the_proportional_estimate_a_bound(I,
     from tstarg.refimpl._flow_compiled import compiled_taylor_flow
 
     args = (SU2.f, Z, Z, np.diag(I), pot)
-    x0, pi0, T = np.array([0.1, 0.2, 0.0]), np.array([0.3, 0.2, 2.0]), 100.0
+    x0, pi0, T = np.array([0.1, 0.2, 0.0]), np.array([0.3, 0.2, pi3]), 100.0
     r13 = _reference_full(args, x0, pi0, T, 3e-14)
     ref_err = 10 * np.max(np.abs(r13 - _reference_full(args, x0, pi0, T, 1e-13)))
     assert ref_err < 1e-10
@@ -404,6 +410,8 @@ def test_checking_run_at_a_loose_full_keeps_the_proportional_estimate_a_bound(I,
     )  # the check below is not decided by the reference
     assert err_b <= fc.PROP * (eb / ea) * d[0] + ref_err, (err_b, d[0])
 
+    passed = len(fc._first_pair(model, y0, T, ea, fc._eps_b(ea), 3, 1e-10)) == 4
+    assert passed == (pi3 == 2.0), "the case no longer exercises the path it names"
     out = compiled_taylor_flow(model, x0[:, None], pi0[:, None], T, 1e-10)
     err = err_of(out["pi"][:, 0], out["quat"])
     assert np.isfinite(err) and err <= out["error_estimate"][0] + ref_err <= 1e-10 + ref_err, (
