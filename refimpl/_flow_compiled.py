@@ -105,11 +105,18 @@ PROP = 30.0  # safety factor of the proportionality estimate err(B) ~ (eps_B / e
 REUSE_B = 10.0  # a held B within this factor of A's next tolerance becomes that A (see _control)
 FIRST = 1e-2  # A's first local tolerance relative to the global one (global/local error ~ 5-20
 # over 10^2-10^3 steps, so one pair of runs usually suffices)
-FAST_UNROLL_TERMS = (
-    2800  # B's order is capped where the unrolled kernel stays this small (measured on
-)
-# the heavy top's full state, 20 monomials: order 16 (2720 terms) runs 0.71 us/step, order 17-18 1.0-1.1
-# us/step -- 40 % more per step for 12 % more arithmetic; the shorter kernel wins even with more steps)
+FAST_UNROLL_TERMS = 2800
+"""B's order is capped where the unrolled kernel has at most this many Cauchy-product terms (monomials
+times ``P (P + 1) / 2``): the heavy top (21 monomials) at 15, the Lagrange top (20) at Jorba-Zou's 16.
+First measured as order 17-18 costing 40 % more per step than 16; re-measured (issue 25, T = 100,
+kernel alone, B at 1e-13, load 2.2): heavy top orders 14-18 take 768/646/556/486/433 steps at
+0.42/0.46/0.51/0.56/0.62 us per step (321/298/285/273/267 us: the cliff is gone, a higher order is
+4-10 % faster at the same ``eps``), but their errors against heyoka in long double are 0.9/1.3/1.4/
+1.5/2.6e-13 and, on the Lagrange top, orders 16/17/18 give 1.6e-13/1.3e-12/1.9e-12 (the last two
+terms bound the remainder less well at the longer steps of a higher order: the global error at fixed
+``eps`` rises with the order), so per unit of accuracy there is no gain, while each order more
+lengthens the kernel's cold compilation (the heavy top's first call, every kernel cold, 8.3 s CPU at
+order 15, load 2.5; issue 25's limit 10 s). Kept."""
 
 
 def supports_full(model) -> bool:

@@ -451,3 +451,46 @@ def test_one_trajectory_path_equals_the_general_control(I, pot, T, tol):
         assert one[k].shape[-1] == 1 and np.array_equal(one[k][..., 0], two[k][..., 0]), k
         assert np.array_equal(two[k][..., 0], two[k][..., 1]), k
     assert np.all(np.isfinite(one["error_estimate"])) and one["error_estimate"][0] <= tol
+
+
+@needs_numba
+@pytest.mark.slow
+def test_estimate_with_theta_and_gravity_against_the_mpmath_reference():
+    """A gyrostat with Theta = -xi.f, gravity along a tilted L and an off-diagonal inertia over T = 5
+    against the project's mpmath reference flow (its own field in the chart ``(x, pi)`` with re-basing,
+    Gragg-Bulirsch-Stoer at 20 digits; error below 1e-17): (1) the premise of the proportional estimate
+    with ``A`` at ``A_LOOSE_FULL`` and ``B`` at 1e-9 (``err(B) <= PROP (eps_B/eps_A) |A - B|``); (2) the
+    protocol's default ``tol = 1e-10``: error at most the estimate, at most ``tol``. Error model of the
+    comparison: ``Ad(exp x_ref)`` by the judge's scaled expm (16 ulp of a rotation) and the reference's
+    own 1e-17: ``JUDGE = 1e-14`` added to every bound."""
+    from tstarg.oracles.float_judge import expm as judge_expm
+    from tstarg.refimpl import _flow_compiled as fc
+    from tstarg.refimpl.flows import reference_flow
+
+    JUDGE = 1e-14
+    x0, pi0, T = np.array([0.3, -0.2, 0.4]), np.array([0.5, -0.4, 1.5]), 5.0
+    xr, pir = reference_flow(SU2.f, THETA, Z, I_OFF, GRAV, x0, pi0, T, dps=20)
+    Adr = judge_expm(np.einsum("a,mab->mb", np.asarray(xr, float), SU2.f))
+    pir = np.asarray(pir, float)
+
+    def err_of(pi, quat):
+        return max(np.max(np.abs(pi - pir)), np.max(np.abs(quat_rotation(quat)[0] - Adr)))
+
+    model = NumpyModel(SU2, THETA, Z, I_OFF, GRAV)
+    cf = model.compiled_full_field
+    y0 = np.empty((1, 10))
+    fc._start(x0[:, None].copy(), pi0[:, None].copy(), GRAV["gamma"], True, y0)
+    ea, eb = fc.A_LOOSE_FULL, 1e-9
+    P = fc._order_b(cf, fc.B_MAX)
+    A, _ = ct.taylor_adaptive(cf, y0, T, ea, P)
+    B, _ = ct.taylor_adaptive(cf, y0, T, eb, P)
+    d = np.empty(1)
+    fc._estimate(A, B, 3, d)
+    err_b = err_of(B[0, :3], B[:, -4:].T)
+    assert np.isfinite(d[0]) and err_b > 10 * JUDGE
+    assert err_b <= fc.PROP * (eb / ea) * d[0] + JUDGE, (err_b, d[0])
+
+    out = fc.compiled_taylor_flow(model, x0[:, None], pi0[:, None], T, 1e-10)
+    err = err_of(out["pi"][:, 0], out["quat"])
+    est = out["error_estimate"][0]
+    assert np.isfinite(err) and err <= est + JUDGE and est <= 1e-10, (err, est)
