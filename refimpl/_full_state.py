@@ -499,7 +499,9 @@ def _x_of(fs: FullState, G, Ad, s) -> np.ndarray:
     xs = np.empty((N, fs.n))
     ok = np.zeros(N, dtype=np.bool_)
     G = np.ascontiguousarray(G, dtype=fs.mats.dtype)
-    if fs.cplx:
+    if fs.cplx or not fs.refine:
+        # the log alone: log_refined would do the same and return False, but compiling it compiles
+        # the abelian refine too (~6 s of a cold first call on se(3), so(4), sl(3), so(5))
         _fk.log_batch(G, fs.mats, fs.proj, fs.cplx, xs, ok)
     else:  # the log and, when it accepted every row, the abelian refine in one call
         s_ = _NO_S if s is None else np.ascontiguousarray(s)
