@@ -39,7 +39,10 @@ sums as a tuple). numba's compile time grows faster than linearly with one funct
 reconstruction and rewrites walk every variable over every block), so the products leave the kernel
 in helpers of this many: the free so(5) top (adjoint representation, 660 products) compiled in 31 s
 as one function and in 16 s so split (load 7; 4 to 64 products per helper within 1 s of each
-other). Same arithmetic: each sum is accumulated in the order ``a = 0..k`` as before."""
+other). Same arithmetic: each sum is accumulated in the order ``a = 0..k`` as before. No per-step
+cost: free su(3) (140 products, three helpers), interleaved in one process, best of 200, CPU, load
+1.6: kernel at ``eps = 2e-15``, order 22, 125.1 us split against 124.1 us as one function (32 per
+helper: 121.4 us); the protocol flow 217.4 us against 223.4 us."""
 
 
 def _sum(terms: list[str]) -> str:

@@ -1,26 +1,31 @@
 """The protocol flow's first call from an empty kernel cache, per structure, each in a fresh process.
 
-    python tests/benchmarks/cold_first_call.py                       # every structure below
-    python tests/benchmarks/cold_first_call.py --only heavy_top_full,so5 --batch 64
-    python tests/benchmarks/cold_first_call.py --numba-warm          # the package's own kernels cached
+    python tests/benchmarks/cold_first_call.py                    # every structure, both modes, one table
+    python tests/benchmarks/cold_first_call.py --only heavy_top_full,so5 --batch 64 --mode cold
 
 What a new user waits for once per structure (issue 25's target: at most 10 s): a child process
 imports tstarg, builds the problem (untimed), then times one ``refimpl.fast.implementation.flow``
 call at its default accuracy -- generating, compiling and running that structure's kernels -- in CPU
-time (``time.process_time``) and wall time; ``--batch M`` then times a first call of ``M``
-trajectories (the SIMD batch kernels; the run itself included). Each child gets a fresh empty
-``TSTARG_CACHE_DIR`` (the generated kernels) and, unless ``--numba-warm``, a fresh empty
-``NUMBA_CACHE_DIR`` too (the package's own compiled functions, built once per installation and
-argument types: the column then includes them, as a user's very first call does). ``--numba-warm``
-runs each structure first in an untimed child (its own throwaway kernel cache) sharing one
-``NUMBA_CACHE_DIR`` with the timed one, so the figure is the structure's generated kernels alone
-(numba keys a generated module's machine code on its file's path, which differs between the two). The load average is printed with each figure: CPU time on a loaded machine is
-inflated too (shared caches and cores), so compare figures from one run.
+time (``time.process_time``) and wall time; then, in the same process, a first call of each batch
+size of ``--batch`` (default 64 and 1024 perturbed starts: 64 over ``T = 10`` stays below the batch's
+work threshold, :data:`refimpl._full_state_batch.GENERATED_MIN_WORK`, so it runs the lane kernel
+shared by every structure; 1024 the structure's generated lane kernel, the run included). Each child
+gets a fresh empty ``TSTARG_CACHE_DIR`` (the generated kernels). Two modes (``--mode``, default both):
+
+* fully cold: a fresh empty ``NUMBA_CACHE_DIR`` too, so the figure includes the package's own
+  compiled functions, built once per installation and argument types -- a user's very first call;
+* numba-warm: an untimed child with the same calls (its own throwaway kernel cache) first fills a
+  ``NUMBA_CACHE_DIR`` the timed child then shares, so the figure is the structure's generated kernels
+  alone (numba keys a generated module's machine code on its file's path, which differs between the
+  two).
+
+The load average is printed with each figure: CPU time on a loaded machine is inflated too (shared
+caches and cores), so compare figures from one run.
 
 Structures: the committed report's protocol problems (``reports._bench_protocol``: su(2) heavy top,
 free su(3), se(3), so(4), Bianchi VI0 with a cocycle, su(3) with Theta and Upsilon != 0), the Lagrange
-top on su(2), and free tops on so(5), sp(4, R) and sl(3, R) (dimension 10, 10, 8; not in the
-catalogue: built here from matrix bases).
+top on su(2), and free tops on so(5), sp(4, R) and sl(3, R) (dimension 10, 10, 8; not in the bench;
+so(5) and sp(4, R) built here from matrix bases).
 """
 
 from __future__ import annotations
@@ -52,7 +57,7 @@ from tstarg.refimpl import LieAlgebra, catalogue
 from tstarg.refimpl.fast import implementation as FAST
 from tstarg.reports import _bench_protocol as bp
 
-name, M = sys.argv[1], int(sys.argv[2])
+name, Ms = sys.argv[1], [int(m) for m in sys.argv[2].split(",") if int(m) > 0]
 
 
 def free_top(alg, seed, scale=1.0, T=10.0):
@@ -117,7 +122,7 @@ try:
 except ValueError as exc:  # a refusal still compiled (and ran) the kernels: timed, and said
     out["refused"] = str(exc)[:200]
 out["single_cpu"], out["single_wall"] = time.process_time() - c0, time.perf_counter() - w0
-if M > 0 and "refused" not in out:
+for M in Ms if "refused" not in out else []:  # batches in this order, each timed alone
     rng = np.random.default_rng(3)
     n = out["n"]
     X0 = np.asarray(args[5])[:, None] + 0.01 * rng.standard_normal((n, M))
@@ -127,19 +132,19 @@ if M > 0 and "refused" not in out:
     try:
         FAST.flow(*bargs)
     except ValueError as exc:  # a refused row: the kernels were compiled and ran all the same
-        out["batch_refused"] = str(exc)[:200]
-    out["batch_cpu"], out["batch_wall"] = time.process_time() - c0, time.perf_counter() - w0
+        out[f"batch{M}_refused"] = str(exc)[:200]
+    out[f"batch{M}_cpu"], out[f"batch{M}_wall"] = time.process_time() - c0, time.perf_counter() - w0
 print("RESULT " + json.dumps(out))
 """
 
 
-def run_child(name: str, M: int, numba_dir: str | None) -> dict:
+def run_child(name: str, batches: str, numba_dir: str | None) -> dict:
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
     with tempfile.TemporaryDirectory(prefix="tstarg_cold_") as tmp:
         env["TSTARG_CACHE_DIR"] = os.path.join(tmp, "tstarg")
         env["NUMBA_CACHE_DIR"] = numba_dir or os.path.join(tmp, "numba")
         res = subprocess.run(
-            [sys.executable, "-c", CHILD, name, str(M)],
+            [sys.executable, "-c", CHILD, name, batches],
             env=env,
             capture_output=True,
             text=True,
@@ -151,55 +156,94 @@ def run_child(name: str, M: int, numba_dir: str | None) -> dict:
     raise RuntimeError(f"{name}: the child failed:\n{res.stderr[-3000:]}")
 
 
+def _measure(name: str, batches: str, warm: bool, label: str) -> dict:
+    """One structure in one mode: fully cold (fresh empty NUMBA_CACHE_DIR), or numba-warm (a warm-up
+    child with the same calls, untimed, fills a NUMBA_CACHE_DIR the timed child then shares)."""
+    with tempfile.TemporaryDirectory(prefix="tstarg_numba_") as shared:
+        if warm:
+            print(f"{label} {name}: warm-up child (untimed) ...", flush=True)
+            run_child(name, batches, shared)
+        print(f"{label} {name}: fresh process, empty kernel cache ...", flush=True)
+        t0 = time.perf_counter()
+        r = run_child(name, batches, shared if warm else None)
+    r["load"] = os.getloadavg()[0]
+    parts = [f"first call {r['single_cpu']:.2f} s CPU ({r['single_wall']:.2f} s wall)"]
+    for M in _sizes(batches):
+        if f"batch{M}_cpu" in r:
+            parts.append(f"batch of {M}: {r[f'batch{M}_cpu']:.2f} s CPU")
+        if f"batch{M}_refused" in r:
+            parts.append(f"(batch of {M} refused: {r[f'batch{M}_refused']})")
+    if "refused" in r:
+        parts.append(f"(the flow refused: {r['refused']})")
+    print(
+        f"{label} {name} (n = {r['n']}): {', '.join(parts)} "
+        f"(child {time.perf_counter() - t0:.1f} s, load {r['load']:.2f})",
+        flush=True,
+    )
+    return r
+
+
+def _sizes(batches: str) -> list[int]:
+    return [int(m) for m in batches.split(",") if m.strip() and int(m) > 0]
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", default="", help="comma-separated structures (default: all)")
     ap.add_argument(
-        "--batch", type=int, default=0, help="also a first batch call of M trajectories"
+        "--batch",
+        default="64,1024",
+        help="first batch calls after the single one, in this order (comma-separated sizes; 0: none)."
+        " 64 over T = 10 is below the batch's work threshold (the lane kernel shared by every "
+        "structure), 1024 above it (the structure's generated lane kernel; the run is included)",
     )
     ap.add_argument(
-        "--numba-warm",
-        action="store_true",
-        help="share one warmed NUMBA_CACHE_DIR: the structure's generated kernels alone",
+        "--mode",
+        choices=("cold", "warm", "both"),
+        default="both",
+        help="cold: numba cache empty too; warm: the package's own numba functions cached (the "
+        "structure's generated kernels alone); both (default)",
     )
+    ap.add_argument("--numba-warm", action="store_true", help="the same as --mode warm")
     args = ap.parse_args(argv)
+    mode = "warm" if args.numba_warm else args.mode
+    modes = ["cold", "warm"] if mode == "both" else [mode]
     names = args.only.split(",") if args.only else list(BENCH_PROBLEMS + EXTRA)
+    sizes = _sizes(args.batch)
+    batches = ",".join(map(str, sizes)) or "0"
     rows = []
-    with tempfile.TemporaryDirectory(prefix="tstarg_numba_") as shared:
-        numba_dir = shared if args.numba_warm else None
-        for k, name in enumerate(names, 1):
-            if (
-                numba_dir
-            ):  # the package's own functions at this structure's types (complex G on su(3))
-                print(f"[{k}/{len(names)}] {name}: warm-up child (untimed) ...", flush=True)
-                run_child(name, 0, numba_dir)
-            print(f"[{k}/{len(names)}] {name}: fresh process, empty cache ...", flush=True)
-            t0 = time.perf_counter()
-            r = run_child(name, args.batch, numba_dir)
-            load = os.getloadavg()[0]
-            rows.append((name, r, load))
-            extra = (
-                f", batch of {args.batch}: {r['batch_cpu']:.2f} s CPU" if "batch_cpu" in r else ""
-            )
-            if "refused" in r:
-                extra += f" (the flow refused: {r['refused']})"
-            if "batch_refused" in r:
-                extra += f" (the batch was refused: {r['batch_refused']})"
-            print(
-                f"[{k}/{len(names)}] {name} (n = {r['n']}): first call {r['single_cpu']:.2f} s CPU, "
-                f"{r['single_wall']:.2f} s wall{extra} (child {time.perf_counter() - t0:.1f} s, "
-                f"load {load:.2f})",
-                flush=True,
-            )
-    what = "generated kernels only" if args.numba_warm else "every kernel (numba cache empty too)"
-    print(f"\n| structure | n | first call, CPU ({what}) | wall | batch first call, CPU | load |")
-    print("|---|---|---|---|---|---|")
-    for name, r, load in rows:
-        b = f"{r['batch_cpu']:.2f} s" if "batch_cpu" in r else "-"
-        print(
-            f"| {name} | {r['n']} | {r['single_cpu']:.2f} s | {r['single_wall']:.2f} s | {b} | "
-            f"{load:.2f} |"
-        )
+    for k, name in enumerate(names, 1):
+        res = {m: _measure(name, batches, m == "warm", f"[{k}/{len(names)} {m}]") for m in modes}
+        rows.append((name, res))
+    cols = []
+    for m in modes:
+        what = "fully cold" if m == "cold" else "numba-warm"
+        cols += [f"first call ({what})"] + [f"batch of {M} ({what})" for M in sizes]
+    print("\nCPU seconds (time.process_time of the child), one run each; load = 1-min load average")
+    print(
+        "after the child. fully cold: TSTARG_CACHE_DIR and NUMBA_CACHE_DIR empty; numba-warm: the"
+    )
+    print("package's own numba functions cached (a warm-up child), the structure's kernels not.")
+    print(
+        "A batch figure is the call after the single one in the same process (its own kernels).\n"
+    )
+    print("| structure | n | " + " | ".join(cols) + " | load |")
+    print("|---|---|" + "---|" * len(cols) + "---|")
+    for name, res in rows:
+        cells = []
+        for m in modes:
+            r = res[m]
+            cells.append(f"{r['single_cpu']:.2f}" + (" (refused)" if "refused" in r else ""))
+            for M in sizes:
+                c = r.get(f"batch{M}_cpu")
+                cells.append(
+                    "-"
+                    if c is None
+                    else f"{c:.2f}" + (" (refused)" if f"batch{M}_refused" in r else "")
+                )
+        n = next(iter(res.values()))["n"]
+        loads = "/".join(f"{res[m]['load']:.1f}" for m in modes)
+        print(f"| {name} | {n} | " + " | ".join(cells) + f" | {loads} |")
     return 0
 
 
