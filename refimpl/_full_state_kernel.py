@@ -484,22 +484,26 @@ def logm(G, L):
     ``2 (Z + Z^3/3 + ...)``), times ``2^s``. False when a square root fails or more than 40 are needed.
     One workspace allocation per call."""
     r = G.shape[0]
-    ws = np.zeros((9, r, 2 * r), dtype=G.dtype)  # the r x r blocks below and the inverse's r x 2r
-    A = ws[0, :, :r]
-    B = ws[0, :, r:]
-    M = ws[1, :, :r]
-    Mi = ws[1, :, r:]
-    W = ws[2, :, :r]
-    Z = ws[2, :, r:]
-    Z2 = ws[3, :, :r]
-    T = ws[3, :, r:]
-    Ap = ws[4, :, :r]
-    Api = ws[4, :, r:]
-    inv_ws = ws[5]
+    # workspace: r x r blocks as leading-index views of one C-contiguous array (C-contiguous
+    # themselves, so the helpers compile for one array layout), and the inverse's r x 2r
+    ws = np.zeros((13, r, r), dtype=G.dtype)
+    inv_ws = np.zeros((r, 2 * r), dtype=G.dtype)
+    A, B, M, Mi, W, Z, Z2, T, Ap, Api = (
+        ws[0],
+        ws[1],
+        ws[2],
+        ws[3],
+        ws[4],
+        ws[5],
+        ws[6],
+        ws[7],
+        ws[8],
+        ws[9],
+    )
     for i in range(r):
         for j in range(r):
             A[i, j] = G[i, j]
-    if _log_unipotent(G, L, ws[6, :, :r], ws[6, :, r:], ws[7, :, :r]):
+    if _log_unipotent(G, L, ws[10], ws[11], ws[12]):
         return True
     s = 0
     while True:
