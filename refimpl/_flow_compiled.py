@@ -490,10 +490,11 @@ def _control(
     per-row ``|A - B|`` (default: the su(2) quaternion state's; :mod:`refimpl._full_state` passes
     its own for ``G = rho(g)``); ``b_max``: B's largest local tolerance (:data:`B_MAX`);
     ``prop_min_b``: B's tightest local tolerance for the proportional estimate (:data:`PROP_MIN_B`);
-    ``reuse_b``: :data:`REUSE_B` (0: a held ``B`` never becomes ``A``); ``floor(B, steps, kappa)``: per row, a
-    term added to every estimate (the rounding floor both runs share, unseen by ``|A - B|``; a retry
-    then aims at ``tol`` minus it; its third argument: per row the largest ``|A - B| / eps_A`` seen),
-    default none; ``reuse_last``: when ``A`` cannot be tightened further
+    ``reuse_b``: :data:`REUSE_B` (0: a held ``B`` never becomes ``A``); ``floor(B, steps, kappa, rows)``:
+    per row, a term added to every estimate (the rounding floor both runs share, unseen by ``|A - B|``;
+    a retry then aims at ``tol`` minus it; ``kappa``: per row the largest ``|A - B| / eps_A`` seen;
+    ``rows``: the indices of ``B``'s rows in ``y0``, None for the first pair of one trajectory; ``B`` is
+    the array just given to ``estimate``), default none; ``reuse_last``: when ``A`` cannot be tightened further
     (at :data:`EPS_FLOOR`), its held ``B`` becomes ``A`` once as a last resort (with ``reuse_b = 0``);
     ``first``: ``(A, B, steps of B)`` of the first pair already run (one trajectory; default: run here);
     ``a_retry``: a local tolerance for ``A``'s first retry -- a row over ``tol`` by at most
@@ -527,7 +528,7 @@ def _control(
         if eps_a0 >= PROP_MIN_A and eb0 >= prop_min_b:
             e1 = min(e1, PROP * (eb0 / eps_a0) * e1)
         if floor is not None:
-            e1 += float(floor(B, sB, np.array([kap1]))[0])
+            e1 += float(floor(B, sB, np.array([kap1]), None)[0])
         if e1 <= tol:
             return B, np.array([e1]), sB
         first = (A, B, sB)  # kept: the loop below starts from this pair
@@ -565,10 +566,9 @@ def _control(
                 if out is not None:
                     out[idx] = st
         di = np.empty(todo.size)
-        if N == 1:
-            _estimate_(Ares, res, n, di)
-        else:
-            _estimate_(Ares[todo], res[todo], n, di)
+        # one array to both hooks (the floor may reuse what the estimate measured of it)
+        Bt = res if N == 1 else res[todo]
+        _estimate_(Ares if N == 1 else Ares[todo], Bt, n, di)
         d[todo] = di
         # B is at least 1/SAFETY times tighter than A: |A - B| ~ err(A) > err(B); with a much tighter B the
         # tolerance proportionality of the global error (Shampine 1985) gives the smaller estimate
@@ -579,7 +579,7 @@ def _control(
         prop = (ea >= PROP_MIN_A) & (eb >= prop_min_b)
         kap[todo] = np.maximum(kap[todo], di / eps_a[todo])
         if floor is not None:
-            fl[todo] = floor(res if N == 1 else res[todo], steps[todo], kap[todo])
+            fl[todo] = floor(Bt, steps[todo], kap[todo], todo)
         est[todo] = np.where(prop, np.minimum(di, PROP * (eb / ea) * di), di) + fl[todo]
         over = todo[est[todo] > tol]
         if over.size == 0:

@@ -59,10 +59,12 @@ Error control
       tighter ``A`` fails), the held ``B`` becomes ``A`` once;
     * every estimate gets the rounding floor that ``|A - B|`` cannot see, since both runs share it
       (:data:`ROUND_PER_STEP` per step, :data:`ROUND_AMPLIFIED` times the observed amplification), and,
-      for one trajectory inside the control (so that a retry sees it), the logarithm's measured error
-      ``max |Ad(exp(x)) - Ad(g_B)|``: by the triangle inequality the estimate then bounds the error of
-      the ``x`` and ``pi`` returned, checked against the mpmath reference in
-      ``tests/test_full_state_estimate.py``.
+      for every row inside the control (its ``floor`` hook, :class:`_Answer`: a retry sees it, in a
+      batch as alone), the logarithm's measured error ``max |Ad(exp(x)) - Ad(g_B)|``: by the triangle
+      inequality the estimate then bounds the error of the ``x`` and ``pi`` returned, checked against
+      the mpmath reference in ``tests/test_full_state_estimate.py``. The estimate, ``G``, ``Ad(g)``,
+      the logarithm and its residual of a pair are one compiled call
+      (:func:`refimpl._full_state_kernel.pair_log`).
 """
 
 from __future__ import annotations
@@ -429,20 +431,13 @@ def full_state(model, abelian=None) -> FullState:
             np.ascontiguousarray(gv[:, 2]),
             fs.n * (2 if fs.gravity else 1),
         )
-        # the arguments of the compiled start (_fk.start) and logarithm (_fk.log_refined), built once
+        # the arguments of the compiled start (_fk.start) and logarithm (_fk.log_state*), built once
         fs.gamma = np.ascontiguousarray(model.gamma if fs.gravity else np.zeros(fs.n), dtype=float)
         fs.Pab = np.ascontiguousarray(np.zeros((0, fs.n)) if ab is None else ab.P, dtype=float)
         fs.refine = ab is not None and not fs.cplx
-        fs.ab_args = (
-            fs.abelian_tables
-            if fs.refine
-            else (
-                np.zeros((0, fs.n)),
-                np.zeros((fs.n, 0)),
-                np.zeros((fs.n, 0)),
-                np.zeros((0, fs.r, fs.r)),
-            )
-        )
+        # the abelian step of the compiled logarithm (_fk.log_state): 0 none, 1 compiled
+        # (_fk.log_state_refined), 2 by the caller (_log_complete)
+        fs.ab_mode = 0 if ab is None else (1 if fs.refine else 2)
         model.__dict__["_full_state"] = fs
     return fs
 
@@ -483,57 +478,9 @@ def _ad_of(fs: FullState, G) -> np.ndarray:
     return out
 
 
-_NO_S = np.zeros((0, 1))
-
 ABELIAN_RTOL = (
     1e-13  # the log's abelian part is kept when it matches the integrated one this closely
 )
-
-
-def _x_of(fs: FullState, G, Ad, s) -> np.ndarray:
-    """``x`` (N, n) (rows) with ``exp(x) = g``: the principal logarithm of ``G`` when it lies in the algebra
-    (compiled, :func:`refimpl._full_state_kernel.log_batch`), else :meth:`Representation.log`; on
-    exponential algebras the abelian part from ``s`` when the log's differs from it
-    (:class:`refimpl.flows._common._AbelianPart`)."""
-    N = G.shape[0]
-    xs = np.empty((N, fs.n))
-    ok = np.zeros(N, dtype=np.bool_)
-    G = np.ascontiguousarray(G, dtype=fs.mats.dtype)
-    if fs.cplx:
-        _fk.log_batch(G, fs.mats, fs.proj, fs.cplx, xs, ok)
-    else:  # the log and, when it accepted every row, the abelian refine in one call
-        s_ = _NO_S if s is None else np.ascontiguousarray(s)
-        if _fk.log_refined(
-            G, fs.mats, fs.proj, False, xs, ok, s_, *fs.ab_args, ABELIAN_RTOL, fs.refine
-        ):
-            return xs
-    for j in np.flatnonzero(~ok):
-        xs[j] = fs.rep.log(G[j], Ad[j])
-    if fs.abelian is not None:
-        P = fs.abelian.P
-        if not fs.cplx:  # compiled (refimpl._full_state_kernel.abelian_batch), the same refine
-            ab = fs.abelian_tables
-            _fk.abelian_batch(G, xs, np.ascontiguousarray(s), *ab, fs.mats, ABELIAN_RTOL)
-            return xs
-        for j in range(N):
-            sj = s[:, j]
-            if np.max(np.abs(P @ xs[j] - sj)) > ABELIAN_RTOL * max(1.0, float(np.max(np.abs(sj)))):
-                xs[j] = fs.abelian.refine(fs.rep, G[j], xs[j], sj)
-    return xs
-
-
-def _log_of(fs: FullState, B, G, Ad):
-    """``(x, resid)`` of the states ``B`` (N, d): ``x`` (N, n) by :func:`_x_of`, and the logarithm's error
-    measured where the user reads it, ``resid = max |Ad(exp(x)) - Ad(g_B)|`` (the estimate adds it: the
-    triangle inequality); 0 where no logarithm was found (``x`` not finite: the caller names those)."""
-    N = B.shape[0]
-    s = None if fs.abelian is None else B[:, fs.d - fs.n_ab :].T
-    xs = _x_of(fs, G, Ad, s)
-    resid = np.empty(N)
-    _fk.log_residual(xs, fs.mats, fs.proj, fs.cplx, Ad, resid)
-    if not (math.isfinite(resid[0]) if N == 1 else np.all(np.isfinite(resid))):
-        resid[~np.isfinite(resid)] = 0.0
-    return xs, resid
 
 
 def _check_steps(steps, t) -> None:
@@ -550,16 +497,88 @@ def _run(fs: FullState, y0, t, eps, generated=False, order=None):
     return y, steps
 
 
-def _estimate(fs: FullState, A, B, size=None):
-    """``(max(|pi_A - pi_B|, |Ad_A - Ad_B|), G_B, Ad_B)`` per trajectory (compiled); ``size``: receives
-    ``max(|pi_B|, |Ad_B|)`` per trajectory."""
-    N = A.shape[0]
-    GB = np.empty((N, fs.r, fs.r), dtype=fs.mats.dtype)
-    AdB = np.empty((N, fs.n, fs.n))
-    est = np.empty(N)
-    size = np.empty(N) if size is None else size
-    _fk.estimate(A, B, fs.n, *fs.gidx, fs.unit, fs.mats, fs.proj, fs.cplx, GB, AdB, est, size)
-    return est, GB, AdB
+def _log_complete(fs: FullState, B, G, Ad, xs, ok, resid) -> None:
+    """Completes, in place, what :func:`refimpl._full_state_kernel.log_state` left. The answer's ``x``
+    (N, n) with ``exp(x) = g``: the principal logarithm of ``G`` when the compiled one accepts it
+    (:func:`refimpl._full_state_kernel.log_batch`), else :meth:`Representation.log` (rows not ``ok``);
+    on exponential algebras the abelian part from the integrated ``s`` when the log's differs from it
+    (:class:`refimpl.flows._common._AbelianPart`; compiled for a real representation,
+    :func:`refimpl._full_state_kernel.abelian_batch`); then ``resid = max |Ad(exp(x)) - Ad(g_B)|``
+    (0 where no logarithm was found, ``x`` not finite: :func:`refimpl.flows._fast.fast_flow` names
+    those rows)."""
+    s = None if fs.abelian is None else B[:, fs.d - fs.n_ab :].T
+    for j in np.flatnonzero(~ok):
+        xs[j] = fs.rep.log(G[j], Ad[j])
+    if fs.abelian is not None:
+        if not fs.cplx:
+            _fk.abelian_batch(
+                G, xs, np.ascontiguousarray(s), *fs.abelian_tables, fs.mats, ABELIAN_RTOL
+            )
+        else:
+            for j in range(B.shape[0]):
+                sj = s[:, j]
+                dev = np.max(np.abs(fs.abelian.P @ xs[j] - sj))
+                if dev > ABELIAN_RTOL * max(1.0, float(np.max(np.abs(sj)))):
+                    xs[j] = fs.abelian.refine(fs.rep, G[j], xs[j], sj)
+    _fk.log_residual(xs, fs.mats, fs.proj, fs.cplx, Ad, resid)
+    resid[~np.isfinite(resid)] = 0.0
+
+
+class _Answer:
+    """What the control's ``estimate`` hook measured of the ``B`` it was given, and what its ``floor``
+    hook keeps of it per row: one compiled call per estimate (:func:`refimpl._full_state_kernel.pair_log`:
+    ``|A - B|``, ``G``, ``Ad(g)`` and the size of ``B``, the logarithm ``x`` of ``B`` and its residual
+    ``max |Ad(exp x) - Ad(g_B)|``), so that the floor adds that residual for every row -- a retry sees it,
+    for one trajectory and for batches alike -- and the answer's ``x`` is the one already measured."""
+
+    __slots__ = ("B", "G", "Ad", "size", "xs", "resid", "fs", "n", "N", "rows", "all")
+
+    def __init__(self, fs: FullState, N: int):
+        self.fs, self.n, self.N, self.B, self.all = fs, fs.n, N, None, None
+
+    def measure(self, A, B, est) -> None:
+        fs, M = self.fs, B.shape[0]
+        G = np.empty((M, fs.r, fs.r), dtype=fs.mats.dtype)
+        Ad = np.empty((M, fs.n, fs.n))
+        size, xs, ok, resid = np.empty(M), np.empty((M, fs.n)), np.empty(M, np.bool_), np.empty(M)
+        if fs.refine:
+            done = _fk.pair_log_refined(
+                A, B, fs.n, *fs.gidx, fs.mats, fs.proj, *fs.abelian_tables, ABELIAN_RTOL,
+                G, Ad, est, size, xs, ok, resid,
+            )  # fmt: skip
+        else:
+            done = _fk.pair_log(
+                A, B, fs.n, *fs.gidx, fs.unit, fs.mats, fs.proj, fs.cplx, fs.ab_mode,
+                G, Ad, est, size, xs, ok, resid,
+            )  # fmt: skip
+        if not done:
+            _log_complete(fs, B, G, Ad, xs, ok, resid)
+        self.B, self.G, self.Ad, self.size, self.xs, self.resid = B, G, Ad, size, xs, resid
+
+    def estimate(self, A, B, n_, out) -> None:
+        self.measure(A, B, out)
+
+    def floor(self, B, steps, kappa, rows=None):
+        """The rounding floor of the answer ``B`` and its logarithm's residual (:data:`ROUND_PER_STEP`,
+        :data:`ROUND_AMPLIFIED`), per row; keeps ``G``, ``Ad``, ``x`` of those ``rows`` of the answer."""
+        if self.B is not B:  # not the B just estimated (not reached by the control): measure it
+            self.measure(B, B, np.empty(B.shape[0]))
+        if self.N == 1:
+            self.all = (self.G, self.Ad, self.xs, self.resid)
+            per_step = ROUND_PER_STEP * (math.sqrt(steps[0]) + self.n) * max(1.0, self.size[0])
+            return (EPS * (per_step + ROUND_AMPLIFIED * kappa[0]) + self.resid[0],)
+        if self.all is None:
+            fs, N = self.fs, self.N
+            self.all = (
+                np.empty((N, fs.r, fs.r), dtype=fs.mats.dtype),
+                np.empty((N, fs.n, fs.n)),
+                np.empty((N, fs.n)),
+                np.empty(N),
+            )
+        for full, part in zip(self.all, (self.G, self.Ad, self.xs, self.resid)):
+            full[rows] = part
+        per_step = ROUND_PER_STEP * (np.sqrt(steps) + self.n) * np.maximum(1.0, self.size)
+        return EPS * (per_step + ROUND_AMPLIFIED * kappa) + self.resid
 
 
 def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=None) -> dict:
@@ -569,7 +588,9 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
     Returns ``pi``, ``Gamma``, ``x``, ``g`` (``rho(g)``, (N, r, r)), ``Ad``, ``rebases`` (zeros: no
     chart), ``steps``, ``error_estimate`` and ``path``. ``run``: the kernel, ``run(fs, y0, t, eps,
     generated) -> (y, steps)`` (default :func:`_run`; :mod:`refimpl._full_state_rational` passes the
-    ``Upsilon != 0`` one; each kernel picks its own order for ``eps``)."""
+    ``Upsilon != 0`` one; each kernel picks its own order for ``eps``). The estimate includes the
+    logarithm's residual for every row inside the control (:class:`_Answer`), so a row over ``tol`` is
+    retried by the control itself, in a batch as alone."""
     fs = full_state(model, abelian)
     n, N = pi0.shape
     y0 = np.empty((N, fs.d))  # (pi, [Gamma,] G, [s]) at t = 0: _pack of exp(rho(x0)), compiled
@@ -589,13 +610,12 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
     gen = N * abs(t) >= (
         GENERATED_MIN_WORK if fs.n_products <= GENERATED_MAX_PRODUCTS else GENERATED_MIN_WORK_LARGE
     )
-
     if run is not None:
 
         def run_(y, tt, eps, order=None):  # order None: the kernel's own for eps
             return run(fs, y, tt, eps, gen)
 
-    elif gen and not (N >= _fsb.LANES and _fsb.applies(fs)):
+    elif gen and (N < _fsb.LANES or not _fsb.applies(fs)):
         kernel = (
             fs.module().adaptive
         )  # the generated kernel, called directly (FullState.run's body)
@@ -612,38 +632,7 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
         def run_(y, tt, eps, order=None):
             return _run(fs, y, tt, eps, gen)
 
-    last = [None, None, None, None]  # (B, G_B, Ad_B, size of B) of the last estimate
-    logged = [
-        None,
-        None,
-        None,
-    ]  # (B, x of B, the log's residual): one trajectory, inside the control
-
-    def estimate(A, B, n_, out):
-        size = np.empty(B.shape[0])
-        out[:], last[1], last[2] = _estimate(fs, A, B, size)
-        last[0], last[3] = B, size
-
-    def floor(B, steps, kappa):  # the rounding floor of the answer B (and its log's residual)
-        if last[0] is B:
-            size = last[3]
-        else:
-            size = np.empty(B.shape[0])
-            _estimate(fs, B, B, size)
-        if B.shape[0] == 1:
-            # one trajectory: the logarithm of this B too (it is the answer whenever the pair passes),
-            # so a retry also sees the log's residual
-            if last[0] is B:
-                G, Ad = last[1], last[2]
-            else:
-                _, G, Ad = _estimate(fs, B, B)
-            xs, resid = _log_of(fs, B, G, Ad)
-            logged[:] = B, xs, resid
-            per_step = ROUND_PER_STEP * (math.sqrt(steps[0]) + n) * max(1.0, size[0])
-            return (EPS * (per_step + ROUND_AMPLIFIED * kappa[0]) + resid[0],)
-        per_step = ROUND_PER_STEP * (np.sqrt(steps) + n) * np.maximum(1.0, size)
-        return EPS * (per_step + ROUND_AMPLIFIED * kappa)
-
+    ans = _Answer(fs, N)
     res, est, steps = _control(
         model,
         y0,
@@ -651,38 +640,17 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
         eps_a,
         n,
         tol,
-        runner=(run_, lambda eps: None),
-        estimate=estimate,
+        runner=(run_, _no_order),
+        estimate=ans.estimate,
         b_max=B_MAX if run is None else B_MAX_RATIONAL,
         prop_min_b=PROP_MIN_B if run is None else PROP_MIN_B_RATIONAL,
         reuse_b=0.0 if run is None else REUSE_B,
-        floor=floor,
+        floor=ans.floor,
         reuse_last=run is None,
     )
-    if last[0] is res:  # N = 1, first pair: G and Ad(g) of the answer already computed
-        G, Adres = last[1], last[2]
-    else:
-        _, G, Adres = _estimate(fs, res, res)
-    if logged[0] is res:  # one trajectory: x and the log's residual already in the estimate
-        xs = logged[1]
-    else:
-        xs, resid = _log_of(fs, res, G, Adres)
-        est = est + resid
-    if N > 1 and not np.all(est <= tol):
-        # rows the batch's control passed before the log's residual was added (the control sees it
-        # only for one trajectory): each such row again alone, where a retry sees the residual too
-        for k in np.flatnonzero(~(est <= tol)).tolist():
-            try:
-                one = full_state_flow(
-                    model, x0[:, k : k + 1], pi0[:, k : k + 1], t, tol, abelian=abelian, run=run
-                )
-            except ValueError:
-                continue  # stays over tol: refused below with the batch's other rows
-            res[k, :n] = one["pi"][:, 0]
-            if fs.gravity:
-                res[k, n : 2 * n] = one["Gamma"][:, 0]
-            xs[k], G[k], Adres[k] = one["x"][:, 0], one["g"][0], one["Ad"][0]
-            steps[k], est[k] = one["steps"][0], one["error_estimate"][0]
+    G, Adres, xs, _ = (
+        ans.all
+    )  # of the final B of every row: its last floor (the control's last pass)
     if not (est[0] <= tol if N == 1 else np.all(est <= tol)):
         over = np.flatnonzero(~(est <= tol))
         raise ValueError(
@@ -701,3 +669,7 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
         "error_estimate": est,
         "path": _ct.PATH,
     }
+
+
+def _no_order(eps):
+    return None

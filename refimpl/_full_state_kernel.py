@@ -174,7 +174,7 @@ def adaptive(y0, T, tol, P, max_steps, nv, drow, dptr, didx, dcoef, pu, pw, pcls
 # adjoint Ad(g) from G = rho(g), and the principal logarithm by inverse scaling and squaring -- the same
 # mathematics as scipy's expm/logm used by refimpl._representation, without their per-call overhead
 # (~0.1-5 ms on a 4 x 4 matrix; these run in microseconds). The caller falls back to
-# Representation.log wherever the principal logarithm is not accepted (see _full_state._x_of).
+# Representation.log wherever the principal logarithm is not accepted (see _full_state._log_complete).
 
 
 @njit(cache=True, nogil=True)
@@ -273,43 +273,238 @@ def expm(X, E):
 
 
 @njit(cache=True, nogil=True)
-def _sqrtm(A, Y):
-    """Principal square root by the Denman-Beavers iteration; False when it does not converge (an
+def expm_frechet(X, Es, E, L):
+    """``E = exp(X)`` and ``L[c] = L(X, Es[c])``, the Frechet derivatives of ``exp`` at ``X`` in the
+    directions ``Es[c]`` (m, r, r): the blocks of ``exp([[X, Es[c]], [0, X]]) = [[E, L[c]], [0, E]]``
+    (Higham, Functions of Matrices, 3.2), by :func:`expm`'s method applied to that block matrix --
+    the Taylor series of the block scaled by ``2^-s`` (``s`` from its 1-norm bound
+    ``|X|_1 + max_c |Es[c]|_1``, down to 1/2) summed until its terms fall below ``1e-18``, then ``s``
+    squarings -- written on the blocks: term ``k`` is ``[[T_k, U_k], [0, T_k]]`` with
+    ``T_k = T_(k-1) X' / k``, ``U_k = (U_(k-1) X' + T_(k-1) E') / k``, and a squaring maps ``(E, L)``
+    to ``(E^2, E L + L E)``; the same arithmetic without the zero block, and ``T_k`` shared by all
+    directions (``2m + 1`` products of ``r x r`` matrices per term instead of ``m`` of ``2r x 2r``)."""
+    m = Es.shape[0]
+    r = X.shape[0]
+    nrm = _norm1(X)
+    ne = 0.0
+    for c in range(m):
+        ne = max(ne, _norm1(Es[c]))
+    nrm += ne
+    s = 0
+    while nrm > 0.5:
+        nrm *= 0.5
+        s += 1
+    sc = 0.5**s
+    T = np.zeros((r, r))
+    Tn = np.zeros((r, r))
+    W = np.zeros((r, r))
+    U = np.zeros((m, r, r))
+    for i in range(r):
+        for j in range(r):
+            E[i, j] = 0.0
+            T[i, j] = 0.0
+            for c in range(m):
+                L[c, i, j] = 0.0
+                U[c, i, j] = 0.0
+        E[i, i] = 1.0
+        T[i, i] = 1.0
+    for k in range(1, 40):
+        f = sc / k
+        tmax = 0.0
+        for c in range(m):  # U_k = (U_(k-1) X + T_(k-1) E_c) sc / k, from the old T
+            for i in range(r):
+                for j in range(r):
+                    acc = 0.0
+                    for q in range(r):
+                        acc += U[c, i, q] * X[q, j] + T[i, q] * Es[c, q, j]
+                    W[i, j] = acc * f
+            for i in range(r):
+                for j in range(r):
+                    U[c, i, j] = W[i, j]
+                    L[c, i, j] += W[i, j]
+                    tmax = max(tmax, abs(W[i, j]))
+        _matmul(T, X, Tn)
+        for i in range(r):
+            for j in range(r):
+                T[i, j] = Tn[i, j] * f
+                E[i, j] += T[i, j]
+                tmax = max(tmax, abs(T[i, j]))
+        if tmax <= 1e-18:
+            break
+    for _ in range(s):
+        for c in range(m):
+            for i in range(r):
+                for j in range(r):
+                    acc = 0.0
+                    for q in range(r):
+                        acc += E[i, q] * L[c, q, j] + L[c, i, q] * E[q, j]
+                    W[i, j] = acc
+            for i in range(r):
+                for j in range(r):
+                    L[c, i, j] = W[i, j]
+        _matmul(E, E, W)
+        for i in range(r):
+            for j in range(r):
+                E[i, j] = W[i, j]
+
+
+@njit(cache=True, nogil=True)
+def _inverse_det(A, Ainv, M):
+    """:func:`_inverse` in the workspace ``M`` (r, 2r), returning ``|det A|`` (0.0 when a pivot
+    vanishes: ``Ainv`` is then not written)."""
+    r = A.shape[0]
+    for i in range(r):
+        for j in range(r):
+            M[i, j] = A[i, j]
+            M[i, r + j] = 0.0
+        M[i, r + i] = 1.0
+    det = 1.0
+    for c in range(r):
+        p = c
+        for i in range(c + 1, r):
+            if abs(M[i, c]) > abs(M[p, c]):
+                p = i
+        if not (abs(M[p, c]) > 0.0):
+            return 0.0
+        if p != c:
+            for j in range(2 * r):
+                tmp = M[c, j]
+                M[c, j] = M[p, j]
+                M[p, j] = tmp
+        det *= abs(M[c, c])
+        piv = 1.0 / M[c, c]
+        for j in range(2 * r):
+            M[c, j] *= piv
+        for i in range(r):
+            if i != c:
+                g = M[i, c]
+                if g != 0.0:
+                    for j in range(2 * r):
+                        M[i, j] -= g * M[c, j]
+    for i in range(r):
+        for j in range(r):
+            Ainv[i, j] = M[i, r + j]
+    return det
+
+
+@njit(cache=True, nogil=True)
+def _sqrtm(A, Y, Z, Yi, Zi, ws):
+    """Principal square root ``Y`` of ``A`` by the Denman-Beavers iteration ``Y_0 = A``, ``Z_0 = I``,
+    ``Y <- (mu Y + Z^-1 / mu) / 2``, ``Z <- (mu Z + Y^-1 / mu) / 2`` with determinantal scaling
+    ``mu = |det Y det Z|^(-1/(2r))`` (Higham, Functions of Matrices, 2008, 6.3 and 6.5; it only speeds
+    up the first iterations and stops once an update moves ``Y`` by at most ``1e-2 |Y|``), until an
+    update moves ``Y`` by at most ``1e-15 |Y|`` (max norms) or follows one that moved it by at most
+    ``1e-7 |Y|`` (convergence is quadratic: that one left ~1e-14, and on ill-conditioned ``A`` the
+    moves then stall at ``~cond eps`` instead of reaching 1e-15, measured 1e-14 on ``exp`` of a
+    Bianchi VI0 element of norm 8). ``Z``, ``Yi``, ``Zi`` (r, r) and ``ws``
+    (r, 2r) are workspace. False when it does not converge in 60 iterations or a pivot vanishes (an
     eigenvalue on or near the closed negative real axis)."""
     r = A.shape[0]
-    Z = np.zeros_like(A)
-    Yi = np.zeros_like(A)
-    Zi = np.zeros_like(A)
     for i in range(r):
         for j in range(r):
             Y[i, j] = A[i, j]
             Z[i, j] = 0.0
         Z[i, i] = 1.0
+    scale = True
+    prev = np.inf
     for _ in range(60):
-        if not _inverse(Y, Yi) or not _inverse(Z, Zi):
+        dy = _inverse_det(Y, Yi, ws)
+        dz = _inverse_det(Z, Zi, ws)
+        if not (dy > 0.0 and dz > 0.0):
             return False
+        mu = (dy * dz) ** (-0.5 / r) if scale else 1.0
+        if not (mu > 0.0 and math.isfinite(mu)):
+            return False
+        h = 0.5 * mu
+        hi = 0.5 / mu
         d = 0.0
         ny = 0.0
         for i in range(r):
             for j in range(r):
-                yn = 0.5 * (Y[i, j] + Zi[i, j])
+                yn = h * Y[i, j] + hi * Zi[i, j]
                 d = max(d, abs(yn - Y[i, j]))
                 ny = max(ny, abs(yn))
                 Y[i, j] = yn
-                Z[i, j] = 0.5 * (Z[i, j] + Yi[i, j])
-        if d <= 1e-15 * ny:
+                Z[i, j] = h * Z[i, j] + hi * Yi[i, j]
+        if d <= 1e-2 * ny:
+            scale = False
+        if d <= 1e-15 * ny or prev <= 1e-7:  # converged, or one step after a move of 1e-7: the
+            return True  # quadratic convergence leaves ~1e-14 before it, rounding noise after
+        prev = d / ny
+    return False
+
+
+LOG_SERIES_RADIUS = 0.5
+""":func:`logm` takes square roots until ``|A - I|_1 <= LOG_SERIES_RADIUS``, then sums the series
+``log A = 2 atanh(Z)``, ``Z = (A - I)(A + I)^-1`` (``|Z|_1 <= 0.5 / 1.5``: a term falls by ``1/9`` or
+more, about 17 terms to ``1e-18``; at 0.2, the old radius, about 9, but one square root more, which
+costs five to ten times a term). Each square root halves ``log A``: ``2^s`` multiplies what the series
+and the roots leave, as in scipy's inverse scaling and squaring."""
+
+
+@njit(cache=True, nogil=True)
+def _log_unipotent(G, L, N, P, W):
+    """``L = log G = sum_(k<r) (-1)^(k+1) N^k / k`` when ``N = G - I`` is nilpotent with ``N^r = 0``
+    exactly in floating point (a unipotent ``G`` whose ``N`` is strictly triangular in the
+    representation's basis, as on nilpotent algebras: the products' zeros are structural); the series
+    then is the logarithm itself, with no square roots. False otherwise (``L`` then holds a partial
+    sum, overwritten by the caller)."""
+    r = G.shape[0]
+    for i in range(r):
+        for j in range(r):
+            N[i, j] = G[i, j] - (1.0 if i == j else 0.0)
+            P[i, j] = N[i, j]
+            L[i, j] = 0.0
+    for k in range(1, r + 1):  # P = N^k; after the loop's last product N^(r)
+        zero = True
+        for i in range(r):
+            for j in range(r):
+                if P[i, j] != 0.0:
+                    zero = False
+        if zero:
             return True
+        if k == r:
+            return False
+        c = (1.0 if k % 2 == 1 else -1.0) / k
+        for i in range(r):
+            for j in range(r):
+                L[i, j] += c * P[i, j]
+        _matmul(P, N, W)
+        for i in range(r):
+            for j in range(r):
+                P[i, j] = W[i, j]
     return False
 
 
 @njit(cache=True, nogil=True)
 def logm(G, L):
-    """Principal logarithm: square roots until ``||G^(1/2^s) - 1||_1 <= 0.2``, then
-    ``log A = 2 atanh(Z)``, ``Z = (A - 1)(A + 1)^-1`` (the series ``2 (Z + Z^3/3 + ...)``), times ``2^s``.
-    False when a square root fails or more than 40 are needed."""
+    """Principal logarithm: the finite series of a unipotent ``G`` (:func:`_log_unipotent`), else square
+    roots (:func:`_sqrtm`) until ``||G^(1/2^s) - 1||_1 <=``
+    :data:`LOG_SERIES_RADIUS`, then ``log A = 2 atanh(Z)``, ``Z = (A - 1)(A + 1)^-1`` (the series
+    ``2 (Z + Z^3/3 + ...)``), times ``2^s``. False when a square root fails or more than 40 are needed.
+    One workspace allocation per call."""
     r = G.shape[0]
-    A = G.copy()
-    B = np.zeros_like(G)
+    # workspace: r x r blocks as leading-index views of one C-contiguous array (C-contiguous
+    # themselves, so the helpers compile for one array layout), and the inverse's r x 2r
+    ws = np.zeros((13, r, r), dtype=G.dtype)
+    inv_ws = np.zeros((r, 2 * r), dtype=G.dtype)
+    A, B, M, Mi, W, Z, Z2, T, Ap, Api = (
+        ws[0],
+        ws[1],
+        ws[2],
+        ws[3],
+        ws[4],
+        ws[5],
+        ws[6],
+        ws[7],
+        ws[8],
+        ws[9],
+    )
+    for i in range(r):
+        for j in range(r):
+            A[i, j] = G[i, j]
+    if _log_unipotent(G, L, ws[10], ws[11], ws[12]):
+        return True
     s = 0
     while True:
         d = 0.0
@@ -318,30 +513,28 @@ def logm(G, L):
             for i in range(r):
                 c += abs(A[i, j] - (1.0 if i == j else 0.0))
             d = max(d, c)
-        if d <= 0.2:
+        if not math.isfinite(d):
+            return False
+        if d <= LOG_SERIES_RADIUS:
             break
-        if s >= 40 or not _sqrtm(A, B):
+        if s >= 40 or not _sqrtm(A, B, M, Mi, W, inv_ws):
             return False
         for i in range(r):
             for j in range(r):
                 A[i, j] = B[i, j]
         s += 1
-    Am = A.copy()
-    Ap = A.copy()
-    for i in range(r):
-        Am[i, i] -= 1.0
-        Ap[i, i] += 1.0
-    Api = np.zeros_like(A)
-    if not _inverse(Ap, Api):
-        return False
-    Z = np.zeros_like(A)
-    _matmul(Am, Api, Z)
-    Z2 = np.zeros_like(A)
-    _matmul(Z, Z, Z2)
-    T = Z.copy()
-    W = np.zeros_like(A)
     for i in range(r):
         for j in range(r):
+            Ap[i, j] = A[i, j]
+            A[i, j] = A[i, j] - (1.0 if i == j else 0.0)  # A - I from here on
+        Ap[i, i] += 1.0
+    if _inverse_det(Ap, Api, inv_ws) == 0.0:
+        return False
+    _matmul(A, Api, Z)
+    _matmul(Z, Z, Z2)
+    for i in range(r):
+        for j in range(r):
+            T[i, j] = Z[i, j]
             L[i, j] = Z[i, j]
     for k in range(1, 60):
         _matmul(T, Z2, W)
@@ -424,16 +617,23 @@ def log_batch(G, mats, proj, cplx, out, ok):
     """``out[N]``: the coordinates of the principal logarithm of ``G[N]`` on the ``E_a``; ``ok[N]``
     when it exists and ``exp(rho(x)) = G`` to ``1e3 eps cond max(1, |G|) r`` (``cond = exp(||rho(x)||_1)``,
     the acceptance test of Representation._accept)."""
+    log_batch_exp(G, mats, proj, cplx, out, ok, np.empty_like(G))
+
+
+@njit(cache=True, nogil=True)
+def log_batch_exp(G, mats, proj, cplx, out, ok, Ex):
+    """:func:`log_batch`, keeping ``Ex[N] = exp(rho(x))`` of the acceptance test (what
+    :func:`log_residual` computes again from ``x``: the same arithmetic) for the rows reaching it."""
     N, r, _ = G.shape
     n = mats.shape[0]
     L = np.zeros((r, r), dtype=G.dtype)
     X = np.zeros((r, r), dtype=G.dtype)
-    E = np.zeros((r, r), dtype=G.dtype)
     x = np.zeros(n)
     eps = 2.220446049250313e-16
     for it in range(N):
         ok[it] = False
         Gt = G[it]
+        E = Ex[it]
         if not logm(Gt, L):
             continue
         _project(L, proj, cplx, x)
@@ -540,7 +740,8 @@ def refine_abelian(G, x0, s, P, Ppinv, D, Dr, mats, out):
     residual is at ``8 r eps max(1, |G|)`` (the rounding of ``exp(rho(x))``: no step can improve it,
     and one that tried cost another four exponentials); the Jacobian's
     columns are the Frechet derivatives ``L(rho(x), Dr_j)``, the upper right block of the exponential of
-    ``[[rho(x), Dr_j], [0, rho(x)]]`` (Higham, Functions of Matrices, 3.2); ``x0`` itself when the fit
+    ``[[rho(x), Dr_j], [0, rho(x)]]`` (Higham, Functions of Matrices, 3.2; all ``j`` in one call of
+    :func:`expm_frechet`, on the blocks); ``x0`` itself when the fit
     does not come within ``10 |exp(rho(x0)) - G| + 1e3 eps max(1, |G|)``."""
     n = x0.shape[0]
     r = G.shape[0]
@@ -550,8 +751,8 @@ def refine_abelian(G, x0, s, P, Ppinv, D, Dr, mats, out):
     R0 = np.zeros((r, r))
     Rb = np.zeros((r, r))
     Rc = np.zeros((r, r))
-    Z = np.zeros((2 * r, 2 * r))
-    EZ = np.zeros((2 * r, 2 * r))
+    EZ = np.zeros((r, r))
+    Lc = np.zeros((m, r, r))
     J = np.zeros((r * r, m))
     rhs = np.zeros(r * r)
     Jr = np.zeros(m)
@@ -584,21 +785,11 @@ def refine_abelian(G, x0, s, P, Ppinv, D, Dr, mats, out):
             rb <= at_floor
         ):  # a residual at the rounding of exp(rho(x)) itself: no step can improve it
             break
-        for i in range(2 * r):
-            for j in range(2 * r):
-                Z[i, j] = 0.0
-        for i in range(r):
-            for j in range(r):
-                Z[i, j] = X[i, j]
-                Z[r + i, r + j] = X[i, j]
+        expm_frechet(X, Dr, EZ, Lc)
         for c in range(m):
             for i in range(r):
                 for j in range(r):
-                    Z[i, r + j] = Dr[c, i, j]
-            expm(Z, EZ)
-            for i in range(r):
-                for j in range(r):
-                    J[i * r + j, c] = EZ[i, r + j]
+                    J[i * r + j, c] = Lc[c, i, j]
         for i in range(r):
             for j in range(r):
                 rhs[i * r + j] = -Rb[i, j]
@@ -668,7 +859,7 @@ def abelian_batch(G, xs, s, P, Ppinv, D, Dr, mats, rtol):
 # ---------------------------------------------------------------------- per-call glue, one call each
 # The starting state and the logarithm of the full state as one compiled call each (the numpy glue
 # they replace cost ~10 us of call overhead apiece on one trajectory; the same formulas as
-# refimpl._full_state._pack and ._x_of, which stay the documentation).
+# refimpl._full_state._pack and ._log_complete, which stay the documentation).
 @njit(cache=True, nogil=True)
 def start(X, Pi, mats, proj, cplx, gpart, gi, gj, off, gamma, grav, Pab, y0):
     """``y0[N] = (pi, [Gamma,] G entries, [s])`` from ``X``, ``Pi`` (n, N): ``G = exp(rho(x))``,
@@ -703,21 +894,6 @@ def start(X, Pi, mats, proj, cplx, gpart, gi, gj, off, gamma, grav, Pab, y0):
 
 
 @njit(cache=True, nogil=True)
-def log_refined(G, mats, proj, cplx, xs, ok, s, P, Ppinv, D, Dr, rtol, refine):
-    """:func:`log_batch`; then, when it accepted every row and ``refine`` (a real representation with
-    an abelian part), :func:`abelian_batch` on them (``s`` (k, N) the integrated part). Returns whether
-    the refine ran (else the caller completes the rows: the fallback log first, then the refine)."""
-    log_batch(G, mats, proj, cplx, xs, ok)
-    if not refine:
-        return False
-    for j in range(xs.shape[0]):
-        if not ok[j]:
-            return False
-    abelian_batch(G, xs, s, P, Ppinv, D, Dr, mats, rtol)
-    return True
-
-
-@njit(cache=True, nogil=True)
 def log_residual(xs, mats, proj, cplx, Ad, out):
     """``out[N] = max |Ad(exp(rho(x))) - Ad|`` for the rows of ``xs`` (N, n) (inf when not finite):
     how far the logarithm's ``x`` moves what the user reads from ``Ad(g)``."""
@@ -733,3 +909,80 @@ def log_residual(xs, mats, proj, cplx, Ad, out):
             for b in range(n):
                 m = max(m, abs(Adx[it, a, b] - Ad[it, a, b]))
         out[it] = m if math.isfinite(m) else np.inf
+
+
+@njit(cache=True, nogil=True)
+def _residual_final(Ex, mats, proj, cplx, Ad, resid):
+    """:func:`log_residual` from ``Ex[N] = exp(rho(x))`` already computed, 0 where not finite (no
+    logarithm found there: the caller names those rows)."""
+    N = Ex.shape[0]
+    n = mats.shape[0]
+    Adx = np.empty((N, n, n))
+    ad_batch(Ex, mats, proj, cplx, Adx)
+    for it in range(N):
+        m = 0.0
+        for a in range(n):
+            for b in range(n):
+                m = max(m, abs(Adx[it, a, b] - Ad[it, a, b]))
+        resid[it] = m if math.isfinite(m) else 0.0
+
+
+@njit(cache=True, nogil=True)
+def log_state(G, Ad, mats, proj, cplx, ab_mode, xs, ok, resid):
+    """The answer's logarithm and its residual in one call: :func:`log_batch` of ``G`` (N, r, r) into
+    ``xs`` and, when it accepted every row and no abelian part is to be refined (``ab_mode`` 0; 2: a
+    complex representation with an abelian part, refined by the caller), ``resid`` by
+    :func:`log_residual` against ``Ad``. Returns whether ``xs`` and ``resid`` are final (else the
+    caller completes them, ``refimpl._full_state._log_complete``)."""
+    Ex = np.empty_like(G)
+    log_batch_exp(G, mats, proj, cplx, xs, ok, Ex)
+    for j in range(xs.shape[0]):
+        if not ok[j]:
+            return False
+    if ab_mode != 0:
+        return False
+    _residual_final(Ex, mats, proj, cplx, Ad, resid)
+    return True
+
+
+@njit(cache=True, nogil=True)
+def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid):
+    """:func:`log_state` of a real representation with an abelian part: after :func:`log_batch` (when
+    it accepted every row) :func:`abelian_batch` with ``s`` the last ``k = P.shape[0]`` entries of the
+    states ``B`` (N, d), then ``resid``. Returns whether ``xs`` and ``resid`` are final."""
+    Ex = np.empty_like(G)
+    log_batch_exp(G, mats, proj, False, xs, ok, Ex)
+    N, n = xs.shape
+    for j in range(N):
+        if not ok[j]:
+            return False
+    k = P.shape[0]
+    d = B.shape[1]
+    s = np.empty((k, N))
+    for j in range(N):
+        for ell in range(k):
+            s[ell, j] = B[j, d - k + ell]
+    x0 = xs.copy()
+    abelian_batch(G, xs, s, P, Ppinv, D, Dr, mats, rtol)
+    for j in range(N):  # rows the refine moved: their exp(rho(x)) again
+        for a in range(n):
+            if xs[j, a] != x0[j, a]:
+                exp_batch(xs[j : j + 1], mats, Ex[j : j + 1])
+                break
+    _residual_final(Ex, mats, proj, False, Ad, resid)
+    return True
+
+
+@njit(cache=True, nogil=True)
+def pair_log(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+    """:func:`estimate` of the pair ``(A, B)`` and :func:`log_state` of ``B`` in one call (one dispatch
+    instead of four on the common protocol call). Returns :func:`log_state`'s flag."""
+    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, size)
+    return log_state(GB, AdB, mats, proj, cplx, ab_mode, xs, ok, resid)
+
+
+@njit(cache=True, nogil=True)
+def pair_log_refined(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+    """:func:`pair_log` with :func:`log_state_refined` (a real representation with an abelian part)."""
+    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, False, GB, AdB, est, size)
+    return log_state_refined(B, GB, AdB, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid)

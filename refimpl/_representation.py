@@ -67,6 +67,7 @@ For nilpotent algebras ``exp`` is a global diffeomorphism and ``phi1(-ad_x)`` ne
 
 from __future__ import annotations
 
+import functools
 import itertools
 import warnings
 from dataclasses import dataclass, field
@@ -78,6 +79,7 @@ import numpy as np
 import scipy.linalg
 import sympy
 
+from . import _full_state_kernel as _fk
 from ._algebra import LieAlgebra
 from ._catalogue import CATALOGUE_NAMES, catalogue
 from ._phi import expm, phi1, phi1_mp
@@ -101,9 +103,18 @@ RANK_RTOL = (
 
 
 def _logm(G):
-    """scipy's ``logm`` without its accuracy warning: every caller accepts a logarithm only through
-    ``Representation._accept`` (``exp(rho(x)) = G`` within the written model), not by scipy's own
-    estimate, which warns on near-cut-locus matrices whose logarithm is then refined or refused."""
+    """The principal logarithm of a float64 matrix: the compiled inverse scaling and squaring of
+    :func:`refimpl._full_state_kernel.logm` (real or complex; a 10 x 10 matrix in ~0.1 ms, scipy's
+    ``logm`` ~2 ms), else -- where that one refuses (an eigenvalue on or near the closed negative axis,
+    or more than 40 square roots) -- scipy's ``logm`` without its accuracy warning. Every caller
+    accepts a logarithm only through ``Representation._accept`` (``exp(rho(x)) = G`` within the
+    written model), never by either routine's own estimate."""
+    G = np.asarray(G)
+    if G.ndim == 2 and G.shape[0] == G.shape[1] and G.dtype.kind in "fc" and G.shape[0] > 0:
+        A = np.ascontiguousarray(G, dtype=complex if G.dtype.kind == "c" else float)
+        L = np.empty_like(A)
+        if np.all(np.isfinite(A)) and _fk.logm(A, L):
+            return L
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         return scipy.linalg.logm(G)
@@ -568,7 +579,7 @@ class Representation:
         G = np.asarray(G)
         if Ad is None:
             raise ValueError("Representation.log needs Ad(g)")
-        for cand in (lambda: self._log_a(G), lambda: self._log_b(G, Ad)):
+        for cand in self._candidates(G, Ad):
             with np.errstate(all="ignore"):
                 try:
                     x = cand()
@@ -583,6 +594,20 @@ class Representation:
                 return np.real(x)
         return self._log_cut(G, Ad)
 
+    def _candidates(self, G, Ad):
+        """(a) and (b) as callables; (b) left out where it is (a) again (:meth:`_is_ad`)."""
+        a = lambda: self._log_a(G)  # noqa: E731
+        return (a,) if self._is_ad(G, Ad) else (a, lambda: self._log_b(G, Ad))
+
+    def _is_ad(self, G, Ad) -> bool:
+        """The adjoint representation of an algebra without centre (``rho = ad``): ``G`` is ``Ad(g)``
+        itself (``Ad`` the same matrix up to the rounding of its computation), so (b), the log of
+        ``Ad`` projected on the same basis, repeats (a) and is left out."""
+        if self.kind == "adjoint" and self.centre.shape[1] == 0 and G.shape == Ad.shape:
+            n = self.f.shape[0]
+            return np.array_equal(self.mats, np.array([self.f[:, b, :] for b in range(n)]))
+        return False
+
     def _direction(self):
         n = self.f.shape[0]
         d = np.arange(1, n + 1, dtype=float)
@@ -593,9 +618,12 @@ class Representation:
         d = self._direction()
         s = 1e-6
         Gp = G @ expm(-s * self.matrix(d))
-        Adp = Ad @ expm(-s * np.einsum("a,mab->mb", d, self.f))
+        if self._is_ad(G, Ad):  # Ad(g exp(-s d)) is that same matrix: (b) stays left out
+            Adp = Gp
+        else:
+            Adp = Ad @ expm(-s * np.einsum("a,mab->mb", d, self.f))
         x = None
-        for cand in (lambda: self._log_a(Gp), lambda: self._log_b(Gp, Adp)):
+        for cand in self._candidates(Gp, Adp):
             with np.errstate(all="ignore"):
                 try:
                     x = np.real(cand())
@@ -642,10 +670,7 @@ class Representation:
             used |= {k, kc}
             pairs.append((k, kc))
         adb = np.array([self.f[:, a, :] for a in range(n)])
-        shifts = sorted(
-            itertools.product(range(-2, 3), repeat=len(pairs)), key=lambda m: (sum(map(abs, m)), m)
-        )
-        for m in shifts[:4000]:
+        for m in _shifts(len(pairs)):
             L = L0.copy()
             for (k, kc), mk in zip(pairs, m):
                 L[k] += 2j * np.pi * mk
@@ -783,6 +808,18 @@ class Representation:
         raise RepresentationError(
             "no logarithm of g found on the cut locus (Newton did not converge)"
         )
+
+
+@functools.lru_cache(maxsize=16)
+def _shifts(k: int) -> tuple:
+    """The branch shifts of :meth:`Representation._log_branches` for ``k`` conjugate pairs: ``m`` in
+    ``{0, +-1, +-2}^k`` by increasing ``sum |m|`` (then lexicographically), the first 4000 (built once
+    per ``k``)."""
+    return tuple(
+        sorted(itertools.product(range(-2, 3), repeat=k), key=lambda m: (sum(map(abs, m)), m))[
+            :4000
+        ]
+    )
 
 
 def _min_norm(rows, X):

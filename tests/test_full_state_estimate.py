@@ -79,3 +79,25 @@ def test_estimate_bounds_the_error(name, tol):
     err = max(np.max(np.abs(pi - pir)), np.max(np.abs(Ad - Adr)))
     assert err <= est + judge, (err, est, judge)
     assert np.max(np.abs(x - xr)) <= 1e-6 * max(1.0, np.max(np.abs(xr)))  # the same branch of log
+
+
+@needs_numba
+@pytest.mark.parametrize("name", ["bianchi_cocycle", "manakov_so4"])
+def test_batch_estimate_bounds_the_error_on_every_row(name):
+    """The same bound through the batch path (the lane kernel, ``N = LANES + 1``, and the control's
+    per-row floor with each row's logarithm residual): every row starts where the single trajectory
+    does, so every row's estimate must bound that row's error against the same reference."""
+    f, theta, ups, inertia, x0, pi0, T = _problem(name)
+    model = cached_model(f, theta, ups, inertia, None)
+    N = fs_mod._fsb.LANES + 1
+    X0, P0 = np.repeat(x0[:, None], N, axis=1), np.repeat(pi0[:, None], N, axis=1)
+    r = fs_mod.full_state_flow(model, X0, P0, T, 1e-10, abelian=_AbelianPart)
+    xr, pir = _reference(name)
+    Adr = _ad(f, xr)
+    judge = 4 * EPS * max(1.0, np.max(np.abs(Adr)))
+    for k in range(N):
+        est = float(r["error_estimate"][k])
+        assert np.isfinite(est) and 0 < est <= 1e-10
+        x, pi = r["x"][:, k], r["pi"][:, k]
+        err = max(np.max(np.abs(pi - pir)), np.max(np.abs(_ad(f, x) - Adr)))
+        assert err <= est + judge, (k, err, est, judge)

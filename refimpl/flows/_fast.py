@@ -69,9 +69,18 @@ _MODELS = LRU(
 )  # validated models kept (keyed on the bytes of the inputs), least recently used dropped
 
 
+_F64 = np.dtype(np.float64)
+_F64_STR = _F64.str
+
+
 def _numeric_key(a):
     """``(dtype, shape, bytes)`` of a plain numeric array-like, or None (not cacheable: object arrays,
     LieAlgebra instances, strings; those take the uncached route through full validation)."""
+    if type(a) is np.ndarray:  # the common call: no conversion
+        dt = a.dtype
+        if dt is _F64:  # native float64 (its ``str`` read once)
+            return (_F64_STR, a.shape, a.tobytes())
+        return (dt.str, a.shape, a.tobytes()) if dt.kind in "fiub" else None
     if isinstance(a, LieAlgebra):
         return None
     try:
@@ -105,10 +114,16 @@ def cached_model(f, theta, upsilon, inertia, potential) -> NumpyModel:
     earlier one is that model: the second call skips validation and preparation (inverse inertia,
     su(2) detection, compiled fields). Inputs that are not plain numeric arrays are validated afresh
     every time. The caller's arrays are only read (their bytes copied into the key)."""
-    keys = [_numeric_key(a) for a in (f, theta, upsilon, inertia)] + [_potential_key(potential)]
-    if any(k is None for k in keys):
+    key = (
+        _numeric_key(f),
+        _numeric_key(theta),
+        _numeric_key(upsilon),
+        _numeric_key(inertia),
+        _potential_key(potential),
+    )
+    if None in key:
         return NumpyModel(f, theta, upsilon, inertia, potential)
-    return _MODELS.get(tuple(keys), lambda: Model(f, theta, upsilon, inertia, potential))
+    return _MODELS.get(key, lambda: Model(f, theta, upsilon, inertia, potential))
 
 
 def _points(x0, pi0, n: int):
@@ -132,10 +147,13 @@ def _points(x0, pi0, n: int):
 SMALL = 32  # arrays up to this size are checked entry by entry in Python (cheaper than numpy calls)
 
 
+_WITHIN = float(MAX_MAGNITUDE).__ge__  # M >= |v|: False for NaN and infinities
+
+
 def _bounded(a) -> bool:
     """:func:`within_boundary` (NaN fails every comparison); small arrays without numpy reductions."""
     if a.size <= SMALL:
-        return all(-MAX_MAGNITUDE <= v <= MAX_MAGNITUDE for v in a.ravel().tolist())
+        return all(map(_WITHIN, map(abs, a.ravel().tolist())))
     return within_boundary(a)
 
 
@@ -145,7 +163,7 @@ def _check_rates(model: NumpyModel, pa, tv: float) -> None:
     bound, evaluated here on ``max |pi|`` over the batch, could exceed the budget."""
     c = model.rate_const
     if pa.size <= SMALL:
-        size = max((abs(v) for v in pa.ravel().tolist()), default=0.0) * math.sqrt(model.n)
+        size = max(map(abs, pa.ravel().tolist()), default=0.0) * math.sqrt(model.n)
     else:
         size = float(np.max(np.abs(pa))) * math.sqrt(model.n)
     if not abs(tv) * c * max(1.0, size) <= 0.5 * 2.0**14 * (2 + abs(tv)):  # half the budget: margin
@@ -188,7 +206,7 @@ def fast_flow(
     # plain float t: the exact conversion of check_time is the identity (the same checks, no mpmath)
     tv = float(t) if type(t) in (float, np.float64) and math.isfinite(t) else None
     tv = check_time(t, allow_negative=True) if tv is None else tv
-    tol = check_tolerance(tol)
+    tol = tol if type(tol) is float and 0.0 < tol < math.inf else check_tolerance(tol)
     check_flow_request(tv, tol, steps, method_name, METHODS)  # issue 15 hook: the stated budget
     model = cached_model(f, theta, upsilon, inertia, potential)
     n = model.n
@@ -209,8 +227,10 @@ def fast_flow(
         raise ValueError(f"method {meth.name} is adaptive: give tol, not steps")
     if steps is not None and (not isinstance(steps, (int, np.integer)) or steps < 1):
         raise ValueError(f"steps must be a positive int, got {steps!r}")
-    budget = StepBudget("fast_flow")  # issue 30: a count budget holds in time (refimpl._validate)
     if not meth.adaptive or X.shape[1] * abs(tv) >= 256:
+        budget = StepBudget(
+            "fast_flow"
+        )  # issue 30: a count budget holds in time (refimpl._validate)
         doing = f"{meth.name} on {X.shape[1]} trajectories to t = {tv:g}"
     if not meth.adaptive:
         N0 = int(steps) if steps is not None else int(8 + 4 * np.ceil(abs(tv)))
@@ -253,19 +273,19 @@ def fast_flow(
         budget.before(math.ceil(N / (m * frac)), doing)
     out = meth.integrate(model, State(X, P), tv, tol=tol, steps=steps, system="full")
     # one reduction when all is finite (a finite sum); the per-trajectory check only otherwise
-    bad_pi = None if np.isfinite(out["pi"].sum()) else ~np.all(np.isfinite(out["pi"]), axis=0)
-    if bad_pi is not None and np.any(bad_pi):
+    x, pi = out["x"], out["pi"]
+    if not math.isfinite(pi.sum()) and np.any(~np.all(np.isfinite(pi), axis=0)):
+        bad_pi = ~np.all(np.isfinite(pi), axis=0)
         raise ValueError(
             f"fast_flow: trajectories {np.flatnonzero(bad_pi)[:10].tolist()} became non-finite before t = {tv} "
             "(they reached the degenerate set Pi_1, vier12, or diverged); no point is dropped"
         )
-    x = out["x"]
-    if not np.isfinite(x.sum()) and np.any(~np.isfinite(x)):
+    if not math.isfinite(x.sum()) and np.any(~np.isfinite(x)):
         bad = np.argwhere(~np.all(np.isfinite(x), axis=0)).ravel()
         raise ValueError(
             f"fast_flow: no logarithm x(t) of g(t) found for trajectories {bad[:10].tolist()}"
         )
-    xs, ps = x.T.reshape(shape + (n,)), out["pi"].T.reshape(shape + (n,))
+    xs, ps = x.T.reshape(shape + (n,)), pi.T.reshape(shape + (n,))
     if return_group:
         g = out.get("g")
         if g is None:  # the compiled su(2) paths carry the quaternion: g is its SU(2) matrix

@@ -1,0 +1,111 @@
+"""The compiled matrix functions behind the full state's logarithm (refimpl._full_state_kernel).
+
+Checked: the principal logarithm :func:`logm` (inverse scaling and squaring on Denman-Beavers square
+roots) and the Frechet derivatives of ``exp`` :func:`expm_frechet` (the abelian refine's Jacobian),
+on matrices of the faithful representations the flows use, including the ill-conditioned ones of
+Bianchi VI0 (``exp`` of elements whose ``ad`` has real eigenvalues up to 8: entries ``e^8``).
+
+Independent route: mpmath at 40 digits (``mpmath.expm``; the block matrix ``[[X, E], [0, X]]`` for the
+derivative), rounded to float64.
+
+Error models (bounds that hold for any backward-stable route, never fitted to this one):
+
+* ``logm``: ``L`` is the exact logarithm of ``G + dG`` with ``|dG|`` of a few ``eps |G|`` per
+  operation, amplified by the conditioning of ``exp`` at ``L`` where the square roots lose it; what is
+  checked is ``|exp(L) - G| <= 1e3 r eps exp(|L|_2) max(1, |G|)`` (``exp(|L|_2)`` bounds that
+  sensitivity: ``|L_exp(L, E)|_2 <= exp(|L|_2) |E|_2``; ``log_batch``'s acceptance test is the same
+  with the larger ``|L|_1``), and that ``L`` is the principal one (mpmath's ``logm``), to ``1e-6 |L|``
+  (a branch is off by ``2 pi``);
+* ``expm_frechet``: the exponential of the block ``Z`` computed by scaling and squaring errs by at
+  most ``100 eps exp(|Z|_1) max(1, |exp Z|)`` (the model of tests/test_compiled_any_algebra.py's
+  helper check), and ``exp(X)``, ``L(X, E)`` are blocks of it.
+"""
+
+from __future__ import annotations
+
+import mpmath
+import numpy as np
+import pytest
+
+from tstarg.refimpl import _full_state_kernel as fk
+from tstarg.refimpl._catalogue import catalogue
+from tstarg.refimpl._representation import representation_for
+
+EPS = np.finfo(float).eps
+
+
+def _mp_expm(X):
+    with mpmath.workdps(40):
+        E = mpmath.expm(mpmath.matrix(X.tolist()))
+        return np.array([[complex(v) for v in row] for row in E.tolist()])
+
+
+def _mp_logm(G):
+    with mpmath.workdps(40):
+        L = mpmath.logm(mpmath.matrix(G.tolist()))
+        return np.array([[complex(v) for v in row] for row in L.tolist()])
+
+
+def _cases():
+    """(label, G): exp of random elements of se(3), su(3), so(4), sl(3, R) and h(3) (unipotent: the
+    finite series) in their faithful representations, and of the affine Bianchi VI0 elements ``[[0, a, 2], [a, 0, -1], [0, 0, 0]]``."""
+    rng = np.random.default_rng(11)
+    out = []
+    for name, scale in [
+        ("se(3)", 2.0),
+        ("su(3)", 1.0),
+        ("so(4)", 1.0),
+        ("sl(3,R)", 1.0),
+        ("h(3)", 3.0),
+    ]:
+        alg = catalogue(name)
+        mats = np.asarray(representation_for(alg).mats)
+        for k in range(2):
+            X = np.einsum("a,aij->ij", scale * rng.standard_normal(alg.f.shape[0]), mats)
+            G = _mp_expm(X)
+            out.append((f"{name}-{k}", G if np.iscomplexobj(mats) else G.real.copy()))
+    for a in (1.0, 5.6, 8.0):
+        X = np.array([[0.0, a, 2.0], [a, 0.0, -1.0], [0.0, 0.0, 0.0]])
+        out.append((f"bianchi-{a}", _mp_expm(X).real.copy()))
+    return out
+
+
+CASES = _cases()
+
+
+@pytest.mark.parametrize("label,G", CASES, ids=[c[0] for c in CASES])
+def test_logm_is_the_principal_log_to_its_backward_error(label, G):
+    r = G.shape[0]
+    L = np.zeros_like(G)
+    assert fk.logm(np.ascontiguousarray(G), L)
+    assert np.all(np.isfinite(L))
+    back = np.max(np.abs(_mp_expm(L) - G))
+    cond = np.exp(np.linalg.norm(L, 2))
+    assert back <= 1e3 * r * EPS * cond * max(1.0, np.max(np.abs(G))), (back, cond)
+    Lr = _mp_logm(G)
+    assert np.max(np.abs(L - Lr)) <= 1e-6 * max(1.0, np.max(np.abs(Lr)))
+
+
+def test_logm_refuses_a_matrix_without_a_real_principal_log():
+    """``diag(-1, -2, 1)``: eigenvalues on the negative real axis -- no principal logarithm."""
+    L = np.zeros((3, 3))
+    assert not fk.logm(np.diag([-1.0, -2.0, 1.0]), L)
+
+
+@pytest.mark.parametrize("scale", [0.3, 2.0, 6.0])
+def test_expm_frechet_against_the_block_exponential(scale):
+    rng = np.random.default_rng(int(10 * scale))
+    r, m = 3, 2
+    X = scale * rng.standard_normal((r, r))
+    Es = rng.standard_normal((m, r, r))
+    E = np.zeros((r, r))
+    L = np.zeros((m, r, r))
+    fk.expm_frechet(X, Es, E, L)
+    for c in range(m):
+        Z = np.zeros((2 * r, 2 * r))
+        Z[:r, :r] = Z[r:, r:] = X
+        Z[:r, r:] = Es[c]
+        EZ = _mp_expm(Z).real
+        bound = 100 * EPS * np.exp(np.linalg.norm(Z, 1)) * max(1.0, np.max(np.abs(EZ)))
+        assert np.max(np.abs(E - EZ[:r, :r])) <= bound
+        assert np.max(np.abs(L[c] - EZ[:r, r:])) <= bound
