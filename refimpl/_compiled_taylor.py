@@ -64,6 +64,7 @@ __all__ = [
     "compiled_field",
     "taylor_adaptive",
     "taylor_fixed",
+    "unrolled_adaptive",
 ]
 
 PATH = "numba" if HAVE_NUMBA else "python"
@@ -234,6 +235,19 @@ def taylor_fixed(cf: CompiledField, y0, h: float, nsteps: int, order: int) -> np
     else:
         _py_fixed(cf, y, float(h), int(nsteps), int(order), out)
     return out
+
+
+def unrolled_adaptive(cf: CompiledField, order: int):
+    """The unrolled single-trajectory kernel ``adaptive(y0, T, tol, max_steps, q, l, out, nsteps)`` of
+    ``cf`` at ``order`` (the one :func:`taylor_adaptive` runs for fewer than :data:`BATCH_MIN` rows),
+    or None when that order is not unrolled (or numba is missing): for callers that run it directly,
+    without this module's per-call checks (one trajectory, ``y0`` a C-contiguous float64 (1, d))."""
+    P = int(order)
+    kern = cf._kernels.get(P)
+    if kern is None:
+        kern = cf._kernels[P] = (structure_kernels(cf, P), _unrolls(cf, P))
+    mod, unrolled = kern
+    return mod.adaptive if mod is not None and unrolled else None
 
 
 def taylor_adaptive(

@@ -25,7 +25,9 @@ Error control (per trajectory, never shared)
     proportionality (Shampine 1985, global error estimation with two tolerances) gives the smaller
     estimate ``PROP (eps_B / eps_A) d`` with the safety factor ``PROP = 30`` (the ratio global error /
     ``eps`` varies by a factor 2-4 over ``eps`` = 1e-8 ... 1e-13 on the heavy and the asymmetric top).
-    ``B`` is returned when the estimate is at most ``tol`` on that trajectory. A trajectory over it is
+    ``B`` is returned when the estimate is at most ``tol`` on that trajectory. The quadratic su(2) full
+    state (:func:`compiled_taylor_flow`) starts ``A`` at :data:`A_LOOSE_FULL` and, on a trajectory over
+    ``tol``, first runs ``A`` alone again at :data:`A_LOOSE` (``B`` kept). A trajectory still over it is
     run again with ``eps_A`` lowered by the observed excess (times 10), until it passes or ``eps_A``
     reaches :data:`EPS_FLOOR` (then ``ValueError`` names it); when the ``B`` it holds is within
     :data:`REUSE_B` of that new ``eps_A``, that ``B`` becomes the new ``A`` and only a new ``B`` (at
@@ -78,17 +80,52 @@ A_LOOSE = (
 )
 # (order 11; looser tolerances lower the order and take more steps)
 A_LOOSE_FROM = 1e-10  # from here on 30 kappa 1e-13 <= tol for amplifications kappa = err/eps <= 30
+A_LOOSE_FULL = 1e-6
+"""``A``'s local tolerance for ``tol >= A_LOOSE_FROM`` on the su(2) quaternion full state with
+``Upsilon = 0`` (:func:`compiled_taylor_flow`; the rational path and the sampled flows keep
+:data:`A_LOOSE`). ``A`` runs at ``B``'s order (:func:`_run_cf`), so at 1e-6 it takes 28 % fewer steps
+than at 1e-8 (heavy top, T = 100: 205 against 285 steps, 98 against 135 us at load 1.5). Measured (the kernel at ``B``'s order, error of ``(pi, Ad(g))`` against heyoka in long
+double at tol 1e-19) on the heavy top (I = diag(1, 1.3, 0.6), L = (0.2, 0.1, 1)), the Lagrange top
+(diag(1, 1, 0.5), L = e3), the asymmetric top diag(1, 2, 3) at T = 10 and 100, and 26 random su(2)
+models (random SPD inertia, half with Theta = -xi.f, two thirds with gravity, T = 10/30/100): the
+coverage ``q = err(B) / ((eps_B / eps_A) |A - B|)`` that :data:`PROP` = 30 must exceed is at most 1.02
+with ``A`` at 1e-6 (0.74 and 1.02 on two sets of ten random models; 2.2 at 1e-8, 0.47 at 1e-5), chaotic
+trajectories included; the pass condition of one pair, ``kappa_A = err(A) / eps_A <= tol / (30
+eps_B)`` (33 at the default ``tol``), holds as often as at 1e-8 (heavy top 16 vs 4.9, Lagrange 6.7 vs
+7.2; the non-chaotic random models 0.02-110 either way, over 33 on the same two at both), but not
+near the heavy top: on the 10^4 starts of its batch (reports._bench_protocol.batch_initial) 27 % fail
+one pair at 1e-6, 0.04 % at 1e-8, hence the retry of ``A`` alone at :data:`A_LOOSE` (``_control``'s
+``a_retry``; a rerun of ``B`` at ~3e-14 costs 2.4 times as much): that batch then costs the same
+with ``A`` at 1e-8, 1e-7 and 1e-6 (166.7, 166.7, 165.8 us per trajectory, one interleaved run, load
+2.0), and one trajectory that passes saves 28 % of ``A``. Script:
+``tests/benchmarks/su2_estimate_constants.py``."""
+A_RETRY_EXCESS = 3.0
+"""Largest ``estimate / tol`` of a trajectory whose retry is ``A`` alone at ``a_retry`` (``_control``): a
+cost rule, not a bound (every pair's estimate is checked as any other). Measured on the heavy and the
+Lagrange top (one trajectory; excess ``estimate / tol`` of the first pair at 1e-6, then with ``A`` at
+1e-8): T = 100 both pass at 1e-6 (of the heavy top's 10^4 batch starts 26 % fail, all pass at 1e-8, 84 %
+of them with excess at most 2, 93 % at most 3); T = 200 heavy 1.72 -> 0.85 (passes); T = 300 1.71 -> 3.38 and 1.33 ->
+1.52; T = 1000 4.09 -> 49 and 11.6 -> 16.5: a large excess does not come down with a tighter ``A`` (the
+flow's amplification grows with T), and the futile ``A`` costs 15 % there (T = 1000: 8.8 against 7.6
+ms)."""
 PROP_MIN_A = 1e-12  # the proportionality estimate only for A at this local tolerance or looser
 PROP_MIN_B = 1e-14  # ... and B at this local tolerance or looser
 PROP = 30.0  # safety factor of the proportionality estimate err(B) ~ (eps_B / eps_A) |A - B|
 REUSE_B = 10.0  # a held B within this factor of A's next tolerance becomes that A (see _control)
 FIRST = 1e-2  # A's first local tolerance relative to the global one (global/local error ~ 5-20
 # over 10^2-10^3 steps, so one pair of runs usually suffices)
-FAST_UNROLL_TERMS = (
-    2800  # B's order is capped where the unrolled kernel stays this small (measured on
-)
-# the heavy top's full state, 20 monomials: order 16 (2720 terms) runs 0.71 us/step, order 17-18 1.0-1.1
-# us/step -- 40 % more per step for 12 % more arithmetic; the shorter kernel wins even with more steps)
+FAST_UNROLL_TERMS = 2800
+"""B's order is capped where the unrolled kernel has at most this many Cauchy-product terms (monomials
+times ``P (P + 1) / 2``): the heavy top (21 monomials) at 15, the Lagrange top (20) at Jorba-Zou's 16.
+First measured as order 17-18 costing 40 % more per step than 16; re-measured (issue 25, T = 100,
+kernel alone, B at 1e-13, load 2.2): heavy top orders 14-18 take 768/646/556/486/433 steps at
+0.42/0.46/0.51/0.56/0.62 us per step (321/298/285/273/267 us: the cliff is gone, a higher order is
+4-10 % faster at the same ``eps``), but their errors against heyoka in long double are 0.9/1.3/1.4/
+1.5/2.6e-13 and, on the Lagrange top, orders 16/17/18 give 1.6e-13/1.3e-12/1.9e-12 (the last two
+terms bound the remainder less well at the longer steps of a higher order: the global error at fixed
+``eps`` rises with the order), so per unit of accuracy there is no gain, while each order more
+lengthens the kernel's cold compilation (the heavy top's first call, every kernel cold, 8.3 s CPU at
+order 15, load 2.5; issue 25's limit 10 s). Kept."""
 
 
 def supports_full(model) -> bool:
@@ -222,6 +259,11 @@ def _log_py(B, x):
     x[:] = quat_to_x(B[:, -4:].T).T
 
 
+def _finish_py(A, B, n, est, x):
+    _estimate_py(A, B, n, est)
+    _log_py(B, x)
+
+
 if _ct.HAVE_NUMBA:
     import math
 
@@ -270,6 +312,11 @@ if _ct.HAVE_NUMBA:
             est[j] = m if math.isfinite(m) else np.inf
 
     @njit(cache=True, nogil=True)
+    def _finish(A, B, n, est, x):  # pragma: no cover - compiled; same as _finish_py
+        _estimate(A, B, n, est)
+        _log(B, x)
+
+    @njit(cache=True, nogil=True)
     def _log(B, x):  # pragma: no cover - compiled; same as _log_py
         d = B.shape[1]
         for j in range(B.shape[0]):
@@ -280,23 +327,28 @@ if _ct.HAVE_NUMBA:
 else:  # pragma: no cover - exercised only where numba is missing
     _start, _estimate, _log = _start_py, _estimate_py, _log_py
 
+    def _finish(A, B, n, est, x):
+        _estimate(A, B, n, est)
+        _log(B, x)
+
 
 def _full_field(model) -> _ct.CompiledField:
     """The compiled full-state field (a cached property of the model)."""
     return model.compiled_full_field
 
 
-def local_tolerances(tol: float) -> tuple[float, float]:
+def local_tolerances(tol: float, a_loose: float = A_LOOSE) -> tuple[float, float]:
     """``(eps_A, eps_B)``: the first local tolerances of the checking run ``A`` and the returned run ``B``.
 
     ``B``, the answer, runs at ``SAFETY * eps_A`` but at most :data:`B_MAX` (always near the float64
-    floor). ``A`` runs at :data:`A_LOOSE` for ``tol >= A_LOOSE_FROM`` (the estimate is then the
+    floor). ``A`` runs at ``a_loose`` (:data:`A_LOOSE`; :data:`A_LOOSE_FULL` on the quadratic full state)
+    for ``tol >= A_LOOSE_FROM`` (the estimate is then the
     proportional one, ``PROP (eps_B/eps_A) |A - B|``, which does not depend on ``eps_A``), else at
     ``FIRST * tol`` (global error about ``tol / 5``: global/local ~ 5-20 over the ``10^2 - 10^3``
     steps of ``|t| ~ 100``, and ``|A - B| <= tol`` decides), not below :data:`A_START_MIN`. Costs
-    (heavy top, T = 100): ``A`` at 1e-8 about 0.6 of ``B`` at 1e-13."""
+    (heavy top, T = 100, ``A`` at ``B``'s order 15): ``A`` at 1e-8 about 0.45 of ``B`` at 1e-13, at 1e-6 0.33."""
     if tol >= A_LOOSE_FROM:  # the proportionality estimate decides: A as cheap as possible
-        return A_LOOSE, _eps_b(A_LOOSE)
+        return a_loose, _eps_b(a_loose)
     eps_a = max(FIRST * tol, A_START_MIN)
     return eps_a, _eps_b(eps_a)
 
@@ -331,12 +383,56 @@ def _run_cf(cf, y0, t, eps, order=None):
     # inside its safety factor PROP = 30
     order = _order_b(cf, _eps_b(eps)) if order is None else order
     y, steps = _ct.taylor_adaptive(cf, y0, t, eps, order)
-    if np.any(steps < 0):
-        raise ValueError(
-            f"compiled Taylor flow: trajectories {np.flatnonzero(steps < 0)[:10].tolist()} became non-finite "
-            f"before t = {t} (diverged); no point is dropped"
-        )
+    if steps.min() < 0:
+        _diverged(steps, t)
     return y, steps
+
+
+def _diverged(steps, t):
+    raise ValueError(
+        f"compiled Taylor flow: trajectories {np.flatnonzero(steps < 0)[:10].tolist()} became non-finite "
+        f"before t = {t} (diverged); no point is dropped"
+    )
+
+
+MAX_STEPS = (
+    10_000_000  # the kernels' step budget per trajectory (as _compiled_taylor.taylor_adaptive's)
+)
+
+
+def _first_pair(model, y0, t, eps_a, eps_b, n, tol):
+    """One trajectory, ``Upsilon = 0``: the first pair of :func:`_control` (``A`` at ``eps_a`` and ``B`` at
+    ``eps_b``, both at ``B``'s order as :func:`_run_cf` runs them) on the unrolled kernel called directly,
+    and its estimate and logarithm in one compiled call (``_finish``), with none of the per-call checks
+    of the general path (about 25 us of Python on the protocol call). Returns ``(B, steps of B, x,
+    estimate)`` when the pair passes (the estimate of :func:`_control`'s first pair: ``|A - B|`` or its
+    proportional form), ``(A, B, steps of B)`` for :func:`_control` to go on from when it does not,
+    or None where the kernel is not unrolled (the general path runs). Raises as :func:`_run_cf`."""
+    cf = model.compiled_full_field
+    key = ("first", eps_b)
+    P = cf._kernels.get(key)
+    if P is None:
+        P = cf._kernels[key] = _order_b(cf, eps_b)
+    kern = _ct.unrolled_adaptive(cf, P)
+    if kern is None:
+        return None
+    A, B = np.empty_like(y0), np.empty_like(y0)
+    sA, sB = np.empty(1, dtype=np.int64), np.empty(1, dtype=np.int64)
+    kern(y0, t, eps_a, MAX_STEPS, cf.qcoef, cf.lcoef, A, sA)
+    kern(y0, t, eps_b, MAX_STEPS, cf.qcoef, cf.lcoef, B, sB)
+    if sA[0] < 0:
+        _diverged(sA, t)
+    if sB[0] < 0:
+        _diverged(sB, t)
+    est, x = np.empty(1), np.empty((n, 1))
+    _finish(A, B, n, est, x)
+    e = float(est[0])
+    if eps_a >= PROP_MIN_A and eps_b >= PROP_MIN_B:  # as _control's first pair (default prop_min_b)
+        e = min(e, PROP * (eps_b / eps_a) * e)
+    if e <= tol:
+        est[0] = e
+        return B, sB, x, est
+    return A, B, sB
 
 
 GRID = (
@@ -368,6 +464,8 @@ def _control(
     reuse_b=REUSE_B,
     floor=None,
     reuse_last=False,
+    first=None,
+    a_retry=None,
 ):
     """The two-run control of the module docstring on the rows of ``y0``: ``(B, estimate, steps of B)``.
 
@@ -382,7 +480,12 @@ def _control(
     a retry then aims at ``tol`` minus it; ``kappa``: per row the largest ``|A - B| / eps_A`` seen;
     ``rows``: the indices of ``B``'s rows in ``y0``, None for the first pair of one trajectory; ``B`` is
     the array just given to ``estimate``), default none; ``reuse_last``: when ``A`` cannot be tightened further
-    (at :data:`EPS_FLOOR`), its held ``B`` becomes ``A`` once as a last resort (with ``reuse_b = 0``).
+    (at :data:`EPS_FLOOR`), its held ``B`` becomes ``A`` once as a last resort (with ``reuse_b = 0``);
+    ``first``: ``(A, B, steps of B)`` of the first pair already run (one trajectory; default: run here);
+    ``a_retry``: a local tolerance for ``A``'s first retry -- a row over ``tol`` by at most
+    :data:`A_RETRY_EXCESS` whose ``A`` is looser runs ``A`` alone again at ``a_retry`` (its ``B`` kept:
+    ``B``'s tolerance does not change) before any other retry (default none; su(2): ``A_LOOSE_FULL``
+    first, then :data:`A_LOOSE`).
 
     A trajectory whose ``A`` must be tightened to ``new`` while it holds a ``B`` at a tolerance
     ``eps_B <= REUSE_B * new`` takes that ``B`` as its new ``A`` (one run, the new ``B`` at
@@ -398,8 +501,11 @@ def _control(
     _estimate_ = _estimate if estimate is None else estimate
     if N == 1:  # one trajectory, first pair: scalars only (the common protocol call)
         eb0 = eps_b_of(eps_a0)
-        A, _ = run(y0, t, eps_a0)
-        B, sB = run(y0, t, eb0, order_b(eb0))
+        if first is None:
+            A, _ = run(y0, t, eps_a0)
+            B, sB = run(y0, t, eb0, order_b(eb0))
+        else:  # su2 hook: the pair of _first_pair
+            A, B, sB = first
         d1 = np.empty(1)
         _estimate_(A, B, n, d1)
         e1 = float(d1[0])
@@ -467,6 +573,15 @@ def _control(
         # is kept: one run), else a tighter A (and B with it) by the observed excess, times 10
         moved = False
         for k in over.tolist():
+            if (
+                a_retry is not None
+                and eps_a[k] > a_retry
+                and est[k] <= A_RETRY_EXCESS * tol
+                and eps_b_of(a_retry) == eps_b[k]
+            ):
+                eps_a[k] = a_retry  # su2 hook: only A runs again
+                moved = True
+                continue
             eb_req = _grid_down((tol - fl[k]) * eps_a[k] / (PROP * max(d[k], 1e-300)) / 2)
             if eps_a[k] >= PROP_MIN_A and prop_min_b <= eb_req < eps_b[k]:
                 eps_b[k] = eb_req
@@ -590,23 +705,31 @@ def compiled_taylor_flow(model, x0, pi0, t: float, tol: float) -> dict:
     if not supports_full(model):
         raise ValueError("compiled Taylor full state: written for su(2)/so(3)")
     n, N = pi0.shape
-    d = n + (n if model.gravity else 0) + 4
+    grav = model.gravity
+    d = n + (n if grav else 0) + 4
     y0 = np.empty((N, d))
-    _start(x0, pi0, model.gamma if model.gravity else _NO_GAMMA, model.gravity, y0)
-    eps_a, _ = local_tolerances(tol)
-    res, est, steps = _control(model, y0, t, eps_a, n, tol)
-    over = np.flatnonzero(est > tol)
-    if over.size:
-        raise ValueError(
-            f"compiled Taylor flow: tolerance {tol} not reached on trajectories {over[:10].tolist()} "
-            f"(estimated errors {est[over][:3].tolist()}) at the float64 floor of the local tolerance"
+    _start(x0, pi0, model.gamma if grav else _NO_GAMMA, grav, y0)
+    uz = model.upsilon_zero
+    eps_a, eps_b = local_tolerances(tol, A_LOOSE_FULL if uz else A_LOOSE)
+    first = _first_pair(model, y0, t, eps_a, eps_b, n, tol) if N == 1 and uz else None
+    if first is not None and len(first) == 4:  # the common protocol call: one pair passed
+        res, steps, x, est = first
+    else:
+        res, est, steps = _control(
+            model, y0, t, eps_a, n, tol, first=first, a_retry=A_LOOSE if uz else None
         )
-    x = np.empty((n, N))
-    _log(res, x)
+        over = np.flatnonzero(est > tol)
+        if over.size:
+            raise ValueError(
+                f"compiled Taylor flow: tolerance {tol} not reached on trajectories {over[:10].tolist()} "
+                f"(estimated errors {est[over][:3].tolist()}) at the float64 floor of the local tolerance"
+            )
+        x = np.empty((n, N))
+        _log(res, x)
     res = res.T
     return {
         "pi": res[:n],
-        "Gamma": res[n : 2 * n] if model.gravity else None,
+        "Gamma": res[n : 2 * n] if grav else None,
         "quat": res[-4:],
         "x": x,
         "Ad": None,

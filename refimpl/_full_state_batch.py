@@ -37,6 +37,7 @@ except ImportError:  # pragma: no cover - the plain-Python path (as refimpl._ful
 
 
 __all__ = [
+    "GENERATED_MIN_WORK",
     "LANES",
     "MAX_GENERATED_TERMS",
     "MAX_SIZE",
@@ -66,6 +67,17 @@ structure: its source, and its cold compilation, grow with them (free_su3, 225 t
 its adjoint representation, 820 terms: 38.4 s, one run each at load ~7). Beyond it the one kernel
 compiled for every structure, :func:`adaptive_packed` (about 3 s once, then numba's disk cache), runs:
 the rows from the tables, about 1.3 times slower per trajectory (free_su3 52.0 against 40.4 us)."""
+
+
+GENERATED_MIN_WORK = 1024.0
+"""``N |T|`` (rows of one :func:`run` times the time span) from which a batch runs the lane kernel
+generated for its structure; below it, :func:`adaptive_packed` (compiled once for every structure),
+as the rational path's ``GENERATED_MIN_WORK``. The generated lane kernel's cold compilation is the
+largest per-structure cost of a first batch call (measured fully cold, CPU, load 2-3.6, one run
+each: manakov_so4 8.8 s, sl(3, R) 9.1 s, kirchhoff_se3 5.9 s, free_su3 5.8 s), repaid only by a
+long batch; a short one (64 trajectories of the bench problems over ``T = 10``: 640) now costs no
+compilation per structure and about 2x per trajectory (manakov_so4 34.8 against 15.1 us, above).
+A function of the call's inputs, so a row's result never depends on what ran before it."""
 
 
 def size(fs) -> int:
@@ -107,20 +119,22 @@ def _compile(fn, sig):
             config.SLP_VECTORIZE = old
 
 
-def kernel(fs):
+def kernel(fs, generated: bool = True):
     """``(fn, args)`` for the structure of ``fs`` (kept on ``fs``): ``fn(y0, T, tol, P, max_steps,
     *args, out, nsteps)``. The module generated for the structure (imported from the kernel cache,
     :func:`refimpl.codegen.import_source`): every product written out up to :data:`MAX_SIZE`, packed
-    beyond; beyond that and :data:`MAX_GENERATED_TERMS` too, :func:`adaptive_packed` with the tables and
-    the blocks of :func:`refimpl.codegen.full_state_batch.batch_groups`. Each compiled with LLVM's SLP
-    vectoriser on (or loaded from numba's disk cache)."""
-    kb = fs.__dict__.get("_batch_kernel")
+    beyond; beyond that and :data:`MAX_GENERATED_TERMS` too, or when not ``generated``,
+    :func:`adaptive_packed` with the tables and the blocks of
+    :func:`refimpl.codegen.full_state_batch.batch_groups`. Each compiled with LLVM's SLP vectoriser on
+    (or loaded from numba's disk cache)."""
+    key = "_batch_kernel" if generated else "_batch_kernel_tables"
+    kb = fs.__dict__.get(key)
     if kb is not None:
         return kb
     tables = fs.tables()
     groups = batch_groups(tables)
     terms = len(tables[4]) + len(tables[11]) + len(tables[14])
-    if size(fs) > MAX_SIZE and terms > MAX_GENERATED_TERMS:
+    if not generated or (size(fs) > MAX_SIZE and terms > MAX_GENERATED_TERMS):
         _compile(adaptive_packed, _SIG_PACKED)
         kb = (adaptive_packed, (int(tables[0]), *tables[1:], *groups))
     else:
@@ -128,14 +142,17 @@ def kernel(fs):
         fn = import_source(src, "fsbatch_").adaptive_batch
         _compile(fn, _SIG)
         kb = (fn, (batch_numbers(tables), tables[8], tables[16], *groups))
-    fs.__dict__["_batch_kernel"] = kb
+    fs.__dict__[key] = kb
     return kb
 
 
-def run(fs, y0, T: float, tol: float, P: int, max_steps: int):
+def run(fs, y0, T: float, tol: float, P: int, max_steps: int, *, generated: bool | None = None):
     """``(y(T), steps)`` for the rows of ``y0`` (N, d) at the local tolerance ``tol`` and order ``P``,
-    ``W`` rows at a time (``y0`` is only read)."""
-    fn, args = kernel(fs)
+    ``W`` rows at a time (``y0`` is only read). ``generated``: the structure's own lane kernel
+    (:func:`kernel`); ``None``: from ``N |T| >=`` :data:`GENERATED_MIN_WORK` on."""
+    if generated is None:
+        generated = y0.shape[0] * abs(T) >= GENERATED_MIN_WORK
+    fn, args = kernel(fs, generated)
     y = np.ascontiguousarray(y0, dtype=float)
     out = np.empty_like(y)
     steps = np.zeros(y.shape[0], dtype=np.int64)

@@ -46,12 +46,14 @@ from .codegen import import_source
 from .codegen.full_state_rational import full_state_rational_source
 
 __all__ = [
+    "GENERATED_MAX_PRODUCTS",
     "GENERATED_ORDER_BIAS",
     "ORDER_BIAS",
     "RationalFullState",
     "applies",
     "rational_full_state",
     "rational_full_state_flow",
+    "use_generated",
 ]
 
 ORDER_BIAS = 4
@@ -72,6 +74,20 @@ than the one compiled for every structure: measured 63 us against 153 us for ``T
 Its compilation costs 15-25 s of CPU per structure before the disk cache has it (su(3), se(3)),
 repaid only by long batched flows; single protocol calls never pay it. A function of the call's
 inputs (the trajectories of one kernel call and the time span)."""
+
+GENERATED_MAX_PRODUCTS = 32
+"""Structures with more distinct Cauchy products than this never run the generated kernel: its cold
+compilation grows faster than its source (numba-warm, CPU, one run each, load 1.6-1.7: Bianchi III
+with a cocycle, 18 products, 401 lines, 3.4 s; modified_su3, 140 products, 976 lines, 18.0 s; se(3)
+with gravity 15-25 s at load 7), over issue 25's 10 s per structure. They run the kernel compiled
+for every structure at any ``N |t|`` (2-2.5x per step). A function of the structure."""
+
+
+def use_generated(rfs, N: int, t: float) -> bool:
+    """Whether a run of ``N`` trajectories over ``t`` takes the generated kernel: a small structure
+    (:data:`GENERATED_MAX_PRODUCTS`) and ``N |t| >=`` :data:`GENERATED_MIN_WORK`."""
+    return rfs.fs.n_products <= GENERATED_MAX_PRODUCTS and N * abs(t) >= GENERATED_MIN_WORK
+
 
 SENSITIVITY = "||Phi^-1|| (1 + ||S|| ||Upsilon||)"
 """The degeneracy measure of these kernels (inf-norms at the step's start; docs/conventions.md)."""
@@ -216,7 +232,7 @@ def _runner(rfs: RationalFullState):
     non-finite state or the step budget, naming the trajectories (no value past that point)."""
 
     def run(fs, y0, t, eps, generated=False):
-        gen = y0.shape[0] * abs(t) >= GENERATED_MIN_WORK  # this module's rule, not the caller's
+        gen = use_generated(rfs, y0.shape[0], t)  # this module's rule, not the caller's
         y, steps, tend, conds = rfs.run(y0, t, eps, generated=gen)
         if steps.min() < 0:
             _cr._raise_failed(y, steps, tend, conds, t, _cr.COND_MAX, SENSITIVITY)

@@ -112,7 +112,7 @@ def test_batch_kernel_equals_the_single_kernel(fs, N):
     keep = y.copy()
     T, tol = 1.3, 1e-12
     P = fs_mod.default_order(tol)
-    out, steps = fsb.run(f, y, T, tol, P, 10**7)
+    out, steps = fsb.run(f, y, T, tol, P, 10**7, generated=True)
     ref, rsteps = _single(f, y, T, tol, P)
     np.testing.assert_array_equal(y, keep)
     np.testing.assert_array_equal(steps, rsteps)
@@ -126,7 +126,7 @@ def test_batch_kernel_backwards_in_time(fs):
     y = _states(f, model, W + 3, seed=9)
     T, tol = -0.9, 1e-10
     P = fs_mod.default_order(tol)
-    out, steps = fsb.run(f, y, T, tol, P, 10**7)
+    out, steps = fsb.run(f, y, T, tol, P, 10**7, generated=True)
     ref, rsteps = _single(f, y, T, tol, P)
     np.testing.assert_array_equal(steps, rsteps)
     _assert_rounding_close(out, ref, rsteps)
@@ -145,7 +145,7 @@ def test_a_failing_lane_is_reported_alone(fs, monkeypatch, bad, form):
     y[2, 0] = bad
     T, tol = 0.8, 1e-11
     P = fs_mod.default_order(tol)
-    out, steps = fsb.run(f, y, T, tol, P, 10**7)
+    out, steps = fsb.run(f, y, T, tol, P, 10**7, generated=True)
     assert steps[2] < 0 and np.all(np.isnan(out[2]))
     good = np.array([i for i in range(y.shape[0]) if i != 2])
     ref, rsteps = _single(f, np.ascontiguousarray(y[good]), T, tol, P)
@@ -161,8 +161,35 @@ def test_step_budget_is_reported_per_lane(fs):
     """``max_steps`` exceeded: status -3 on every row that needs more steps, none dropped."""
     model, f = fs
     y = _states(f, model, W + 1, seed=4)
-    out, steps = fsb.run(f, y, 50.0, 1e-12, fs_mod.default_order(1e-12), 3)
+    out, steps = fsb.run(f, y, 50.0, 1e-12, fs_mod.default_order(1e-12), 3, generated=True)
     assert np.all(steps == -3) and np.all(np.isnan(out))
+
+
+@needs_numba
+def test_short_batches_run_the_kernel_compiled_for_every_structure(fs, monkeypatch):
+    """Below ``N |T| = GENERATED_MIN_WORK`` a batch runs :func:`adaptive_packed` (no compilation per
+    structure), from it on the structure's generated lane kernel: the choice is seen, and the short
+    batch's rows are the table-driven single kernel's (same step counts, rounding model above)."""
+    model, f = fs
+    seen = []
+    real = fsb.kernel
+
+    def spy(fs_, generated=True):
+        kb = real(fs_, generated)
+        seen.append(kb[0] is fsb.adaptive_packed)
+        return kb
+
+    monkeypatch.setattr(fsb, "kernel", spy)
+    y = _states(f, model, W + 1, seed=13)
+    T, tol = 1.2, 1e-12
+    assert y.shape[0] * T < fsb.GENERATED_MIN_WORK <= 1000 * y.shape[0] * T
+    P = fs_mod.default_order(tol)
+    out, steps = fsb.run(f, y, T, tol, P, 10**7)
+    ref, rsteps = _single(f, y, T, tol, P)
+    np.testing.assert_array_equal(steps, rsteps)
+    _assert_rounding_close(out, ref, rsteps)
+    fsb.run(f, y, 1000 * T, tol, P, 1)  # the step budget ends it at once: only the choice matters
+    assert seen == [True, False]
 
 
 @needs_numba
@@ -241,7 +268,7 @@ def test_batch_kernel_on_other_algebras_slow(name):
     y = fs_mod._pack(f, pi0, None, G0, s0)
     T, tol = 1.0, 1e-12
     P = fs_mod.default_order(tol)
-    out, steps = fsb.run(f, y, T, tol, P, 10**7)
+    out, steps = fsb.run(f, y, T, tol, P, 10**7, generated=True)
     ref, rsteps = _single(f, y, T, tol, P)
     np.testing.assert_array_equal(steps, rsteps)
     _assert_rounding_close(out, ref, rsteps)
@@ -309,7 +336,7 @@ def test_packed_batch_kernel_equals_the_single_kernel(fs, monkeypatch, N, form):
     real = gp != nv + npr + 1  # each real pair (i, j) of block g: the product u_i w_j
     assert np.all(tb[5][gp[real] - nv] == gu.reshape(-1, 2).repeat(4, axis=1).ravel()[real])
     assert np.all(tb[6][gp[real] - nv] == np.tile(gw.reshape(-1, 4), (1, 2)).ravel()[real])
-    out, steps = fsb.run(f, y, T, tol, P, 10**7)
+    out, steps = fsb.run(f, y, T, tol, P, 10**7, generated=True)
     f.__dict__.pop("_batch_kernel")  # the next test gets the written-out form again
     ref, rsteps = _single(f, y, T, tol, P)
     np.testing.assert_array_equal(y, keep)

@@ -161,6 +161,22 @@ def test_generated_kernel_against_reference():
         _compare(args, X[j], P[j], xs, ps, 1e-11, tol_ref=K * 1e-11)
 
 
+@needs_numba
+def test_large_structures_never_compile_the_generated_kernel():
+    """The generated kernel only for small structures (its compilation grows faster than its source:
+    su(3), 140 products, 18 s), from ``N |t| >= GENERATED_MIN_WORK``; the rule reads the structure
+    and the call only."""
+    big = fr.rational_full_state(cached_model(*_model("su(3)", seed=5)[:5]), _AbelianPart)
+    small = fr.rational_full_state(
+        cached_model(*_model("Bianchi III + cocycle", seed=5)[:5]), _AbelianPart
+    )
+    assert big.fs.n_products > fr.GENERATED_MAX_PRODUCTS >= small.fs.n_products
+    work = fr.GENERATED_MIN_WORK
+    assert not fr.use_generated(big, 10**6, 10.0)
+    assert fr.use_generated(small, int(work), 1.0) and fr.use_generated(small, 1, -work)
+    assert not fr.use_generated(small, 1, work / 2)
+
+
 def _aff1(u, pi0):
     """aff(1) (``[e0, e1] = e1``), ``I = 1``, ``Theta = 0``, ``Upsilon = u J``: ``S = pi_1 J`` and
     ``Phi = (1 - u pi_1) 1``, so ``Delta = (1 - u pi_1)^2`` (docs/conventions.md: 2-dimensional

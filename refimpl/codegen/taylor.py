@@ -168,17 +168,23 @@ def _loads(cf) -> list[str]:
 
 def _step_size_lines(P: int, xn: str, a1: str, a2: str, fail: list[str]) -> list[str]:
     """The Jorba-Zou step of the module docstring from the expressions of ``max|y_0|`` and of the last
-    two coefficients' norms; ``fail`` runs when no positive step results (overflowed coefficients)."""
+    two coefficients' norms; ``fail`` runs when no positive step results (overflowed coefficients).
+
+    ``min((s/a1)^(1/(P-1)), (s/a2)^(1/P))`` is taken as ``exp(min(log(s/a1)/(P-1), log(s/a2)/P))``
+    (``exp`` and ``log`` increasing: the same step up to rounding): two logarithms and one exponential
+    per step instead of two powers, 3 % of the heavy top's kernel time (order 15, A at 1e-6 and B at
+    1e-13 over T = 100: 378.0 against 390.9 us, best of 30 interleaved, load 1.5). NaN (non-finite
+    coefficients) still gives no positive step, ``a = 0`` no bound from that term."""
     return [
         f"s = tol * max(1.0, {xn})",
         f"a1 = {a1}",
         f"a2 = {a2}",
-        "h = np.inf",
+        "lh = np.inf",
         "if a1 > 0.0:",
-        f"    h = (s / a1) ** {1.0 / (P - 1)!r}",
+        f"    lh = math.log(s / a1) * {1.0 / (P - 1)!r}",
         "if a2 > 0.0:",
-        f"    h = min(h, (s / a2) ** {1.0 / P!r})",
-        "h *= damp",
+        f"    lh = min(lh, math.log(s / a2) * {1.0 / P!r})",
+        "h = math.exp(lh) * damp",
         "if not (h > 0.0):",
     ] + ["    " + x for x in fail]
 

@@ -1,33 +1,42 @@
 """The protocol flow's first call from an empty kernel cache, per structure, each in a fresh process.
 
-    python tests/benchmarks/cold_first_call.py                       # every structure below
-    python tests/benchmarks/cold_first_call.py --only heavy_top_full,so5 --batch 64
-    python tests/benchmarks/cold_first_call.py --numba-warm          # the package's own kernels cached
+    python tests/benchmarks/cold_first_call.py --write reports/bench/cold_first_call.md   # all, one table
+    python tests/benchmarks/cold_first_call.py --only heavy_top_full,so5 --batch 64 --mode cold
 
 What a new user waits for once per structure (issue 25's target: at most 10 s): a child process
 imports tstarg, builds the problem (untimed), then times one ``refimpl.fast.implementation.flow``
 call at its default accuracy -- generating, compiling and running that structure's kernels -- in CPU
-time (``time.process_time``) and wall time; ``--batch M`` then times a first call of ``M``
-trajectories (the SIMD batch kernels; the run itself included). Each child gets a fresh empty
-``TSTARG_CACHE_DIR`` (the generated kernels) and, unless ``--numba-warm``, a fresh empty
-``NUMBA_CACHE_DIR`` too (the package's own compiled functions, built once per installation and
-argument types: the column then includes them, as a user's very first call does). ``--numba-warm``
-runs each structure first in an untimed child (its own throwaway kernel cache) sharing one
-``NUMBA_CACHE_DIR`` with the timed one, so the figure is the structure's generated kernels alone
-(numba keys a generated module's machine code on its file's path, which differs between the two). The load average is printed with each figure: CPU time on a loaded machine is
-inflated too (shared caches and cores), so compare figures from one run.
+time (``time.process_time``) and wall time; then, in the same process, a first call of each batch
+size of ``--batch`` (perturbed starts; default 64, below the batch's work threshold
+:data:`refimpl._full_state_batch.GENERATED_MIN_WORK` over ``T = 10``, so the lane kernel shared by
+every structure runs, and ``auto``, the smallest power of two over it: the structure's generated
+lane kernel, the run included). Each child gets a fresh empty ``TSTARG_CACHE_DIR`` (the generated
+kernels). Two modes (``--mode``, default both), two children per structure:
+
+* fully cold: a fresh empty ``NUMBA_CACHE_DIR`` too, so the figure includes the package's own
+  compiled functions, built once per installation and argument types -- a user's very first call;
+* numba-warm: the next child shares the ``NUMBA_CACHE_DIR`` the cold one filled, so the package's
+  functions at this structure's types are cached and the figure is the structure's generated
+  kernels alone (numba keys a generated module's machine code on its file's path, which differs
+  between the two children). With ``--mode warm`` an untimed child fills it first.
+
+The load average is printed with each figure: CPU time on a loaded machine is inflated too (shared
+caches and cores), so compare figures from one run. ``--write PATH`` also writes the table as
+markdown (command, commit, machine, load at the start and the end).
 
 Structures: the committed report's protocol problems (``reports._bench_protocol``: su(2) heavy top,
 free su(3), se(3), so(4), Bianchi VI0 with a cocycle, su(3) with Theta and Upsilon != 0), the Lagrange
-top on su(2), and free tops on so(5), sp(4, R) and sl(3, R) (dimension 10, 10, 8; not in the
-catalogue: built here from matrix bases).
+top on su(2), and free tops on so(5), sp(4, R) and sl(3, R) (dimension 10, 10, 8; not in the bench;
+so(5) and sp(4, R) built here from matrix bases).
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.metadata
 import json
 import os
+import platform
 import subprocess
 import sys
 import tempfile
@@ -51,8 +60,9 @@ import sympy
 from tstarg.refimpl import LieAlgebra, catalogue
 from tstarg.refimpl.fast import implementation as FAST
 from tstarg.reports import _bench_protocol as bp
+from tstarg.refimpl._full_state_batch import GENERATED_MIN_WORK
 
-name, M = sys.argv[1], int(sys.argv[2])
+name, Ms = sys.argv[1], sys.argv[2].split(",")
 
 
 def free_top(alg, seed, scale=1.0, T=10.0):
@@ -117,26 +127,39 @@ try:
 except ValueError as exc:  # a refusal still compiled (and ran) the kernels: timed, and said
     out["refused"] = str(exc)[:200]
 out["single_cpu"], out["single_wall"] = time.process_time() - c0, time.perf_counter() - w0
-if M > 0 and "refused" not in out:
+out["sizes"] = []
+for M in Ms if "refused" not in out else []:  # batches in this order, each timed alone
+    if M == "auto":  # the smallest power of two (at least 8) over the batch's work threshold
+        M = 8
+        while M * abs(args[7]) < GENERATED_MIN_WORK:
+            M *= 2
+    M = int(M)
+    if M <= 0:
+        continue
+    out["sizes"].append(M)
     rng = np.random.default_rng(3)
     n = out["n"]
     X0 = np.asarray(args[5])[:, None] + 0.01 * rng.standard_normal((n, M))
     P0 = np.asarray(args[6])[:, None] + 0.01 * rng.standard_normal((n, M))
     bargs = args[:5] + (X0.T.copy(), P0.T.copy(), args[7])
     w0, c0 = time.perf_counter(), time.process_time()
-    FAST.flow(*bargs)
-    out["batch_cpu"], out["batch_wall"] = time.process_time() - c0, time.perf_counter() - w0
+    try:
+        FAST.flow(*bargs)
+    except ValueError as exc:  # a refused row: the kernels were compiled and ran all the same
+        out[f"batch{M}_refused"] = str(exc)[:200]
+    out[f"batch{M}_cpu"], out[f"batch{M}_wall"] = time.process_time() - c0, time.perf_counter() - w0
 print("RESULT " + json.dumps(out))
 """
 
 
-def run_child(name: str, M: int, numba_dir: str | None) -> dict:
+def run_child(name: str, batches: str, numba_dir: str) -> dict:
+    """One fresh process: an empty ``TSTARG_CACHE_DIR`` of its own, ``NUMBA_CACHE_DIR`` as given."""
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
     with tempfile.TemporaryDirectory(prefix="tstarg_cold_") as tmp:
         env["TSTARG_CACHE_DIR"] = os.path.join(tmp, "tstarg")
-        env["NUMBA_CACHE_DIR"] = numba_dir or os.path.join(tmp, "numba")
+        env["NUMBA_CACHE_DIR"] = numba_dir
         res = subprocess.run(
-            [sys.executable, "-c", CHILD, name, str(M)],
+            [sys.executable, "-c", CHILD, name, batches],
             env=env,
             capture_output=True,
             text=True,
@@ -148,53 +171,135 @@ def run_child(name: str, M: int, numba_dir: str | None) -> dict:
     raise RuntimeError(f"{name}: the child failed:\n{res.stderr[-3000:]}")
 
 
+def _say(label: str, name: str, r: dict, t0: float) -> None:
+    parts = [f"first call {r['single_cpu']:.2f} s CPU ({r['single_wall']:.2f} s wall)"]
+    for M in r["sizes"]:
+        parts.append(f"batch of {M}: {r[f'batch{M}_cpu']:.2f} s CPU")
+        if f"batch{M}_refused" in r:
+            parts.append(f"(batch of {M} refused: {r[f'batch{M}_refused']})")
+    if "refused" in r:
+        parts.append(f"(the flow refused: {r['refused']})")
+    print(
+        f"{label} {name} (n = {r['n']}): {', '.join(parts)} "
+        f"(child {time.perf_counter() - t0:.1f} s, load {r['load']:.2f})",
+        flush=True,
+    )
+
+
+def _measure(name: str, batches: str, modes: list[str], label: str) -> dict:
+    """One structure: the fully cold child (a fresh empty ``NUMBA_CACHE_DIR``), then the numba-warm
+    child sharing the ``NUMBA_CACHE_DIR`` the cold one filled -- the package's own functions at this
+    structure's argument types are cached, its generated kernels are not (each child's own
+    ``TSTARG_CACHE_DIR``; numba keys a generated module's machine code on its file's path). Only
+    ``warm``: an untimed child fills it first."""
+    res = {}
+    with tempfile.TemporaryDirectory(prefix="tstarg_numba_") as numba_dir:
+        if "cold" not in modes:
+            print(f"{label} {name}: warm-up child (untimed) ...", flush=True)
+            run_child(name, batches, numba_dir)
+        for m in modes:
+            print(f"{label} {name}: {m}, fresh process ...", flush=True)
+            t0 = time.perf_counter()
+            r = run_child(name, batches, numba_dir)
+            r["load"] = os.getloadavg()[0]
+            _say(f"{label} {m}", name, r, t0)
+            res[m] = r
+    return res
+
+
+def _table(rows, modes: list[str]) -> list[str]:
+    sizes = []
+    for _, res in rows:
+        for r in res.values():
+            sizes += [M for M in r["sizes"] if M not in sizes]
+    cols = []
+    for m in modes:
+        what = "fully cold" if m == "cold" else "numba-warm"
+        cols += [f"first call, {what}", f"batch first calls, {what}"]
+    out = [
+        "| structure | n | " + " | ".join(cols) + " | load |",
+        "|---|---|" + "---|" * len(cols) + "---|",
+    ]
+    for name, res in rows:
+        cells = []
+        for m in modes:
+            r = res[m]
+            cells.append(f"{r['single_cpu']:.2f}" + (" (refused)" if "refused" in r else ""))
+            bs = [
+                f"{M}: {r[f'batch{M}_cpu']:.2f}"
+                + (" (refused)" if f"batch{M}_refused" in r else "")
+                for M in r["sizes"]
+            ]
+            cells.append(", ".join(bs) or "-")
+        n = next(iter(res.values()))["n"]
+        loads = "/".join(f"{res[m]['load']:.1f}" for m in modes)
+        out.append(f"| {name} | {n} | " + " | ".join(cells) + f" | {loads} |")
+    return out
+
+
+def _commit() -> str:
+    try:
+        return subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=True
+        ).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", default="", help="comma-separated structures (default: all)")
     ap.add_argument(
-        "--batch", type=int, default=0, help="also a first batch call of M trajectories"
+        "--batch",
+        default="64,auto",
+        help="first batch calls after the single one, in this order (comma-separated sizes; 0: "
+        "none; auto: the smallest power of two over the batch's work threshold, so the structure's "
+        "generated lane kernel runs). 64 over T = 10 stays below it (the lane kernel shared by every "
+        "structure)",
     )
     ap.add_argument(
-        "--numba-warm",
-        action="store_true",
-        help="share one warmed NUMBA_CACHE_DIR: the structure's generated kernels alone",
+        "--mode",
+        choices=("cold", "warm", "both"),
+        default="both",
+        help="cold: numba cache empty too; warm: the package's own numba functions cached (the "
+        "structure's generated kernels alone); both (default)",
     )
+    ap.add_argument("--numba-warm", action="store_true", help="the same as --mode warm")
+    ap.add_argument("--write", metavar="PATH", help="also write the table as markdown to PATH")
     args = ap.parse_args(argv)
+    mode = "warm" if args.numba_warm else args.mode
+    modes = ["cold", "warm"] if mode == "both" else [mode]
     names = args.only.split(",") if args.only else list(BENCH_PROBLEMS + EXTRA)
+    load0, t_start = os.getloadavg(), time.time()
     rows = []
-    with tempfile.TemporaryDirectory(prefix="tstarg_numba_") as shared:
-        numba_dir = shared if args.numba_warm else None
-        for k, name in enumerate(names, 1):
-            if (
-                numba_dir
-            ):  # the package's own functions at this structure's types (complex G on su(3))
-                print(f"[{k}/{len(names)}] {name}: warm-up child (untimed) ...", flush=True)
-                run_child(name, 0, numba_dir)
-            print(f"[{k}/{len(names)}] {name}: fresh process, empty cache ...", flush=True)
-            t0 = time.perf_counter()
-            r = run_child(name, args.batch, numba_dir)
-            load = os.getloadavg()[0]
-            rows.append((name, r, load))
-            extra = (
-                f", batch of {args.batch}: {r['batch_cpu']:.2f} s CPU" if "batch_cpu" in r else ""
-            )
-            if "refused" in r:
-                extra += f" (the flow refused: {r['refused']})"
-            print(
-                f"[{k}/{len(names)}] {name} (n = {r['n']}): first call {r['single_cpu']:.2f} s CPU, "
-                f"{r['single_wall']:.2f} s wall{extra} (child {time.perf_counter() - t0:.1f} s, "
-                f"load {load:.2f})",
-                flush=True,
-            )
-    what = "generated kernels only" if args.numba_warm else "every kernel (numba cache empty too)"
-    print(f"\n| structure | n | first call, CPU ({what}) | wall | batch first call, CPU | load |")
-    print("|---|---|---|---|---|---|")
-    for name, r, load in rows:
-        b = f"{r['batch_cpu']:.2f} s" if "batch_cpu" in r else "-"
-        print(
-            f"| {name} | {r['n']} | {r['single_cpu']:.2f} s | {r['single_wall']:.2f} s | {b} | "
-            f"{load:.2f} |"
-        )
+    for k, name in enumerate(names, 1):
+        rows.append((name, _measure(name, args.batch, modes, f"[{k}/{len(names)}]")))
+    load1 = os.getloadavg()
+    notes = [
+        "CPU seconds (`time.process_time` of a fresh child process), one run each; load: the 1-min",
+        "load average after each child (cold/warm). Fully cold: `TSTARG_CACHE_DIR` and `NUMBA_CACHE_DIR`",
+        "empty (a user's very first call: the package's own compiled functions, built once per",
+        "installation and argument types, included). Numba-warm: the package's functions cached, the",
+        "structure's generated kernels not (its cost per structure). Batch first calls: in the same",
+        "process after the single call, perturbed starts; below `N |T| = 1024` the lane kernel shared",
+        "by every structure runs, from it the structure's generated one (the run included).",
+    ]
+    table = _table(rows, modes)
+    print("\n" + "\n".join(notes + [""] + table))
+    if args.write:
+        cmd = " ".join(["python tests/benchmarks/cold_first_call.py", *(argv or sys.argv[1:])])
+        head = [
+            "# The protocol flow's first call per structure (issue 25: at most 10 s)",
+            "",
+            f"- command: `{cmd}`",
+            f"- commit {_commit()}; {platform.platform()}, {os.cpu_count()} cores, Python "
+            f"{platform.python_version()}, numba {importlib.metadata.version('numba')}; load average "
+            f"{load0[0]:.2f} at the start, {load1[0]:.2f} at the end (CPU time is inflated on a "
+            f"loaded machine too); wall time {time.time() - t_start:.0f} s",
+            "",
+        ]
+        with open(args.write, "w") as fh:
+            fh.write("\n".join(head + notes + [""] + table) + "\n")
     return 0
 
 
