@@ -387,53 +387,6 @@ def _inverse_det(A, Ainv, M):
     return det
 
 
-@njit(cache=True, nogil=True)
-def _sqrtm(A, Y, Z, Yi, Zi, ws):
-    """Principal square root ``Y`` of ``A`` by the Denman-Beavers iteration ``Y_0 = A``, ``Z_0 = I``,
-    ``Y <- (mu Y + Z^-1 / mu) / 2``, ``Z <- (mu Z + Y^-1 / mu) / 2`` with determinantal scaling
-    ``mu = |det Y det Z|^(-1/(2r))`` (Higham, Functions of Matrices, 2008, 6.3 and 6.5; it only speeds
-    up the first iterations and stops once an update moves ``Y`` by at most ``1e-2 |Y|``), until an
-    update moves ``Y`` by at most ``1e-15 |Y|`` (max norms) or follows one that moved it by at most
-    ``1e-7 |Y|`` (convergence is quadratic: that one left ~1e-14, and on ill-conditioned ``A`` the
-    moves then stall at ``~cond eps`` instead of reaching 1e-15, measured 1e-14 on ``exp`` of a
-    Bianchi VI0 element of norm 8). ``Z``, ``Yi``, ``Zi`` (r, r) and ``ws``
-    (r, 2r) are workspace. False when it does not converge in 60 iterations or a pivot vanishes (an
-    eigenvalue on or near the closed negative real axis)."""
-    r = A.shape[0]
-    for i in range(r):
-        for j in range(r):
-            Y[i, j] = A[i, j]
-            Z[i, j] = 0.0
-        Z[i, i] = 1.0
-    scale = True
-    prev = np.inf
-    for _ in range(60):
-        dy = _inverse_det(Y, Yi, ws)
-        dz = _inverse_det(Z, Zi, ws)
-        if not (dy > 0.0 and dz > 0.0):
-            return False
-        mu = (dy * dz) ** (-0.5 / r) if scale else 1.0
-        if not (mu > 0.0 and math.isfinite(mu)):
-            return False
-        h = 0.5 * mu
-        hi = 0.5 / mu
-        d = 0.0
-        ny = 0.0
-        for i in range(r):
-            for j in range(r):
-                yn = h * Y[i, j] + hi * Zi[i, j]
-                d = max(d, abs(yn - Y[i, j]))
-                ny = max(ny, abs(yn))
-                Y[i, j] = yn
-                Z[i, j] = h * Z[i, j] + hi * Yi[i, j]
-        if d <= 1e-2 * ny:
-            scale = False
-        if d <= 1e-15 * ny or prev <= 1e-7:  # converged, or one step after a move of 1e-7: the
-            return True  # quadratic convergence leaves ~1e-14 before it, rounding noise after
-        prev = d / ny
-    return False
-
-
 LOG_SERIES_RADIUS = 0.5
 """:func:`logm` takes square roots until ``|A - I|_1 <= LOG_SERIES_RADIUS``, then sums the series
 ``log A = 2 atanh(Z)``, ``Z = (A - I)(A + I)^-1`` (``|Z|_1 <= 0.5 / 1.5``: a term falls by ``1/9`` or
@@ -443,46 +396,30 @@ and the roots leave, as in scipy's inverse scaling and squaring."""
 
 
 @njit(cache=True, nogil=True)
-def _log_unipotent(G, L, N, P, W):
-    """``L = log G = sum_(k<r) (-1)^(k+1) N^k / k`` when ``N = G - I`` is nilpotent with ``N^r = 0``
-    exactly in floating point (a unipotent ``G`` whose ``N`` is strictly triangular in the
-    representation's basis, as on nilpotent algebras: the products' zeros are structural); the series
-    then is the logarithm itself, with no square roots. False otherwise (``L`` then holds a partial
-    sum, overwritten by the caller)."""
-    r = G.shape[0]
-    for i in range(r):
-        for j in range(r):
-            N[i, j] = G[i, j] - (1.0 if i == j else 0.0)
-            P[i, j] = N[i, j]
-            L[i, j] = 0.0
-    for k in range(1, r + 1):  # P = N^k; after the loop's last product N^(r)
-        zero = True
-        for i in range(r):
-            for j in range(r):
-                if P[i, j] != 0.0:
-                    zero = False
-        if zero:
-            return True
-        if k == r:
-            return False
-        c = (1.0 if k % 2 == 1 else -1.0) / k
-        for i in range(r):
-            for j in range(r):
-                L[i, j] += c * P[i, j]
-        _matmul(P, N, W)
-        for i in range(r):
-            for j in range(r):
-                P[i, j] = W[i, j]
-    return False
-
-
-@njit(cache=True, nogil=True)
 def logm(G, L):
-    """Principal logarithm: the finite series of a unipotent ``G`` (:func:`_log_unipotent`), else square
-    roots (:func:`_sqrtm`) until ``||G^(1/2^s) - 1||_1 <=``
-    :data:`LOG_SERIES_RADIUS`, then ``log A = 2 atanh(Z)``, ``Z = (A - 1)(A + 1)^-1`` (the series
-    ``2 (Z + Z^3/3 + ...)``), times ``2^s``. False when a square root fails or more than 40 are needed.
-    One workspace allocation per call."""
+    """Principal logarithm: the finite series of a unipotent ``G``, else square roots until
+    ``||G^(1/2^s) - 1||_1 <=`` :data:`LOG_SERIES_RADIUS`, then ``log A = 2 atanh(Z)``,
+    ``Z = (A - 1)(A + 1)^-1`` (the series ``2 (Z + Z^3/3 + ...)``), times ``2^s``. False when a square
+    root fails or more than 40 are needed. One workspace allocation per call.
+
+    Unipotent ``G``: ``L = log G = sum_(k<r) (-1)^(k+1) N^k / k`` when ``N = G - I`` is nilpotent with
+    ``N^r = 0`` exactly in floating point (``N`` strictly triangular in the representation's basis, as
+    on nilpotent algebras: the products' zeros are structural); the series then is the logarithm
+    itself, with no square roots.
+
+    Square roots: the Denman-Beavers iteration ``Y_0 = A``, ``Z_0 = I``, ``Y <- (mu Y + Z^-1 / mu) / 2``,
+    ``Z <- (mu Z + Y^-1 / mu) / 2`` with determinantal scaling ``mu = |det Y det Z|^(-1/(2r))`` (Higham,
+    Functions of Matrices, 2008, 6.3 and 6.5; it only speeds up the first iterations and stops once an
+    update moves ``Y`` by at most ``1e-2 |Y|``), until an update moves ``Y`` by at most ``1e-15 |Y|``
+    (max norms) or follows one that moved it by at most ``1e-7 |Y|`` (convergence is quadratic: that
+    one left ~1e-14, and on ill-conditioned ``A`` the moves then stall at ``~cond eps`` instead of
+    reaching 1e-15, measured 1e-14 on ``exp`` of a Bianchi VI0 element of norm 8); a failure when it
+    does not converge in 60 iterations or a pivot vanishes (an eigenvalue on or near the closed
+    negative real axis).
+
+    Both are written here rather than called (they were ``_log_unipotent`` and ``_sqrtm``): numba
+    compiles each compiled callee on its own and again inside every caller, so each level of the
+    first call's chain costs cold compile time (issue 25)."""
     r = G.shape[0]
     # workspace: r x r blocks as leading-index views of one C-contiguous array (C-contiguous
     # themselves, so the helpers compile for one array layout), and the inverse's r x 2r
@@ -503,8 +440,32 @@ def logm(G, L):
     for i in range(r):
         for j in range(r):
             A[i, j] = G[i, j]
-    if _log_unipotent(G, L, ws[10], ws[11], ws[12]):
-        return True
+    # the finite series of a unipotent G (the body of _log_unipotent, written here: one compiled
+    # callee fewer in the first call's chain -- each @njit level recompiles its callees' code)
+    N, P, W2 = ws[10], ws[11], ws[12]
+    for i in range(r):
+        for j in range(r):
+            N[i, j] = G[i, j] - (1.0 if i == j else 0.0)
+            P[i, j] = N[i, j]
+            L[i, j] = 0.0
+    for k in range(1, r + 1):  # P = N^k; after the loop's last product N^(r)
+        zero = True
+        for i in range(r):
+            for j in range(r):
+                if P[i, j] != 0.0:
+                    zero = False
+        if zero:
+            return True
+        if k == r:
+            break
+        c = (1.0 if k % 2 == 1 else -1.0) / k
+        for i in range(r):
+            for j in range(r):
+                L[i, j] += c * P[i, j]
+        _matmul(P, N, W2)
+        for i in range(r):
+            for j in range(r):
+                P[i, j] = W2[i, j]
     s = 0
     while True:
         d = 0.0
@@ -517,7 +478,44 @@ def logm(G, L):
             return False
         if d <= LOG_SERIES_RADIUS:
             break
-        if s >= 40 or not _sqrtm(A, B, M, Mi, W, inv_ws):
+        if s >= 40:
+            return False
+        # B = sqrt(A): the body of _sqrtm (its workspace Z = M, Yi = Mi, Zi = W, ws = inv_ws), written
+        # here for the same reason
+        for i in range(r):
+            for j in range(r):
+                B[i, j] = A[i, j]
+                M[i, j] = 0.0
+            M[i, i] = 1.0
+        scale = True
+        prev = np.inf
+        root = False
+        for _ in range(60):
+            dy = _inverse_det(B, Mi, inv_ws)
+            dz = _inverse_det(M, W, inv_ws)
+            if not (dy > 0.0 and dz > 0.0):
+                return False
+            mu = (dy * dz) ** (-0.5 / r) if scale else 1.0
+            if not (mu > 0.0 and math.isfinite(mu)):
+                return False
+            h = 0.5 * mu
+            hi = 0.5 / mu
+            dd = 0.0
+            ny = 0.0
+            for i in range(r):
+                for j in range(r):
+                    yn = h * B[i, j] + hi * W[i, j]
+                    dd = max(dd, abs(yn - B[i, j]))
+                    ny = max(ny, abs(yn))
+                    B[i, j] = yn
+                    M[i, j] = h * M[i, j] + hi * Mi[i, j]
+            if dd <= 1e-2 * ny:
+                scale = False
+            if dd <= 1e-15 * ny or prev <= 1e-7:
+                root = True
+                break
+            prev = dd / ny
+        if not root:
             return False
         for i in range(r):
             for j in range(r):
