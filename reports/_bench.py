@@ -154,6 +154,10 @@ def main(args) -> int:
             wp.flow_problem(name)
         method(args.batch_method)
         protocol = _protocol_names(args)
+        if args.protocol_batch is not None and args.protocol_batch < 1:
+            raise ValueError(
+                f"--protocol-batch must be at least 1 trajectory, got {args.protocol_batch}"
+            )
         for path in getattr(args, "reuse", None) or []:
             if not Path(path).is_file():
                 raise ValueError(f"--reuse {path!r}: no such report.json")

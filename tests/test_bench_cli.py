@@ -231,10 +231,13 @@ def test_time_at_error_is_exact_on_power_laws():
         (["--ref-dps", "5"], "--ref-dps must be >= 15"),
         (["--batch-method", "euler"], "unknown flow method"),
         (["--protocol-problems", "kirchhoff_se3,spinning_plate"], "unknown protocol problem"),
+        (["--protocol-batch", "0"], "--protocol-batch must be at least 1 trajectory, got 0"),
+        (["--protocol-batch", "-3"], "--protocol-batch must be at least 1 trajectory, got -3"),
     ],
 )
 def test_bad_arguments_exit_2(tmp_path, capsys, argv, msg):
-    """Unknown problems or a too small reference precision are refused with exit code 2 and a message."""
+    """Unknown problems, a too small reference precision or an empty protocol batch (was an IndexError
+    from the batch's starting points) are refused with exit code 2 and a message."""
     rc = cli.main(["bench", "--quick", "--out", str(tmp_path)] + argv)
     assert rc == 2
     assert msg in capsys.readouterr().err
