@@ -357,6 +357,24 @@ HEAVY = {"kind": "gravity", "L": np.array([0.2, 0.1, 1.0]), "gamma": np.array([0
 LAGRANGE = {"kind": "gravity", "L": np.array([0.0, 0.0, 1.0]), "gamma": np.array([0.0, 0.0, -1.0])}
 
 
+def _premise_pair(model, x0, pi0, gamma, T):
+    """The pair of the proportional estimate's premise at ``B``'s order: ``A`` at ``A_LOOSE_FULL`` and
+    ``B`` at 1e-9 (its error ~1e-9, measurable against a reference). Returns ``(y0, B, |A - B|, eps_A,
+    eps_B)``."""
+    from tstarg.refimpl import _flow_compiled as fc
+
+    cf = model.compiled_full_field
+    y0 = np.empty((1, 10))
+    fc._start(x0[:, None].copy(), pi0[:, None].copy(), gamma, True, y0)
+    ea, eb = fc.A_LOOSE_FULL, 1e-9
+    P = fc._order_b(cf, fc.B_MAX)
+    A, _ = ct.taylor_adaptive(cf, y0, T, ea, P)
+    B, _ = ct.taylor_adaptive(cf, y0, T, eb, P)
+    d = np.empty(1)
+    fc._estimate(A, B, 3, d)
+    return y0, B, d[0], ea, eb
+
+
 @needs_numba
 @pytest.mark.parametrize(
     "I, pot, pi3",
@@ -395,20 +413,12 @@ def test_checking_run_at_a_loose_full_keeps_the_proportional_estimate_a_bound(I,
         return max(np.max(np.abs(pi - r13[:3])), np.max(np.abs(Ad.ravel() - r13[3:])))
 
     model = NumpyModel(*args)
-    cf = model.compiled_full_field
-    y0 = np.empty((1, 10))
-    fc._start(x0[:, None].copy(), pi0[:, None].copy(), pot["gamma"], True, y0)
-    ea, eb = fc.A_LOOSE_FULL, 1e-9
-    P = fc._order_b(cf, fc.B_MAX)
-    A, _ = ct.taylor_adaptive(cf, y0, T, ea, P)
-    B, _ = ct.taylor_adaptive(cf, y0, T, eb, P)
-    d = np.empty(1)
-    fc._estimate(A, B, 3, d)
+    y0, B, d, ea, eb = _premise_pair(model, x0, pi0, pot["gamma"], T)
     err_b = err_of(B[0, :3], B[:, -4:].T)
     assert (
-        np.isfinite(d[0]) and err_b > 10 * ref_err
+        np.isfinite(d) and err_b > 10 * ref_err
     )  # the check below is not decided by the reference
-    assert err_b <= fc.PROP * (eb / ea) * d[0] + ref_err, (err_b, d[0])
+    assert err_b <= fc.PROP * (eb / ea) * d + ref_err, (err_b, d)
 
     passed = len(fc._first_pair(model, y0, T, ea, fc._eps_b(ea), 3, 1e-10)) == 4
     assert passed == (pi3 == 2.0), "the case no longer exercises the path it names"
@@ -477,18 +487,10 @@ def test_estimate_with_theta_and_gravity_against_the_mpmath_reference():
         return max(np.max(np.abs(pi - pir)), np.max(np.abs(quat_rotation(quat)[0] - Adr)))
 
     model = NumpyModel(SU2, THETA, Z, I_OFF, GRAV)
-    cf = model.compiled_full_field
-    y0 = np.empty((1, 10))
-    fc._start(x0[:, None].copy(), pi0[:, None].copy(), GRAV["gamma"], True, y0)
-    ea, eb = fc.A_LOOSE_FULL, 1e-9
-    P = fc._order_b(cf, fc.B_MAX)
-    A, _ = ct.taylor_adaptive(cf, y0, T, ea, P)
-    B, _ = ct.taylor_adaptive(cf, y0, T, eb, P)
-    d = np.empty(1)
-    fc._estimate(A, B, 3, d)
+    _, B, d, ea, eb = _premise_pair(model, x0, pi0, GRAV["gamma"], T)
     err_b = err_of(B[0, :3], B[:, -4:].T)
-    assert np.isfinite(d[0]) and err_b > 10 * JUDGE
-    assert err_b <= fc.PROP * (eb / ea) * d[0] + JUDGE, (err_b, d[0])
+    assert np.isfinite(d) and err_b > 10 * JUDGE
+    assert err_b <= fc.PROP * (eb / ea) * d + JUDGE, (err_b, d)
 
     out = fc.compiled_taylor_flow(model, x0[:, None], pi0[:, None], T, 1e-10)
     err = err_of(out["pi"][:, 0], out["quat"])

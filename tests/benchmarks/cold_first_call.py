@@ -42,6 +42,8 @@ import sys
 import tempfile
 import time
 
+from tstarg.reports.environment import git_commit
+
 BENCH_PROBLEMS = (
     "heavy_top_full",
     "free_su3",
@@ -237,15 +239,6 @@ def _table(rows, modes: list[str]) -> list[str]:
     return out
 
 
-def _commit() -> str:
-    try:
-        return subprocess.run(
-            ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=True
-        ).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
-
-
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", default="", help="comma-separated structures (default: all)")
@@ -292,7 +285,7 @@ def main(argv=None) -> int:
             "# The protocol flow's first call per structure (issue 25: at most 10 s)",
             "",
             f"- command: `{cmd}`",
-            f"- commit {_commit()}; {platform.platform()}, {os.cpu_count()} cores, Python "
+            f"- commit {git_commit() or 'unknown (not a git checkout)'}; {platform.platform()}, {os.cpu_count()} cores, Python "
             f"{platform.python_version()}, numba {importlib.metadata.version('numba')}; load average "
             f"{load0[0]:.2f} at the start, {load1[0]:.2f} at the end (CPU time is inflated on a "
             f"loaded machine too); wall time {time.time() - t_start:.0f} s",

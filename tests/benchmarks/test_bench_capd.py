@@ -44,7 +44,6 @@ import argparse
 import importlib.metadata
 import os
 import platform
-import subprocess
 import sys
 import time
 
@@ -69,6 +68,7 @@ from tstarg.refimpl._interval_flow import (  # noqa: E402
 )
 from tstarg.refimpl._rigorous_flow import body_field  # noqa: E402
 from tstarg.refimpl.rigorous import body_flow_enclosure  # noqa: E402
+from tstarg.reports.environment import git_commit  # noqa: E402
 
 Z3 = np.zeros((3, 3))
 GRAV = {"kind": "gravity", "L": np.array([0.0, 0.0, 1.0]), "gamma": np.array([0.0, 0.0, -1.0])}
@@ -329,15 +329,6 @@ def _summary(rows) -> list:
     return out
 
 
-def _commit() -> str:
-    try:
-        return subprocess.run(
-            ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=True
-        ).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
-
-
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--write", metavar="PATH", help="also write the table as markdown to PATH")
@@ -357,7 +348,7 @@ def main(argv=None) -> int:
             "",
             f"- command: `python tests/benchmarks/test_bench_capd.py --write {a.write}"
             + (f" --repeat {a.repeat}`" if a.repeat != REPEAT else "`"),
-            f"- commit {_commit()}; {platform.platform()}, {os.cpu_count()} cores, load average "
+            f"- commit {git_commit() or 'unknown (not a git checkout)'}; {platform.platform()}, {os.cpu_count()} cores, load average "
             f"{load0[0]:.2f} at the start, {load1[0]:.2f} at the end (other processes share the "
             "cores: compare ratios from this run, not times across runs); wall time "
             f"{time.time() - t0:.0f} s",
