@@ -63,25 +63,31 @@ def test_certificate_names_the_proven_judge_and_its_error():
     assert PROVEN_JUDGE in res.extra["judge"]
 
 
+def _move_reference(monkeypatch, rel: str) -> None:
+    """Verify's second route from here on sees the reference's final pi moved by ``rel`` (relative)."""
+    import tstarg.refimpl.flows as flows
+    from tstarg.properties import core_checks
+
+    real = flows.reference_trajectory
+
+    def moved(*a, **k):
+        tr = real(*a, **k)
+        tr.pi[-1] = tr.pi[-1] * (1 + mpmath.mpf(rel))
+        return tr
+
+    monkeypatch.setattr(core_checks, "reference_trajectory", moved)
+
+
 def test_verify_flow_second_route_passes_and_bites(monkeypatch):
     """verify's ``flow_reference_inside_balls`` on one su(2) example with Upsilon: the true reference
     passes (ratio <= 1, > 14 proven digits); a reference whose pi is moved by 1e-15 relative (far
     above its 1e-22 promise, far below any float64 tolerance) fails it."""
-    import tstarg.refimpl.flows as flows
-    from tstarg.properties import core_checks
     from tstarg.properties.core_checks import flow_reference_inside_balls
 
     ex = ("su(2)", Z3, U_DEG * 0.6, X0, PI0, 0.2)
     ratio, digits = flow_reference_inside_balls(ex)
     assert ratio <= 1 and digits > 14
-    real = flows.reference_trajectory
-
-    def moved(*a, **k):
-        tr = real(*a, **k)
-        tr.pi[-1] = tr.pi[-1] * (1 + mpmath.mpf("1e-15"))
-        return tr
-
-    monkeypatch.setattr(core_checks, "reference_trajectory", moved)
+    _move_reference(monkeypatch, "1e-15")
     bad, _ = flow_reference_inside_balls(ex)
     assert bad > 1e3
 
@@ -91,8 +97,6 @@ def test_verify_flow_second_route_holds_both_boxes(monkeypatch):
     balls: the true reference passes with >= 13 proven digits (the boxes' radius ~1e-16 at t = 0.2);
     a reference whose pi is moved by 1e-12 relative (outside the interval box, whose radius is
     below 1e-14 here, and far outside the Arb balls) fails."""
-    import tstarg.refimpl.flows as flows
-    from tstarg.properties import core_checks
     from tstarg.properties.core_checks import flow_reference_inside_balls
 
     ex = ("su(2)", Z3, Z3, X0, PI0, -0.2)
@@ -103,14 +107,7 @@ def test_verify_flow_second_route_holds_both_boxes(monkeypatch):
     )
     ratio, digits = flow_reference_inside_balls(ex)
     assert ratio <= 1 and digits > 13
-    real = flows.reference_trajectory
-
-    def moved(*a, **k):
-        tr = real(*a, **k)
-        tr.pi[-1] = tr.pi[-1] * (1 + mpmath.mpf("1e-12"))
-        return tr
-
-    monkeypatch.setattr(core_checks, "reference_trajectory", moved)
+    _move_reference(monkeypatch, "1e-12")
     ratio, _ = flow_reference_inside_balls(ex)
     assert ratio > 1
 
