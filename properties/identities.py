@@ -144,6 +144,29 @@ def _mpf(v: Any) -> mpmath.mpf:
     return sympy.N(e, mpmath.mp.dps + 5)._to_mpmath(mpmath.mp.prec)
 
 
+_ZERO_PROBE = sympy.Symbol("z")
+
+
+def _exact_size(v: sympy.Expr) -> float:
+    """``|v|`` of an exact number as a float, ``0.0`` exactly when ``v = 0``.
+
+    Rational data stay rational. Structure constants such as VII_h's ``sqrt(h)`` make entries
+    algebraic and, after an inverse, unsimplified: sympy can neither order them nor tell an
+    unsimplified zero from a tiny number (``Abs(...) > 0`` raises). Zero is decided exactly by
+    the minimal polynomial (``z`` iff ``v = 0``); a non-algebraic entry falls back to
+    :meth:`sympy.Expr.equals`. A nonzero value is then evaluated to 30 digits: only its size
+    matters (which identity is worst), never its sign.
+    """
+    v = sympy.expand(v)
+    if v.is_Rational:
+        return float(abs(v))
+    try:
+        zero = sympy.minimal_polynomial(v, _ZERO_PROBE) == _ZERO_PROBE
+    except (NotImplementedError, sympy.polys.polyerrors.NotAlgebraic):
+        zero = bool(v.equals(0))
+    return 0.0 if zero else float(abs(sympy.N(v, 30)))
+
+
 def _f_exact(f: Any) -> np.ndarray:
 
     if isinstance(f, LieAlgebra):
@@ -317,21 +340,19 @@ def closedness_exact(f, theta, upsilon) -> Measurement:
 
 
 def _exact_cyclic(entry, N, ps, label) -> Measurement:
-    worst, where = sympy.Integer(0), ""
+    worst, where = 0.0, ""
     for i in range(N):
         for j in range(i + 1, N):
             for k in range(j + 1, N):
                 e = sympy.expand(entry(i, j, k))
-                if e != 0:
-                    e = sympy.cancel(sympy.together(e))
-                if e != 0:
-                    num = sympy.Poly(sympy.numer(e), *ps) if ps else None
-                    size = max(abs(c) for c in num.coeffs()) if num is not None else abs(e)
-                    if size > worst or where == "":
-                        worst, where = size, f"{label}_{i}{j}{k} = {e}"
-    if worst == 0 and where:
-        worst = sympy.Integer(1)
-    return Measurement(float(worst), 0.0, None if worst else math.inf, where[:300])
+                if e == 0:
+                    continue
+                e = sympy.cancel(sympy.together(e))
+                coeffs = sympy.Poly(sympy.numer(e), *ps).coeffs() if ps else [e]
+                size = max((_exact_size(c) for c in coeffs), default=0.0)
+                if size > worst:
+                    worst, where = size, f"{label}_{i}{j}{k} = {e}"
+    return Measurement(worst, 0.0, None if worst else math.inf, where[:300])
 
 
 # ---------------------------------------------------- vier6, vier7
@@ -356,14 +377,15 @@ def phi_psi_identities(f, theta, upsilon, pi, *, exact: bool = True, dps: int = 
         Phi = sympy.eye(n) + S * up
         Psi = sympy.eye(n) + up * S
         det = Phi.det()
-        if det == 0:
+        if _exact_size(det) == 0:
             raise ValueError(f"Delta = det Phi = 0 at pi = {list(pi)} (vier7): Phi has no inverse")
         Pinv, Qinv = Phi.inv(), Psi.inv()
         res = _identity_residuals(Phi, Psi, S, up, Pinv, Qinv, det, Psi.det())
-        worst = max(((max((abs(v) for v in m), default=0), k) for k, m in res), key=lambda t: t[0])
-        return Measurement(
-            float(worst[0]), 0.0, None if worst[0] else math.inf, worst[1] if worst[0] else ""
+        size, where = max(
+            ((max((_exact_size(v) for v in m), default=0.0), k) for k, m in res),
+            key=lambda t: t[0],
         )
+        return Measurement(size, 0.0, None if size else math.inf, where if size else "")
     with mpmath.workdps(dps + 10):
         F = _F_mp(f)
         th, up = _mat_mp(theta, n), _mat_mp(upsilon, n)
@@ -555,7 +577,7 @@ def jacobi_exact(f, theta, upsilon, pi) -> Measurement:
     fm = [sympy.Matrix(n, n, lambda a, b, m=m: fe[m, a, b]) for m in range(n)]
     S = sum((pv[m] * fm[m] for m in range(n)), sympy.zeros(n, n)) - th
     W = sympy.BlockMatrix([[S, sympy.eye(n)], [-sympy.eye(n), up]]).as_explicit()
-    if (sympy.eye(n) + S * up).det() == 0:
+    if _exact_size((sympy.eye(n) + S * up).det()) == 0:
         raise ValueError(f"Delta = det Phi = 0 at pi = {list(pi)} (vier7): no Poisson tensor")
     Pb = -W.inv()
     N = 2 * n
@@ -568,12 +590,12 @@ def jacobi_exact(f, theta, upsilon, pi) -> Measurement:
         dW = sympy.zeros(N, N)
         dW[:n, :n] = fm[m]
         D.append(Pb * dW * Pb)
-    worst, where = sympy.Integer(0), ""
+    worst, where = 0.0, ""
     for key, v in _jacobiator(Pb, D, N).items():
-        v = v if v.is_Rational else sympy.simplify(v)
-        if abs(v) > worst:
-            worst, where = abs(v), f"J_{key} = {v}"
-    return Measurement(float(worst), 0.0, None if worst else math.inf, where)
+        size = _exact_size(v)
+        if size > worst:
+            worst, where = size, f"J_{key} = {v}"
+    return Measurement(worst, 0.0, None if worst else math.inf, where)
 
 
 def jacobi_float(

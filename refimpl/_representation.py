@@ -120,6 +120,29 @@ def _logm(G):
         return scipy.linalg.logm(G)
 
 
+def _exp_growth(M: np.ndarray) -> float:
+    """How far ``exp`` spreads an error at ``M`` (float64, real or complex ``(r, r)``): an estimate of
+    ``max_s |e^(sM)|_1 |e^((1-s)M)|_1`` over ``s`` in ``[0, 1]``, sampled at ``s = k/8``.
+
+    ``exp(M + D) - exp(M) = int_0^1 e^(sM) D e^((1-s)M) ds + O(D^2)``, so an error ``D`` in a
+    logarithm's coordinates shows in ``exp`` at most ``|D|`` times this. The bound it estimates
+    replaces the worst case ``exp(|M|_1)``, which is useless as a discriminator: for the adjoint
+    matrix of a rotation-like element (Bianchi VII_h, ``|M|_1 = 32``) it is 5e13 while the sampled
+    growth is ~50, so a logarithm that is off by ``O(|G|)`` passed (a reference flow ended at a wrong
+    ``x``). Capped at ``exp(50)`` (float64 cannot discriminate beyond).
+    """
+    M = np.asarray(M)
+    cap = float(np.exp(50.0))
+    if not np.all(np.isfinite(M)) or float(np.linalg.norm(M, 1)) > 8 * 50.0:
+        return cap
+    step = expm(M / 8)
+    powers = [np.eye(M.shape[0], dtype=step.dtype)]
+    for _ in range(8):
+        powers.append(powers[-1] @ step)
+    norms = [float(np.linalg.norm(P, 1)) for P in powers]
+    return min(cap, max(norms[k] * norms[8 - k] for k in range(9)))
+
+
 class RepresentationError(ValueError):
     """No faithful matrix representation could be built (or a given one is not faithful)."""
 
@@ -538,15 +561,18 @@ class Representation:
         x, *_ = np.linalg.lstsq(B, rhs, rcond=None)
         return x, float(np.max(np.abs(B @ x - rhs), initial=0.0))
 
-    def _accept(self, x, G):
-        """``exp(rho(x)) = G`` to rounding: ``c eps cond scale`` with ``c = 10^3``, ``cond`` the growth
-        ``exp(||rho(x)||)`` of expm's error, scale ``max(1, |G|)``."""
+    def _accept(self, x, G, cond_log=1.0):
+        """``exp(rho(x)) = G`` to rounding: ``|exp(M) - G|_max <= c eps cond_log max(1, |M|_1) growth r``
+        with ``M = rho(x)``, ``c = 10^3``, ``growth`` = :func:`_exp_growth` (at least ``|G|``, the
+        scale) and ``r`` the matrix size: a backward-stable logarithm is off by ``~eps |M|``.
+        ``cond_log``: the logarithm's own conditioning where it is known to be poor (a Newton start
+        at distance ``s`` from the cut locus: ``1 / s``)."""
         if x is None or not np.all(np.isfinite(x)):
             return False
         M = self.matrix(x)
         err = np.max(np.abs(expm(M) - G))
-        cond = np.exp(min(50.0, float(np.linalg.norm(M, 1))))
-        return bool(err <= 1e3 * EPS * cond * max(1.0, float(np.max(np.abs(G)))) * self.dim)
+        scale = max(1.0, float(np.linalg.norm(M, 1))) * max(1.0, _exp_growth(M))
+        return bool(err <= 1e3 * EPS * cond_log * scale * self.dim)
 
     def _log_a(self, G):
         X = _logm(G)
@@ -629,7 +655,7 @@ class Representation:
                     x = np.real(cand())
                 except (ValueError, np.linalg.LinAlgError, TypeError):
                     x = None
-            if x is not None and self._accept(x, Gp):
+            if x is not None and self._accept(x, Gp, cond_log=1 / s):  # a start: its branch
                 break
             x = None
         if x is None:
@@ -723,7 +749,8 @@ class Representation:
     def mp_log(self, G, Ad, Fm):
         """mpmath version of :meth:`log`: ``G = rho(g)``, ``Ad = Ad(g)`` (mpmath matrices); ``Fm[m][a, b]``
         the structure constants at the working precision. Accepts when ``|exp(rho(x)) - G|_1 <=
-        10^(-3 dps / 4) max(1, |G|_1) exp(|rho(x)|_1)``."""
+        10^(-3 dps / 4) max(1, |rho(x)|_1) growth``, ``growth`` = :func:`_exp_growth` of ``rho(x)``
+        (in float64: only its size matters)."""
         n = self.f.shape[0]
         tol = mpmath.mpf(10) ** (-(mpmath.mp.dps * 3 // 4))
         src = self.exact if self.exact is not None else self.mats
@@ -752,9 +779,9 @@ class Representation:
             X = self.mp_matrix(x, Fm)
             E = mpmath.expm(X) - Gt
             t = LOOSE if loose else tol
-            return mpmath.mnorm(E, 1) <= t * max(1, mpmath.mnorm(Gt, 1)) * mpmath.exp(
-                min(50, mpmath.mnorm(X, 1))
-            )
+            Xf = np.array(X.tolist(), dtype=complex)
+            growth = _exp_growth(Xf.real if not np.any(Xf.imag) else Xf)
+            return mpmath.mnorm(E, 1) <= t * max(1, mpmath.mnorm(X, 1)) * max(1, growth)
 
         def log_a(Gt):
             return _min_norm(rows, mpmath.logm(Gt))

@@ -9,6 +9,8 @@ in tests/test_identity_checks.py; this file adds the per-family and per-catalogu
 
 from __future__ import annotations
 
+from fractions import Fraction
+
 import numpy as np
 import pytest
 from hypothesis import assume, given, settings
@@ -99,3 +101,23 @@ def test_negative_control_upsilon_not_antisymmetric(ex):
     except ValueError:
         assume(False)
     assert m.error > 0
+
+
+def test_identities_exact_with_irrational_constants():
+    """VII_h(h=3) has ``sqrt(3)`` in its structure constants, so ``Phi^-1`` has unsimplified
+    algebraic entries: the exact route must decide zero exactly (it raised sympy's "cannot
+    determine truth value" on CI seed 851072590). An antisymmetric Upsilon gives 0 (vier6,
+    vier7 hold); the same model with a non-antisymmetric Upsilon (the CI's falsifying example)
+    must give a positive error on ``Upsilon Phi^-1`` or another vier6/vier7 residual."""
+    alg = catalogue("Bianchi VII_h(h=3)")
+    theta = np.array([[0, Fraction(-3, 4), Fraction(-1, 4)], [Fraction(3, 4), 0, 0],
+                      [Fraction(1, 4), 0, 0]], dtype=object)  # fmt: skip
+    pi = [0, 0, Fraction(-3, 5)]
+    anti = np.array([[0, Fraction(1, 2), Fraction(-1, 2)], [Fraction(-1, 2), 0, Fraction(1, 8)],
+                     [Fraction(1, 2), Fraction(-1, 8), 0]], dtype=object)  # fmt: skip
+    good = idn.phi_psi_identities(alg, theta, anti, pi, exact=True)
+    assert good.error == 0, good
+    bad_upsilon = anti.copy()
+    bad_upsilon[1, 0] = 0  # Upsilon_10 != -Upsilon_01
+    bad = idn.phi_psi_identities(alg, theta, bad_upsilon, pi, exact=True)
+    assert bad.error > 0 and bad.ratio == float("inf"), bad

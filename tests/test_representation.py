@@ -8,6 +8,7 @@ algebras; negative controls; the logarithm's documented choices.
 
 from __future__ import annotations
 
+import mpmath
 import numpy as np
 import pytest
 import scipy.linalg
@@ -17,11 +18,12 @@ from hypothesis import strategies as st
 
 from tstarg.properties.strategies import basis_changes, lie_algebras
 from tstarg.refimpl import LieAlgebra
-from tstarg.refimpl._catalogue import CATALOGUE_NAMES, catalogue, heisenberg, su2
+from tstarg.refimpl._catalogue import CATALOGUE_NAMES, bianchi, catalogue, heisenberg, su2
 from tstarg.refimpl._representation import (
     RepresentationError,
     check_representation,
     faithful_representation,
+    representation_for,
 )
 
 EPS = np.finfo(float).eps
@@ -186,3 +188,42 @@ def test_log_on_the_cut_locus():
     assert np.max(np.abs(rep.exp(y) - G)) <= 1e4 * EPS * np.linalg.norm(G, 1)
     assert abs(np.max(np.abs(np.linalg.eigvals(rep.matrix(y)).imag)) - np.pi) < 1e-6
     assert min(np.max(np.abs(y - x)), np.max(np.abs(y + x))) < 1e-6
+
+
+def test_log_far_from_identity_bianchi_vii_h():
+    """Bianchi VII_h(h=4) at ``|ad_x|_1 = 34`` (where a reference flow ended on CI seed 29477): the
+    principal ``logm`` of ``Ad(g)``, projected on the algebra, is off by ``|exp(x') - G|_1 = 2.9``, and
+    the old acceptance bound ``exp(|ad_x|_1) = 5e13`` let it through. The float64 and the mpmath
+    logarithm must both return an ``x'`` with ``exp(x') = g``: checked against ``G = exp(ad_x)`` built
+    at 40 digits from the ``x`` we started from (exact rational constants: h = 4 gives sqrt(h) = 2).
+    Error models: float64 ``1e3 eps |ad_x|_1 * 50`` (backward-stable log, exp spreads an error by at
+    most ~50 here, the sampled ``max_s |e^(s ad_x)| |e^((1-s) ad_x)|``); mpmath at 30 digits
+    ``10^-22``."""
+    alg = bianchi("VII_h", h=4)
+    rep = representation_for(alg)
+    x = [-2.9455118609080655, 8.878138628494874, 7.01337288517639]
+    n = len(x)
+
+    def exact_const(v):
+        r = sympy.Rational(v)
+        return mpmath.mpf(int(r.p)) / int(r.q)
+
+    with mpmath.workdps(40):
+        Fm = [mpmath.matrix([[exact_const(alg.f_exact[m, a, b]) for b in range(n)] for a in range(n)])
+              for m in range(n)]  # fmt: skip
+        adx = mpmath.matrix(
+            [
+                [mpmath.fsum(x[a] * Fm[m][a, b] for a in range(n)) for b in range(n)]
+                for m in range(n)
+            ]
+        )
+        G = mpmath.expm(adx)
+    Gf = np.array(G.tolist(), dtype=float)
+    if rep.kind == "adjoint":
+        y = rep.log(Gf, Gf)
+        ady = np.einsum("a,mab->mb", y, np.asarray(alg.f, dtype=float))
+        assert np.max(np.abs(scipy.linalg.expm(ady) - Gf)) <= 1e3 * EPS * 34 * 50, y
+    with mpmath.workdps(30):
+        y = rep.mp_log(G, G, Fm)
+        res = mpmath.mnorm(rep.mp_exp(y, Fm) - G, 1)
+        assert res <= mpmath.mpf(10) ** -22, (list(y), res)
