@@ -487,9 +487,10 @@ def _ad_of(fs: FullState, G) -> np.ndarray:
     return out
 
 
-ABELIAN_RTOL = (
-    1e-13  # the log's abelian part is kept when it matches the integrated one this closely
-)
+ABELIAN_RTOL = 1e-13
+"""The log's abelian part is kept when it matches the integrated one this closely (relative) and, in
+the compiled logarithm (:func:`refimpl._full_state_kernel.log_state_refined`), ``exp(rho(x))`` meets
+``G`` to :data:`refimpl._full_state_kernel.LOG_REFINE_FLOOR`; else the row is refined from ``s``."""
 
 
 def _check_steps(steps, t) -> None:
