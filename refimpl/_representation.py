@@ -139,7 +139,7 @@ def _exp_growth(M: np.ndarray) -> float:
     powers = [np.eye(M.shape[0], dtype=step.dtype)]
     for _ in range(8):
         powers.append(powers[-1] @ step)
-    norms = [float(np.linalg.norm(P, 1)) for P in powers]
+    norms = [float(np.abs(P).sum(axis=0).max()) for P in powers]
     return min(cap, max(norms[k] * norms[8 - k] for k in range(9)))
 
 
@@ -570,9 +570,12 @@ class Representation:
         if x is None or not np.all(np.isfinite(x)):
             return False
         M = self.matrix(x)
-        err = np.max(np.abs(expm(M) - G))
-        scale = max(1.0, float(np.linalg.norm(M, 1))) * max(1.0, _exp_growth(M))
-        return bool(err <= 1e3 * EPS * cond_log * scale * self.dim)
+        E = expm(M)
+        err = np.max(np.abs(E - G))
+        tol = 1e3 * EPS * cond_log * max(1.0, float(np.linalg.norm(M, 1))) * self.dim
+        if err <= tol * max(1.0, float(np.linalg.norm(E, 1))):  # growth >= |exp(M)|_1: accepted
+            return True
+        return bool(err <= tol * max(1.0, _exp_growth(M)))
 
     def _log_a(self, G):
         X = _logm(G)
@@ -779,9 +782,11 @@ class Representation:
             X = self.mp_matrix(x, Fm)
             E = mpmath.expm(X) - Gt
             t = LOOSE if loose else tol
+            err, bound = mpmath.mnorm(E, 1), t * max(1, mpmath.mnorm(X, 1))
+            if err <= bound * max(1, mpmath.mnorm(Gt, 1)):  # growth >= |G|_1: accepted
+                return True
             Xf = np.array(X.tolist(), dtype=complex)
-            growth = _exp_growth(Xf.real if not np.any(Xf.imag) else Xf)
-            return mpmath.mnorm(E, 1) <= t * max(1, mpmath.mnorm(X, 1)) * max(1, growth)
+            return err <= bound * max(1, _exp_growth(Xf.real if not np.any(Xf.imag) else Xf))
 
         def log_a(Gt):
             return _min_norm(rows, mpmath.logm(Gt))
