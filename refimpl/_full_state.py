@@ -84,6 +84,7 @@ from .codegen.full_state import full_state_source
 __all__ = ["FullState", "applies", "full_state", "full_state_flow"]
 
 EPS = np.finfo(float).eps
+_EPS = float(EPS)
 GENERATED_MIN_WORK = 0.0
 """``N |t|`` (trajectories times the time span) from which a flow runs the kernel generated for its
 structure (:func:`refimpl.codegen.full_state.full_state_source`: every product unrolled, about 2x
@@ -486,9 +487,10 @@ def _ad_of(fs: FullState, G) -> np.ndarray:
     return out
 
 
-ABELIAN_RTOL = (
-    1e-13  # the log's abelian part is kept when it matches the integrated one this closely
-)
+ABELIAN_RTOL = 1e-13
+"""The log's abelian part is kept when it matches the integrated one this closely (relative) and, in
+the compiled logarithm (:func:`refimpl._full_state_kernel.log_state_refined`), ``exp(rho(x))`` meets
+``G`` to :data:`refimpl._full_state_kernel.LOG_REFINE_FLOOR`; else the row is refined from ``s``."""
 
 
 def _check_steps(steps, t) -> None:
@@ -571,10 +573,12 @@ class _Answer:
         :data:`ROUND_AMPLIFIED`), per row; keeps ``G``, ``Ad``, ``x`` of those ``rows`` of the answer."""
         if self.B is not B:  # not the B just estimated (not reached by the control): measure it
             self.measure(B, B, np.empty(B.shape[0]))
-        if self.N == 1:
+        if self.N == 1:  # Python floats (numpy scalar arithmetic costs more)
             self.all = (self.G, self.Ad, self.xs, self.resid)
-            per_step = ROUND_PER_STEP * (math.sqrt(steps[0]) + self.n) * max(1.0, self.size[0])
-            return (EPS * (per_step + ROUND_AMPLIFIED * kappa[0]) + self.resid[0],)
+            per_step = (
+                ROUND_PER_STEP * (math.sqrt(int(steps[0])) + self.n) * max(1.0, float(self.size[0]))
+            )
+            return (_EPS * (per_step + ROUND_AMPLIFIED * float(kappa[0])) + float(self.resid[0]),)
         if self.all is None:
             fs, N = self.fs, self.N
             self.all = (

@@ -16,6 +16,11 @@ Error models (bounds that hold for any backward-stable route, never fitted to th
   sensitivity: ``|L_exp(L, E)|_2 <= exp(|L|_2) |E|_2``; ``log_batch``'s acceptance test is the same
   with the larger ``|L|_1``), and that ``L`` is the principal one (mpmath's ``logm``), to ``1e-6 |L|``
   (a branch is off by ``2 pi``);
+* ``log_state_refined`` (the logarithm of an exponential algebra, its abelian part from the
+  integrated ``s``): the answer's residual as the float64 exponential sees it is at most the refine's
+  floor ``LOG_REFINE_FLOOR r max(1, |G|)``, so the true residual ``|exp(rho(x)) - G|`` (mpmath) is at
+  most that floor plus the float64 exponential's own error at ``x`` (measured against mpmath, not
+  modelled);
 * ``expm_frechet``: the exponential of the block ``Z`` computed by scaling and squaring errs by at
   most ``100 eps exp(|Z|_1) max(1, |exp Z|)`` (the model of tests/test_compiled_any_algebra.py's
   helper check), and ``exp(X)``, ``L(X, E)`` are blocks of it.
@@ -26,10 +31,15 @@ from __future__ import annotations
 import mpmath
 import numpy as np
 import pytest
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
 
+from tstarg.refimpl import _full_state as fs_mod
 from tstarg.refimpl import _full_state_kernel as fk
-from tstarg.refimpl._catalogue import catalogue
+from tstarg.refimpl._catalogue import bianchi, catalogue
 from tstarg.refimpl._representation import representation_for
+from tstarg.refimpl.flows import cached_model
+from tstarg.refimpl.flows._common import _AbelianPart
 
 EPS = np.finfo(float).eps
 
@@ -109,3 +119,54 @@ def test_expm_frechet_against_the_block_exponential(scale):
         bound = 100 * EPS * np.exp(np.linalg.norm(Z, 1)) * max(1.0, np.max(np.abs(EZ)))
         assert np.max(np.abs(E - EZ[:r, :r])) <= bound
         assert np.max(np.abs(L[c] - EZ[:r, r:])) <= bound
+
+
+_VI0 = None
+
+
+def _vi0():
+    """The full-state tables of a Bianchi VI0 model (affine representation, abelian part ``x_3``)."""
+    global _VI0
+    if _VI0 is None:
+        f = np.array(bianchi("VI0").f, dtype=float)
+        z = np.zeros((3, 3))
+        model = cached_model(f, z, z, np.eye(3), None)
+        _VI0 = fs_mod.full_state(model, _AbelianPart)
+    return _VI0
+
+
+@settings(deadline=None)
+@given(
+    st.lists(st.floats(-6.0, 6.0), min_size=2, max_size=2),
+    st.floats(-6.5, 6.5),
+)
+@example([5.07794626, -5.40291662], 5.72304174)  # a bench batch row whose log was 500 ulp off
+def test_refined_log_reaches_the_exponentials_rounding(xy, s):
+    """Bianchi VI0 at ``|x|`` up to ~10 (``|G|`` up to ``e^6.5``): ``log_state_refined`` of
+    ``G = exp(rho(x_true))`` (mpmath, rounded) with ``s = x_true_3``. Its ``x`` keeps ``s`` as the
+    abelian part (or the logarithm's, within ``ABELIAN_RTOL`` of it) and reproduces ``G`` to the float64 exponential's rounding (module docstring): the
+    logarithm alone was hundreds of ulp off in ``x_3`` while within ``ABELIAN_RTOL`` of ``s``, which
+    moved ``Ad(exp x)`` by 1.2e-10 and refused bench batch rows."""
+    fs = _vi0()
+    x_true = np.array([xy[0], xy[1], s])
+    X = np.einsum("a,aij->ij", x_true, fs.mats)
+    G = np.ascontiguousarray(_mp_expm(X).real[None])
+    Ad = np.empty((1, 3, 3))
+    fk.ad_batch(G, fs.mats, fs.proj, False, Ad)
+    B = np.zeros((1, fs.d))
+    B[0, fs.d - 1] = s
+    xs, ok, resid = np.empty((1, 3)), np.empty(1, np.bool_), np.empty(1)
+    done = fk.log_state_refined(
+        B, G, Ad, fs.mats, fs.proj, *fs.abelian_tables, fs_mod.ABELIAN_RTOL, xs, ok, resid
+    )
+    assert done and ok[0]
+    x = xs[0]
+    assert abs(x[2] - s) <= fs_mod.ABELIAN_RTOL * max(1.0, abs(s))  # s kept, or the log's within
+    Xx = np.einsum("a,aij->ij", x, fs.mats)
+    exact = _mp_expm(Xx).real
+    seen = np.empty((3, 3))
+    fk.expm(Xx, seen)
+    exp_err = np.max(np.abs(seen - exact))  # the float64 exponential's own error at x
+    floor = fk.LOG_REFINE_FLOOR * 3 * max(1.0, np.max(np.abs(G)))
+    res = np.max(np.abs(exact - G[0]))
+    assert res <= floor + exp_err, (res, floor, exp_err)

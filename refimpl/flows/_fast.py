@@ -133,8 +133,8 @@ def _points(x0, pi0, n: int):
     if (
         type(x0) is np.ndarray
         and type(pi0) is np.ndarray
-        and x0.dtype == np.float64
-        and pi0.dtype == np.float64
+        and x0.dtype is _F64  # native float64 (any other dtype takes the full check)
+        and pi0.dtype is _F64
         and x0.shape == pi0.shape
         and x0.shape[-1:] == (n,)
         and _bounded(x0)  # issue 30: finite and |v| <= MAX_MAGNITUDE (refimpl._validate)
@@ -155,6 +155,11 @@ def _bounded(a) -> bool:
     if a.size <= SMALL:
         return all(map(_WITHIN, map(abs, a.ravel().tolist())))
     return within_boundary(a)
+
+
+def _finite_sum(a) -> bool:
+    """Whether the sum of ``a`` is finite (then every entry is): small arrays summed in Python."""
+    return math.isfinite(sum(a.ravel().tolist()) if a.size <= SMALL else a.sum())
 
 
 def _check_rates(model: NumpyModel, pa, tv: float) -> None:
@@ -272,15 +277,15 @@ def fast_flow(
             budget.calibrate(probe, 1)
         budget.before(math.ceil(N / (m * frac)), doing)
     out = meth.integrate(model, State(X, P), tv, tol=tol, steps=steps, system="full")
-    # one reduction when all is finite (a finite sum); the per-trajectory check only otherwise
-    x, pi = out["x"], out["pi"]
-    if not math.isfinite(pi.sum()) and np.any(~np.all(np.isfinite(pi), axis=0)):
+    # one sum when all is finite (a finite sum); the per-trajectory check only otherwise
+    x, pi = out.x, out.pi
+    if not _finite_sum(pi) and np.any(~np.all(np.isfinite(pi), axis=0)):
         bad_pi = ~np.all(np.isfinite(pi), axis=0)
         raise ValueError(
             f"fast_flow: trajectories {np.flatnonzero(bad_pi)[:10].tolist()} became non-finite before t = {tv} "
             "(they reached the degenerate set Pi_1, vier12, or diverged); no point is dropped"
         )
-    if not math.isfinite(x.sum()) and np.any(~np.isfinite(x)):
+    if not _finite_sum(x) and np.any(~np.isfinite(x)):
         bad = np.argwhere(~np.all(np.isfinite(x), axis=0)).ravel()
         raise ValueError(
             f"fast_flow: no logarithm x(t) of g(t) found for trajectories {bad[:10].tolist()}"

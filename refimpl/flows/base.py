@@ -19,6 +19,7 @@ An integrator is one class in one file of :mod:`refimpl.flows.integrators` (disc
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, fields
 
@@ -35,7 +36,7 @@ def check_tolerance(tol) -> float:
         v = float(tol)
     except (TypeError, ValueError):
         raise ValueError(f"tol must be a finite number > 0, got {tol!r}") from None
-    if not np.isfinite(v) or v <= 0:
+    if not math.isfinite(v) or v <= 0:  # math: a Python float (np.isfinite costs ~0.7 us per call)
         raise ValueError(f"tol must be a finite number > 0, got {tol!r}")
     return v
 
