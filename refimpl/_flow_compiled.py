@@ -388,7 +388,7 @@ def _body_field(model) -> _ct.CompiledField:
     return model.compiled_body_field
 
 
-def _run_cf(cf, y0, t, eps, order=None):
+def _run_cf(cf, y0, t, eps, order=None, batch=None):
     # the checking run A (order None) runs at the order of the B it is paired with (the answer's order
     # at B's tolerance _eps_b(eps)): one unrolled kernel per structure serves both runs (one compilation
     # instead of two, and at A's looser tolerance the higher order takes longer steps: heavy top T = 100,
@@ -396,11 +396,23 @@ def _run_cf(cf, y0, t, eps, order=None):
     # step rule h ~ eps^(1/P): global error ~ eps^(1 - 1/P), so err(B)/err(A) = (eps_B/eps_A)^(1 - 1/P),
     # at most (eps_A/eps_B)^(1/P) ~ 2 (1e-8/1e-13, P = 16) above the proportional estimate's eps_B/eps_A:
     # inside its safety factor PROP = 30
+    # ``batch``: as :func:`refimpl._compiled_taylor.taylor_adaptive`'s (None: by the row count)
     order = _order_b(cf, _eps_b(eps)) if order is None else order
-    y, steps = _ct.taylor_adaptive(cf, y0, t, eps, order)
+    y, steps = _ct.taylor_adaptive(cf, y0, t, eps, order, batch=batch)
     if steps.min() < 0:
         _diverged(steps, t)
     return y, steps
+
+
+def _batch_runner(cf):
+    """:func:`_runner`'s pair for a batch of at least :data:`refimpl._compiled_taylor.BATCH_MIN` rows
+    (``Upsilon = 0``): every run on the lane kernel, also the retried groups of fewer rows (a lane
+    kernel partly idle costs at most ``BATCH_WIDTH`` times a row there, and those groups are a
+    fraction of the batch), so that a batch's first call compiles the lane kernel alone, not the
+    single-trajectory kernel too (heavy top: one order-15 kernel fewer to build)."""
+    return (lambda y0, t, eps, order=None: _run_cf(cf, y0, t, eps, order, batch=True)), (
+        lambda e: _order_b(cf, e)
+    )
 
 
 def _diverged(steps, t):
@@ -730,8 +742,11 @@ def compiled_taylor_flow(model, x0, pi0, t: float, tol: float) -> dict:
     if first is not None and len(first) == 4:  # the common protocol call: one pair passed
         res, steps, x, est = first
     else:
+        runner = None
+        if uz and N >= _ct.BATCH_MIN:  # a batch: every run on the lane kernel, retried groups too
+            runner = _batch_runner(_full_field(model))
         res, est, steps = _control(
-            model, y0, t, eps_a, n, tol, first=first, a_retry=A_LOOSE if uz else None
+            model, y0, t, eps_a, n, tol, first=first, a_retry=A_LOOSE if uz else None, runner=runner
         )
         over = np.flatnonzero(est > tol)
         if over.size:

@@ -466,6 +466,48 @@ def test_one_trajectory_path_equals_the_general_control(I, pot, T, tol):
 
 
 @needs_numba
+def test_a_batch_runs_every_kernel_call_on_the_lane_kernel(monkeypatch):
+    """A batch of ``BATCH_MIN`` rows (refimpl._flow_compiled._batch_runner): every kernel call of the
+    two-run control -- the first pair and the retried groups, however few rows they hold -- runs on
+    the lane kernel (``batch=True``), so a batch's first call compiles no single-trajectory kernel;
+    and each row agrees with the one-trajectory call of the same start within the sum of the two
+    error estimates (each bounds its own error; plus the rounding of the start, 1e3 eps, unseen by
+    both). The asymmetric top with the Lagrange potential over T = 100: the first pair fails on every
+    row (kappa_A ~ 2e3), so the retries run."""
+    from tstarg.refimpl import _flow_compiled as fc
+
+    model = NumpyModel(SU2.f, Z, Z, np.diag([1.0, 2.0, 3.0]), LAGRANGE)
+    N = ct.BATCH_MIN
+    rng = np.random.default_rng(11)
+    x0 = np.array([0.1, 0.2, 0.0])[:, None] + 1e-6 * rng.standard_normal((3, N))
+    pi0 = np.array([0.3, 0.2, 2.0])[:, None] + 1e-6 * rng.standard_normal((3, N))
+    keep = (x0.copy(), pi0.copy())
+    calls = []
+    real = ct.taylor_adaptive
+
+    def spy(cf, y0, T, tol, order=None, max_steps=10_000_000, batch=None):
+        calls.append((y0.shape[0], batch))
+        return real(cf, y0, T, tol, order, max_steps, batch)
+
+    monkeypatch.setattr(ct, "taylor_adaptive", spy)
+    out = fc.compiled_taylor_flow(model, x0, pi0, 100.0, 1e-10)
+    monkeypatch.undo()
+    assert np.array_equal(x0, keep[0]) and np.array_equal(pi0, keep[1])
+    assert len(calls) > 2, calls  # retries ran
+    assert all(b is True for _, b in calls), calls
+    assert np.all(out["error_estimate"] <= 1e-10)
+    Ad = quat_rotation(out["quat"])
+    for j in (0, N - 1):
+        one = fc.compiled_taylor_flow(model, x0[:, j : j + 1], pi0[:, j : j + 1], 100.0, 1e-10)
+        diff = max(
+            np.max(np.abs(out["pi"][:, j] - one["pi"][:, 0])),
+            np.max(np.abs(Ad[j] - quat_rotation(one["quat"])[0])),
+        )
+        bound = out["error_estimate"][j] + one["error_estimate"][0] + 1e3 * EPS
+        assert np.isfinite(diff) and diff <= bound, (j, diff, bound)
+
+
+@needs_numba
 @pytest.mark.slow
 def test_estimate_with_theta_and_gravity_against_the_mpmath_reference():
     """A gyrostat with Theta = -xi.f, gravity along a tilted L and an off-diagonal inertia over T = 5
