@@ -395,7 +395,9 @@ def _run_cf(cf, y0, t, eps, order=None, batch=None):
     # eps_A = 1e-8, Jorba-Zou's order 11 507 steps 152 us, order 16 258 steps 133 us). Fixed order, the
     # step rule h ~ eps^(1/P): global error ~ eps^(1 - 1/P), so err(B)/err(A) = (eps_B/eps_A)^(1 - 1/P),
     # at most (eps_A/eps_B)^(1/P) ~ 2 (1e-8/1e-13, P = 16) above the proportional estimate's eps_B/eps_A:
-    # inside its safety factor PROP = 30
+    # inside its safety factor PROP = 30. A lower order for A would not pay either (issue 25, heavy top
+    # T = 100, A at 1e-6, kernel alone, one run at load 3.7-4.1: orders 10/11/12/13/15 take 381/320/277/
+    # 246/205 steps in 99/95/93/93/94 us; at 1e-5 76/72/76/78/80 us): A's cost follows eps, not the order.
     # ``batch``: as :func:`refimpl._compiled_taylor.taylor_adaptive`'s (None: by the row count)
     order = _order_b(cf, _eps_b(eps)) if order is None else order
     y, steps = _ct.taylor_adaptive(cf, y0, t, eps, order, batch=batch)
