@@ -508,6 +508,52 @@ def test_a_batch_runs_every_kernel_call_on_the_lane_kernel(monkeypatch):
 
 
 @needs_numba
+def test_a_saturated_checking_run_gives_no_proportional_estimate():
+    """The proportional estimate ``PROP (eps_B / eps_A) |A - B|`` only while ``|A - B| <= PROP_MAX_D``
+    (refimpl._flow_compiled). A chaotic su(2) model (``tests/benchmarks/su2_estimate_constants.py 5 10``,
+    ``rand5_4``: off-diagonal inertia, Theta = -xi.f, tilted gravity, T = 100): ``A`` at 1e-6 ends
+    ``|A - B| = 3.3`` away, and the proportional estimate 9.99e-6 used to pass ``tol = 1e-5`` while
+    ``B``'s error against heyoka in long double (tol 1e-19) was 4.62e-3. The control must now refuse
+    that tolerance by name (no float64 pair it can run certifies it). Independent of the control's
+    estimate: two kernel runs at the local tolerances 1e-13 and 1e-15 end more than 1e-5 apart, so
+    this trajectory's float64 runs do not agree to the tolerance asked."""
+    from tstarg.refimpl import _flow_compiled as fc
+
+    inertia = np.array(
+        [
+            [3.6825901166500796, 1.020762976481336, -0.15803088695829484],
+            [1.020762976481336, 1.6866212310124349, -0.00432945152775762],
+            [-0.15803088695829484, -0.00432945152775762, 1.6620030662160175],
+        ]
+    )
+    theta = np.array(
+        [
+            [0.0, 0.6072953164899249, 0.9378230268876395],
+            [-0.6072953164899249, 0.0, -0.21041206252817743],
+            [-0.9378230268876395, 0.21041206252817743, 0.0],
+        ]
+    )
+    pot = {
+        "kind": "gravity",
+        "L": np.array([0.2575223239234917, -0.30643692685187435, -1.0592560998278446]),
+        "gamma": np.array([-0.9209284921236658, -0.01372185239176195, 0.3894899525812827]),
+    }
+    x0 = np.array([[0.05439054435949247], [0.7222086544347099], [0.2965612469178253]])
+    pi0 = np.array([[1.737340379481785], [0.9227912163018543], [0.976011351361419]])
+    model = NumpyModel(SU2.f, theta, Z, inertia, pot)
+    cf = model.compiled_full_field
+    y0 = np.empty((1, 10))
+    fc._start(x0, pi0, model.gamma, True, y0)
+    P = fc._order_b(cf, 1e-13)  # the control's kernel (no other order compiled)
+    runs = [ct.taylor_adaptive(cf, y0, 100.0, e, P)[0] for e in (1e-13, 1e-15)]
+    d = np.empty(1)
+    fc._estimate(runs[0], runs[1], 3, d)
+    assert np.isfinite(d[0]) and d[0] > 1e-5, d
+    with pytest.raises(ValueError, match="tolerance 1e-05 not reached"):
+        fc.compiled_taylor_flow(model, x0, pi0, 100.0, 1e-5)
+
+
+@needs_numba
 @pytest.mark.slow
 def test_estimate_with_theta_and_gravity_against_the_mpmath_reference():
     """A gyrostat with Theta = -xi.f, gravity along a tilted L and an off-diagonal inertia over T = 5
