@@ -98,7 +98,10 @@ one pair at 1e-6, 0.04 % at 1e-8, hence the retry of ``A`` alone at :data:`A_LOO
 ``a_retry``; a rerun of ``B`` at ~3e-14 costs 2.4 times as much): that batch then costs the same
 with ``A`` at 1e-8, 1e-7 and 1e-6 (166.7, 166.7, 165.8 us per trajectory, one interleaved run, load
 2.0), and one trajectory that passes saves 28 % of ``A``. Script:
-``tests/benchmarks/su2_estimate_constants.py``."""
+``tests/benchmarks/su2_estimate_constants.py``. Seed 5's ten random models (issue 25): q at most 0.66
+at 1e-6 where the estimate is used; two chaotic trajectories whose ``A`` saturates (``|A - B|`` 2.7 and
+3.3) have q = 3.1 and 1.4e4 -- there the proportional form is no estimate at all, hence
+:data:`PROP_MAX_D`."""
 A_RETRY_EXCESS = 3.0
 """Largest ``estimate / tol`` of a trajectory whose retry is ``A`` alone at ``a_retry`` (``_control``): a
 cost rule, not a bound (every pair's estimate is checked as any other). Measured on the heavy and the
