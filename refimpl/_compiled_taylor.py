@@ -261,7 +261,7 @@ def taylor_adaptive(
 ):
     """Adaptive Taylor over ``[0, T]`` for every row of ``y0`` (N, d): ``(y(T), steps)``.
 
-    ``batch``: run the SIMD batch kernel (:func:`_batch_source`, same arithmetic per trajectory, about
+    ``batch``: run the SIMD batch kernel (:func:`refimpl.codegen.taylor.batch_source`: the same recurrence and control per trajectory, its sums in another order; about
     2.5x the throughput) -- by default when ``N >= BATCH_MIN`` (its one-off compilation, 3-5 s per
     structure and order before the disk cache has it, is then repaid); it needs the unrolled kernels.
 

@@ -98,7 +98,10 @@ one pair at 1e-6, 0.04 % at 1e-8, hence the retry of ``A`` alone at :data:`A_LOO
 ``a_retry``; a rerun of ``B`` at ~3e-14 costs 2.4 times as much): that batch then costs the same
 with ``A`` at 1e-8, 1e-7 and 1e-6 (166.7, 166.7, 165.8 us per trajectory, one interleaved run, load
 2.0), and one trajectory that passes saves 28 % of ``A``. Script:
-``tests/benchmarks/su2_estimate_constants.py``."""
+``tests/benchmarks/su2_estimate_constants.py``. Seed 5's ten random models (issue 25): q at most 0.66
+at 1e-6 where the estimate is used; two chaotic trajectories whose ``A`` saturates (``|A - B|`` 2.7 and
+3.3) have q = 3.1 and 1.4e4 -- there the proportional form is no estimate at all, hence
+:data:`PROP_MAX_D`."""
 A_RETRY_EXCESS = 3.0
 """Largest ``estimate / tol`` of a trajectory whose retry is ``A`` alone at ``a_retry`` (``_control``): a
 cost rule, not a bound (every pair's estimate is checked as any other). Measured on the heavy and the
@@ -111,6 +114,18 @@ ms)."""
 PROP_MIN_A = 1e-12  # the proportionality estimate only for A at this local tolerance or looser
 PROP_MIN_B = 1e-14  # ... and B at this local tolerance or looser
 PROP = 30.0  # safety factor of the proportionality estimate err(B) ~ (eps_B / eps_A) |A - B|
+PROP_MAX_D = 1e-3
+"""The proportional estimate only while ``|A - B| <= PROP_MAX_D`` (absolute, the units of ``tol``): its
+premise, ``err(A) = kappa eps_A`` with the ``kappa`` of ``B``, holds while ``A``'s deviation stays small
+enough for the error to grow linearly; a chaotic trajectory whose ``A`` has wandered off by ``O(1)``
+(saturated) gives ``|A - B|`` unrelated to ``eps_A``, and ``(eps_B / eps_A) |A - B|`` then says nothing of
+``B``. Seen (issue 25, ``tests/benchmarks/su2_estimate_constants.py 5 10``, model ``rand5_4``: random
+inertia, Theta and gravity, T = 100): ``A`` at 1e-6 off by ``|A - B| = 3.3``, the proportional estimate
+9.99e-6 passed ``tol = 1e-5`` while ``B``'s error against heyoka in long double was 4.62e-3 (its
+amplification ``err / eps`` 4.6e10 at 1e-13). Past the threshold the estimate is ``|A - B|`` itself and
+the control tightens ``A`` as for any failing pair. 1e-3: ``A``'s deviation a thousandth of the state's
+unit scale, where the second-order term of the error's growth is that fraction of the first; the bench
+tops sit at 1e-5 (heavy top, ``kappa`` 16 at 1e-6) and below."""
 REUSE_B = 10.0  # a held B within this factor of A's next tolerance becomes that A (see _control)
 FIRST = 1e-2  # A's first local tolerance relative to the global one (global/local error ~ 5-20
 # over 10^2-10^3 steps, so one pair of runs usually suffices)
@@ -388,19 +403,33 @@ def _body_field(model) -> _ct.CompiledField:
     return model.compiled_body_field
 
 
-def _run_cf(cf, y0, t, eps, order=None):
+def _run_cf(cf, y0, t, eps, order=None, batch=None):
     # the checking run A (order None) runs at the order of the B it is paired with (the answer's order
     # at B's tolerance _eps_b(eps)): one unrolled kernel per structure serves both runs (one compilation
     # instead of two, and at A's looser tolerance the higher order takes longer steps: heavy top T = 100,
     # eps_A = 1e-8, Jorba-Zou's order 11 507 steps 152 us, order 16 258 steps 133 us). Fixed order, the
     # step rule h ~ eps^(1/P): global error ~ eps^(1 - 1/P), so err(B)/err(A) = (eps_B/eps_A)^(1 - 1/P),
     # at most (eps_A/eps_B)^(1/P) ~ 2 (1e-8/1e-13, P = 16) above the proportional estimate's eps_B/eps_A:
-    # inside its safety factor PROP = 30
+    # inside its safety factor PROP = 30. A lower order for A would not pay either (issue 25, heavy top
+    # T = 100, A at 1e-6, kernel alone, one run at load 3.7-4.1: orders 10/11/12/13/15 take 381/320/277/
+    # 246/205 steps in 99/95/93/93/94 us; at 1e-5 76/72/76/78/80 us): A's cost follows eps, not the order.
+    # ``batch``: as :func:`refimpl._compiled_taylor.taylor_adaptive`'s (None: by the row count)
     order = _order_b(cf, _eps_b(eps)) if order is None else order
-    y, steps = _ct.taylor_adaptive(cf, y0, t, eps, order)
+    y, steps = _ct.taylor_adaptive(cf, y0, t, eps, order, batch=batch)
     if steps.min() < 0:
         _diverged(steps, t)
     return y, steps
+
+
+def _batch_runner(cf):
+    """:func:`_runner`'s pair for a batch of at least :data:`refimpl._compiled_taylor.BATCH_MIN` rows
+    (``Upsilon = 0``): every run on the lane kernel, also the retried groups of fewer rows (a lane
+    kernel partly idle costs at most ``BATCH_WIDTH`` times a row there, and those groups are a
+    fraction of the batch), so that a batch's first call compiles the lane kernel alone, not the
+    single-trajectory kernel too (heavy top: one order-15 kernel fewer to build)."""
+    return (lambda y0, t, eps, order=None: _run_cf(cf, y0, t, eps, order, batch=True)), (
+        lambda e: _order_b(cf, e)
+    )
 
 
 def _diverged(steps, t):
@@ -442,7 +471,7 @@ def _first_pair(model, y0, t, eps_a, eps_b, n, tol):
     est, x = np.empty(1), np.empty((n, 1))
     _finish(A, B, n, est, x)
     e = float(est[0])
-    if eps_a >= PROP_MIN_A and eps_b >= PROP_MIN_B:  # as _control's first pair (default prop_min_b)
+    if eps_a >= PROP_MIN_A and eps_b >= PROP_MIN_B and e <= PROP_MAX_D:  # as _control's first pair
         e = min(e, PROP * (eps_b / eps_a) * e)
     if e <= tol:
         est[0] = e
@@ -476,6 +505,7 @@ def _control(
     estimate=None,
     b_max=B_MAX,
     prop_min_b=PROP_MIN_B,
+    prop_max_d=None,
     reuse_b=REUSE_B,
     floor=None,
     reuse_last=False,
@@ -490,6 +520,8 @@ def _control(
     per-row ``|A - B|`` (default: the su(2) quaternion state's; :mod:`refimpl._full_state` passes
     its own for ``G = rho(g)``); ``b_max``: B's largest local tolerance (:data:`B_MAX`);
     ``prop_min_b``: B's tightest local tolerance for the proportional estimate (:data:`PROP_MIN_B`);
+    ``prop_max_d``: the largest ``|A - B|`` for the proportional estimate (default none; su(2):
+    :data:`PROP_MAX_D`; past it the estimate is ``|A - B|`` and no B-only retry is taken);
     ``reuse_b``: :data:`REUSE_B` (0: a held ``B`` never becomes ``A``); ``floor(B, steps, kappa, rows)``:
     per row, a term added to every estimate (the rounding floor both runs share, unseen by ``|A - B|``;
     a retry then aims at ``tol`` minus it; ``kappa``: per row the largest ``|A - B| / eps_A`` seen;
@@ -525,7 +557,7 @@ def _control(
         _estimate_(A, B, n, d1)
         e1 = float(d1[0])
         kap1 = e1 / eps_a0
-        if eps_a0 >= PROP_MIN_A and eb0 >= prop_min_b:
+        if eps_a0 >= PROP_MIN_A and eb0 >= prop_min_b and (prop_max_d is None or e1 <= prop_max_d):
             e1 = min(e1, PROP * (eb0 / eps_a0) * e1)
         if floor is not None:
             e1 += float(floor(B, sB, np.array([kap1]), None)[0])
@@ -577,6 +609,8 @@ def _control(
         # 30 kappa eps_B then exceeds the floor, about kappa 1e-14 on the heavy and the asymmetric top)
         ea, eb = eps_a[todo], eps_b[todo]
         prop = (ea >= PROP_MIN_A) & (eb >= prop_min_b)
+        if prop_max_d is not None:  # su2 hook: a saturated |A - B| is no proportional estimate
+            prop &= di <= prop_max_d
         kap[todo] = np.maximum(kap[todo], di / eps_a[todo])
         if floor is not None:
             fl[todo] = floor(Bt, steps[todo], kap[todo], todo)
@@ -598,7 +632,11 @@ def _control(
                 moved = True
                 continue
             eb_req = _grid_down((tol - fl[k]) * eps_a[k] / (PROP * max(d[k], 1e-300)) / 2)
-            if eps_a[k] >= PROP_MIN_A and prop_min_b <= eb_req < eps_b[k]:
+            if (
+                eps_a[k] >= PROP_MIN_A
+                and prop_min_b <= eb_req < eps_b[k]
+                and (prop_max_d is None or d[k] <= prop_max_d)
+            ):
                 eps_b[k] = eb_req
                 moved = True
                 continue
@@ -685,7 +723,9 @@ def compiled_taylor_samples(
             if progress is not None:
                 progress(k, len(times) - 1)
         prop = eps_a >= PROP_MIN_A and eps_b >= PROP_MIN_B
-        est[todo] = np.minimum(d, PROP * (eps_b / eps_a) * d) if prop else d
+        est[todo] = (
+            np.where(d <= PROP_MAX_D, np.minimum(d, PROP * (eps_b / eps_a) * d), d) if prop else d
+        )
         over = todo[est[todo] > tol]
         if over.size == 0:
             break
@@ -730,8 +770,20 @@ def compiled_taylor_flow(model, x0, pi0, t: float, tol: float) -> dict:
     if first is not None and len(first) == 4:  # the common protocol call: one pair passed
         res, steps, x, est = first
     else:
+        runner = None
+        if uz and N >= _ct.BATCH_MIN:  # a batch: every run on the lane kernel, retried groups too
+            runner = _batch_runner(_full_field(model))
         res, est, steps = _control(
-            model, y0, t, eps_a, n, tol, first=first, a_retry=A_LOOSE if uz else None
+            model,
+            y0,
+            t,
+            eps_a,
+            n,
+            tol,
+            first=first,
+            a_retry=A_LOOSE if uz else None,
+            runner=runner,
+            prop_max_d=PROP_MAX_D,
         )
         over = np.flatnonzero(est > tol)
         if over.size:

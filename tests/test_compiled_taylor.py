@@ -105,8 +105,10 @@ def test_plain_python_path_equals_compiled_path():
 def test_batch_kernel_runs_every_trajectory_as_the_single_kernel_does(label, T):
     """The SIMD batch kernel (lanes refilled as trajectories finish) against the single-trajectory kernel
     run row by row: same control per trajectory, so the same step counts, and end states equal to
-    rounding (error model 8 eps * steps * scale; the two codes are the same statements, so in practice
-    bit-identical). 2 W + 3 trajectories exercise refills and idle lanes; a row that blows up (y = 1e200)
+    rounding (error model 8 eps * steps * scale: the batch sums its Cauchy products as chains, the
+    single kernel as trees, so each step's coefficients and update differ by a few ulp of the scale,
+    accumulated over the steps without amplification to speak of at |T| <= 2.5; seen: at most 0.04 of
+    the bound). 2 W + 3 trajectories exercise refills and idle lanes; a row that blows up (y = 1e200)
     is reported as failed (NaN, steps -1) without touching its neighbours, and the caller's array is
     not written."""
     model = MODELS[label]()
@@ -461,6 +463,94 @@ def test_one_trajectory_path_equals_the_general_control(I, pot, T, tol):
         assert one[k].shape[-1] == 1 and np.array_equal(one[k][..., 0], two[k][..., 0]), k
         assert np.array_equal(two[k][..., 0], two[k][..., 1]), k
     assert np.all(np.isfinite(one["error_estimate"])) and one["error_estimate"][0] <= tol
+
+
+@needs_numba
+def test_a_batch_runs_every_kernel_call_on_the_lane_kernel(monkeypatch):
+    """A batch of ``BATCH_MIN`` rows (refimpl._flow_compiled._batch_runner): every kernel call of the
+    two-run control -- the first pair and the retried groups, however few rows they hold -- runs on
+    the lane kernel (``batch=True``), so a batch's first call compiles no single-trajectory kernel;
+    and each row agrees with the one-trajectory call of the same start within the sum of the two
+    error estimates (each bounds its own error; plus the rounding of the start, 1e3 eps, unseen by
+    both). The asymmetric top with the Lagrange potential over T = 100: the first pair fails on every
+    row (kappa_A ~ 2e3), so the retries run."""
+    from tstarg.refimpl import _flow_compiled as fc
+
+    model = NumpyModel(SU2.f, Z, Z, np.diag([1.0, 2.0, 3.0]), LAGRANGE)
+    N = ct.BATCH_MIN
+    rng = np.random.default_rng(11)
+    x0 = np.array([0.1, 0.2, 0.0])[:, None] + 1e-6 * rng.standard_normal((3, N))
+    pi0 = np.array([0.3, 0.2, 2.0])[:, None] + 1e-6 * rng.standard_normal((3, N))
+    keep = (x0.copy(), pi0.copy())
+    calls = []
+    real = ct.taylor_adaptive
+
+    def spy(cf, y0, T, tol, order=None, max_steps=10_000_000, batch=None):
+        calls.append((y0.shape[0], batch))
+        return real(cf, y0, T, tol, order, max_steps, batch)
+
+    monkeypatch.setattr(ct, "taylor_adaptive", spy)
+    out = fc.compiled_taylor_flow(model, x0, pi0, 100.0, 1e-10)
+    monkeypatch.undo()
+    assert np.array_equal(x0, keep[0]) and np.array_equal(pi0, keep[1])
+    assert len(calls) > 2, calls  # retries ran
+    assert all(b is True for _, b in calls), calls
+    assert np.all(out["error_estimate"] <= 1e-10)
+    Ad = quat_rotation(out["quat"])
+    for j in (0, N - 1):
+        one = fc.compiled_taylor_flow(model, x0[:, j : j + 1], pi0[:, j : j + 1], 100.0, 1e-10)
+        diff = max(
+            np.max(np.abs(out["pi"][:, j] - one["pi"][:, 0])),
+            np.max(np.abs(Ad[j] - quat_rotation(one["quat"])[0])),
+        )
+        bound = out["error_estimate"][j] + one["error_estimate"][0] + 1e3 * EPS
+        assert np.isfinite(diff) and diff <= bound, (j, diff, bound)
+
+
+@needs_numba
+def test_a_saturated_checking_run_gives_no_proportional_estimate():
+    """The proportional estimate ``PROP (eps_B / eps_A) |A - B|`` only while ``|A - B| <= PROP_MAX_D``
+    (refimpl._flow_compiled). A chaotic su(2) model (``tests/benchmarks/su2_estimate_constants.py 5 10``,
+    ``rand5_4``: off-diagonal inertia, Theta = -xi.f, tilted gravity, T = 100): ``A`` at 1e-6 ends
+    ``|A - B| = 3.3`` away, and the proportional estimate 9.99e-6 used to pass ``tol = 1e-5`` while
+    ``B``'s error against heyoka in long double (tol 1e-19) was 4.62e-3. The control must now refuse
+    that tolerance by name (no float64 pair it can run certifies it). Independent of the control's
+    estimate: two kernel runs at the local tolerances 1e-13 and 1e-15 end more than 1e-5 apart, so
+    this trajectory's float64 runs do not agree to the tolerance asked."""
+    from tstarg.refimpl import _flow_compiled as fc
+
+    inertia = np.array(
+        [
+            [3.6825901166500796, 1.020762976481336, -0.15803088695829484],
+            [1.020762976481336, 1.6866212310124349, -0.00432945152775762],
+            [-0.15803088695829484, -0.00432945152775762, 1.6620030662160175],
+        ]
+    )
+    theta = np.array(
+        [
+            [0.0, 0.6072953164899249, 0.9378230268876395],
+            [-0.6072953164899249, 0.0, -0.21041206252817743],
+            [-0.9378230268876395, 0.21041206252817743, 0.0],
+        ]
+    )
+    pot = {
+        "kind": "gravity",
+        "L": np.array([0.2575223239234917, -0.30643692685187435, -1.0592560998278446]),
+        "gamma": np.array([-0.9209284921236658, -0.01372185239176195, 0.3894899525812827]),
+    }
+    x0 = np.array([[0.05439054435949247], [0.7222086544347099], [0.2965612469178253]])
+    pi0 = np.array([[1.737340379481785], [0.9227912163018543], [0.976011351361419]])
+    model = NumpyModel(SU2.f, theta, Z, inertia, pot)
+    cf = model.compiled_full_field
+    y0 = np.empty((1, 10))
+    fc._start(x0, pi0, model.gamma, True, y0)
+    P = fc._order_b(cf, 1e-13)  # the control's kernel (no other order compiled)
+    runs = [ct.taylor_adaptive(cf, y0, 100.0, e, P)[0] for e in (1e-13, 1e-15)]
+    d = np.empty(1)
+    fc._estimate(runs[0], runs[1], 3, d)
+    assert np.isfinite(d[0]) and d[0] > 1e-5, d
+    with pytest.raises(ValueError, match="tolerance 1e-05 not reached"):
+        fc.compiled_taylor_flow(model, x0, pi0, 100.0, 1e-5)
 
 
 @needs_numba
