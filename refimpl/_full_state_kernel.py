@@ -957,7 +957,10 @@ def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid
     it accepted every row) :func:`abelian_batch` with ``s`` the last ``k = P.shape[0]`` entries of the
     states ``B`` (N, d), then ``resid``. Returns whether ``xs`` and ``resid`` are final."""
     Ex = np.empty_like(G)
-    log_batch_exp(G, mats, proj, False, xs, ok, Ex)
+    # False (a real representation: proj has r^2 columns), computed rather than written: a literal
+    # False is typed Literal[bool] and compiled ad_batch and _project a second time (0.7 s cold)
+    cplx = proj.shape[1] != mats.shape[1] * mats.shape[2]
+    log_batch_exp(G, mats, proj, cplx, xs, ok, Ex)
     N, n = xs.shape
     for j in range(N):
         if not ok[j]:
@@ -999,7 +1002,7 @@ def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid
                         acc += out[a] * mats[a, i, q]
                     X[i, q] = acc
             expm(X, Ex[j])
-    _residual_final(Ex, mats, proj, False, Ad, resid)
+    _residual_final(Ex, mats, proj, cplx, Ad, resid)
     return True
 
 
@@ -1014,5 +1017,7 @@ def pair_log(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, GB, A
 @njit(cache=True, nogil=True)
 def pair_log_refined(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`pair_log` with :func:`log_state_refined` (a real representation with an abelian part)."""
-    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, False, GB, AdB, est, size)
+    # False, not a literal (see log_state_refined)
+    cplx = proj.shape[1] != mats.shape[1] * mats.shape[2]
+    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, cplx, GB, AdB, est, size)
     return log_state_refined(B, GB, AdB, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid)
