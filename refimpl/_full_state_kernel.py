@@ -566,7 +566,7 @@ def _project(X, proj, cplx, out):
         out[a] = acc
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def exp_batch(x, mats, out):
     """``out[N] = exp(rho(x[N]))``, ``rho(x) = x^a mats[a]``."""
     N, n = x.shape
@@ -618,7 +618,7 @@ def log_batch(G, mats, proj, cplx, out, ok):
     log_batch_exp(G, mats, proj, cplx, out, ok, np.empty_like(G))
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def log_batch_exp(G, mats, proj, cplx, out, ok, Ex):
     """:func:`log_batch`, keeping ``Ex[N] = exp(rho(x))`` of the acceptance test (what
     :func:`log_residual` computes again from ``x``: the same arithmetic) for the rows reaching it."""
@@ -657,7 +657,7 @@ def log_batch_exp(G, mats, proj, cplx, out, ok, Ex):
         ok[it] = good
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def pack_G(G, gpart, gi, gj, off, y):
     """``y[:, off + v] = Re/Im G[:, gi[v], gj[v]]`` (``gpart[v]`` 0 real, 1 imaginary)."""
     for it in range(G.shape[0]):
@@ -666,7 +666,7 @@ def pack_G(G, gpart, gi, gj, off, y):
             y[it, off + v] = z.real if gpart[v] == 0 else z.imag
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def unpack_G(y, gpart, gi, gj, off, G, unit):
     """The inverse of :func:`pack_G` (entries outside the pattern zero); ``unit``: ``1j`` for a complex
     ``G`` (0.0 for a real one, whose entries are all real parts)."""
@@ -682,7 +682,7 @@ def unpack_G(y, gpart, gi, gj, off, G, unit):
                 G[it, gi[v], gj[v]] += unit * y[it, off + v]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, size):
     """Per row: ``est = max(|pi_A - pi_B|, |Ad(g_A) - Ad(g_B)|)`` (inf when not finite); ``GB``, ``AdB``
     the group element and ``Ad`` of ``B``; ``size = max(|pi_B|, |Ad(g_B)|)``."""
@@ -861,6 +861,14 @@ def abelian_batch(G, xs, s, P, Ppinv, D, Dr, mats, rtol):
 
 
 # ---------------------------------------------------------------------- per-call glue, one call each
+# The intermediate levels of the first call's chain (estimate, log_state[_refined], log_batch_exp,
+# _residual_final, exp_batch, pack_G, unpack_G) are ``inline="always"``: numba inlines their IR into
+# the caller instead of compiling each on its own and then linking and re-optimizing its whole call
+# tree again into every caller above it (pair_log -> log_state -> log_batch_exp -> logm compiled the
+# logarithm four times). Called from Python they still compile on their own. Measured fully cold
+# (empty NUMBA_CACHE_DIR and TSTARG_CACHE_DIR, /work/scratch_cold/prof2.py, se(3) first call, CPU):
+# pair_log 7.29 -> 4.58 s, start 3.82 -> 3.23 s, the whole call 13.50 -> 10.37 s (load 3.0-4.0);
+# warm flow calls unchanged (se(3) 206-210 -> 197-201 us, Bianchi 89-94 -> 81-88 us, same run).
 # The starting state and the logarithm of the full state as one compiled call each (the numpy glue
 # they replace cost ~10 us of call overhead apiece on one trajectory; the same formulas as
 # refimpl._full_state._pack and ._log_complete, which stay the documentation).
@@ -915,7 +923,7 @@ def log_residual(xs, mats, proj, cplx, Ad, out):
         out[it] = m if math.isfinite(m) else np.inf
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _residual_final(Ex, mats, proj, cplx, Ad, resid):
     """:func:`log_residual` from ``Ex[N] = exp(rho(x))`` already computed, 0 where not finite (no
     logarithm found there: the caller names those rows)."""
@@ -931,7 +939,7 @@ def _residual_final(Ex, mats, proj, cplx, Ad, resid):
         resid[it] = m if math.isfinite(m) else 0.0
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def log_state(G, Ad, mats, proj, cplx, ab_mode, xs, ok, resid):
     """The answer's logarithm and its residual in one call: :func:`log_batch` of ``G`` (N, r, r) into
     ``xs`` and, when it accepted every row and no abelian part is to be refined (``ab_mode`` 0; 2: a
@@ -949,13 +957,16 @@ def log_state(G, Ad, mats, proj, cplx, ab_mode, xs, ok, resid):
     return True
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid):
     """:func:`log_state` of a real representation with an abelian part: after :func:`log_batch` (when
     it accepted every row) :func:`abelian_batch` with ``s`` the last ``k = P.shape[0]`` entries of the
     states ``B`` (N, d), then ``resid``. Returns whether ``xs`` and ``resid`` are final."""
     Ex = np.empty_like(G)
-    log_batch_exp(G, mats, proj, False, xs, ok, Ex)
+    # False (a real representation: proj has r^2 columns), computed rather than written: a literal
+    # False is typed Literal[bool] and compiled ad_batch and _project a second time (0.7 s cold)
+    cplx = proj.shape[1] != mats.shape[1] * mats.shape[2]
+    log_batch_exp(G, mats, proj, cplx, xs, ok, Ex)
     N, n = xs.shape
     for j in range(N):
         if not ok[j]:
@@ -1006,7 +1017,7 @@ def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid
                         acc += out[a] * mats[a, i, q]
                     X[i, q] = acc
             expm(X, Ex[j])
-    _residual_final(Ex, mats, proj, False, Ad, resid)
+    _residual_final(Ex, mats, proj, cplx, Ad, resid)
     return True
 
 
@@ -1021,5 +1032,7 @@ def pair_log(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, GB, A
 @njit(cache=True, nogil=True)
 def pair_log_refined(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`pair_log` with :func:`log_state_refined` (a real representation with an abelian part)."""
-    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, False, GB, AdB, est, size)
+    # False, not a literal (see log_state_refined)
+    cplx = proj.shape[1] != mats.shape[1] * mats.shape[2]
+    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, cplx, GB, AdB, est, size)
     return log_state_refined(B, GB, AdB, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid)

@@ -20,6 +20,10 @@ kernels). Two modes (``--mode``, default both), two children per structure:
   kernels alone (numba keys a generated module's machine code on its file's path, which differs
   between the two children). With ``--mode warm`` an untimed child fills it first.
 
+Each child also records the compilations numba starts from Python (its outermost ``numba:compile``
+events: the functions the call reached, each inclusive of the callees compiled for it), listed per
+structure under the table: where the first call's time goes, function by function.
+
 The load average is printed with each figure: CPU time on a loaded machine is inflated too (shared
 caches and cores), so compare figures from one run. ``--write PATH`` also writes the table as
 markdown (command, commit, machine, load at the start and the end).
@@ -57,6 +61,26 @@ EXTRA = ("lagrange_top", "so5", "sp4", "sl3")
 CHILD = r"""
 import json, os, sys, time
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+from numba.core import event as _ev
+
+_open, compiles, phase = [], [], ["single"]
+
+
+class _Compiles(_ev.Listener):
+    # numba's compile events nest (a callee compiles inside its caller's type inference); the outer
+    # ones are the functions called from Python, their CPU time inclusive of every callee compiled
+    def on_start(self, event):
+        _open.append(time.process_time())
+
+    def on_end(self, event):
+        t0 = _open.pop()
+        if not _open:
+            fn = getattr(event.data.get("dispatcher"), "py_func", None)
+            name = f"{fn.__module__.rsplit('.', 1)[-1]}.{fn.__qualname__}" if fn else "?"
+            compiles.append((phase[0], name, time.process_time() - t0))
+
+
+_ev.register("numba:compile", _Compiles())
 import numpy as np
 import sympy
 from tstarg.refimpl import LieAlgebra, catalogue
@@ -139,6 +163,7 @@ for M in Ms if "refused" not in out else []:  # batches in this order, each time
     if M <= 0:
         continue
     out["sizes"].append(M)
+    phase[0] = f"batch {M}"
     rng = np.random.default_rng(3)
     n = out["n"]
     X0 = np.asarray(args[5])[:, None] + 0.01 * rng.standard_normal((n, M))
@@ -150,6 +175,7 @@ for M in Ms if "refused" not in out else []:  # batches in this order, each time
     except ValueError as exc:  # a refused row: the kernels were compiled and ran all the same
         out[f"batch{M}_refused"] = str(exc)[:200]
     out[f"batch{M}_cpu"], out[f"batch{M}_wall"] = time.process_time() - c0, time.perf_counter() - w0
+out["compiles"] = compiles
 print("RESULT " + json.dumps(out))
 """
 
@@ -239,6 +265,26 @@ def _table(rows, modes: list[str]) -> list[str]:
     return out
 
 
+def _compile_lines(rows, modes: list[str]) -> list[str]:
+    """Per structure and mode: the compilations started from Python (numba's outermost compile events:
+    each a function the call reached, its CPU time including every callee compiled for it), largest
+    first, per phase (the single call, each batch size)."""
+    out = []
+    for name, res in rows:
+        for m in modes:
+            by_phase: dict[str, list] = {}
+            for ph, fn, t in res[m].get("compiles", []):
+                by_phase.setdefault(ph, []).append((t, fn))
+            parts = []
+            for ph, items in by_phase.items():
+                items.sort(reverse=True)
+                shown = ", ".join(f"{fn} {t:.2f}" for t, fn in items if t >= 0.1)
+                parts.append(f"{ph}: {shown or '-'} (sum {sum(t for t, _ in items):.2f})")
+            what = "fully cold" if m == "cold" else "numba-warm"
+            out.append(f"- {name}, {what}: " + ("; ".join(parts) or "nothing compiled"))
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", default="", help="comma-separated structures (default: all)")
@@ -278,6 +324,13 @@ def main(argv=None) -> int:
         "by every structure runs, from it the structure's generated one (the run included).",
     ]
     table = _table(rows, modes)
+    table += [
+        "",
+        "Compilations per function (CPU seconds, each including the callees compiled for it; numba's",
+        "outermost compile events in the child; generated modules by their file's name):",
+        "",
+        *_compile_lines(rows, modes),
+    ]
     print("\n" + "\n".join(notes + [""] + table))
     if args.write:
         cmd = " ".join(["python tests/benchmarks/cold_first_call.py", *(argv or sys.argv[1:])])

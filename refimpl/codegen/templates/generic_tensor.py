@@ -170,6 +170,7 @@ def generic(fidx, fval, theta, has_theta, ups, has_ups, bern, phi1c, x, p, out,
     T5 = np.empty((n, n))
     pows = np.empty((8, n, n))
     perm = np.empty(n, dtype=np.int64)
+    K16 = np.int64(16)  # phi1's degree; a literal 16 compiled _poly a second time (Literal[int])
     nnz = fval.shape[0]
     absth = np.abs(theta)
     un = 0.0
@@ -244,7 +245,7 @@ def generic(fidx, fval, theta, has_theta, ups, has_ups, bern, phi1c, x, p, out,
             for i in range(n):
                 for j in range(n):
                     W[i, j] = -A[i, j] * sc
-            _poly(W, phi1c, 16, pows, T4, T1, T2, T3)
+            _poly(W, phi1c, K16, pows, T4, T1, T2, T3)
             _mm(W, T4, T5)
             for i in range(n):
                 T5[i, i] += 1.0  # E = 1 + X T
