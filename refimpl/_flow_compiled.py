@@ -505,7 +505,7 @@ def _control(
     estimate=None,
     b_max=B_MAX,
     prop_min_b=PROP_MIN_B,
-    prop_max_d=None,
+    prop_max_d=PROP_MAX_D,
     reuse_b=REUSE_B,
     floor=None,
     reuse_last=False,
@@ -520,8 +520,9 @@ def _control(
     per-row ``|A - B|`` (default: the su(2) quaternion state's; :mod:`refimpl._full_state` passes
     its own for ``G = rho(g)``); ``b_max``: B's largest local tolerance (:data:`B_MAX`);
     ``prop_min_b``: B's tightest local tolerance for the proportional estimate (:data:`PROP_MIN_B`);
-    ``prop_max_d``: the largest ``|A - B|`` for the proportional estimate (default none; su(2):
-    :data:`PROP_MAX_D`; past it the estimate is ``|A - B|`` and no B-only retry is taken);
+    ``prop_max_d``: the largest ``|A - B|`` for the proportional estimate (:data:`PROP_MAX_D`, for
+    every caller: the premise is the same on any algebra; past it the estimate is ``|A - B|`` and no
+    B-only retry is taken; None: no limit);
     ``reuse_b``: :data:`REUSE_B` (0: a held ``B`` never becomes ``A``); ``floor(B, steps, kappa, rows)``:
     per row, a term added to every estimate (the rounding floor both runs share, unseen by ``|A - B|``;
     a retry then aims at ``tol`` minus it; ``kappa``: per row the largest ``|A - B| / eps_A`` seen;
@@ -609,7 +610,7 @@ def _control(
         # 30 kappa eps_B then exceeds the floor, about kappa 1e-14 on the heavy and the asymmetric top)
         ea, eb = eps_a[todo], eps_b[todo]
         prop = (ea >= PROP_MIN_A) & (eb >= prop_min_b)
-        if prop_max_d is not None:  # su2 hook: a saturated |A - B| is no proportional estimate
+        if prop_max_d is not None:  # a saturated |A - B| is no proportional estimate
             prop &= di <= prop_max_d
         kap[todo] = np.maximum(kap[todo], di / eps_a[todo])
         if floor is not None:
@@ -783,7 +784,6 @@ def compiled_taylor_flow(model, x0, pi0, t: float, tol: float) -> dict:
             first=first,
             a_retry=A_LOOSE if uz else None,
             runner=runner,
-            prop_max_d=PROP_MAX_D,
         )
         over = np.flatnonzero(est > tol)
         if over.size:

@@ -586,3 +586,30 @@ def test_estimate_with_theta_and_gravity_against_the_mpmath_reference():
     err = err_of(out["pi"][:, 0], out["quat"])
     est = out["error_estimate"][0]
     assert np.isfinite(err) and err <= est + JUDGE and est <= 1e-10, (err, est)
+
+
+@pytest.mark.parametrize("rows", [1, 3])
+def test_control_never_scales_a_saturated_pair(rows):
+    """The two-run control's rule for every caller (the su(2) path and the generic full state alike):
+    the proportional estimate ``PROP (eps_B / eps_A) |A - B|`` rests on ``err(A) ~ kappa eps_A``, which
+    a checking run ``A`` that has wandered ``O(1)`` off breaks. Synthetic runs with the true end at 0:
+    a run at ``eps >= 1e-7`` ends 1 away (saturated), a tighter one ``1e-3 (eps / 1e-13)`` away (``B`` at
+    the first pair's 1e-13 is 1e-3 off). The first pair's proportional form ``30 (1e-13 / 1e-6) |A - B|
+    = 3e-6`` would pass ``tol = 1e-4`` with ``B`` 1e-3 off. Whatever the control returns, its estimate
+    must bound the returned end's distance to the truth on every row."""
+    from tstarg.refimpl import _flow_compiled as fc
+
+    def run(y, t, eps, order=None):
+        off = 1.0 if eps >= 1e-7 else 1e-3 * eps / 1e-13
+        return y + off, np.ones(len(y), dtype=np.int64)
+
+    def estimate(A, B, n, out):
+        out[:] = np.max(np.abs(A - B), axis=1)
+
+    y0 = np.zeros((rows, 2))
+    eps_a, tol = 1e-6, 1e-4
+    assert fc._eps_b(eps_a) == 1e-13 and fc.PROP * 1e-13 / eps_a < tol  # the scenario's premise
+    B, est, _ = fc._control(None, y0, 1.0, eps_a, 1, tol, runner=(run, lambda e: None),
+                            estimate=estimate)  # fmt: skip
+    err = np.max(np.abs(B), axis=1)
+    assert np.all(np.isfinite(est)) and np.all(err <= est), (err, est)
