@@ -866,7 +866,7 @@ def abelian_batch(G, xs, s, P, Ppinv, D, Dr, mats, rtol):
 # the caller instead of compiling each on its own and then linking and re-optimizing its whole call
 # tree again into every caller above it (pair_log -> log_state -> log_batch_exp -> logm compiled the
 # logarithm four times). Called from Python they still compile on their own. Measured fully cold
-# (empty NUMBA_CACHE_DIR and TSTARG_CACHE_DIR, /work/scratch_cold/prof2.py, se(3) first call, CPU):
+# (empty NUMBA_CACHE_DIR and TSTARG_CACHE_DIR, numba's compile events per function, se(3) first call, CPU):
 # pair_log 7.29 -> 4.58 s, start 3.82 -> 3.23 s, the whole call 13.50 -> 10.37 s (load 3.0-4.0);
 # warm flow calls unchanged (se(3) 206-210 -> 197-201 us, Bianchi 89-94 -> 81-88 us, same run).
 # The starting state and the logarithm of the full state as one compiled call each (the numpy glue
