@@ -313,7 +313,10 @@ if _ct.HAVE_NUMBA:
             k = y0.shape[1] - 4
             y0[j, k], y0[j, k + 1], y0[j, k + 2], y0[j, k + 3] = w, a, b, c
 
-    @njit(cache=True, nogil=True)
+    # _estimate and _log are inline="always": _finish, the one-trajectory path's single compiled call
+    # after the pair, inlines their IR rather than compiling each as a library of its own on a cold
+    # first call (called from Python, as the general path does, they still compile on their own)
+    @njit(cache=True, nogil=True, inline="always")
     def _estimate(A, B, n, est):  # pragma: no cover - compiled; same as _estimate_py
         d = A.shape[1]
         for j in range(A.shape[0]):
@@ -326,27 +329,7 @@ if _ct.HAVE_NUMBA:
             m = max(m, 2.0 * math.sqrt(s))
             est[j] = m if math.isfinite(m) else np.inf
 
-    @njit(cache=True, nogil=True)
-    def _finish(A, B, n, est, x):  # pragma: no cover - compiled; same as _finish_py
-        # _estimate and _log written out, not called: numba compiles every compiled callee as a library
-        # of its own on a cold first call, and the one-trajectory path then compiles _start and this
-        # alone (the general path's _estimate and _log only where it runs)
-        d = A.shape[1]
-        for j in range(A.shape[0]):
-            m = 0.0
-            for c in range(n):
-                m = max(m, abs(A[j, c] - B[j, c]))
-            s = 0.0
-            for c in range(d - 4, d):
-                s += (A[j, c] - B[j, c]) ** 2
-            m = max(m, 2.0 * math.sqrt(s))
-            est[j] = m if math.isfinite(m) else np.inf
-            w, v1, v2, v3 = B[j, d - 4], B[j, d - 3], B[j, d - 2], B[j, d - 1]
-            s = math.sqrt(v1 * v1 + v2 * v2 + v3 * v3)
-            fac = 2.0 * math.atan2(s, w) / s if s > 0 else 2.0
-            x[0, j], x[1, j], x[2, j] = v1 * fac, v2 * fac, v3 * fac
-
-    @njit(cache=True, nogil=True)
+    @njit(cache=True, nogil=True, inline="always")
     def _log(B, x):  # pragma: no cover - compiled; same as _log_py
         d = B.shape[1]
         for j in range(B.shape[0]):
@@ -354,6 +337,12 @@ if _ct.HAVE_NUMBA:
             s = math.sqrt(a * a + b * b + c * c)
             fac = 2.0 * math.atan2(s, w) / s if s > 0 else 2.0
             x[0, j], x[1, j], x[2, j] = a * fac, b * fac, c * fac
+
+    @njit(cache=True, nogil=True)
+    def _finish(A, B, n, est, x):  # pragma: no cover - compiled
+        _estimate(A, B, n, est)
+        _log(B, x)
+
 else:  # pragma: no cover - exercised only where numba is missing
     _start, _estimate, _log = _start_py, _estimate_py, _log_py
 

@@ -567,20 +567,28 @@ def _project(X, proj, cplx, out):
 
 
 @njit(cache=True, nogil=True, inline="always")
+def _exp_rho(v, mats, X, E):
+    """``E = exp(rho(v))``, ``X`` receiving ``rho(v) = v^a mats[a]`` (summed in ``mats``' type, in
+    the order of ``a``): the one place every exponential of a coordinate vector is formed."""
+    n, r, _ = mats.shape
+    for i in range(r):
+        for j in range(r):
+            acc = 0.0 * mats[0, i, j]
+            for a in range(n):
+                acc += v[a] * mats[a, i, j]
+            X[i, j] = acc
+    expm(X, E)
+
+
+@njit(cache=True, nogil=True, inline="always")
 def exp_batch(x, mats, out):
     """``out[N] = exp(rho(x[N]))``, ``rho(x) = x^a mats[a]``."""
-    N, n = x.shape
+    N = x.shape[0]
     r = mats.shape[1]
     X = np.zeros((r, r), dtype=mats.dtype)
     E = np.zeros((r, r), dtype=mats.dtype)
     for it in range(N):
-        for i in range(r):
-            for j in range(r):
-                acc = 0.0 * mats[0, i, j]
-                for a in range(n):
-                    acc += x[it, a] * mats[a, i, j]
-                X[i, j] = acc
-        expm(X, E)
+        _exp_rho(x[it], mats, X, E)
         for i in range(r):
             for j in range(r):
                 out[it, i, j] = E[i, j]
@@ -635,13 +643,7 @@ def log_batch_exp(G, mats, proj, cplx, out, ok, Ex):
         if not logm(Gt, L):
             continue
         _project(L, proj, cplx, x)
-        for i in range(r):
-            for j in range(r):
-                acc = 0.0 * mats[0, i, j]
-                for a in range(n):
-                    acc += x[a] * mats[a, i, j]
-                X[i, j] = acc
-        expm(X, E)
+        _exp_rho(x, mats, X, E)
         err = 0.0
         gmax = 0.0
         for i in range(r):
@@ -718,14 +720,8 @@ rounding of ``exp(rho(x))`` itself)."""
 @njit(cache=True, nogil=True)
 def _resid(v, mats, G, X, E, R):
     """``R = exp(rho(v)) - G`` (``X`` receives ``rho(v)``); returns ``max |R|`` (inf when not finite)."""
-    n, r, _ = mats.shape
-    for i in range(r):
-        for j in range(r):
-            acc = 0.0
-            for a in range(n):
-                acc += v[a] * mats[a, i, j]
-            X[i, j] = acc
-    expm(X, E)
+    r = mats.shape[1]
+    _exp_rho(v, mats, X, E)
     m = 0.0
     for i in range(r):
         for j in range(r):
@@ -1010,13 +1006,7 @@ def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid
             moved = moved or out[a] != xs[j, a]
             xs[j, a] = out[a]
         if moved:  # exp(rho(x)) of the refined row again (exp_batch's arithmetic)
-            for i in range(r):
-                for q in range(r):
-                    acc = 0.0
-                    for a in range(n):
-                        acc += out[a] * mats[a, i, q]
-                    X[i, q] = acc
-            expm(X, Ex[j])
+            _exp_rho(out, mats, X, Ex[j])
     _residual_final(Ex, mats, proj, cplx, Ad, resid)
     return True
 
