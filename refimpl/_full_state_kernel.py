@@ -189,42 +189,6 @@ def _matmul(A, B, C):
 
 
 @njit(cache=True, nogil=True)
-def _inverse(A, Ainv):
-    """Gauss-Jordan with partial pivoting; False when a pivot vanishes."""
-    r = A.shape[0]
-    M = np.zeros((r, 2 * r), dtype=A.dtype)
-    for i in range(r):
-        for j in range(r):
-            M[i, j] = A[i, j]
-        M[i, r + i] = 1.0
-    for c in range(r):
-        p = c
-        for i in range(c + 1, r):
-            if abs(M[i, c]) > abs(M[p, c]):
-                p = i
-        if not (abs(M[p, c]) > 0.0):
-            return False
-        if p != c:
-            for j in range(2 * r):
-                tmp = M[c, j]
-                M[c, j] = M[p, j]
-                M[p, j] = tmp
-        piv = 1.0 / M[c, c]
-        for j in range(2 * r):
-            M[c, j] *= piv
-        for i in range(r):
-            if i != c:
-                g = M[i, c]
-                if g != 0.0:
-                    for j in range(2 * r):
-                        M[i, j] -= g * M[c, j]
-    for i in range(r):
-        for j in range(r):
-            Ainv[i, j] = M[i, r + j]
-    return True
-
-
-@njit(cache=True, nogil=True)
 def _norm1(A):
     r = A.shape[0]
     m = 0.0
@@ -350,8 +314,11 @@ def expm_frechet(X, Es, E, L):
 
 @njit(cache=True, nogil=True)
 def _inverse_det(A, Ainv, M):
-    """:func:`_inverse` in the workspace ``M`` (r, 2r), returning ``|det A|`` (0.0 when a pivot
-    vanishes: ``Ainv`` is then not written)."""
+    """``Ainv = A^-1`` by Gauss-Jordan with partial pivoting in the workspace ``M`` (r, 2r), returning
+    ``|det A|`` (which may underflow to 0.0), or -1.0 when a pivot vanishes (``Ainv`` then not
+    written). The one inverse of this
+    module (the adjoint's, the logarithm's square roots and the refine's normal equations): each
+    compiled helper costs its own compilation and is compiled again into every caller."""
     r = A.shape[0]
     for i in range(r):
         for j in range(r):
@@ -365,7 +332,7 @@ def _inverse_det(A, Ainv, M):
             if abs(M[i, c]) > abs(M[p, c]):
                 p = i
         if not (abs(M[p, c]) > 0.0):
-            return 0.0
+            return -1.0
         if p != c:
             for j in range(2 * r):
                 tmp = M[c, j]
@@ -526,7 +493,7 @@ def logm(G, L):
             Ap[i, j] = A[i, j]
             A[i, j] = A[i, j] - (1.0 if i == j else 0.0)  # A - I from here on
         Ap[i, i] += 1.0
-    if _inverse_det(Ap, Api, inv_ws) == 0.0:
+    if not (_inverse_det(Ap, Api, inv_ws) > 0.0):
         return False
     _matmul(A, Api, Z)
     _matmul(Z, Z, Z2)
@@ -602,10 +569,11 @@ def ad_batch(G, mats, proj, cplx, out):
     Gi = np.zeros((r, r), dtype=G.dtype)
     W = np.zeros((r, r), dtype=G.dtype)
     X = np.zeros((r, r), dtype=G.dtype)
+    ws = np.zeros((r, 2 * r), dtype=G.dtype)
     col = np.zeros(n)
     for it in range(N):
         Gt = G[it]
-        if not _inverse(Gt, Gi):
+        if _inverse_det(Gt, Gi, ws) < 0.0:
             for a in range(n):
                 for b in range(n):
                     out[it, a, b] = np.nan
@@ -717,7 +685,7 @@ LOG_REFINE_FLOOR = 8.0 * 2.220446049250313e-16
 rounding of ``exp(rho(x))`` itself)."""
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _resid(v, mats, G, X, E, R):
     """``R = exp(rho(v)) - G`` (``X`` receives ``rho(v)``); returns ``max |R|`` (inf when not finite)."""
     r = mats.shape[1]
@@ -759,6 +727,7 @@ def refine_abelian(G, x0, s, P, Ppinv, D, Dr, mats, out):
     dw = np.zeros(m)
     JtJ = np.zeros((m, m))
     JtJi = np.zeros((m, m))
+    inv_ws = np.zeros((m, 2 * m))
     k = P.shape[0]
     ds = np.zeros(k)
     for ell in range(k):
@@ -793,7 +762,7 @@ def refine_abelian(G, x0, s, P, Ppinv, D, Dr, mats, out):
         for i in range(r):
             for j in range(r):
                 rhs[i * r + j] = -Rb[i, j]
-        # the least-squares step by the normal equations (the small m x m Gauss-Jordan of _inverse:
+        # the least-squares step by the normal equations (the small m x m Gauss-Jordan of _inverse_det:
         # no LAPACK binding to compile); the step's own error is corrected by the next iteration, and
         # a step that does not lower the residual is never taken
         for a in range(m):
@@ -806,9 +775,12 @@ def refine_abelian(G, x0, s, P, Ppinv, D, Dr, mats, out):
                 for q in range(r * r):
                     acc += J[q, a] * J[q, c]
                 JtJ[a, c] = acc
-        if not (np.all(np.isfinite(JtJ)) and np.all(np.isfinite(Jr))):
-            break
-        if not _inverse(JtJ, JtJi):
+        fin = 0.0  # finite iff every entry is (a loop: np.all(np.isfinite()) compiles two ufuncs)
+        for a in range(m):
+            fin += 0.0 * Jr[a]
+            for c in range(m):
+                fin += 0.0 * JtJ[a, c]
+        if not (fin == 0.0 and _inverse_det(JtJ, JtJi, inv_ws) >= 0.0):
             break
         for a in range(m):
             acc = 0.0
