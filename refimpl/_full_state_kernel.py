@@ -262,6 +262,7 @@ def expm_frechet(X, Es, E, L):
     T = np.zeros((r, r))
     Tn = np.zeros((r, r))
     W = np.zeros((r, r))
+    W2 = np.zeros((r, r))
     U = np.zeros((m, r, r))
     for i in range(r):
         for j in range(r):
@@ -272,21 +273,22 @@ def expm_frechet(X, Es, E, L):
                 U[c, i, j] = 0.0
         E[i, i] = 1.0
         T[i, i] = 1.0
+    # the products by _matmul on the leading-index views (C-contiguous 2-d: the one compiled
+    # _matmul of expm; loops written out over the 3-d arrays cost compile time, issue 25)
     for k in range(1, 40):
         f = sc / k
         tmax = 0.0
         for c in range(m):  # U_k = (U_(k-1) X + T_(k-1) E_c) sc / k, from the old T
+            Uc = U[c]
+            _matmul(Uc, X, W)
+            _matmul(T, Es[c], W2)
+            Lc = L[c]
             for i in range(r):
                 for j in range(r):
-                    acc = 0.0
-                    for q in range(r):
-                        acc += U[c, i, q] * X[q, j] + T[i, q] * Es[c, q, j]
-                    W[i, j] = acc * f
-            for i in range(r):
-                for j in range(r):
-                    U[c, i, j] = W[i, j]
-                    L[c, i, j] += W[i, j]
-                    tmax = max(tmax, abs(W[i, j]))
+                    w = (W[i, j] + W2[i, j]) * f
+                    Uc[i, j] = w
+                    Lc[i, j] += w
+                    tmax = max(tmax, abs(w))
         _matmul(T, X, Tn)
         for i in range(r):
             for j in range(r):
@@ -296,16 +298,13 @@ def expm_frechet(X, Es, E, L):
         if tmax <= 1e-18:
             break
     for _ in range(s):
-        for c in range(m):
+        for c in range(m):  # L_c <- E L_c + L_c E
+            Lc = L[c]
+            _matmul(E, Lc, W)
+            _matmul(Lc, E, W2)
             for i in range(r):
                 for j in range(r):
-                    acc = 0.0
-                    for q in range(r):
-                        acc += E[i, q] * L[c, q, j] + L[c, i, q] * E[q, j]
-                    W[i, j] = acc
-            for i in range(r):
-                for j in range(r):
-                    L[c, i, j] = W[i, j]
+                    Lc[i, j] = W[i, j] + W2[i, j]
         _matmul(E, E, W)
         for i in range(r):
             for j in range(r):
