@@ -635,7 +635,7 @@ def pack_G(G, gpart, gi, gj, off, y):
             y[it, off + v] = z.real if gpart[v] == 0 else z.imag
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True)
 def unpack_G(y, gpart, gi, gj, off, G, unit):
     """The inverse of :func:`pack_G` (entries outside the pattern zero); ``unit``: ``1j`` for a complex
     ``G`` (0.0 for a real one, whose entries are all real parts)."""
@@ -713,20 +713,16 @@ def refine_abelian(G, x0, s, P, Ppinv, D, Dr, mats, out):
     n = x0.shape[0]
     r = G.shape[0]
     m = Dr.shape[0]
-    X = np.zeros((r, r))
-    E = np.zeros((r, r))
-    R0 = np.zeros((r, r))
-    Rb = np.zeros((r, r))
-    Rc = np.zeros((r, r))
-    EZ = np.zeros((r, r))
+    # workspaces as leading-index views of one array each (C-contiguous: the helpers' one layout;
+    # each allocation site costs compile time)
+    ws = np.zeros((6, r, r))
+    X, E, R0, Rb, Rc, EZ = ws[0], ws[1], ws[2], ws[3], ws[4], ws[5]
     Lc = np.zeros((m, r, r))
-    J = np.zeros((r * r, m))
-    rhs = np.zeros(r * r)
-    Jr = np.zeros(m)
-    dw = np.zeros(m)
-    JtJ = np.zeros((m, m))
-    JtJi = np.zeros((m, m))
+    wm = np.zeros((2, m, m))
+    JtJ, JtJi = wm[0], wm[1]
     inv_ws = np.zeros((m, 2 * m))
+    wv = np.zeros((2, m))
+    Jr, dw = wv[0], wv[1]
     k = P.shape[0]
     ds = np.zeros(k)
     for ell in range(k):
@@ -754,25 +750,21 @@ def refine_abelian(G, x0, s, P, Ppinv, D, Dr, mats, out):
         ):  # a residual at the rounding of exp(rho(x)) itself: no step can improve it
             break
         expm_frechet(X, Dr, EZ, Lc)
-        for c in range(m):
-            for i in range(r):
-                for j in range(r):
-                    J[i * r + j, c] = Lc[c, i, j]
-        for i in range(r):
-            for j in range(r):
-                rhs[i * r + j] = -Rb[i, j]
         # the least-squares step by the normal equations (the small m x m Gauss-Jordan of _inverse_det:
         # no LAPACK binding to compile); the step's own error is corrected by the next iteration, and
-        # a step that does not lower the residual is never taken
+        # a step that does not lower the residual is never taken. The Jacobian's column c is Lc[c]
+        # read row by row (J[i r + j, c] = Lc[c, i, j]), the right-hand side -Rb likewise
         for a in range(m):
             acc = 0.0
-            for q in range(r * r):
-                acc += J[q, a] * rhs[q]
+            for i in range(r):
+                for j in range(r):
+                    acc += Lc[a, i, j] * -Rb[i, j]
             Jr[a] = acc
             for c in range(m):
                 acc = 0.0
-                for q in range(r * r):
-                    acc += J[q, a] * J[q, c]
+                for i in range(r):
+                    for j in range(r):
+                        acc += Lc[a, i, j] * Lc[c, i, j]
                 JtJ[a, c] = acc
         fin = 0.0  # finite iff every entry is (a loop: np.all(np.isfinite()) compiles two ufuncs)
         for a in range(m):
