@@ -18,7 +18,7 @@ import numpy as np
 
 from .. import _fast_kernels as _fast
 from .._algebra import LieAlgebra
-from .._compiled_tensors import generic_degenerate_at_origin
+from .._compiled_tensors import start_degenerate
 from .._flow_checks import check_time
 from .._flow_compiled import compiled_taylor_samples, quat_to_x
 from .._lru import LRU
@@ -311,16 +311,7 @@ def _check_start(model: NumpyModel, P: np.ndarray) -> None:
     """Starting points on the degenerate set (``Delta = 0`` to float64 accuracy, vier12) are refused."""
     if model.upsilon_zero:
         return
-    if _fast._is_su2(model.f):
-        degen = (
-            _fast.FastCore()
-            .poisson_batch_validated(model.f, model.theta, model.upsilon, np.zeros_like(P.T), P.T)
-            .degenerate
-        )
-    else:  # the generic tensor's flag at x = 0 without compiling its kernel (issue 25 hook)
-        degen = generic_degenerate_at_origin(
-            model.f, model.theta, model.upsilon, P.T, consts=_fast._ct_consts()
-        )
+    degen = start_degenerate(model.f, model.theta, model.upsilon, P.T)  # issue 25: no kernel
     if np.any(degen):
         idx = np.argwhere(degen).ravel()
         raise ValueError(
