@@ -821,13 +821,17 @@ def abelian_batch(G, xs, s, P, Ppinv, D, Dr, mats, rtol):
 
 # ---------------------------------------------------------------------- per-call glue, one call each
 # The intermediate levels of the first call's chain (estimate, log_state[_refined], log_batch_exp,
-# _residual_final, exp_batch, pack_G, unpack_G) are ``inline="always"``: numba inlines their IR into
+# _residual_final, exp_batch, pack_G) are ``inline="always"``: numba inlines their IR into
 # the caller instead of compiling each on its own and then linking and re-optimizing its whole call
 # tree again into every caller above it (pair_log -> log_state -> log_batch_exp -> logm compiled the
 # logarithm four times). Called from Python they still compile on their own. Measured fully cold
 # (empty NUMBA_CACHE_DIR and TSTARG_CACHE_DIR, numba's compile events per function, se(3) first call, CPU):
 # pair_log 7.29 -> 4.58 s, start 3.82 -> 3.23 s, the whole call 13.50 -> 10.37 s (load 3.0-4.0);
 # warm flow calls unchanged (se(3) 206-210 -> 197-201 us, Bianchi 89-94 -> 81-88 us, same run).
+# Inlining is not free: numba deep-copies the callee's IR at every inlined site, so a helper called
+# at two sites of one caller (unpack_G in estimate) or a large one (refine_abelian: pair_log_refined
+# 8.3 -> 10.3 s inlined) stays a compiled function of its own; a helper compiled once for several
+# callers (expm, ad_batch, logm, _inverse_det, _matmul) costs its own compile once per installation.
 # The starting state and the logarithm of the full state as one compiled call each (the numpy glue
 # they replace cost ~10 us of call overhead apiece on one trajectory; the same formulas as
 # refimpl._full_state._pack and ._log_complete, which stay the documentation).
