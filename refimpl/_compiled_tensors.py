@@ -43,6 +43,8 @@ numpy path; :data:`PATH` and the ``path`` field of every result say which path r
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ._compiled_taylor import HAVE_NUMBA
@@ -170,13 +172,27 @@ def generic_degenerate_at_origin(f, theta, upsilon, p, *, consts: dict) -> np.nd
     N, n = p.shape
     if upsilon is None:
         return np.zeros(N, dtype=bool)
-    f = np.asarray(f, dtype=float)
     ups = np.asarray(upsilon, dtype=float)
-    S = (p @ f.reshape(n, n * n)).reshape(N, n, n)
+    S = (p @ np.asarray(f, dtype=float).reshape(n, n * n)).reshape(N, n, n)
     if theta is not None:
-        S = S - np.asarray(theta, dtype=float)
-    Psi = ups @ S + np.eye(n)
+        S -= np.asarray(theta, dtype=float)
+    Psi = ups @ S
+    Psi.reshape(N, n * n)[:, :: n + 1] += 1.0
+    c = (
+        n * consts["C_P"] * consts["EPS"]
+    )  # degenerate unless max(cond, sens) c < 1 (NaN: degenerate)
+    un = math.sqrt(np.vdot(ups, ups))
     with np.errstate(all="ignore"):
+        # one point (a protocol call): 2-d operations and floats, half the batched ones' overhead
+        if N == 1:
+            try:
+                Pi = np.linalg.inv(Psi[0])
+            except np.linalg.LinAlgError:  # exactly singular
+                return np.ones(1, dtype=bool)
+            fp = math.sqrt(np.vdot(Pi, Pi))
+            cond = math.sqrt(np.vdot(Psi, Psi)) * fp / n
+            sens = fp * (1 + math.sqrt(np.vdot(S, S)) * un) / math.sqrt(n)
+            return np.array([not (cond * c < 1.0 and sens * c < 1.0)])
         try:
             Pi = np.linalg.inv(Psi)
         except np.linalg.LinAlgError:  # an exactly singular Psi somewhere: per point, NaN there
@@ -186,13 +202,10 @@ def generic_degenerate_at_origin(f, theta, upsilon, p, *, consts: dict) -> np.nd
                     Pi[k] = np.linalg.inv(Psi[k])
                 except np.linalg.LinAlgError:
                     pass
-        fp = np.sqrt(np.sum(Pi * Pi, axis=(1, 2)))
-        cond = np.sqrt(np.sum(Psi * Psi, axis=(1, 2))) * fp / n
-        sens = (
-            fp * (1 + np.sqrt(np.sum(S * S, axis=(1, 2))) * np.sqrt(np.sum(ups * ups))) / np.sqrt(n)
-        )
-        eff = np.maximum(cond, sens)  # NaN stays NaN: degenerate, as the kernel's inf
-        return ~(eff * (n * consts["C_P"] * consts["EPS"]) < 1.0)
+        fp = np.sqrt(np.einsum("kij,kij->k", Pi, Pi))
+        cond = np.sqrt(np.einsum("kij,kij->k", Psi, Psi)) * fp / n
+        sens = fp * (1 + np.sqrt(np.einsum("kij,kij->k", S, S)) * un) / math.sqrt(n)
+        return ~((cond * c < 1.0) & (sens * c < 1.0))
 
 
 def start_degenerate(f, theta, upsilon, p) -> np.ndarray:

@@ -229,6 +229,9 @@ def test_degenerate_at_origin_without_the_kernel():
     flags = ct.generic_degenerate_at_origin(g.f, None, U, pi_g, consts=consts)
     c, p = _both(g, z2, U, np.zeros_like(pi_g), pi_g)
     assert flags.tolist() == c.degenerate.tolist() == p.degenerate.tolist() == [True, True, False]
+    for k in range(3):  # one point at a time: its own route (2-d operations)
+        one = ct.generic_degenerate_at_origin(g.f, None, U, pi_g[k : k + 1], consts=consts)
+        assert one.tolist() == [flags[k]]
     assert not ct.generic_degenerate_at_origin(g.f, None, None, pi_g, consts=consts).any()
     for name in CATALOGUE_NAMES:
         alg = catalogue(name)
@@ -242,6 +245,11 @@ def test_degenerate_at_origin_without_the_kernel():
                 ref = fast.poisson_batch(alg.f, theta, ups, np.zeros_like(pi), pi, compiled=False)
             flags = ct.generic_degenerate_at_origin(alg.f, theta, ups, pi, consts=consts)
             assert flags.tolist() == ref.degenerate.tolist(), (name, kind)
+            ones = [
+                ct.generic_degenerate_at_origin(alg.f, theta, ups, q[None], consts=consts)[0]
+                for q in pi
+            ]
+            assert ones == flags.tolist(), (name, kind)
     I2 = np.diag([1.0, 2.0])
     with pytest.raises(ValueError, match=r"initial point\(s\) \[0, 1\] lie on the degenerate set"):
         fast.flow(g.f, z2, U, I2, None, np.zeros((3, 2)), pi_g, 1.0)
