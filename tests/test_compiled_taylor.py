@@ -130,6 +130,43 @@ def test_batch_kernel_runs_every_trajectory_as_the_single_kernel_does(label, T):
         assert np.max(np.abs(got[n] - one[0])) <= 8 * EPS * steps[n] * scale
 
 
+@needs_numba
+@pytest.mark.parametrize("label", list(MODELS))
+@pytest.mark.parametrize(("T", "tols"), [(2.5, (1e-6, 1e-13)), (-1.5, (1e-12, 1e-8))])
+def test_pair_kernel_runs_each_tolerance_as_the_single_kernel_does(label, T, tols):
+    """The pair kernel (both runs of the two-run control on the two lanes of one vector) against the
+    single-trajectory kernel run at each tolerance: the same control per lane, so the same step counts,
+    and end states equal to rounding (error model 8 eps * steps * scale, as the batch kernel's above:
+    the lanes compute each run's operations in the same order, so the states agree far inside it; seen
+    equal bit for bit). The looser run finishes first (the first case: A; the second: B) and idles
+    while the other goes on; a row that blows up (y = 1e200) fails on both lanes (NaN, steps -1)
+    without touching its neighbours; the caller's array is not written."""
+    model = MODELS[label]()
+    cf = ct.compiled_field(quadratic_field(model))
+    P = 14
+    pair = ct.unrolled_pair(cf, P)
+    one = ct.unrolled_adaptive(cf, P)
+    y0 = _y0(model, np.random.default_rng(11), 3).T.copy()
+    y0[1] = 1e200  # quadratic field: overflows within the first step
+    keep = y0.copy()
+    out = [np.empty_like(y0), np.empty_like(y0)]
+    steps = [np.zeros(3, dtype=np.int64), np.zeros(3, dtype=np.int64)]
+    pair(y0, T, tols[0], tols[1], 10**6, cf.qcoef, cf.lcoef, out[0], out[1], steps[0], steps[1])
+    assert np.array_equal(y0, keep)
+    assert steps[0][0] != steps[1][0]  # one lane idles while the other goes on
+    for lane, tol in enumerate(tols):
+        for n in range(3):
+            ref, s1 = np.empty((1, y0.shape[1])), np.zeros(1, dtype=np.int64)
+            one(y0[n : n + 1], T, tol, 10**6, cf.qcoef, cf.lcoef, ref, s1)
+            if n == 1:
+                assert steps[lane][n] == -1 == s1[0] and np.all(np.isnan(out[lane][n]))
+                continue
+            assert steps[lane][n] == s1[0] > 0
+            scale = max(1.0, float(np.max(np.abs(ref))))
+            assert np.all(np.isfinite(out[lane][n]))
+            assert np.max(np.abs(out[lane][n] - ref[0])) <= 8 * EPS * s1[0] * scale
+
+
 def test_adaptive_free_asymmetric_top_meets_elliptic_closed_form():
     """Free asymmetric top (I = diag(1, 2, 3), rotation about the I3 axis), body system, T = 20: the
     adaptive kernel at local tolerance 1e-13 is within 1e-10 of the Jacobi elliptic closed form

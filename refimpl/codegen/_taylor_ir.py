@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import llvmlite.ir as ir
 from numba import types
+from numba.core import cgutils
 from numba.extending import intrinsic
 
 __all__ = [
@@ -35,6 +36,8 @@ __all__ = [
     "coefficients_intrinsic",
     "lane_coefficients_intrinsic",
     "lane_update_intrinsic",
+    "lanes_coefficients_intrinsic",
+    "lanes_update_intrinsic",
     "spec",
     "update_intrinsic",
 ]
@@ -66,12 +69,35 @@ def variable_components(sp) -> list[int]:
 
 
 class _Ops:
-    """Floating-point operations on one builder, each with the kernels' ``contract`` flag."""
+    """Floating-point operations on one builder, each with the kernels' ``contract`` flag, on float64
+    or (``lanes > 1``) on vectors of ``lanes`` float64 (one trajectory per lane, element by element:
+    the same operations on each lane)."""
 
-    def __init__(self, builder):
+    def __init__(self, builder, lanes: int = 1):
         self.b = builder
-        self.zero = ir.Constant(_F64, 0.0)
+        self.lanes = lanes
+        self.ty = _F64 if lanes == 1 else ir.VectorType(_F64, lanes)
+        self.zero = self.const(0.0)
         self._fabs = None
+
+    def const(self, x: float):
+        return ir.Constant(self.ty, x if self.lanes == 1 else [x] * self.lanes)
+
+    def splat(self, x):
+        """A float64 value on every lane."""
+        return x if self.lanes == 1 else self.pack([x] * self.lanes)
+
+    def pack(self, xs):
+        """The lanes' float64 values as one vector."""
+        if self.lanes == 1:
+            return xs[0]
+        v = ir.Constant(self.ty, None)
+        for i, x in enumerate(xs):
+            v = self.b.insert_element(v, x, ir.Constant(ir.IntType(32), i))
+        return v
+
+    def lane(self, v, i: int):
+        return v if self.lanes == 1 else self.b.extract_element(v, ir.Constant(ir.IntType(32), i))
 
     def mul(self, a, c):
         return self.b.fmul(a, c, flags=_FLAGS)
@@ -101,7 +127,10 @@ class _Ops:
 
     def abs(self, a):
         if self._fabs is None:
-            self._fabs = self.b.module.declare_intrinsic("llvm.fabs", [_F64])
+            name = "llvm.fabs." + ("f64" if self.lanes == 1 else f"v{self.lanes}f64")
+            self._fabs = cgutils.get_or_insert_function(
+                self.b.module, ir.FunctionType(self.ty, [self.ty]), name
+            )
         return self.b.call(self._fabs, [a])
 
     def amax(self, vals):
@@ -140,10 +169,10 @@ def _coefficients(ops: _Ops, sp, y0, qv, lv, chain: bool) -> list:
             if i == j:
                 pairs = [(a, k - a) for a in range((k + 1) // 2) if not z(i, a) and not z(i, k - a)]
                 if len(pairs) == 1:  # the source's 2.0*y_a*y_b: (2 y_a) y_b, no rounding in 2 y_a
-                    (a, b), two = pairs[0], ir.Constant(_F64, 2.0)
+                    (a, b), two = pairs[0], ops.const(2.0)
                     e = ops.mul(ops.mul(two, y[i, a]), y[i, b])
                 elif pairs:
-                    e = ops.mul(ir.Constant(_F64, 2.0), summ([prod(i, a, i, b) for a, b in pairs]))
+                    e = ops.mul(ops.const(2.0), summ([prod(i, a, i, b) for a, b in pairs]))
                 if k % 2 == 0 and not z(i, k // 2):
                     sq = ops.mul(y[i, k // 2], y[i, k // 2])
                     e = sq if e is None else ops.add(e, sq)
@@ -152,7 +181,7 @@ def _coefficients(ops: _Ops, sp, y0, qv, lv, chain: bool) -> list:
                 if pairs:
                     e = summ([prod(i, a, j, b) for a, b in pairs])
             m.append(ops.zero if e is None else e)
-        inv = ir.Constant(_F64, 1.0 / (k + 1))
+        inv = ops.const(1.0 / (k + 1))
         for c in range(d):
             if c in const:
                 continue
@@ -277,6 +306,82 @@ def update_intrinsic(sp):
             )
 
         return ret(Y, E, C, types.float64), codegen
+
+    return update
+
+
+def lanes_coefficients_intrinsic(sp, W: int):
+    """The intrinsic ``C = coefficients(Y, Q, L)`` of :func:`coefficients_intrinsic` on ``W``
+    trajectories at once, one per lane of a vector (the pair kernel: the checking run and the answer
+    side by side). ``Y``: ``W d`` floats, trajectory ``i``'s state at ``Y[i d:(i + 1) d]``; ``C``:
+    trajectory ``i``'s coefficients at ``i nv P + vi P + k - 1``, then the three norms of each
+    trajectory in turn (from ``W nv P``). Each lane's values are the scalar intrinsic's: the same
+    operations in the same order, element by element."""
+    d, P = sp[0], sp[1]
+    nq, nl = len(sp[5]), len(sp[7])
+    n1 = len(variable_components(sp)) * P
+
+    @intrinsic
+    def coefficients(typingctx, Y, Q, L):
+        _check_floats("coefficients", Y, Q, L)
+        ret = types.UniTuple(types.float64, W * (n1 + 3))
+
+        def codegen(context, builder, sig, args):
+            ops = _Ops(builder, W)
+            ys = _unpack(builder, args[0], W * d)
+            y0 = [ops.pack([ys[i * d + c] for i in range(W)]) for c in range(d)]
+            qv = [ops.splat(v) for v in _unpack(builder, args[1], nq)]
+            lv = [ops.splat(v) for v in _unpack(builder, args[2], nl)]
+            C = _coefficients(ops, sp, y0, qv, lv, False)
+            norms = _norms(ops, sp, y0, C)
+            out = [ops.lane(v, i) for i in range(W) for v in C]
+            out += [ops.lane(v, i) for i in range(W) for v in norms]
+            return context.make_tuple(builder, ret, out)
+
+        return ret(Y, Q, L), codegen
+
+    return coefficients
+
+
+def lanes_update_intrinsic(sp, W: int):
+    """The intrinsic ``Y, E = update(Y, E, C, H)`` of :func:`update_intrinsic` on ``W`` lanes (the
+    layout of :func:`lanes_coefficients_intrinsic`; ``E``: trajectory ``i``'s carries at
+    ``i nv .. (i + 1) nv``; ``H``: the ``W`` steps). A lane whose step is 0 keeps its state and
+    carries (a trajectory already at its end, or failed, while another lane goes on)."""
+    d, P = sp[0], sp[1]
+    var = variable_components(sp)
+    nv = len(var)
+    n1 = nv * P
+
+    @intrinsic
+    def update(typingctx, Y, E, C, H):
+        _check_floats("update", Y, E, C, H)
+        ty, te = types.UniTuple(types.float64, W * d), types.UniTuple(types.float64, W * nv)
+        ret = types.Tuple((ty, te))
+
+        def codegen(context, builder, sig, args):
+            ops = _Ops(builder, W)
+            ys = _unpack(builder, args[0], W * d)
+            es = _unpack(builder, args[1], W * nv)
+            cs = _unpack(builder, args[2], W * (n1 + 3))
+            h = ops.pack(_unpack(builder, args[3], W))
+            idle = builder.fcmp_ordered("==", h, ops.zero)
+            y0 = [ops.pack([ys[i * d + c] for i in range(W)]) for c in range(d)]
+            e0 = [ops.pack([es[i * nv + vi] for i in range(W)]) for vi in range(nv)]
+            C = [ops.pack([cs[i * n1 + r] for i in range(W)]) for r in range(n1)]
+            yn, en = _update(ops, sp, y0, e0, C, h)
+            yn = [builder.select(idle, a, b) for a, b in zip(y0, yn)]
+            en = [builder.select(idle, a, b) for a, b in zip(e0, en)]
+            return context.make_tuple(
+                builder,
+                ret,
+                [
+                    context.make_tuple(builder, ty, [ops.lane(v, i) for i in range(W) for v in yn]),
+                    context.make_tuple(builder, te, [ops.lane(v, i) for i in range(W) for v in en]),
+                ],
+            )
+
+        return ret(Y, E, C, H), codegen
 
     return update
 

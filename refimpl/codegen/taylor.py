@@ -137,7 +137,9 @@ def _loads(cf) -> list[str]:
     ]
 
 
-def _step_size_lines(P: int, xn: str, a1: str, a2: str, fail: list[str]) -> list[str]:
+def _step_size_lines(
+    P: int, xn: str, a1: str, a2: str, fail: list[str], tol: str = "tol"
+) -> list[str]:
     """The Jorba-Zou step of the module docstring from the expressions of ``max|y_0|`` and of the last
     two coefficients' norms; ``fail`` runs when no positive step results (overflowed coefficients).
 
@@ -147,7 +149,7 @@ def _step_size_lines(P: int, xn: str, a1: str, a2: str, fail: list[str]) -> list
     1e-13 over T = 100: 378.0 against 390.9 us, best of 30 interleaved, load 1.5). NaN (non-finite
     coefficients) still gives no positive step, ``a = 0`` no bound from that term."""
     return [
-        f"s = tol * max(1.0, {xn})",
+        f"s = {tol} * max(1.0, {xn})",
         f"a1 = {a1}",
         f"a2 = {a2}",
         "lh = np.inf",
@@ -200,6 +202,8 @@ def unrolled_source(cf, P: int) -> str:
     head += [
         "_coefs = _taylor_ir.coefficients_intrinsic(SPEC)",
         "_update = _taylor_ir.update_intrinsic(SPEC)",
+        "_coefs2 = _taylor_ir.lanes_coefficients_intrinsic(SPEC, 2)",
+        "_update2 = _taylor_ir.lanes_update_intrinsic(SPEC, 2)",
     ]
     var = _taylor_ir.variable_components(sp)
     K = len(var) * P  # C[K], C[K + 1], C[K + 2]: max|y_0|, max|y_{P-1}|, max|y_P|
@@ -249,7 +253,71 @@ def unrolled_source(cf, P: int) -> str:
         I3 + "Y, E = _update(Y, E, _coefs(Y, Q, L), h)",
     ]
     src += [I2 + x for x in store_ok]
+    src += ["", "", _JIT] + _pair_lines(cf, P, var)
     return "\n".join(src) + "\n"
+
+
+def _pair_lines(cf, P: int, var: list[int]) -> list[str]:
+    """``pair(y0, T, tol_a, tol_b, max_steps, q, l, out_a, out_b, steps_a, steps_b)``: ``adaptive`` at
+    the two local tolerances ``tol_a`` and ``tol_b`` from every row of ``y0`` at once, the two runs on
+    the two lanes of one vector (the intrinsics ``_coefs2``, ``_update2``): each lane its own control,
+    steps and carries, exactly as ``adaptive`` runs it (the lane that reaches ``T`` first, or fails,
+    idles with step 0 while the other goes on). One pass over the trajectory instead of two: the
+    checking run's arithmetic rides in the answer's vector instructions."""
+    d = cf.d
+    K = 2 * len(var) * P  # C[K:K + 3]: lane a's norms, C[K + 3:K + 6]: lane b's
+    I1, I2, I3, I4, I5 = ("    " * i for i in range(1, 6))
+    src = ["def pair(y0, T, tol_a, tol_b, max_steps, q, l, out_a, out_b, steps_a, steps_b):"]
+    src += [I1 + x for x in _kernel_prologue(cf, P)] + [I1 + "for n in range(N):"]
+    src += [
+        I2 + "Y = " + _tuple([f"y0[n, {c}]" for c in range(d)] * 2),
+        I2 + "E = " + _tuple(["0.0"] * (2 * len(var))),
+        I2 + "ta = 0.0",
+        I2 + "tb = 0.0",
+        I2 + "ka = 0",
+        I2 + "kb = 0",
+        I2 + "oka = True",
+        I2 + "okb = True",
+        I2 + "while ta < Tabs or tb < Tabs:",
+        I3 + "C = _coefs2(Y, Q, L)",
+    ]
+    for x, off in (("a", 0), ("b", 3)):
+        src += [I3 + f"h{x} = 0.0", I3 + f"if t{x} < Tabs:"]
+        src += [
+            I4 + line
+            for line in _step_size_lines(
+                P,
+                f"C[{K + off}]",
+                f"C[{K + off + 1}]",
+                f"C[{K + off + 2}]",
+                [f"ok{x} = False", f"t{x} = Tabs"],
+                tol=f"tol_{x}",
+            )
+        ]
+        src += [
+            I4 + "else:",
+            I5 + f"if t{x} + h >= Tabs:",
+            I5 + f"    h = Tabs - t{x}",
+            I5 + f"    t{x} = Tabs",
+            I5 + "else:",
+            I5 + f"    t{x} += h",
+            I5 + f"h{x} = sgn * h",
+            I5 + f"k{x} += 1",
+        ]
+    src += [I3 + "Y, E = _update2(Y, E, C, (ha, hb))"]
+    for x, off in (("a", 0), ("b", d)):
+        fin = " and ".join(f"math.isfinite(Y[{off + c}])" for c in var) or "True"
+        src += [
+            I3 + f"if h{x} != 0.0 and (not ({fin}) or k{x} > max_steps):",
+            I4 + f"ok{x} = False",
+            I4 + f"t{x} = Tabs",
+        ]
+    for x, off in (("a", 0), ("b", d)):
+        src += [I2 + f"if ok{x}:"]
+        src += [I3 + f"out_{x}[n, {c}] = Y[{off + c}]" for c in range(d)]
+        src += [I2 + "else:", I3 + f"for c in range({d}):", I4 + f"out_{x}[n, c] = np.nan"]
+        src += [I2 + f"steps_{x}[n] = k{x} if ok{x} else -1"]
+    return src
 
 
 BATCH_WIDTH = (
