@@ -26,10 +26,13 @@ the IR built here: numba's disk cache keys on the generated file, not on this mo
 
 from __future__ import annotations
 
-import llvmlite.ir as ir
-from numba import types
-from numba.core import cgutils
-from numba.extending import intrinsic
+try:  # only the generated kernels use the intrinsics; spec() and the layout helpers need neither
+    import llvmlite.ir as ir
+    from numba import types
+    from numba.core import cgutils
+    from numba.extending import intrinsic
+except ImportError:  # pragma: no cover - exercised only where numba is missing
+    ir = types = cgutils = intrinsic = None
 
 __all__ = [
     "IR_VERSION",
@@ -43,7 +46,7 @@ __all__ = [
 ]
 
 IR_VERSION = "1"
-_F64 = ir.DoubleType()
+_F64 = None if ir is None else ir.DoubleType()
 _FLAGS = ("contract",)
 
 
