@@ -17,6 +17,7 @@ import time
 import numpy as np
 
 from .. import _fast_kernels as _fast
+from .. import _full_state
 from .._algebra import LieAlgebra
 from .._flow_checks import check_time
 from .._flow_compiled import compiled_taylor_samples, quat_to_x
@@ -30,7 +31,7 @@ from .._validate import (
     within_boundary,
 )
 from ..model import Model, State
-from ._common import quat_matrix, x_to_quat
+from ._common import _AbelianPart, quat_matrix, x_to_quat
 from .base import FlowResult, Integrator, check_tolerance
 from .registry import METHODS, choose, method
 from .step_doubling import StepDoubling
@@ -162,17 +163,77 @@ def _finite_sum(a) -> bool:
     return math.isfinite(sum(a.ravel().tolist()) if a.size <= SMALL else a.sum())
 
 
-def _check_rates(model: NumpyModel, pa, tv: float) -> None:
+def _check_rates(model: NumpyModel, pa, tv: float, pmax: float | None = None) -> None:
     """:func:`check_flow_rates` on the cached model: its inputs ``||I^-1||_2`` and ``max|f|`` are
     computed once per model; the check itself runs (and raises, naming the point) only when the same
-    bound, evaluated here on ``max |pi|`` over the batch, could exceed the budget."""
+    bound, evaluated here on ``max |pi|`` over the batch (``pmax`` when the caller has it), could
+    exceed the budget."""
     c = model.rate_const
-    if pa.size <= SMALL:
-        size = max(map(abs, pa.ravel().tolist()), default=0.0) * math.sqrt(model.n)
-    else:
-        size = float(np.max(np.abs(pa))) * math.sqrt(model.n)
+    if pmax is None:
+        if pa.size <= SMALL:
+            pmax = max(map(abs, pa.ravel().tolist()), default=0.0)
+        else:
+            pmax = float(np.max(np.abs(pa)))
+    size = pmax * math.sqrt(model.n)
     if not abs(tv) * c * max(1.0, size) <= 0.5 * 2.0**14 * (2 + abs(tv)):  # half the budget: margin
         check_flow_rates(model.f, model.inertia, pa, tv)
+
+
+def _one_route(model: NumpyModel) -> bool:
+    """Whether the default method on ``model``'s full state is the compiled full state of
+    :mod:`refimpl._full_state` (``taylor`` with ``Upsilon = 0`` off su(2)): the route of
+    :func:`_flow_one`. A function of the (cached, immutable) model, kept on it."""
+    one = model.__dict__.get("_one_route")
+    if one is None:
+        one = model.__dict__["_one_route"] = bool(
+            choose(model, full=True) is METHODS["taylor"] and _full_state.applies(model)
+        )
+    return one
+
+
+def _flow_one(model: NumpyModel, x0, pi0, tv: float, tol: float):
+    """The call of one trajectory given as 1-D float64 arrays ``x0``, ``pi0`` of the model's
+    dimension, on the compiled full state (:func:`_one_route`), ``0 < |t| < 256`` (no time probe),
+    default method and steps: ``(x, pi)`` through :func:`refimpl._full_state.flow_one` -- what the
+    general route below computes, with the same checks (the points finite and bounded, the rates, the
+    results finite), without its batch bookkeeping (issue 25: the Python around one trajectory).
+    None where any of that does not hold: the general route then runs, and refuses by name."""
+    n = model.n
+    if not (
+        type(x0) is np.ndarray
+        and type(pi0) is np.ndarray
+        and x0.dtype is _F64
+        and pi0.dtype is _F64
+        and x0.shape == (n,)
+        and pi0.shape == (n,)
+        and _one_route(model)
+    ):
+        return None
+    xl, pl = x0.tolist(), pi0.tolist()
+    if not all(map(_WITHIN, map(abs, xl + pl))):  # issue 30: finite and |v| <= MAX_MAGNITUDE
+        return None
+    _check_rates(model, pi0, tv, max(map(abs, pl)))
+    X = np.ascontiguousarray(x0).reshape(n, 1)  # only read (never written, never returned)
+    P = np.ascontiguousarray(pi0).reshape(n, 1)
+    x, pi = _full_state.flow_one(model, X, P, tv, tol, abelian=_AbelianPart)
+    if not (_finite_sum(pi) and _finite_sum(x)):
+        _check_finite(x.reshape(n, 1), pi.reshape(n, 1), tv)
+    return x, pi
+
+
+def _check_finite(x, pi, tv: float) -> None:
+    """Trajectories (columns of ``x``, ``pi`` (n, N)) not finite at ``tv`` are refused, by index."""
+    bad_pi = ~np.all(np.isfinite(pi), axis=0)
+    if np.any(bad_pi):
+        raise ValueError(
+            f"fast_flow: trajectories {np.flatnonzero(bad_pi)[:10].tolist()} became non-finite before t = {tv} "
+            "(they reached the degenerate set Pi_1, vier12, or diverged); no point is dropped"
+        )
+    bad = ~np.all(np.isfinite(x), axis=0)
+    if np.any(bad):
+        raise ValueError(
+            f"fast_flow: no logarithm x(t) of g(t) found for trajectories {np.flatnonzero(bad)[:10].tolist()}"
+        )
 
 
 def fast_flow(
@@ -214,6 +275,10 @@ def fast_flow(
     tol = tol if type(tol) is float and 0.0 < tol < math.inf else check_tolerance(tol)
     check_flow_request(tv, tol, steps, method_name, METHODS)  # issue 15 hook: the stated budget
     model = cached_model(f, theta, upsilon, inertia, potential)
+    if steps is None and method_name is None and not return_group and 0.0 < abs(tv) < 256.0:
+        one = _flow_one(model, x0, pi0, tv, tol)  # one trajectory (issue 25); None: not that call
+        if one is not None:
+            return one
     n = model.n
     xa, pa = _points(x0, pi0, n)
     if steps is None:  # issue 15 hook: refuse points too fast for the step-doubling budget
@@ -279,17 +344,8 @@ def fast_flow(
     out = meth.integrate(model, State(X, P), tv, tol=tol, steps=steps, system="full")
     # one sum when all is finite (a finite sum); the per-trajectory check only otherwise
     x, pi = out.x, out.pi
-    if not _finite_sum(pi) and np.any(~np.all(np.isfinite(pi), axis=0)):
-        bad_pi = ~np.all(np.isfinite(pi), axis=0)
-        raise ValueError(
-            f"fast_flow: trajectories {np.flatnonzero(bad_pi)[:10].tolist()} became non-finite before t = {tv} "
-            "(they reached the degenerate set Pi_1, vier12, or diverged); no point is dropped"
-        )
-    if not _finite_sum(x) and np.any(~np.isfinite(x)):
-        bad = np.argwhere(~np.all(np.isfinite(x), axis=0)).ravel()
-        raise ValueError(
-            f"fast_flow: no logarithm x(t) of g(t) found for trajectories {bad[:10].tolist()}"
-        )
+    if not (_finite_sum(pi) and _finite_sum(x)):
+        _check_finite(x, pi, tv)
     xs, ps = x.T.reshape(shape + (n,)), pi.T.reshape(shape + (n,))
     if return_group:
         g = out.get("g")
