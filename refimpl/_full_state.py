@@ -615,7 +615,8 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
     retried by the control itself, in a batch as alone."""
     fs = full_state(model, abelian)
     n, N = pi0.shape
-    res, est, steps, ans = _solve(fs, model, x0, pi0, t, tol, run)
+    y0 = _start(fs, np.ascontiguousarray(x0, dtype=float), np.ascontiguousarray(pi0, dtype=float))
+    res, est, steps, ans = _solve(fs, model, y0, t, tol, run)
     G, Adres, xs, _ = (
         ans.all
     )  # of the final B of every row: its last floor (the control's last pass)
@@ -638,25 +639,27 @@ def flow_one(model, x0, pi0, t: float, tol: float, *, abelian=None):
     ``t`` and ``tol`` floats), the same computation: ``(x, pi)`` at ``t``, each of shape (n,), without
     the rest of the dictionary (the protocol call, :func:`refimpl.flows._fast.fast_flow`)."""
     fs = full_state(model, abelian)
-    res, _, _, ans = _solve(fs, model, x0, pi0, t, tol, None)
+    res, _, _, ans = _solve(fs, model, _start(fs, x0, pi0), t, tol, None)
     return ans.all[2][0], res[0, : fs.n].copy()
 
 
 EPS_B_FIRST = _eps_b(A_LOOSE, B_MAX)
 """``B``'s first local tolerance at ``A``'s :data:`A_LOOSE` (as :func:`_control` derives it)."""
+_FIRST_ORDERS = (default_order(A_LOOSE), default_order(EPS_B_FIRST))  # the runner's orders for them
 
 
 def _first_pair(fs: FullState, ans, y0, t: float):
     """One trajectory's first pair on the generated kernel, ``A`` at :data:`A_LOOSE` and ``B`` at
     :data:`EPS_B_FIRST`, estimated as :func:`_control`'s first pair (:func:`first_estimate` of the
-    ``|A - B|`` that ``ans`` measures, plus ``ans``'s floor): ``(A, B, steps of B, estimate)``. The
+    ``|A - B|`` that ``ans`` measures, plus ``ans``'s floor): ``(A, B, steps of B, estimate (1,))``. The
     kernel calls of the general route's runner, without its per-call Python (the protocol call of one
     trajectory: issue 25)."""
     kernel = fs.module().adaptive
     A, B = np.empty_like(y0), np.empty_like(y0)
     sA, sB = np.empty(1, dtype=np.int64), np.empty(1, dtype=np.int64)
-    kernel(y0, t, A_LOOSE, default_order(A_LOOSE), MAX_STEPS, fs.coef, A, sA)
-    kernel(y0, t, EPS_B_FIRST, default_order(EPS_B_FIRST), MAX_STEPS, fs.coef, B, sB)
+    order_a, order_b = _FIRST_ORDERS
+    kernel(y0, t, A_LOOSE, order_a, MAX_STEPS, fs.coef, A, sA)
+    kernel(y0, t, EPS_B_FIRST, order_b, MAX_STEPS, fs.coef, B, sB)
     if sA[0] < 0:
         _check_steps(sA, t)
     if sB[0] < 0:
@@ -665,7 +668,8 @@ def _first_pair(fs: FullState, ans, y0, t: float):
     ans.measure(A, B, d1)
     d = float(d1[0])
     e = first_estimate(d, A_LOOSE, EPS_B_FIRST, PROP_MIN_B, PROP_MAX_D)
-    return A, B, sB, e + ans.floor(B, sB, (d / A_LOOSE,), None)[0]
+    d1[0] = e + ans.floor(B, sB, (d / A_LOOSE,), None)[0]
+    return A, B, sB, d1
 
 
 def _runner(fs: FullState, run, gen: bool, N: int):
@@ -695,19 +699,20 @@ def _runner(fs: FullState, run, gen: bool, N: int):
     return run_
 
 
-def _solve(fs: FullState, model, x0, pi0, t, tol: float, run):
-    """The start, the two-run control and the refusal of :func:`full_state_flow`: ``(B, estimate, steps
-    of B, the _Answer holding G, Ad(g), x of the final B)``. One trajectory on the generated kernel runs
-    its first pair through :func:`_first_pair` and enters the control only when that pair does not
-    pass (the control then goes on from it)."""
-    n, N = pi0.shape
-    y0 = np.empty((N, fs.d))  # (pi, [Gamma,] G, [s]) at t = 0: _pack of exp(rho(x0)), compiled
-    _fk.start(
-        np.ascontiguousarray(x0, dtype=float),
-        np.ascontiguousarray(pi0, dtype=float),
-        *fs.start_consts,
-        y0,
-    )
+def _start(fs: FullState, x0, pi0) -> np.ndarray:
+    """The rows ``(pi, [Gamma,] G, [s])`` (N, d) at ``t = 0`` (:func:`_pack` of ``exp(rho(x0))``,
+    compiled) from ``x0``, ``pi0`` (n, N), C-contiguous float64."""
+    y0 = np.empty((pi0.shape[1], fs.d))
+    _fk.start(x0, pi0, *fs.start_consts, y0)
+    return y0
+
+
+def _solve(fs: FullState, model, y0, t, tol: float, run):
+    """The two-run control and the refusal of :func:`full_state_flow` from the rows ``y0``: ``(B,
+    estimate, steps of B, the _Answer holding G, Ad(g), x of the final B)``. One trajectory on the
+    generated kernel runs its first pair through :func:`_first_pair` and enters the control only when
+    that pair does not pass (the control then goes on from it)."""
+    N, n = y0.shape[0], fs.n
     eps_a = local_tolerances(tol)[0] if run is not None or tol < A_LOOSE_FROM else A_LOOSE
     gen = N * abs(t) >= (
         GENERATED_MIN_WORK if fs.n_products <= GENERATED_MAX_PRODUCTS else GENERATED_MIN_WORK_LARGE
@@ -717,8 +722,8 @@ def _solve(fs: FullState, model, x0, pi0, t, tol: float, run):
     if N == 1 and run is None and gen and eps_a == A_LOOSE:  # the common protocol call
         t = float(t)
         A, B, sB, e = _first_pair(fs, ans, y0, t)
-        if e <= tol:
-            return B, np.array([e]), sB, ans
+        if e[0] <= tol:
+            return B, e, sB, ans
         first = (A, B, sB)  # the control goes on from this pair
     res, est, steps = _control(
         model,
