@@ -16,7 +16,6 @@ import time
 
 import numpy as np
 
-from .. import _compiled_tensors as _ctens
 from .. import _fast_kernels as _fast
 from .. import _full_state
 from .._algebra import LieAlgebra
@@ -26,7 +25,6 @@ from .._lru import LRU
 from .._validate import (
     MAX_MAGNITUDE,
     StepBudget,
-    check_batch_memory,
     check_flow_rates,
     check_flow_request,
     check_points,
@@ -384,35 +382,14 @@ def _group_of(model, X):
 
 
 def _check_start(model: NumpyModel, P: np.ndarray) -> None:
-    """Starting points on the degenerate set (``Delta = 0`` to float64 accuracy, vier12) are refused.
-
-    The flag is :meth:`refimpl._fast_kernels.FastCore.poisson_batch_validated`'s at ``x = 0``. Where that
-    method runs the compiled generic kernel (numba importable, ``f`` not su(2)'s), the kernel is called
-    here directly with the arrays it would pass (the flag is the kernel's): the points were validated by
-    the caller and ``x = 0`` lies inside the chart, so the wrapper's point checks, chart pass and result
-    object (about 20 us of Python per call, issue 25) have nothing to add."""
+    """Starting points on the degenerate set (``Delta = 0`` to float64 accuracy, vier12) are refused."""
     if model.upsilon_zero:
         return
-    xz, pt = np.zeros_like(P.T), P.T
-    direct = model.__dict__.get("_start_direct")
-    if direct is None:
-        direct = model.__dict__["_start_direct"] = bool(
-            _ctens.HAVE_NUMBA and not _fast._is_su2(model.f)
-        )
-    if direct:
-        N, n = pt.shape
-        check_batch_memory(N, n, what="poisson_batch")  # issue 30, as the wrapper does
-        degenerate = np.zeros(N, dtype=bool)
-        _ctens.generic_poisson(
-            model.f, model.theta, model.upsilon, xz, pt, np.empty((N, 2 * n, 2 * n)),
-            np.empty(N), np.empty(N), np.empty(N), degenerate,
-            bern=_fast._ct_bernoulli(), consts=_fast._ct_consts(),
-        )  # fmt: skip
-    else:
-        res = _fast.FastCore().poisson_batch_validated(model.f, model.theta, model.upsilon, xz, pt)
-        degenerate = res.degenerate
-    if degenerate.any():
-        idx = np.flatnonzero(degenerate)
+    res = _fast.FastCore().poisson_batch_validated(
+        model.f, model.theta, model.upsilon, np.zeros_like(P.T), P.T
+    )
+    if np.any(res.degenerate):
+        idx = np.argwhere(res.degenerate).ravel()
         raise ValueError(
             f"initial point(s) {idx[:10].tolist()} lie on the degenerate set Pi_1 (Delta = det Phi = 0 to float64 "
             f"accuracy, vier12): no flow exists there"
