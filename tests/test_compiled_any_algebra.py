@@ -372,3 +372,30 @@ def test_one_trajectory_route_is_the_controls(name, scale, T, tol):
     xb, pb = fast_flow(alg.f, theta, ups, inertia, pot, x0[None], pi0[None], T, tol=tol)
     np.testing.assert_array_equal(xb[0], x)
     np.testing.assert_array_equal(pb[0], pi)
+
+
+@needs_numba
+@pytest.mark.parametrize("name", ["so(4)", "Bianchi III + cocycle"])
+def test_one_trajectory_route_with_upsilon(name):
+    """``Upsilon != 0`` off su(2): the call of one trajectory (1-D points, ``_fast._flow_one``'s
+    rational route) returns exactly the (1, n) batch's answer and the named method's (the general
+    route through ``Integrator.integrate``); the caller's arrays are neither written nor aliased.
+    The models of tests/test_full_state_rational.py (the same structures: no kernel compiled here)."""
+    from tests.test_full_state_rational import _model as _rational_model
+
+    alg, theta, ups, inertia, pot, x0, pi0 = _rational_model(name, seed=6)
+    n = x0.size
+    assert _default_method(cached_model(alg, theta, ups, inertia, pot), full=True).name == (
+        "taylor-rational"
+    )
+    x0c, pi0c = x0.copy(), pi0.copy()
+    x, pi = fast_flow(alg.f, theta, ups, inertia, pot, x0, pi0, 1.5)
+    np.testing.assert_array_equal(x0, x0c)
+    np.testing.assert_array_equal(pi0, pi0c)
+    assert x.shape == pi.shape == (n,)
+    assert not np.shares_memory(x, x0) and not np.shares_memory(pi, pi0)
+    xb, pb = fast_flow(alg.f, theta, ups, inertia, pot, x0[None], pi0[None], 1.5)
+    xm, pm = fast_flow(alg.f, theta, ups, inertia, pot, x0, pi0, 1.5, method_name="taylor-rational")
+    for xo, po in ((xb[0], pb[0]), (xm, pm)):
+        np.testing.assert_array_equal(xo, x)
+        np.testing.assert_array_equal(po, pi)

@@ -17,7 +17,7 @@ import time
 import numpy as np
 
 from .. import _fast_kernels as _fast
-from .. import _full_state
+from .. import _full_state, _full_state_rational
 from .._algebra import LieAlgebra
 from .._flow_checks import check_time
 from .._flow_compiled import compiled_taylor_samples, quat_to_x
@@ -198,14 +198,20 @@ def _check_rates(model: NumpyModel, pa, tv: float, pmax: float | None = None) ->
         check_flow_rates(model.f, model.inertia, pa, tv)
 
 
-def _one_route(model: NumpyModel) -> bool:
-    """Whether the default method on ``model``'s full state is the compiled full state of
-    :mod:`refimpl._full_state` (``taylor`` with ``Upsilon = 0`` off su(2)): the route of
-    :func:`_flow_one`. A function of the (cached, immutable) model, kept on it."""
+def _one_route(model: NumpyModel) -> int:
+    """The route of :func:`_flow_one` on ``model``'s full state, from its default method: 1 the compiled
+    full state of :mod:`refimpl._full_state` (``taylor``, ``Upsilon = 0`` off su(2)), 2 its rational
+    form (``taylor-rational``, :mod:`refimpl._full_state_rational`), 0 none (the general route). A
+    function of the (cached, immutable) model, kept on it."""
     one = model.__dict__.get("_one_route")
     if one is None:
-        one = model.__dict__["_one_route"] = bool(
-            choose(model, full=True) is METHODS["taylor"] and _full_state.applies(model)
+        meth = choose(model, full=True)
+        one = model.__dict__["_one_route"] = (
+            1
+            if meth is METHODS["taylor"] and _full_state.applies(model)
+            else 2
+            if meth is METHODS["taylor-rational"] and _full_state_rational.applies(model)
+            else 0
         )
     return one
 
@@ -213,10 +219,11 @@ def _one_route(model: NumpyModel) -> bool:
 def _flow_one(model: NumpyModel, x0, pi0, tv: float, tol: float):
     """The call of one trajectory given as 1-D float64 arrays ``x0``, ``pi0`` of the model's
     dimension, on the compiled full state (:func:`_one_route`), ``0 < |t| < 256`` (no time probe),
-    default method and steps: ``(x, pi)`` through :func:`refimpl._full_state.flow_one` -- what the
-    general route below computes, with the same checks (the points finite and bounded, the rates, the
-    results finite), without its batch bookkeeping (issue 25: the Python around one trajectory).
-    None where any of that does not hold: the general route then runs, and refuses by name."""
+    default method and steps: ``(x, pi)`` through :func:`refimpl._full_state.flow_one` (``Upsilon =
+    0``) or the rational full state's flow -- what the general route below computes, with the same
+    checks (the points finite and bounded, the rates, the start off the degenerate set, the results
+    finite), without its batch bookkeeping (issue 25: the Python around one trajectory). None where
+    any of that does not hold: the general route then runs, and refuses by name."""
     n = model.n
     if not (
         type(x0) is np.ndarray
@@ -225,8 +232,10 @@ def _flow_one(model: NumpyModel, x0, pi0, tv: float, tol: float):
         and pi0.dtype is _F64
         and x0.shape == (n,)
         and pi0.shape == (n,)
-        and _one_route(model)
     ):
+        return None
+    route = _one_route(model)
+    if not route:
         return None
     xl, pl = x0.tolist(), pi0.tolist()
     if not all(map(_WITHIN, map(abs, xl + pl))):  # issue 30: finite and |v| <= MAX_MAGNITUDE
@@ -234,7 +243,14 @@ def _flow_one(model: NumpyModel, x0, pi0, tv: float, tol: float):
     _check_rates(model, pi0, tv, max(map(abs, pl)))
     X = np.ascontiguousarray(x0).reshape(n, 1)  # only read (never written, never returned)
     P = np.ascontiguousarray(pi0).reshape(n, 1)
-    x, pi = _full_state.flow_one(model, X, P, tv, tol, abelian=_AbelianPart)
+    if route == 1:
+        x, pi = _full_state.flow_one(model, X, P, tv, tol, abelian=_AbelianPart)
+    else:
+        _check_start(model, P)
+        out = _full_state_rational.rational_full_state_flow(
+            model, X, P, tv, tol, abelian=_AbelianPart
+        )
+        x, pi = out["x"][:, 0], out["pi"][:, 0]
     if not math.isfinite(sum(x.tolist()) + sum(pi.tolist())):  # finite: every entry is
         _check_finite(x.reshape(n, 1), pi.reshape(n, 1), tv)
     return x, pi
