@@ -20,7 +20,12 @@ from .. import _fast_kernels as _fast
 from .. import _full_state, _full_state_rational
 from .._algebra import LieAlgebra
 from .._flow_checks import check_time
-from .._flow_compiled import compiled_taylor_samples, quat_to_x
+from .._flow_compiled import (
+    compiled_taylor_flow,
+    compiled_taylor_samples,
+    quat_to_x,
+    supports_full,
+)
 from .._lru import LRU
 from .._validate import (
     MAX_MAGNITUDE,
@@ -201,13 +206,17 @@ def _check_rates(model: NumpyModel, pa, tv: float, pmax: float | None = None) ->
 def _one_route(model: NumpyModel) -> int:
     """The route of :func:`_flow_one` on ``model``'s full state, from its default method: 1 the compiled
     full state of :mod:`refimpl._full_state` (``taylor``, ``Upsilon = 0`` off su(2)), 2 its rational
-    form (``taylor-rational``, :mod:`refimpl._full_state_rational`), 0 none (the general route). A
+    form (``taylor-rational``, :mod:`refimpl._full_state_rational`), 3 the su(2) quaternion state
+    (:func:`refimpl._flow_compiled.compiled_taylor_flow`, both methods), 0 none (the general route). A
     function of the (cached, immutable) model, kept on it."""
     one = model.__dict__.get("_one_route")
     if one is None:
         meth = choose(model, full=True)
+        compiled = meth is METHODS["taylor"] or meth is METHODS["taylor-rational"]
         one = model.__dict__["_one_route"] = (
-            1
+            3
+            if compiled and supports_full(model)
+            else 1
             if meth is METHODS["taylor"] and _full_state.applies(model)
             else 2
             if meth is METHODS["taylor-rational"] and _full_state_rational.applies(model)
@@ -220,10 +229,10 @@ def _flow_one(model: NumpyModel, x0, pi0, tv: float, tol: float):
     """The call of one trajectory given as 1-D float64 arrays ``x0``, ``pi0`` of the model's
     dimension, on the compiled full state (:func:`_one_route`), ``0 < |t| < 256`` (no time probe),
     default method and steps: ``(x, pi)`` through :func:`refimpl._full_state.flow_one` (``Upsilon =
-    0``) or the rational full state's flow -- what the general route below computes, with the same
-    checks (the points finite and bounded, the rates, the start off the degenerate set, the results
-    finite), without its batch bookkeeping (issue 25: the Python around one trajectory). None where
-    any of that does not hold: the general route then runs, and refuses by name."""
+    0``), the rational full state's flow or the su(2) one -- what the general route below computes,
+    with the same checks (the points finite and bounded, the rates, the start off the degenerate set,
+    the results finite), without its batch bookkeeping (issue 25: the Python around one trajectory).
+    None where any of that does not hold: the general route then runs, and refuses by name."""
     n = model.n
     if not (
         type(x0) is np.ndarray
@@ -246,9 +255,13 @@ def _flow_one(model: NumpyModel, x0, pi0, tv: float, tol: float):
     if route == 1:
         x, pi = _full_state.flow_one(model, X, P, tv, tol, abelian=_AbelianPart)
     else:
-        _check_start(model, P)
-        out = _full_state_rational.rational_full_state_flow(
-            model, X, P, tv, tol, abelian=_AbelianPart
+        _check_start(model, P)  # nothing with Upsilon = 0
+        out = (
+            _full_state_rational.rational_full_state_flow(
+                model, X, P, tv, tol, abelian=_AbelianPart
+            )
+            if route == 2
+            else compiled_taylor_flow(model, X, P, tv, tol)
         )
         x, pi = out["x"][:, 0], out["pi"][:, 0]
     if not math.isfinite(sum(x.tolist()) + sum(pi.tolist())):  # finite: every entry is
