@@ -484,6 +484,17 @@ def _grid_down(e: float) -> float:
     return 10.0 ** (math.floor(GRID * math.log10(e) + 1e-9) / GRID)
 
 
+def first_estimate(d: float, eps_a: float, eps_b: float, prop_min_b: float, prop_max_d) -> float:
+    """The estimate of a pair of one trajectory from ``d = |A - B|``, before any floor: its
+    proportional form ``PROP (eps_B / eps_A) d`` where :func:`_control` takes it (``A`` at
+    :data:`PROP_MIN_A` or looser, ``B`` at ``prop_min_b`` or looser, ``d <= prop_max_d``; None: no
+    limit), else ``d``. The one rule of :func:`_control`'s first pair, shared with the callers that run
+    that pair themselves (:func:`refimpl._full_state.flow_one`)."""
+    if eps_a >= PROP_MIN_A and eps_b >= prop_min_b and (prop_max_d is None or d <= prop_max_d):
+        return min(d, PROP * (eps_b / eps_a) * d)
+    return d
+
+
 def _control(
     model,
     y0,
@@ -549,8 +560,7 @@ def _control(
         _estimate_(A, B, n, d1)
         e1 = float(d1[0])
         kap1 = e1 / eps_a0
-        if eps_a0 >= PROP_MIN_A and eb0 >= prop_min_b and (prop_max_d is None or e1 <= prop_max_d):
-            e1 = min(e1, PROP * (eb0 / eps_a0) * e1)
+        e1 = first_estimate(e1, eps_a0, eb0, prop_min_b, prop_max_d)
         if floor is not None:
             e1 += float(floor(B, sB, np.array([kap1]), None)[0])
         if e1 <= tol:
