@@ -189,42 +189,6 @@ def _matmul(A, B, C):
 
 
 @njit(cache=True, nogil=True)
-def _inverse(A, Ainv):
-    """Gauss-Jordan with partial pivoting; False when a pivot vanishes."""
-    r = A.shape[0]
-    M = np.zeros((r, 2 * r), dtype=A.dtype)
-    for i in range(r):
-        for j in range(r):
-            M[i, j] = A[i, j]
-        M[i, r + i] = 1.0
-    for c in range(r):
-        p = c
-        for i in range(c + 1, r):
-            if abs(M[i, c]) > abs(M[p, c]):
-                p = i
-        if not (abs(M[p, c]) > 0.0):
-            return False
-        if p != c:
-            for j in range(2 * r):
-                tmp = M[c, j]
-                M[c, j] = M[p, j]
-                M[p, j] = tmp
-        piv = 1.0 / M[c, c]
-        for j in range(2 * r):
-            M[c, j] *= piv
-        for i in range(r):
-            if i != c:
-                g = M[i, c]
-                if g != 0.0:
-                    for j in range(2 * r):
-                        M[i, j] -= g * M[c, j]
-    for i in range(r):
-        for j in range(r):
-            Ainv[i, j] = M[i, r + j]
-    return True
-
-
-@njit(cache=True, nogil=True)
 def _norm1(A):
     r = A.shape[0]
     m = 0.0
@@ -298,6 +262,7 @@ def expm_frechet(X, Es, E, L):
     T = np.zeros((r, r))
     Tn = np.zeros((r, r))
     W = np.zeros((r, r))
+    W2 = np.zeros((r, r))
     U = np.zeros((m, r, r))
     for i in range(r):
         for j in range(r):
@@ -308,21 +273,22 @@ def expm_frechet(X, Es, E, L):
                 U[c, i, j] = 0.0
         E[i, i] = 1.0
         T[i, i] = 1.0
+    # the products by _matmul on the leading-index views (C-contiguous 2-d: the one compiled
+    # _matmul of expm; loops written out over the 3-d arrays cost compile time, issue 25)
     for k in range(1, 40):
         f = sc / k
         tmax = 0.0
         for c in range(m):  # U_k = (U_(k-1) X + T_(k-1) E_c) sc / k, from the old T
+            Uc = U[c]
+            _matmul(Uc, X, W)
+            _matmul(T, Es[c], W2)
+            Lc = L[c]
             for i in range(r):
                 for j in range(r):
-                    acc = 0.0
-                    for q in range(r):
-                        acc += U[c, i, q] * X[q, j] + T[i, q] * Es[c, q, j]
-                    W[i, j] = acc * f
-            for i in range(r):
-                for j in range(r):
-                    U[c, i, j] = W[i, j]
-                    L[c, i, j] += W[i, j]
-                    tmax = max(tmax, abs(W[i, j]))
+                    w = (W[i, j] + W2[i, j]) * f
+                    Uc[i, j] = w
+                    Lc[i, j] += w
+                    tmax = max(tmax, abs(w))
         _matmul(T, X, Tn)
         for i in range(r):
             for j in range(r):
@@ -332,16 +298,13 @@ def expm_frechet(X, Es, E, L):
         if tmax <= 1e-18:
             break
     for _ in range(s):
-        for c in range(m):
+        for c in range(m):  # L_c <- E L_c + L_c E
+            Lc = L[c]
+            _matmul(E, Lc, W)
+            _matmul(Lc, E, W2)
             for i in range(r):
                 for j in range(r):
-                    acc = 0.0
-                    for q in range(r):
-                        acc += E[i, q] * L[c, q, j] + L[c, i, q] * E[q, j]
-                    W[i, j] = acc
-            for i in range(r):
-                for j in range(r):
-                    L[c, i, j] = W[i, j]
+                    Lc[i, j] = W[i, j] + W2[i, j]
         _matmul(E, E, W)
         for i in range(r):
             for j in range(r):
@@ -350,8 +313,11 @@ def expm_frechet(X, Es, E, L):
 
 @njit(cache=True, nogil=True)
 def _inverse_det(A, Ainv, M):
-    """:func:`_inverse` in the workspace ``M`` (r, 2r), returning ``|det A|`` (0.0 when a pivot
-    vanishes: ``Ainv`` is then not written)."""
+    """``Ainv = A^-1`` by Gauss-Jordan with partial pivoting in the workspace ``M`` (r, 2r), returning
+    ``|det A|`` (which may underflow to 0.0), or -1.0 when a pivot vanishes (``Ainv`` then not
+    written). The one inverse of this
+    module (the adjoint's, the logarithm's square roots and the refine's normal equations): each
+    compiled helper costs its own compilation and is compiled again into every caller."""
     r = A.shape[0]
     for i in range(r):
         for j in range(r):
@@ -365,7 +331,7 @@ def _inverse_det(A, Ainv, M):
             if abs(M[i, c]) > abs(M[p, c]):
                 p = i
         if not (abs(M[p, c]) > 0.0):
-            return 0.0
+            return -1.0
         if p != c:
             for j in range(2 * r):
                 tmp = M[c, j]
@@ -526,7 +492,7 @@ def logm(G, L):
             Ap[i, j] = A[i, j]
             A[i, j] = A[i, j] - (1.0 if i == j else 0.0)  # A - I from here on
         Ap[i, i] += 1.0
-    if _inverse_det(Ap, Api, inv_ws) == 0.0:
+    if not (_inverse_det(Ap, Api, inv_ws) > 0.0):
         return False
     _matmul(A, Api, Z)
     _matmul(Z, Z, Z2)
@@ -602,10 +568,11 @@ def ad_batch(G, mats, proj, cplx, out):
     Gi = np.zeros((r, r), dtype=G.dtype)
     W = np.zeros((r, r), dtype=G.dtype)
     X = np.zeros((r, r), dtype=G.dtype)
+    ws = np.zeros((r, 2 * r), dtype=G.dtype)
     col = np.zeros(n)
     for it in range(N):
         Gt = G[it]
-        if not _inverse(Gt, Gi):
+        if _inverse_det(Gt, Gi, ws) < 0.0:
             for a in range(n):
                 for b in range(n):
                     out[it, a, b] = np.nan
@@ -668,7 +635,7 @@ def pack_G(G, gpart, gi, gj, off, y):
             y[it, off + v] = z.real if gpart[v] == 0 else z.imag
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True)
 def unpack_G(y, gpart, gi, gj, off, G, unit):
     """The inverse of :func:`pack_G` (entries outside the pattern zero); ``unit``: ``1j`` for a complex
     ``G`` (0.0 for a real one, whose entries are all real parts)."""
@@ -717,7 +684,7 @@ LOG_REFINE_FLOOR = 8.0 * 2.220446049250313e-16
 rounding of ``exp(rho(x))`` itself)."""
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _resid(v, mats, G, X, E, R):
     """``R = exp(rho(v)) - G`` (``X`` receives ``rho(v)``); returns ``max |R|`` (inf when not finite)."""
     r = mats.shape[1]
@@ -746,19 +713,16 @@ def refine_abelian(G, x0, s, P, Ppinv, D, Dr, mats, out):
     n = x0.shape[0]
     r = G.shape[0]
     m = Dr.shape[0]
-    X = np.zeros((r, r))
-    E = np.zeros((r, r))
-    R0 = np.zeros((r, r))
-    Rb = np.zeros((r, r))
-    Rc = np.zeros((r, r))
-    EZ = np.zeros((r, r))
+    # workspaces as leading-index views of one array each (C-contiguous: the helpers' one layout;
+    # each allocation site costs compile time)
+    ws = np.zeros((6, r, r))
+    X, E, R0, Rb, Rc, EZ = ws[0], ws[1], ws[2], ws[3], ws[4], ws[5]
     Lc = np.zeros((m, r, r))
-    J = np.zeros((r * r, m))
-    rhs = np.zeros(r * r)
-    Jr = np.zeros(m)
-    dw = np.zeros(m)
-    JtJ = np.zeros((m, m))
-    JtJi = np.zeros((m, m))
+    wm = np.zeros((2, m, m))
+    JtJ, JtJi = wm[0], wm[1]
+    inv_ws = np.zeros((m, 2 * m))
+    wv = np.zeros((2, m))
+    Jr, dw = wv[0], wv[1]
     k = P.shape[0]
     ds = np.zeros(k)
     for ell in range(k):
@@ -786,29 +750,28 @@ def refine_abelian(G, x0, s, P, Ppinv, D, Dr, mats, out):
         ):  # a residual at the rounding of exp(rho(x)) itself: no step can improve it
             break
         expm_frechet(X, Dr, EZ, Lc)
-        for c in range(m):
-            for i in range(r):
-                for j in range(r):
-                    J[i * r + j, c] = Lc[c, i, j]
-        for i in range(r):
-            for j in range(r):
-                rhs[i * r + j] = -Rb[i, j]
-        # the least-squares step by the normal equations (the small m x m Gauss-Jordan of _inverse:
+        # the least-squares step by the normal equations (the small m x m Gauss-Jordan of _inverse_det:
         # no LAPACK binding to compile); the step's own error is corrected by the next iteration, and
-        # a step that does not lower the residual is never taken
+        # a step that does not lower the residual is never taken. The Jacobian's column c is Lc[c]
+        # read row by row (J[i r + j, c] = Lc[c, i, j]), the right-hand side -Rb likewise
         for a in range(m):
             acc = 0.0
-            for q in range(r * r):
-                acc += J[q, a] * rhs[q]
+            for i in range(r):
+                for j in range(r):
+                    acc += Lc[a, i, j] * -Rb[i, j]
             Jr[a] = acc
             for c in range(m):
                 acc = 0.0
-                for q in range(r * r):
-                    acc += J[q, a] * J[q, c]
+                for i in range(r):
+                    for j in range(r):
+                        acc += Lc[a, i, j] * Lc[c, i, j]
                 JtJ[a, c] = acc
-        if not (np.all(np.isfinite(JtJ)) and np.all(np.isfinite(Jr))):
-            break
-        if not _inverse(JtJ, JtJi):
+        fin = 0.0  # finite iff every entry is (a loop: np.all(np.isfinite()) compiles two ufuncs)
+        for a in range(m):
+            fin += 0.0 * Jr[a]
+            for c in range(m):
+                fin += 0.0 * JtJ[a, c]
+        if not (fin == 0.0 and _inverse_det(JtJ, JtJi, inv_ws) >= 0.0):
             break
         for a in range(m):
             acc = 0.0
@@ -858,13 +821,17 @@ def abelian_batch(G, xs, s, P, Ppinv, D, Dr, mats, rtol):
 
 # ---------------------------------------------------------------------- per-call glue, one call each
 # The intermediate levels of the first call's chain (estimate, log_state[_refined], log_batch_exp,
-# _residual_final, exp_batch, pack_G, unpack_G) are ``inline="always"``: numba inlines their IR into
+# _residual_final, exp_batch, pack_G) are ``inline="always"``: numba inlines their IR into
 # the caller instead of compiling each on its own and then linking and re-optimizing its whole call
 # tree again into every caller above it (pair_log -> log_state -> log_batch_exp -> logm compiled the
 # logarithm four times). Called from Python they still compile on their own. Measured fully cold
 # (empty NUMBA_CACHE_DIR and TSTARG_CACHE_DIR, numba's compile events per function, se(3) first call, CPU):
 # pair_log 7.29 -> 4.58 s, start 3.82 -> 3.23 s, the whole call 13.50 -> 10.37 s (load 3.0-4.0);
 # warm flow calls unchanged (se(3) 206-210 -> 197-201 us, Bianchi 89-94 -> 81-88 us, same run).
+# Inlining is not free: numba deep-copies the callee's IR at every inlined site, so a helper called
+# at two sites of one caller (unpack_G in estimate) or a large one (refine_abelian: pair_log_refined
+# 8.3 -> 10.3 s inlined) stays a compiled function of its own; a helper compiled once for several
+# callers (expm, ad_batch, logm, _inverse_det, _matmul) costs its own compile once per installation.
 # The starting state and the logarithm of the full state as one compiled call each (the numpy glue
 # they replace cost ~10 us of call overhead apiece on one trajectory; the same formulas as
 # refimpl._full_state._pack and ._log_complete, which stay the documentation).

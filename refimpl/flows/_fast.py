@@ -19,6 +19,7 @@ import numpy as np
 from .. import _fast_kernels as _fast
 from .. import _full_state, _full_state_rational
 from .._algebra import LieAlgebra
+from .._compiled_tensors import start_degenerate
 from .._flow_checks import check_time
 from .._flow_compiled import (
     compiled_taylor_flow,
@@ -414,11 +415,9 @@ def _check_start(model: NumpyModel, P: np.ndarray) -> None:
     """Starting points on the degenerate set (``Delta = 0`` to float64 accuracy, vier12) are refused."""
     if model.upsilon_zero:
         return
-    res = _fast.FastCore().poisson_batch_validated(
-        model.f, model.theta, model.upsilon, np.zeros_like(P.T), P.T
-    )
-    if np.any(res.degenerate):
-        idx = np.argwhere(res.degenerate).ravel()
+    degen = start_degenerate(model.f, model.theta, model.upsilon, P.T)  # issue 25: no kernel
+    if np.any(degen):
+        idx = np.argwhere(degen).ravel()
         raise ValueError(
             f"initial point(s) {idx[:10].tolist()} lie on the degenerate set Pi_1 (Delta = det Phi = 0 to float64 "
             f"accuracy, vier12): no flow exists there"
