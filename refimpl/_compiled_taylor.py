@@ -237,17 +237,33 @@ def taylor_fixed(cf: CompiledField, y0, h: float, nsteps: int, order: int) -> np
     return out
 
 
+def _unrolled_module(cf: CompiledField, P: int):
+    """The unrolled kernel module of ``cf`` at order ``P`` (kept per field), or None when that order is
+    not unrolled (or numba is missing)."""
+    kern = cf._kernels.get(P)
+    if kern is None:
+        kern = cf._kernels[P] = (structure_kernels(cf, P), _unrolls(cf, P))
+    mod, unrolled = kern
+    return mod if mod is not None and unrolled else None
+
+
 def unrolled_adaptive(cf: CompiledField, order: int):
     """The unrolled single-trajectory kernel ``adaptive(y0, T, tol, max_steps, q, l, out, nsteps)`` of
     ``cf`` at ``order`` (the one :func:`taylor_adaptive` runs for fewer than :data:`BATCH_MIN` rows),
     or None when that order is not unrolled (or numba is missing): for callers that run it directly,
     without this module's per-call checks (one trajectory, ``y0`` a C-contiguous float64 (1, d))."""
-    P = int(order)
-    kern = cf._kernels.get(P)
-    if kern is None:
-        kern = cf._kernels[P] = (structure_kernels(cf, P), _unrolls(cf, P))
-    mod, unrolled = kern
-    return mod.adaptive if mod is not None and unrolled else None
+    mod = _unrolled_module(cf, int(order))
+    return None if mod is None else mod.adaptive
+
+
+def unrolled_pair(cf: CompiledField, order: int):
+    """The unrolled pair kernel ``pair(y0, T, tol_a, tol_b, max_steps, q, l, out_a, out_b, steps_a,
+    steps_b)`` of ``cf`` at ``order`` (:func:`refimpl.codegen.taylor.unrolled_source`: the kernel
+    ``adaptive`` at two local tolerances, the two runs on the two lanes of one vector; each run's result
+    and steps those of ``adaptive`` at its tolerance), or None as :func:`unrolled_adaptive`; called as
+    it is, without checks."""
+    mod = _unrolled_module(cf, int(order))
+    return None if mod is None else mod.pair
 
 
 def taylor_adaptive(
@@ -262,7 +278,7 @@ def taylor_adaptive(
     """Adaptive Taylor over ``[0, T]`` for every row of ``y0`` (N, d): ``(y(T), steps)``.
 
     ``batch``: run the SIMD batch kernel (:func:`refimpl.codegen.taylor.batch_source`: the same recurrence and control per trajectory, its sums in another order; about
-    2.5x the throughput) -- by default when ``N >= BATCH_MIN`` (its one-off compilation, 3-5 s per
+    2.5x the throughput) -- by default when ``N >= BATCH_MIN`` (its one-off compilation, about 2 s per
     structure and order before the disk cache has it, is then repaid); it needs the unrolled kernels.
 
     ``order`` defaults to :func:`default_order` of ``tol``; ``steps[n] = -1`` marks a trajectory that

@@ -138,9 +138,10 @@ kernel alone, B at 1e-13, load 2.2): heavy top orders 14-18 take 768/646/556/486
 4-10 % faster at the same ``eps``), but their errors against heyoka in long double are 0.9/1.3/1.4/
 1.5/2.6e-13 and, on the Lagrange top, orders 16/17/18 give 1.6e-13/1.3e-12/1.9e-12 (the last two
 terms bound the remainder less well at the longer steps of a higher order: the global error at fixed
-``eps`` rises with the order), so per unit of accuracy there is no gain, while each order more
-lengthens the kernel's cold compilation (the heavy top's first call, every kernel cold, 8.3 s CPU at
-order 15, load 2.5; issue 25's limit 10 s). Kept."""
+``eps`` rises with the order), so per unit of accuracy there is no gain. (Each order more also
+lengthened the kernel's cold compilation, 8.3 s CPU at order 15 for the heavy top's first call while
+numba's front end typed the unrolled Python; written as LLVM IR, :mod:`refimpl.codegen._taylor_ir`,
+the kernel compiles in 0.7 s.) Kept."""
 
 
 def supports_full(model) -> bool:
@@ -435,24 +436,25 @@ MAX_STEPS = (
 
 def _first_pair(model, y0, t, eps_a, eps_b, n, tol):
     """One trajectory, ``Upsilon = 0``: the first pair of :func:`_control` (``A`` at ``eps_a`` and ``B`` at
-    ``eps_b``, both at ``B``'s order as :func:`_run_cf` runs them) on the unrolled kernel called directly,
-    and its estimate and logarithm in one compiled call (``_finish``), with none of the per-call checks
-    of the general path (about 25 us of Python on the protocol call). Returns ``(B, steps of B, x,
+    ``eps_b``, both at ``B``'s order as :func:`_run_cf` runs them) in one call of the unrolled pair
+    kernel (:func:`refimpl._compiled_taylor.unrolled_pair`: the two runs on the two lanes of one vector,
+    each run's result that of the single kernel at its tolerance; heavy top T = 100: 295.6 against
+    390.1 us for the two runs, best of 30 interleaved, load 1.5), and its estimate and logarithm in
+    one compiled call (``_finish``), with none of the per-call checks of the general path (about 25
+    us of Python on the protocol call). Returns ``(B, steps of B, x,
     estimate)`` when the pair passes (the estimate of :func:`_control`'s first pair: ``|A - B|`` or its
     proportional form), ``(A, B, steps of B)`` for :func:`_control` to go on from when it does not,
     or None where the kernel is not unrolled (the general path runs). Raises as :func:`_run_cf`."""
     cf = model.compiled_full_field
     key = ("first", eps_b)
-    P = cf._kernels.get(key)
-    if P is None:
-        P = cf._kernels[key] = _order_b(cf, eps_b)
-    kern = _ct.unrolled_adaptive(cf, P)
-    if kern is None:
+    pair = cf._kernels.get(key)
+    if pair is None:
+        pair = cf._kernels[key] = _ct.unrolled_pair(cf, _order_b(cf, eps_b))
+    if pair is None:
         return None
     A, B = np.empty_like(y0), np.empty_like(y0)
     sA, sB = np.empty(1, dtype=np.int64), np.empty(1, dtype=np.int64)
-    kern(y0, t, eps_a, MAX_STEPS, cf.qcoef, cf.lcoef, A, sA)
-    kern(y0, t, eps_b, MAX_STEPS, cf.qcoef, cf.lcoef, B, sB)
+    pair(y0, t, eps_a, eps_b, MAX_STEPS, cf.qcoef, cf.lcoef, A, B, sA, sB)
     if sA[0] < 0:
         _diverged(sA, t)
     if sB[0] < 0:
@@ -480,6 +482,17 @@ def _grid_down(e: float) -> float:
     if not e > 0.0:
         return e
     return 10.0 ** (math.floor(GRID * math.log10(e) + 1e-9) / GRID)
+
+
+def first_estimate(d: float, eps_a: float, eps_b: float, prop_min_b: float, prop_max_d) -> float:
+    """The estimate of a pair of one trajectory from ``d = |A - B|``, before any floor: its
+    proportional form ``PROP (eps_B / eps_A) d`` where :func:`_control` takes it (``A`` at
+    :data:`PROP_MIN_A` or looser, ``B`` at ``prop_min_b`` or looser, ``d <= prop_max_d``; None: no
+    limit), else ``d``. The one rule of :func:`_control`'s first pair, shared with the callers that run
+    that pair themselves (:func:`refimpl._full_state.flow_one`)."""
+    if eps_a >= PROP_MIN_A and eps_b >= prop_min_b and (prop_max_d is None or d <= prop_max_d):
+        return min(d, PROP * (eps_b / eps_a) * d)
+    return d
 
 
 def _control(
@@ -547,8 +560,7 @@ def _control(
         _estimate_(A, B, n, d1)
         e1 = float(d1[0])
         kap1 = e1 / eps_a0
-        if eps_a0 >= PROP_MIN_A and eb0 >= prop_min_b and (prop_max_d is None or e1 <= prop_max_d):
-            e1 = min(e1, PROP * (eb0 / eps_a0) * e1)
+        e1 = first_estimate(e1, eps_a0, eb0, prop_min_b, prop_max_d)
         if floor is not None:
             e1 += float(floor(B, sB, np.array([kap1]), None)[0])
         if e1 <= tol:

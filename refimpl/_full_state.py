@@ -77,11 +77,19 @@ import numpy as np
 from . import _compiled_taylor as _ct
 from . import _full_state_batch as _fsb
 from . import _full_state_kernel as _fk
-from ._flow_compiled import A_LOOSE_FROM, REUSE_B, _control, local_tolerances
+from ._flow_compiled import (
+    A_LOOSE_FROM,
+    PROP_MAX_D,
+    REUSE_B,
+    _control,
+    _eps_b,
+    first_estimate,
+    local_tolerances,
+)
 from .codegen import import_source
 from .codegen.full_state import full_state_source
 
-__all__ = ["FullState", "applies", "full_state", "full_state_flow"]
+__all__ = ["FullState", "applies", "flow_one", "full_state", "full_state_flow"]
 
 EPS = np.finfo(float).eps
 _EPS = float(EPS)
@@ -447,6 +455,8 @@ def full_state(model, abelian=None) -> FullState:
         # the abelian step of the compiled logarithm (_fk.log_state): 0 none, 1 compiled
         # (_fk.log_state_refined), 2 by the caller (_log_complete)
         fs.ab_mode = 0 if ab is None else (1 if fs.refine else 2)
+        # _fk.start's arguments after (x0, pi0) and before its output
+        fs.start_consts = (fs.mats, fs.proj, fs.cplx, *fs.gidx, fs.gamma, fs.gravity, fs.Pab)
         model.__dict__["_full_state"] = fs
     return fs
 
@@ -605,32 +615,74 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
     retried by the control itself, in a batch as alone."""
     fs = full_state(model, abelian)
     n, N = pi0.shape
-    y0 = np.empty((N, fs.d))  # (pi, [Gamma,] G, [s]) at t = 0: _pack of exp(rho(x0)), compiled
-    _fk.start(
-        np.ascontiguousarray(x0, dtype=float),
-        np.ascontiguousarray(pi0, dtype=float),
-        fs.mats,
-        fs.proj,
-        fs.cplx,
-        *fs.gidx,
-        fs.gamma,
-        fs.gravity,
-        fs.Pab,
-        y0,
-    )
-    eps_a = local_tolerances(tol)[0] if run is not None or tol < A_LOOSE_FROM else A_LOOSE
-    gen = N * abs(t) >= (
-        GENERATED_MIN_WORK if fs.n_products <= GENERATED_MAX_PRODUCTS else GENERATED_MIN_WORK_LARGE
-    )
+    y0 = _start(fs, np.ascontiguousarray(x0, dtype=float), np.ascontiguousarray(pi0, dtype=float))
+    res, est, steps, ans = _solve(fs, model, y0, t, tol, run)
+    G, Adres, xs, _ = (
+        ans.all
+    )  # of the final B of every row: its last floor (the control's last pass)
+    return {
+        "pi": res[:, :n].T.copy(),
+        "Gamma": res[:, n : 2 * n].T.copy() if fs.gravity else None,
+        "x": xs.T.copy(),
+        "g": G,
+        "Ad": Adres,
+        "quat": None,
+        "rebases": np.zeros(N, dtype=int),
+        "steps": steps,
+        "error_estimate": est,
+        "path": _ct.PATH,
+    }
+
+
+def flow_one(model, x0, pi0, t: float, tol: float, *, abelian=None):
+    """:func:`full_state_flow` of one trajectory (``x0``, ``pi0`` C-contiguous float64 of shape (n, 1),
+    ``t`` and ``tol`` floats), the same computation: ``(x, pi)`` at ``t``, each of shape (n,), without
+    the rest of the dictionary (the protocol call, :func:`refimpl.flows._fast.fast_flow`)."""
+    fs = full_state(model, abelian)
+    res, _, _, ans = _solve(fs, model, _start(fs, x0, pi0), t, tol, None)
+    return ans.all[2][0], res[0, : fs.n].copy()
+
+
+EPS_B_FIRST = _eps_b(A_LOOSE, B_MAX)
+"""``B``'s first local tolerance at ``A``'s :data:`A_LOOSE` (as :func:`_control` derives it)."""
+_FIRST_ORDERS = (default_order(A_LOOSE), default_order(EPS_B_FIRST))  # the runner's orders for them
+
+
+def _first_pair(fs: FullState, ans, y0, t: float):
+    """One trajectory's first pair on the generated kernel, ``A`` at :data:`A_LOOSE` and ``B`` at
+    :data:`EPS_B_FIRST`, estimated as :func:`_control`'s first pair (:func:`first_estimate` of the
+    ``|A - B|`` that ``ans`` measures, plus ``ans``'s floor): ``(A, B, steps of B, estimate (1,))``. The
+    kernel calls of the general route's runner, without its per-call Python (the protocol call of one
+    trajectory: issue 25)."""
+    kernel = fs.module().adaptive
+    A, B = np.empty_like(y0), np.empty_like(y0)
+    sA, sB = np.empty(1, dtype=np.int64), np.empty(1, dtype=np.int64)
+    order_a, order_b = _FIRST_ORDERS
+    kernel(y0, t, A_LOOSE, order_a, MAX_STEPS, fs.coef, A, sA)
+    kernel(y0, t, EPS_B_FIRST, order_b, MAX_STEPS, fs.coef, B, sB)
+    if sA[0] < 0:
+        _check_steps(sA, t)
+    if sB[0] < 0:
+        _check_steps(sB, t)
+    d1 = np.empty(1)
+    ans.measure(A, B, d1)
+    d = float(d1[0])
+    e = first_estimate(d, A_LOOSE, EPS_B_FIRST, PROP_MIN_B, PROP_MAX_D)
+    d1[0] = e + ans.floor(B, sB, (d / A_LOOSE,), None)[0]
+    return A, B, sB, d1
+
+
+def _runner(fs: FullState, run, gen: bool, N: int):
+    """``run_(y, t, eps, order=None) -> (y(t), steps)`` for :func:`_control`: the caller's ``run`` (e.g.
+    ``Upsilon != 0``), else the generated kernel called directly (``FullState.run``'s body), else
+    :func:`_run` (batches in SIMD lanes, the kernel compiled for every structure)."""
     if run is not None:
 
         def run_(y, tt, eps, order=None):  # order None: the kernel's own for eps
             return run(fs, y, tt, eps, gen)
 
     elif gen and (N < _fsb.LANES or not _fsb.applies(fs)):
-        kernel = (
-            fs.module().adaptive
-        )  # the generated kernel, called directly (FullState.run's body)
+        kernel = fs.module().adaptive
 
         def run_(y, tt, eps, order=None):
             out = np.empty_like(y)
@@ -644,7 +696,35 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
         def run_(y, tt, eps, order=None):
             return _run(fs, y, tt, eps, gen)
 
+    return run_
+
+
+def _start(fs: FullState, x0, pi0) -> np.ndarray:
+    """The rows ``(pi, [Gamma,] G, [s])`` (N, d) at ``t = 0`` (:func:`_pack` of ``exp(rho(x0))``,
+    compiled) from ``x0``, ``pi0`` (n, N), C-contiguous float64."""
+    y0 = np.empty((pi0.shape[1], fs.d))
+    _fk.start(x0, pi0, *fs.start_consts, y0)
+    return y0
+
+
+def _solve(fs: FullState, model, y0, t, tol: float, run):
+    """The two-run control and the refusal of :func:`full_state_flow` from the rows ``y0``: ``(B,
+    estimate, steps of B, the _Answer holding G, Ad(g), x of the final B)``. One trajectory on the
+    generated kernel runs its first pair through :func:`_first_pair` and enters the control only when
+    that pair does not pass (the control then goes on from it)."""
+    N, n = y0.shape[0], fs.n
+    eps_a = local_tolerances(tol)[0] if run is not None or tol < A_LOOSE_FROM else A_LOOSE
+    gen = N * abs(t) >= (
+        GENERATED_MIN_WORK if fs.n_products <= GENERATED_MAX_PRODUCTS else GENERATED_MIN_WORK_LARGE
+    )
     ans = _Answer(fs, N)
+    first = None
+    if N == 1 and run is None and gen and eps_a == A_LOOSE:  # the common protocol call
+        t = float(t)
+        A, B, sB, e = _first_pair(fs, ans, y0, t)
+        if e[0] <= tol:
+            return B, e, sB, ans
+        first = (A, B, sB)  # the control goes on from this pair
     res, est, steps = _control(
         model,
         y0,
@@ -652,35 +732,22 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
         eps_a,
         n,
         tol,
-        runner=(run_, _no_order),
+        runner=(_runner(fs, run, gen, N), _no_order),
         estimate=ans.estimate,
         b_max=B_MAX if run is None else B_MAX_RATIONAL,
         prop_min_b=PROP_MIN_B if run is None else PROP_MIN_B_RATIONAL,
         reuse_b=0.0 if run is None else REUSE_B,
         floor=ans.floor,
         reuse_last=run is None,
+        first=first,
     )
-    G, Adres, xs, _ = (
-        ans.all
-    )  # of the final B of every row: its last floor (the control's last pass)
     if not (est[0] <= tol if N == 1 else np.all(est <= tol)):
         over = np.flatnonzero(~(est <= tol))
         raise ValueError(
             f"compiled Taylor flow: tolerance {tol} not reached on trajectories {over[:10].tolist()} "
             f"(estimated errors {est[over][:3].tolist()}, with the logarithm's) at the float64 floor"
         )
-    return {
-        "pi": res[:, :n].T.copy(),
-        "Gamma": res[:, n : 2 * n].T.copy() if fs.gravity else None,
-        "x": xs.T.copy(),
-        "g": G,
-        "Ad": Adres,
-        "quat": None,
-        "rebases": np.zeros(N, dtype=int),
-        "steps": steps,
-        "error_estimate": est,
-        "path": _ct.PATH,
-    }
+    return res, est, steps, ans
 
 
 def _no_order(eps):

@@ -314,3 +314,88 @@ def test_generated_kernel_split_forms_against_the_generic_one(monkeypatch):
     assert abs(int(sg[0]) - int(st[0])) <= 1 and sg[0] > 0
     bound = 10 * 1e2 * EPS * int(st[0]) * max(1.0, np.max(np.abs(yt)))
     assert np.max(np.abs(yg - yt)) <= bound
+
+
+def _control_alone(model, x0, pi0, T, tol):
+    """The general route's two-run control on one trajectory, from its start, with no first pair run
+    beforehand: ``(B, estimate, x)``."""
+    from tstarg.refimpl._flow_compiled import _control
+    from tstarg.refimpl.flows._common import _AbelianPart
+
+    fs = fs_mod.full_state(model, _AbelianPart)
+    y0 = np.empty((1, fs.d))
+    fk.start(x0[:, None].copy(), pi0[:, None].copy(), *fs.start_consts, y0)
+    ans = fs_mod._Answer(fs, 1)
+    B, est, _ = _control(
+        model,
+        y0,
+        T,
+        fs_mod.A_LOOSE,
+        fs.n,
+        tol,
+        runner=(fs_mod._runner(fs, None, True, 1), fs_mod._no_order),
+        estimate=ans.estimate,
+        b_max=fs_mod.B_MAX,
+        prop_min_b=fs_mod.PROP_MIN_B,
+        reuse_b=0.0,
+        floor=ans.floor,
+        reuse_last=True,
+    )
+    return B, est, ans.all[2]
+
+
+@needs_numba
+@pytest.mark.parametrize(
+    "name, scale, T", [("h(3)", 1.0, 2.0), ("Bianchi III + cocycle", 10.0, 40.0)]
+)
+@pytest.mark.parametrize("tol", [1e-10, 1e-9])
+def test_one_trajectory_route_is_the_controls(name, scale, T, tol):
+    """The protocol call of one trajectory (1-D points: ``_fast._flow_one`` -> ``_full_state.flow_one``,
+    its first pair run by ``_first_pair``) returns exactly what the two-run control returns run alone
+    from the same start (the same kernels, tolerances and estimate rule), the same as the (1, n) batch
+    route; the caller's arrays are neither written nor aliased by the result. h(3), T = 2: the first
+    pair passes (|A - B| 5e-15); Bianchi III with pi0 scaled by 10, T = 40: it does not (4e-3, the
+    control goes on from it to 2.3e-11)."""
+    alg, theta, ups, inertia, pot, x0, pi0 = _model(name, seed=2)
+    pi0 = scale * pi0
+    model = cached_model(alg, theta, ups, inertia, pot)
+    x0c, pi0c = x0.copy(), pi0.copy()
+    x, pi = fast_flow(alg.f, theta, ups, inertia, pot, x0, pi0, T, tol=tol)
+    np.testing.assert_array_equal(x0, x0c)
+    np.testing.assert_array_equal(pi0, pi0c)
+    assert x.shape == pi.shape == x0.shape
+    assert not np.shares_memory(x, x0) and not np.shares_memory(pi, pi0)
+    B, est, xs = _control_alone(model, x0, pi0, T, tol)
+    assert est[0] <= tol
+    np.testing.assert_array_equal(pi, B[0, : x0.size])
+    np.testing.assert_array_equal(x, xs[0])
+    xb, pb = fast_flow(alg.f, theta, ups, inertia, pot, x0[None], pi0[None], T, tol=tol)
+    np.testing.assert_array_equal(xb[0], x)
+    np.testing.assert_array_equal(pb[0], pi)
+
+
+@needs_numba
+@pytest.mark.parametrize("name", ["so(4)", "Bianchi III + cocycle"])
+def test_one_trajectory_route_with_upsilon(name):
+    """``Upsilon != 0`` off su(2): the call of one trajectory (1-D points, ``_fast._flow_one``'s
+    rational route) returns exactly the (1, n) batch's answer and the named method's (the general
+    route through ``Integrator.integrate``); the caller's arrays are neither written nor aliased.
+    The models of tests/test_full_state_rational.py (the same structures: no kernel compiled here)."""
+    from tests.test_full_state_rational import _model as _rational_model
+
+    alg, theta, ups, inertia, pot, x0, pi0 = _rational_model(name, seed=6)
+    n = x0.size
+    assert _default_method(cached_model(alg, theta, ups, inertia, pot), full=True).name == (
+        "taylor-rational"
+    )
+    x0c, pi0c = x0.copy(), pi0.copy()
+    x, pi = fast_flow(alg.f, theta, ups, inertia, pot, x0, pi0, 1.5)
+    np.testing.assert_array_equal(x0, x0c)
+    np.testing.assert_array_equal(pi0, pi0c)
+    assert x.shape == pi.shape == (n,)
+    assert not np.shares_memory(x, x0) and not np.shares_memory(pi, pi0)
+    xb, pb = fast_flow(alg.f, theta, ups, inertia, pot, x0[None], pi0[None], 1.5)
+    xm, pm = fast_flow(alg.f, theta, ups, inertia, pot, x0, pi0, 1.5, method_name="taylor-rational")
+    for xo, po in ((xb[0], pb[0]), (xm, pm)):
+        np.testing.assert_array_equal(xo, x)
+        np.testing.assert_array_equal(po, pi)

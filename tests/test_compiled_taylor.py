@@ -130,6 +130,43 @@ def test_batch_kernel_runs_every_trajectory_as_the_single_kernel_does(label, T):
         assert np.max(np.abs(got[n] - one[0])) <= 8 * EPS * steps[n] * scale
 
 
+@needs_numba
+@pytest.mark.parametrize("label", list(MODELS))
+@pytest.mark.parametrize(("T", "tols"), [(2.5, (1e-6, 1e-13)), (-1.5, (1e-12, 1e-8))])
+def test_pair_kernel_runs_each_tolerance_as_the_single_kernel_does(label, T, tols):
+    """The pair kernel (both runs of the two-run control on the two lanes of one vector) against the
+    single-trajectory kernel run at each tolerance: the same control per lane, so the same step counts,
+    and end states equal to rounding (error model 8 eps * steps * scale, as the batch kernel's above:
+    the lanes compute each run's operations in the same order, so the states agree far inside it; seen
+    equal bit for bit). The looser run finishes first (the first case: A; the second: B) and idles
+    while the other goes on; a row that blows up (y = 1e200) fails on both lanes (NaN, steps -1)
+    without touching its neighbours; the caller's array is not written."""
+    model = MODELS[label]()
+    cf = ct.compiled_field(quadratic_field(model))
+    P = 14
+    pair = ct.unrolled_pair(cf, P)
+    one = ct.unrolled_adaptive(cf, P)
+    y0 = _y0(model, np.random.default_rng(11), 3).T.copy()
+    y0[1] = 1e200  # quadratic field: overflows within the first step
+    keep = y0.copy()
+    out = [np.empty_like(y0), np.empty_like(y0)]
+    steps = [np.zeros(3, dtype=np.int64), np.zeros(3, dtype=np.int64)]
+    pair(y0, T, tols[0], tols[1], 10**6, cf.qcoef, cf.lcoef, out[0], out[1], steps[0], steps[1])
+    assert np.array_equal(y0, keep)
+    assert steps[0][0] != steps[1][0]  # one lane idles while the other goes on
+    for lane, tol in enumerate(tols):
+        for n in range(3):
+            ref, s1 = np.empty((1, y0.shape[1])), np.zeros(1, dtype=np.int64)
+            one(y0[n : n + 1], T, tol, 10**6, cf.qcoef, cf.lcoef, ref, s1)
+            if n == 1:
+                assert steps[lane][n] == -1 == s1[0] and np.all(np.isnan(out[lane][n]))
+                continue
+            assert steps[lane][n] == s1[0] > 0
+            scale = max(1.0, float(np.max(np.abs(ref))))
+            assert np.all(np.isfinite(out[lane][n]))
+            assert np.max(np.abs(out[lane][n] - ref[0])) <= 8 * EPS * s1[0] * scale
+
+
 def test_adaptive_free_asymmetric_top_meets_elliptic_closed_form():
     """Free asymmetric top (I = diag(1, 2, 3), rotation about the I3 axis), body system, T = 20: the
     adaptive kernel at local tolerance 1e-13 is within 1e-10 of the Jacobi elliptic closed form
@@ -335,10 +372,12 @@ def test_two_run_control_meets_tolerance_and_its_estimate_covers_the_error(I):
         )
 
 
-def test_model_cache_keys_on_values_not_identity():
+@pytest.mark.parametrize("pot", [GRAV, None], ids=["gravity", "free"])
+def test_model_cache_keys_on_values_not_identity(pot):
     """Models A, B, A through the same refilled caller arrays (a cache keyed on ``id`` or on the shape
     would return A's flow for B): each flow equals the flow of a freshly built, uncached model, and a
-    list input gives the flow of the equal array."""
+    list input gives the flow of the equal array. Without a potential the float64 arrays take the
+    cache's one-key route (``_fast.cached_model``)."""
     from tstarg.refimpl.flows import cached_model
 
     I = np.diag([1.0, 1.3, 0.5])
@@ -346,10 +385,10 @@ def test_model_cache_keys_on_values_not_identity():
     outs = []
     for scale in (1.0, 2.0, 1.0):
         I[0, 0] = scale
-        assert cached_model(SU2.f, Z, Z, I, GRAV).inertia[0, 0] == scale
-        outs.append(fast_flow(SU2.f, Z, Z, I, GRAV, x0, pi0, 3.0, tol=1e-9))
+        assert cached_model(SU2.f, Z, Z, I, pot).inertia[0, 0] == scale
+        outs.append(fast_flow(SU2.f, Z, Z, I, pot, x0, pi0, 3.0, tol=1e-9))
     I[0, 0] = 2.0
-    fresh = fast_flow(SU2.f, Z, Z, I.tolist(), GRAV, x0.tolist(), pi0.tolist(), 3.0, tol=1e-9)
+    fresh = fast_flow(SU2.f, Z, Z, I.tolist(), pot, x0.tolist(), pi0.tolist(), 3.0, tol=1e-9)
     assert np.array_equal(outs[0][1], outs[2][1])
     assert np.array_equal(outs[1][1], fresh[1]) and np.array_equal(outs[1][0], fresh[0])
     assert not np.array_equal(outs[0][1], outs[1][1])
@@ -613,3 +652,34 @@ def test_control_never_scales_a_saturated_pair(rows):
                             estimate=estimate)  # fmt: skip
     err = np.max(np.abs(B), axis=1)
     assert np.all(np.isfinite(est)) and np.all(err <= est), (err, est)
+
+
+@needs_numba
+@pytest.mark.parametrize(
+    "I, pot, ups, T",
+    [
+        ((1.0, 1.3, 0.6), HEAVY, False, 30.0),
+        ((1.0, 2.0, 3.0), LAGRANGE, False, 100.0),
+        ((1.0, 1.3, 0.6), None, True, 5.0),
+    ],
+    ids=["heavy", "lagrange", "upsilon"],
+)
+def test_protocol_one_trajectory_route_equals_the_general_route(I, pot, ups, T):
+    """The protocol call with 1-D points (``_fast._flow_one``'s su(2) route: ``compiled_taylor_flow``
+    called without the general route's batch bookkeeping, after the start check when ``Upsilon != 0``)
+    returns bit for bit the (1, 3) batch's answer and the named method's (``Integrator.integrate``);
+    the caller's arrays are neither written nor aliased."""
+    U = np.einsum("l,lmn->mn", np.array([0.0, 0.05, 0.02]), SU2.f) if ups else Z
+    x0, pi0 = np.array([0.1, 0.2, 0.0]), np.array([0.3, 0.2, 2.0])
+    xc, pc = x0.copy(), pi0.copy()
+    args = (SU2.f, Z, U, np.diag(I), pot)
+    x, pi = fast_flow(*args, x0, pi0, T)
+    assert np.array_equal(x0, xc) and np.array_equal(pi0, pc)
+    assert x.shape == pi.shape == (3,)
+    assert not np.shares_memory(x, x0) and not np.shares_memory(pi, pi0)
+    xb, pb = fast_flow(*args, x0[None], pi0[None], T)
+    name = "taylor-rational" if ups else "taylor"
+    xm, pm = fast_flow(*args, x0, pi0, T, method_name=name)
+    for xo, po in ((xb[0], pb[0]), (xm, pm)):
+        np.testing.assert_array_equal(xo, x)
+        np.testing.assert_array_equal(po, pi)

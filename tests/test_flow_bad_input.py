@@ -41,6 +41,29 @@ def test_start_on_degenerate_set_fast_names_the_point():
         fast_flow(F, Z, U, I, None, np.zeros((2, 3)), pi0, 1.0)
 
 
+@pytest.mark.parametrize("one", [False, True], ids=["batch", "single"])
+def test_start_on_degenerate_set_generic_algebra_names_the_point(one):
+    """Off su(2) (sl(2,R), the compiled generic route of the start check): ``Delta = det(1 + S Upsilon)``
+    with ``S_ab = pi_m f^m_ab`` (docs/conventions.md, vier6) vanishes at ``pi = -5 v`` for
+    ``Upsilon = 0.5 (e_0 ^ e_1)`` and ``v = (0.3, -0.2, 1)`` (a double root of the quadratic
+    ``s -> Delta(s v)``); that start is refused by index, alone or in a batch, and the other one flows."""
+    f = np.asarray(catalogue("sl(2,R)").f, float)
+    U = np.zeros((3, 3))
+    U[0, 1], U[1, 0] = 0.5, -0.5
+    bad = -5.0 * np.array([0.3, -0.2, 1.0])
+    S = np.einsum("m,mab->ab", bad, f)
+    assert abs(np.linalg.det(np.eye(3) + S @ U)) <= 1e-14  # the premise, by numpy's determinant
+    good = np.array([0.4, -0.3, 1.1])
+    x, pi = fast_flow(f, Z, U, I, None, np.zeros(3), good, 0.5)
+    assert np.all(np.isfinite(x)) and np.all(np.isfinite(pi))
+    pi0 = bad if one else np.stack([good, bad])
+    idx = "0" if one else "1"
+    with pytest.raises(
+        ValueError, match=rf"initial point\(s\) \[{idx}\] lie on the degenerate set"
+    ):
+        fast_flow(f, Z, U, I, None, np.zeros_like(pi0), pi0, 0.5)
+
+
 def test_start_on_degenerate_set_reference():
     """The reference refuses a start with Delta = 0 (exact rational input)."""
     U = np.array([[0, "1/2", 0], ["-1/2", 0, 0], [0, 0, 0]], dtype=object)  # tau = (0, 0, 1/2)

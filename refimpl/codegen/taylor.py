@@ -15,8 +15,7 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
+from . import _taylor_ir
 from ._loader import fill, template
 
 __all__ = [
@@ -119,51 +118,6 @@ def chain_sum(terms: list[str]) -> str:
 _JIT = "@njit(cache=True, nogil=True, fastmath={'contract'})"
 
 
-def _coefficient_lines(cf, P: int, summ=tree_sum) -> tuple[list[str], list[int]]:
-    """Straight-line statements computing the Taylor coefficients ``y{c}_{k}``, ``k = 1..P``, from the
-    locals ``y{c}_0`` (the recurrence of the module docstring, unrolled; sums written by ``summ``:
-    balanced trees by default, :func:`chain_sum` in the batch kernel), and the non-constant
-    components."""
-    d = cf.d
-    const = set(np.flatnonzero(cf.const).tolist())
-    mons = [tuple(m) for m in cf.mons.tolist()]
-
-    def z(c, k):
-        return k >= 1 and c in const
-
-    body = []
-    for k in range(P):
-        for m, (i, j) in enumerate(mons):
-            if i == j:
-                terms = [
-                    f"y{i}_{a}*y{i}_{k - a}"
-                    for a in range((k + 1) // 2)
-                    if not z(i, a) and not z(i, k - a)
-                ]
-                expr = f"2.0*{summ(terms)}" if terms else ""
-                if k % 2 == 0 and not z(i, k // 2):
-                    expr = (expr + " + " if expr else "") + f"y{i}_{k // 2}*y{i}_{k // 2}"
-            else:
-                terms = [
-                    f"y{i}_{a}*y{j}_{k - a}"
-                    for a in range(k + 1)
-                    if not z(i, a) and not z(j, k - a)
-                ]
-                expr = summ(terms) if terms else ""
-            body.append(f"m{m} = {expr or '0.0'}")
-        for c in range(d):
-            if c in const:
-                continue
-            terms = [f"q{t}*m{cf.qmon[t]}" for t in range(cf.qptr[c], cf.qptr[c + 1])]
-            terms += [
-                f"l{t}*y{cf.lidx[t]}_{k}"
-                for t in range(cf.lptr[c], cf.lptr[c + 1])
-                if not z(int(cf.lidx[t]), k)
-            ]
-            body.append(f"y{c}_{k + 1} = {summ(terms) if terms else '0.0'}*{1.0 / (k + 1)!r}")
-    return body, [c for c in range(d) if c not in const]
-
-
 def _kernel_prologue(cf, P: int) -> list[str]:
     """The first statements of an adaptive kernel: the field's numbers read once into locals, the
     batch size, the direction and length of the time span, the step's safety factor."""
@@ -176,13 +130,16 @@ def _kernel_prologue(cf, P: int) -> list[str]:
 
 
 def _loads(cf) -> list[str]:
-    """The field's numbers read once per call into locals ``q{t}``, ``l{t}``."""
-    return [f"q{t} = q[{t}]" for t in range(len(cf.qcoef))] + [
-        f"l{t} = l[{t}]" for t in range(len(cf.lcoef))
+    """The field's numbers read once per call into the tuples ``Q`` and ``L`` (the intrinsics' arguments)."""
+    return [
+        "Q = " + _tuple([f"q[{t}]" for t in range(len(cf.qcoef))]),
+        "L = " + _tuple([f"l[{t}]" for t in range(len(cf.lcoef))]),
     ]
 
 
-def _step_size_lines(P: int, xn: str, a1: str, a2: str, fail: list[str]) -> list[str]:
+def _step_size_lines(
+    P: int, xn: str, a1: str, a2: str, fail: list[str], tol: str = "tol"
+) -> list[str]:
     """The Jorba-Zou step of the module docstring from the expressions of ``max|y_0|`` and of the last
     two coefficients' norms; ``fail`` runs when no positive step results (overflowed coefficients).
 
@@ -192,7 +149,7 @@ def _step_size_lines(P: int, xn: str, a1: str, a2: str, fail: list[str]) -> list
     1e-13 over T = 100: 378.0 against 390.9 us, best of 30 interleaved, load 1.5). NaN (non-finite
     coefficients) still gives no positive step, ``a = 0`` no bound from that term."""
     return [
-        f"s = tol * max(1.0, {xn})",
+        f"s = {tol} * max(1.0, {xn})",
         f"a1 = {a1}",
         f"a2 = {a2}",
         "lh = np.inf",
@@ -205,65 +162,68 @@ def _step_size_lines(P: int, xn: str, a1: str, a2: str, fail: list[str]) -> list
     ] + ["    " + x for x in fail]
 
 
-def unrolled_source(cf, P: int) -> str:
-    """A module with ``adaptive`` and ``fixed`` for the structure of ``cf`` at order ``P``, unrolled.
+def _tuple(items: list[str]) -> str:
+    """A tuple display of ``items`` (``()``, ``(a,)``, ``(a, b)``)."""
+    return "(" + ", ".join(items) + ("," if len(items) == 1 else "") + ")"
 
-    Every coefficient is a local scalar ``y{c}_{k}``; the Cauchy products are written out (a square
-    sums half its terms twice, a constant factor keeps its ``k = 0`` term) and the field's numbers
-    are read once per call from ``q`` and ``l`` into locals. Same recurrence and control as the loop
-    loop kernels of :func:`loop_source` (template ``taylor_loop``); only the summation order of a product may differ, and the update
-    ``y <- y + sum_{k>=1} Y_k h^k`` is a compensated (Kahan) sum, which keeps the rounding of ``10^3``
-    steps near one ulp instead of growing with the step count.
-    """
-    d = cf.d
-    body, var = _coefficient_lines(cf, P)
 
-    def horner(hname):
-        # increment sum_{k>=1} Y_k h^k by Horner, added to y with Kahan's compensated summation (the
-        # carry e{c} keeps the low-order bits lost in y + increment: no drift of rounding over many steps)
-        out = []
-        for c in var:
-            e = f"y{c}_{P}"
-            for k in range(P - 1, 0, -1):
-                e = f"({e})*{hname} + y{c}_{k}"
-            out += [
-                f"z = ({e})*{hname} - e{c}",
-                f"w = y{c}_0 + z",
-                f"e{c} = (w - y{c}_0) - z",
-                f"y{c}_0 = w",
-            ]
-        return out
-
-    def amax(k):
-        terms = [f"abs(y{c}_{k})" for c in (range(d) if k == 0 else var)]
-        if not terms:
-            return "0.0"
-        e = terms[0]
-        for t in terms[1:]:  # pairwise max: numba's variadic max builds a tuple per call
-            e = f"max({e}, {t})"
-        return e
-
-    load = _kernel_prologue(cf, P)
-    unpack = [f"y{c}_0 = y0[n, {c}]" for c in range(d)] + [f"e{c} = 0.0" for c in var]
-    store_ok = [f"out[n, {c}] = y{c}_0" for c in range(d)]
-    fin = " and ".join(f"math.isfinite(y{c}_0)" for c in var) or "True"
-    I1, I2, I3, I4 = "    ", "        ", "            ", "                "
-    src = [
+def _ir_header(cf, P: int) -> tuple[list[str], tuple]:
+    """The generated module's imports and the structure of ``cf`` at order ``P`` as the literal
+    ``SPEC`` of its intrinsics (:mod:`refimpl.codegen._taylor_ir`). Returns the lines and the spec."""
+    sp = _taylor_ir.spec(cf, P)
+    return [
         "import math",
         "import numpy as np",
         "from numba import njit",
+        "from tstarg.refimpl.codegen import _taylor_ir",
         "",
-        "",
-        _JIT,
-        "def adaptive(y0, T, tol, max_steps, q, l, out, nsteps):",
+        f"# the structure (refimpl.codegen._taylor_ir.spec, IR version {_taylor_ir.IR_VERSION}): d, P,",
+        "# monomials, constant components, qptr, qmon, lptr, lidx",
+        f"SPEC = {sp!r}",
+    ], sp
+
+
+def unrolled_source(cf, P: int) -> str:
+    """A module with ``adaptive`` and ``fixed`` for the structure of ``cf`` at order ``P``, unrolled.
+
+    The recurrence of :mod:`refimpl._compiled_taylor`'s docstring unrolled at order ``P`` (a square
+    sums half its terms twice, a constant factor keeps its ``k = 0`` term; sums as balanced trees,
+    :func:`tree_sum`), and the update ``y <- y + sum_{k>=1} Y_k h^k`` by Horner's rule added with
+    Kahan's compensated summation (which keeps the rounding of ``10^3`` steps near one ulp instead of
+    growing with the step count), are the intrinsics ``_coefs`` and ``_update`` of
+    :mod:`refimpl.codegen._taylor_ir` (LLVM IR written directly: numba's front end would spend most of
+    the compilation typing the ~10^4 operations one by one). The state, its carries and the
+    coefficients are tuples of float64; the field's numbers are read once per call from ``q`` and ``l``
+    into the tuples ``Q`` and ``L``. Same recurrence and control as the loop kernels of
+    :func:`loop_source` (template ``taylor_loop``); only the summation order of a product may differ.
+    """
+    d = cf.d
+    head, sp = _ir_header(cf, P)
+    head += [
+        "_coefs = _taylor_ir.coefficients_intrinsic(SPEC)",
+        "_update = _taylor_ir.update_intrinsic(SPEC)",
+        "_coefs2 = _taylor_ir.lanes_coefficients_intrinsic(SPEC, 2)",
+        "_update2 = _taylor_ir.lanes_update_intrinsic(SPEC, 2)",
     ]
-    src += [I1 + x for x in load]
-    src += [I1 + "for n in range(N):"]
+    var = _taylor_ir.variable_components(sp)
+    K = len(var) * P  # C[K], C[K + 1], C[K + 2]: max|y_0|, max|y_{P-1}|, max|y_P|
+    unpack = [
+        "Y = " + _tuple([f"y0[n, {c}]" for c in range(d)]),
+        "E = " + _tuple(["0.0"] * len(var)),
+    ]
+    store_ok = [f"out[n, {c}] = Y[{c}]" for c in range(d)]
+    fin = " and ".join(f"math.isfinite(Y[{c}])" for c in var) or "True"
+    I1, I2, I3, I4 = "    ", "        ", "            ", "                "
+    src = head + ["", "", _JIT, "def adaptive(y0, T, tol, max_steps, q, l, out, nsteps):"]
+    src += [I1 + x for x in _kernel_prologue(cf, P)] + [I1 + "for n in range(N):"]
     src += [I2 + x for x in unpack]
     src += [I2 + "t = 0.0", I2 + "k = 0", I2 + "ok = True", I2 + "while t < Tabs:"]
-    src += [I3 + x for x in body] + [I3 + "pass"]
+    src += [I3 + "C = _coefs(Y, Q, L)"]
     src += [
-        I3 + x for x in _step_size_lines(P, amax(0), amax(P - 1), amax(P), ["ok = False", "break"])
+        I3 + x
+        for x in _step_size_lines(
+            P, f"C[{K}]", f"C[{K + 1}]", f"C[{K + 2}]", ["ok = False", "break"]
+        )
     ]
     src += [
         I3 + "if t + h >= Tabs:",
@@ -271,10 +231,7 @@ def unrolled_source(cf, P: int) -> str:
         I4 + "t = Tabs",
         I3 + "else:",
         I4 + "t += h",
-        I3 + "hs = sgn * h",
-    ]
-    src += [I3 + x for x in horner("hs")]
-    src += [
+        I3 + "Y, E = _update(Y, E, C, sgn * h)",
         I3 + "k += 1",
         I3 + f"if not ({fin}) or k > max_steps:",
         I4 + "ok = False",
@@ -291,14 +248,76 @@ def unrolled_source(cf, P: int) -> str:
     ]
     src += [I1 + x for x in _loads(cf)]
     src += [I1 + "for n in range(y0.shape[0]):"] + [I2 + x for x in unpack]
-    src += (
-        [I2 + "for _ in range(nsteps):"]
-        + [I3 + x for x in body]
-        + [I3 + x for x in horner("h")]
-        + [I3 + "pass"]
-    )
+    src += [
+        I2 + "for _ in range(nsteps):",
+        I3 + "Y, E = _update(Y, E, _coefs(Y, Q, L), h)",
+    ]
     src += [I2 + x for x in store_ok]
+    src += ["", "", _JIT] + _pair_lines(cf, P, var)
     return "\n".join(src) + "\n"
+
+
+def _pair_lines(cf, P: int, var: list[int]) -> list[str]:
+    """``pair(y0, T, tol_a, tol_b, max_steps, q, l, out_a, out_b, steps_a, steps_b)``: ``adaptive`` at
+    the two local tolerances ``tol_a`` and ``tol_b`` from every row of ``y0`` at once, the two runs on
+    the two lanes of one vector (the intrinsics ``_coefs2``, ``_update2``): each lane its own control,
+    steps and carries, exactly as ``adaptive`` runs it (the lane that reaches ``T`` first, or fails,
+    idles with step 0 while the other goes on). One pass over the trajectory instead of two: the
+    checking run's arithmetic rides in the answer's vector instructions."""
+    d = cf.d
+    K = 2 * len(var) * P  # C[K:K + 3]: lane a's norms, C[K + 3:K + 6]: lane b's
+    I1, I2, I3, I4, I5 = ("    " * i for i in range(1, 6))
+    src = ["def pair(y0, T, tol_a, tol_b, max_steps, q, l, out_a, out_b, steps_a, steps_b):"]
+    src += [I1 + x for x in _kernel_prologue(cf, P)] + [I1 + "for n in range(N):"]
+    src += [
+        I2 + "Y = " + _tuple([f"y0[n, {c}]" for c in range(d)] * 2),
+        I2 + "E = " + _tuple(["0.0"] * (2 * len(var))),
+        I2 + "ta = 0.0",
+        I2 + "tb = 0.0",
+        I2 + "ka = 0",
+        I2 + "kb = 0",
+        I2 + "oka = True",
+        I2 + "okb = True",
+        I2 + "while ta < Tabs or tb < Tabs:",
+        I3 + "C = _coefs2(Y, Q, L)",
+    ]
+    for x, off in (("a", 0), ("b", 3)):
+        src += [I3 + f"h{x} = 0.0", I3 + f"if t{x} < Tabs:"]
+        src += [
+            I4 + line
+            for line in _step_size_lines(
+                P,
+                f"C[{K + off}]",
+                f"C[{K + off + 1}]",
+                f"C[{K + off + 2}]",
+                [f"ok{x} = False", f"t{x} = Tabs"],
+                tol=f"tol_{x}",
+            )
+        ]
+        src += [
+            I4 + "else:",
+            I5 + f"if t{x} + h >= Tabs:",
+            I5 + f"    h = Tabs - t{x}",
+            I5 + f"    t{x} = Tabs",
+            I5 + "else:",
+            I5 + f"    t{x} += h",
+            I5 + f"h{x} = sgn * h",
+            I5 + f"k{x} += 1",
+        ]
+    src += [I3 + "Y, E = _update2(Y, E, C, (ha, hb))"]
+    for x, off in (("a", 0), ("b", d)):
+        fin = " and ".join(f"math.isfinite(Y[{off + c}])" for c in var) or "True"
+        src += [
+            I3 + f"if h{x} != 0.0 and (not ({fin}) or k{x} > max_steps):",
+            I4 + f"ok{x} = False",
+            I4 + f"t{x} = Tabs",
+        ]
+    for x, off in (("a", 0), ("b", d)):
+        src += [I2 + f"if ok{x}:"]
+        src += [I3 + f"out_{x}[n, {c}] = Y[{off + c}]" for c in range(d)]
+        src += [I2 + "else:", I3 + f"for c in range({d}):", I4 + f"out_{x}[n, c] = np.nan"]
+        src += [I2 + f"steps_{x}[n] = k{x} if ok{x} else -1"]
+    return src
 
 
 BATCH_WIDTH = (
@@ -315,9 +334,10 @@ def batch_source(cf, P: int, W: int = BATCH_WIDTH) -> str:
     trajectory reaches ``T`` (or fails) is refilled with the next trajectory, so no trajectory's
     steps are set by another's and no lane waits for the slowest. The per-lane work is written as
     loops ``for w in range(W)`` over a flat scratch array ``B[row * W + w]`` (rows: state, carries,
-    coefficients, norms, step), which LLVM turns into SIMD instructions across the lanes (the single
-    kernel's recurrence and control on W trajectories at once); the step-size control and the
-    bookkeeping stay scalar.
+    coefficients, norms, step; read and written by the intrinsics of
+    :func:`refimpl.codegen._taylor_ir.rows_intrinsics`), which LLVM turns into SIMD instructions
+    across the lanes (the single kernel's recurrence and control on W trajectories at once); the
+    step-size control and the bookkeeping stay scalar.
 
     The Cauchy products and component sums are :func:`chain_sum` chains, not the single kernel's
     trees: the lanes already supply the independent work a tree exposes, and a chain is a third
@@ -329,32 +349,27 @@ def batch_source(cf, P: int, W: int = BATCH_WIDTH) -> str:
     (11.5 against 11.8 s).
     """
     d = cf.d
-    body, var = _coefficient_lines(cf, P, chain_sum)
+    head, sp = _ir_header(cf, P)
+    var = _taylor_ir.variable_components(sp)
     nv = len(var)
     # rows of B
     RY = 0  # state, d rows
     RE = d  # Kahan carries, d rows (non-constant components only used)
     RC = 2 * d  # coefficients k = 1..P of the non-constant components: RC + vi * P + (k - 1)
-    RX = RC + nv * P  # max |y_0|
+    RX = RC + nv * P  # max |y_0|, then max |y_{P-1}|, max |y_P|
     RA1, RA2, RH = RX + 1, RX + 2, RX + 3
     R = RX + 4
+    head += [
+        f"_lane_coefficients = _taylor_ir.lane_coefficients_intrinsic(SPEC, {W}, {RY}, {RC})",
+        f"_lane_update = _taylor_ir.lane_update_intrinsic(SPEC, {W}, {RY}, {RE}, {RC})",
+    ]
 
     def at(row):
         return f"B[{row * W} + w]"
 
-    def amax(names):
-        if not names:
-            return "0.0"
-        e = f"abs({names[0]})"
-        for t in names[1:]:
-            e = f"max({e}, abs({t}))"
-        return e
-
     I1, I2, I3, I4, I5 = ("    " * i for i in range(1, 6))
-    load = _kernel_prologue(cf, P)
-    src = ["import math", "import numpy as np", "from numba import njit", "", "", _JIT]
-    src.append("def adaptive_batch(y0, T, tol, max_steps, q, l, out, nsteps):")
-    src += [I1 + x for x in load]
+    src = head + ["", "", _JIT, "def adaptive_batch(y0, T, tol, max_steps, q, l, out, nsteps):"]
+    src += [I1 + x for x in _kernel_prologue(cf, P)]
     src += [
         I1 + f"B = np.zeros({R * W})",
         I1 + f"lane = np.full({W}, -1, dtype=np.int64)",
@@ -370,17 +385,8 @@ def batch_source(cf, P: int, W: int = BATCH_WIDTH) -> str:
     src += [I3 + f"{at(RY + c)} = y0[nxt, {c}]" for c in range(d)]
     src += [I3 + "nxt += 1", I3 + "active += 1", I1 + "while active > 0:"]
     # 1. coefficients and norms, all lanes (SIMD)
-    src.append(I2 + f"for w in range({W}):")
-    src += [I3 + f"y{c}_0 = {at(RY + c)}" for c in range(d)]
-    src += [I3 + x for x in body]
-    for vi, c in enumerate(var):
-        src += [I3 + f"{at(RC + vi * P + k - 1)} = y{c}_{k}" for k in range(1, P + 1)]
-    src += [
-        I3 + f"{at(RX)} = {amax([f'y{c}_0' for c in range(d)])}",
-        I3 + f"{at(RA1)} = {amax([f'y{c}_{P - 1}' for c in var])}",
-        I3 + f"{at(RA2)} = {amax([f'y{c}_{P}' for c in var])}",
-    ]
-    # 2. step sizes, per lane (scalar: powers and branches)
+    src += [I2 + f"for w in range({W}):", I3 + "_lane_coefficients(B, w, Q, L)"]
+    # 2. step sizes, per lane (scalar: logarithms and branches)
     src += [
         I2 + f"for w in range({W}):",
         I3 + f"{at(RH)} = 0.0",
@@ -399,18 +405,10 @@ def batch_source(cf, P: int, W: int = BATCH_WIDTH) -> str:
         I3 + f"{at(RH)} = sgn * h",
     ]
     # 3. Horner and the compensated update, all lanes (SIMD)
-    src += [I2 + f"for w in range({W}):", I3 + f"hs = {at(RH)}"]
-    for vi, c in enumerate(var):
-        e = at(RC + vi * P + P - 1)
-        for k in range(P - 1, 0, -1):
-            e = f"({e})*hs + {at(RC + vi * P + k - 1)}"
-        src += [
-            I3 + f"z = ({e})*hs - {at(RE + c)}",
-            I3 + f"y = {at(RY + c)}",
-            I3 + "v = y + z",
-            I3 + f"{at(RE + c)} = (v - y) - z",
-            I3 + f"{at(RY + c)} = v",
-        ]
+    src += [
+        I2 + f"for w in range({W}):",
+        I3 + f"_lane_update(B, w, {at(RH)})",
+    ]
     # 4. bookkeeping, per lane: a finished or failed trajectory is written out and its lane refilled
     fin = " and ".join(f"math.isfinite({at(RY + c)})" for c in var) or "True"
     src += [

@@ -17,10 +17,16 @@ import time
 import numpy as np
 
 from .. import _fast_kernels as _fast
+from .. import _full_state, _full_state_rational
 from .._algebra import LieAlgebra
 from .._compiled_tensors import start_degenerate
 from .._flow_checks import check_time
-from .._flow_compiled import compiled_taylor_samples, quat_to_x
+from .._flow_compiled import (
+    compiled_taylor_flow,
+    compiled_taylor_samples,
+    quat_to_x,
+    supports_full,
+)
 from .._lru import LRU
 from .._validate import (
     MAX_MAGNITUDE,
@@ -31,7 +37,7 @@ from .._validate import (
     within_boundary,
 )
 from ..model import Model, State
-from ._common import quat_matrix, x_to_quat
+from ._common import _AbelianPart, quat_matrix, x_to_quat
 from .base import FlowResult, Integrator, check_tolerance
 from .registry import METHODS, choose, method
 from .step_doubling import StepDoubling
@@ -115,6 +121,25 @@ def cached_model(f, theta, upsilon, inertia, potential) -> NumpyModel:
     earlier one is that model: the second call skips validation and preparation (inverse inertia,
     su(2) detection, compiled fields). Inputs that are not plain numeric arrays are validated afresh
     every time. The caller's arrays are only read (their bytes copied into the key)."""
+    if (  # the common call, native float64 arrays and no potential: one key (shapes, then bytes)
+        potential is None
+        and type(f) is np.ndarray
+        and type(theta) is np.ndarray
+        and type(upsilon) is np.ndarray
+        and type(inertia) is np.ndarray
+        and f.dtype is _F64
+        and theta.dtype is _F64
+        and upsilon.dtype is _F64
+        and inertia.dtype is _F64
+    ):
+        key = (
+            f.shape,
+            theta.shape,
+            upsilon.shape,
+            inertia.shape,
+            f.tobytes() + theta.tobytes() + upsilon.tobytes() + inertia.tobytes(),
+        )
+        return _MODELS.get(key, lambda: Model(f, theta, upsilon, inertia, None))
     key = (
         _numeric_key(f),
         _numeric_key(theta),
@@ -163,17 +188,101 @@ def _finite_sum(a) -> bool:
     return math.isfinite(sum(a.ravel().tolist()) if a.size <= SMALL else a.sum())
 
 
-def _check_rates(model: NumpyModel, pa, tv: float) -> None:
+def _check_rates(model: NumpyModel, pa, tv: float, pmax: float | None = None) -> None:
     """:func:`check_flow_rates` on the cached model: its inputs ``||I^-1||_2`` and ``max|f|`` are
     computed once per model; the check itself runs (and raises, naming the point) only when the same
-    bound, evaluated here on ``max |pi|`` over the batch, could exceed the budget."""
+    bound, evaluated here on ``max |pi|`` over the batch (``pmax`` when the caller has it), could
+    exceed the budget."""
     c = model.rate_const
-    if pa.size <= SMALL:
-        size = max(map(abs, pa.ravel().tolist()), default=0.0) * math.sqrt(model.n)
-    else:
-        size = float(np.max(np.abs(pa))) * math.sqrt(model.n)
+    if pmax is None:
+        if pa.size <= SMALL:
+            pmax = max(map(abs, pa.ravel().tolist()), default=0.0)
+        else:
+            pmax = float(np.max(np.abs(pa)))
+    size = pmax * math.sqrt(model.n)
     if not abs(tv) * c * max(1.0, size) <= 0.5 * 2.0**14 * (2 + abs(tv)):  # half the budget: margin
         check_flow_rates(model.f, model.inertia, pa, tv)
+
+
+def _one_route(model: NumpyModel) -> int:
+    """The route of :func:`_flow_one` on ``model``'s full state, from its default method: 1 the compiled
+    full state of :mod:`refimpl._full_state` (``taylor``, ``Upsilon = 0`` off su(2)), 2 its rational
+    form (``taylor-rational``, :mod:`refimpl._full_state_rational`), 3 the su(2) quaternion state
+    (:func:`refimpl._flow_compiled.compiled_taylor_flow`, both methods), 0 none (the general route). A
+    function of the (cached, immutable) model, kept on it."""
+    one = model.__dict__.get("_one_route")
+    if one is None:
+        meth = choose(model, full=True)
+        compiled = meth is METHODS["taylor"] or meth is METHODS["taylor-rational"]
+        one = model.__dict__["_one_route"] = (
+            3
+            if compiled and supports_full(model)
+            else 1
+            if meth is METHODS["taylor"] and _full_state.applies(model)
+            else 2
+            if meth is METHODS["taylor-rational"] and _full_state_rational.applies(model)
+            else 0
+        )
+    return one
+
+
+def _flow_one(model: NumpyModel, x0, pi0, tv: float, tol: float):
+    """The call of one trajectory given as 1-D float64 arrays ``x0``, ``pi0`` of the model's
+    dimension, on the compiled full state (:func:`_one_route`), ``0 < |t| < 256`` (no time probe),
+    default method and steps: ``(x, pi)`` through :func:`refimpl._full_state.flow_one` (``Upsilon =
+    0``), the rational full state's flow or the su(2) one -- what the general route below computes,
+    with the same checks (the points finite and bounded, the rates, the start off the degenerate set,
+    the results finite), without its batch bookkeeping (issue 25: the Python around one trajectory).
+    None where any of that does not hold: the general route then runs, and refuses by name."""
+    n = model.n
+    if not (
+        type(x0) is np.ndarray
+        and type(pi0) is np.ndarray
+        and x0.dtype is _F64
+        and pi0.dtype is _F64
+        and x0.shape == (n,)
+        and pi0.shape == (n,)
+    ):
+        return None
+    route = _one_route(model)
+    if not route:
+        return None
+    xl, pl = x0.tolist(), pi0.tolist()
+    if not all(map(_WITHIN, map(abs, xl + pl))):  # issue 30: finite and |v| <= MAX_MAGNITUDE
+        return None
+    _check_rates(model, pi0, tv, max(map(abs, pl)))
+    X = np.ascontiguousarray(x0).reshape(n, 1)  # only read (never written, never returned)
+    P = np.ascontiguousarray(pi0).reshape(n, 1)
+    if route == 1:
+        x, pi = _full_state.flow_one(model, X, P, tv, tol, abelian=_AbelianPart)
+    else:
+        _check_start(model, P)  # nothing with Upsilon = 0
+        out = (
+            _full_state_rational.rational_full_state_flow(
+                model, X, P, tv, tol, abelian=_AbelianPart
+            )
+            if route == 2
+            else compiled_taylor_flow(model, X, P, tv, tol)
+        )
+        x, pi = out["x"][:, 0], out["pi"][:, 0]
+    if not math.isfinite(sum(x.tolist()) + sum(pi.tolist())):  # finite: every entry is
+        _check_finite(x.reshape(n, 1), pi.reshape(n, 1), tv)
+    return x, pi
+
+
+def _check_finite(x, pi, tv: float) -> None:
+    """Trajectories (columns of ``x``, ``pi`` (n, N)) not finite at ``tv`` are refused, by index."""
+    bad_pi = ~np.all(np.isfinite(pi), axis=0)
+    if np.any(bad_pi):
+        raise ValueError(
+            f"fast_flow: trajectories {np.flatnonzero(bad_pi)[:10].tolist()} became non-finite before t = {tv} "
+            "(they reached the degenerate set Pi_1, vier12, or diverged); no point is dropped"
+        )
+    bad = ~np.all(np.isfinite(x), axis=0)
+    if np.any(bad):
+        raise ValueError(
+            f"fast_flow: no logarithm x(t) of g(t) found for trajectories {np.flatnonzero(bad)[:10].tolist()}"
+        )
 
 
 def fast_flow(
@@ -215,6 +324,10 @@ def fast_flow(
     tol = tol if type(tol) is float and 0.0 < tol < math.inf else check_tolerance(tol)
     check_flow_request(tv, tol, steps, method_name, METHODS)  # issue 15 hook: the stated budget
     model = cached_model(f, theta, upsilon, inertia, potential)
+    if steps is None and method_name is None and not return_group and 0.0 < abs(tv) < 256.0:
+        one = _flow_one(model, x0, pi0, tv, tol)  # one trajectory (issue 25); None: not that call
+        if one is not None:
+            return one
     n = model.n
     xa, pa = _points(x0, pi0, n)
     if steps is None:  # issue 15 hook: refuse points too fast for the step-doubling budget
@@ -280,17 +393,8 @@ def fast_flow(
     out = meth.integrate(model, State(X, P), tv, tol=tol, steps=steps, system="full")
     # one sum when all is finite (a finite sum); the per-trajectory check only otherwise
     x, pi = out.x, out.pi
-    if not _finite_sum(pi) and np.any(~np.all(np.isfinite(pi), axis=0)):
-        bad_pi = ~np.all(np.isfinite(pi), axis=0)
-        raise ValueError(
-            f"fast_flow: trajectories {np.flatnonzero(bad_pi)[:10].tolist()} became non-finite before t = {tv} "
-            "(they reached the degenerate set Pi_1, vier12, or diverged); no point is dropped"
-        )
-    if not _finite_sum(x) and np.any(~np.isfinite(x)):
-        bad = np.argwhere(~np.all(np.isfinite(x), axis=0)).ravel()
-        raise ValueError(
-            f"fast_flow: no logarithm x(t) of g(t) found for trajectories {bad[:10].tolist()}"
-        )
+    if not (_finite_sum(pi) and _finite_sum(x)):
+        _check_finite(x, pi, tv)
     xs, ps = x.T.reshape(shape + (n,)), pi.T.reshape(shape + (n,))
     if return_group:
         g = out.get("g")

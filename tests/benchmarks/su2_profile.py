@@ -1,16 +1,19 @@
 """Where the su(2) protocol flow's time goes (issue 25), as a script.
 
-    python tests/benchmarks/su2_profile.py [--problems heavy,lagrange] [--repeats 20]
+    python tests/benchmarks/su2_profile.py [--problems heavy,lagrange] [--repeats 20] [--T 100]
 
 For the heavy asymmetric top of the committed bench (reports._bench_protocol ``heavy_top_full``:
 I = diag(1, 1.3, 0.6), L = (0.2, 0.1, 1)) and the Lagrange top (I = diag(1, 1, 0.5), L = e3), both at
-T = 100 from x0 = (0.1, 0.2, 0), pi0 = (0.3, 0.2, 2), gamma = -e3 (issue 25's table), one trajectory:
+T = 100 (``--T``) from x0 = (0.1, 0.2, 0), pi0 = (0.3, 0.2, 2), gamma = -e3 (issue 25's table), one
+trajectory:
 
 * ``flow``: the whole protocol call ``tstarg.refimpl.fast.implementation.flow`` at its default
   accuracy, and its error against heyoka in long double at tol 1e-19 (the bench's method);
-* ``run A`` and ``run B``: the unrolled kernel alone at the first pair's local tolerances and order
-  (:func:`refimpl._flow_compiled.local_tolerances`, :func:`refimpl._flow_compiled._order_b`), with
-  their step counts; ``glue`` = flow - A - B (validation, start, estimate, logarithm);
+* ``pair``: the unrolled pair kernel alone (:func:`refimpl._compiled_taylor.unrolled_pair`: the first
+  pair's two runs on the two lanes of one vector) at the first pair's local tolerances and order
+  (:func:`refimpl._flow_compiled.local_tolerances`, :func:`refimpl._flow_compiled._order_b`); ``glue`` =
+  flow - pair (validation, start, estimate, logarithm); ``run A`` and ``run B``: the single kernel
+  alone at each tolerance, with their step counts (what the pair saves);
 * heyoka ``taylor_adaptive`` (full mode) at the loosest quarter-decade tolerance whose error is at or
   below ours (``reports._bench_protocol._walk``: the rung charged) and at the next looser rung.
 
@@ -41,16 +44,18 @@ from su2_estimate_constants import prob  # noqa: E402
 INNER = 20  # calls per timed round: the first after another contender's run pays its cache misses
 
 
-def problem(name: str) -> bp.ProtocolProblem:
+def problem(name: str, T: float = 100.0) -> bp.ProtocolProblem:
     if name == "heavy":
-        return bp.protocol_problem("heavy_top_full")
+        if T == 100.0:
+            return bp.protocol_problem("heavy_top_full")
+        return prob("heavy", np.diag([1.0, 1.3, 0.6]), [0.2, 0.1, 1.0], T=T)
     if name == "lagrange":
-        return prob("lagrange", np.diag([1.0, 1.0, 0.5]), [0.0, 0.0, 1.0])
+        return prob("lagrange", np.diag([1.0, 1.0, 0.5]), [0.0, 0.0, 1.0], T=T)
     raise ValueError(f"--problems: unknown problem {name!r} (heavy, lagrange)")
 
 
-def profile(name: str, repeats: int) -> dict:
-    p = problem(name)
+def profile(name: str, repeats: int, T: float = 100.0) -> dict:
+    p = problem(name, T)
     print(f"[{name}] reference (heyoka long double, tol 1e-19) ...", flush=True)
     ref_ta = bp.heyoka_taylor(p, 1e-19, fp="longdouble", compact=True)
     ref_ta.propagate_until(np.longdouble(p.T))
@@ -65,11 +70,16 @@ def profile(name: str, repeats: int) -> dict:
     eps_a, eps_b = FC.local_tolerances(FAST.flow_tolerance, FC.A_LOOSE_FULL)
     P = FC._order_b(cf, eps_b)
     kern = CT.unrolled_adaptive(cf, P)
+    pair = CT.unrolled_pair(cf, P)
     out, st = np.empty_like(y0), np.empty(1, dtype=np.int64)
+    outb, stb = np.empty_like(y0), np.empty(1, dtype=np.int64)
     steps = {}
 
     def run(eps):
         kern(y0, p.T, eps, FC.MAX_STEPS, cf.qcoef, cf.lcoef, out, st)
+
+    def run_pair():
+        pair(y0, p.T, eps_a, eps_b, FC.MAX_STEPS, cf.qcoef, cf.lcoef, out, outb, st, stb)
 
     for key, eps in (("A", eps_a), ("B", eps_b)):
         run(eps)
@@ -91,6 +101,7 @@ def profile(name: str, repeats: int) -> dict:
         "flow": lambda: FAST.flow(*args),
         "run A": lambda: run(eps_a),
         "run B": lambda: run(eps_b),
+        "pair": run_pair,
     }
     hy0 = p.y0()  # heyoka's starting state, once: its expm is not heyoka's work
     for i in rungs:
@@ -106,11 +117,11 @@ def profile(name: str, repeats: int) -> dict:
         print(f"\r[{name}] timing {r + 1}/{repeats}", end="", flush=True)
     print()
     us = {key: v * 1e6 for key, v in best.items()}
-    glue = us["flow"] - us["run A"] - us["run B"]
+    glue = us["flow"] - us["pair"]
     print(
-        f"[{name}] flow {us['flow']:.1f} us (error {e_ours:.2e}) = run A {us['run A']:.1f} "
-        f"(eps {eps_a:.0e}, order {P}, {steps['A']} steps) + run B {us['run B']:.1f} (eps "
-        f"{eps_b:.0e}, {steps['B']} steps) + glue {glue:.1f}"
+        f"[{name}] flow {us['flow']:.1f} us (error {e_ours:.2e}) = pair {us['pair']:.1f} (A and B "
+        f"on two lanes; alone: run A {us['run A']:.1f}, eps {eps_a:.0e}, order {P}, {steps['A']} "
+        f"steps; run B {us['run B']:.1f}, eps {eps_b:.0e}, {steps['B']} steps) + glue {glue:.1f}"
     )
     for i in rungs:
         t = us[f"heyoka {grid[i]:.2e}"]
@@ -126,9 +137,10 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--problems", default="heavy,lagrange")
     ap.add_argument("--repeats", type=int, default=20)
+    ap.add_argument("--T", type=float, default=100.0, help="the time span (issue 25's table: 100)")
     args = ap.parse_args(argv)
     for name in args.problems.split(","):
-        profile(name, args.repeats)
+        profile(name, args.repeats, args.T)
     return 0
 
 

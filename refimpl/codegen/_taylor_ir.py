@@ -1,0 +1,472 @@
+"""The unrolled Taylor recurrence of :mod:`refimpl.codegen.taylor` as LLVM IR, built by numba intrinsics.
+
+Why IR rather than Python source: numba's front end types and lowers every arithmetic operation of a
+function on its own (resolving ``operator.mul`` against all its templates, about 0.3 ms per operation),
+so a straight-line kernel of ~10^4 operations (the su(2) full state unrolled at order 15) spent ~6 of
+its ~8 s of compilation there (issue 25: type inference 3.3 s, lowering 2.5 s, LLVM itself under 1 s).
+An intrinsic is one call to numba's front end; its ``codegen`` writes the operations straight into the
+kernel's LLVM function with llvmlite, in the order and with the flags the Python source had:
+
+* every floating-point operation carries ``contract`` (the kernels' ``fastmath={'contract'}``: LLVM may
+  fuse a multiply and an add into one FMA, never reassociates), so the compensated (Kahan) update and
+  the summation trees stay as written;
+* sums are the balanced trees of :func:`refimpl.codegen.taylor.tree_sum` (single trajectory) or the
+  chains of :func:`refimpl.codegen.taylor.chain_sum` (the lanes of the batch kernel), the same
+  operation for operation as the Python expressions those functions write;
+* ``max`` is numba's (``select(v > acc, v, acc)``), ``abs`` LLVM's ``fabs``.
+
+The state and the coefficients travel as tuples of float64 (LLVM aggregates that SROA splits into
+registers), so the kernels' control (step size, time, bookkeeping) stays numba Python around three
+intrinsics built per structure from its spec (:func:`spec`): :func:`coefficients_intrinsic`,
+:func:`update_intrinsic` and, for the batch kernel's lane rows, :func:`rows_intrinsics`.
+
+The generated module text names :data:`IR_VERSION` (so its hash, the kernel's cache key, changes with
+the IR built here: numba's disk cache keys on the generated file, not on this module).
+"""
+
+from __future__ import annotations
+
+try:  # only the generated kernels use the intrinsics; spec() and the layout helpers need neither
+    import llvmlite.ir as ir
+    from numba import types
+    from numba.core import cgutils
+    from numba.extending import intrinsic
+except ImportError:  # pragma: no cover - exercised only where numba is missing
+    ir = types = cgutils = intrinsic = None
+
+__all__ = [
+    "IR_VERSION",
+    "coefficients_intrinsic",
+    "lane_coefficients_intrinsic",
+    "lane_update_intrinsic",
+    "lanes_coefficients_intrinsic",
+    "lanes_update_intrinsic",
+    "spec",
+    "update_intrinsic",
+]
+
+IR_VERSION = "1"
+_F64 = None if ir is None else ir.DoubleType()
+_FLAGS = ("contract",)
+
+
+def spec(cf, P: int) -> tuple:
+    """The structure of ``cf`` at order ``P`` as nested tuples of ints (literal in the generated text):
+    ``(d, P, monomials, constant components, qptr, qmon, lptr, lidx)``."""
+    return (
+        int(cf.d),
+        int(P),
+        tuple((int(i), int(j)) for i, j in cf.mons.tolist()),
+        tuple(int(c) for c in range(cf.d) if cf.const[c]),
+        tuple(int(x) for x in cf.qptr.tolist()),
+        tuple(int(x) for x in cf.qmon.tolist()),
+        tuple(int(x) for x in cf.lptr.tolist()),
+        tuple(int(x) for x in cf.lidx.tolist()),
+    )
+
+
+def variable_components(sp) -> list[int]:
+    """The components that are not constant (the ones with coefficients ``k >= 1``), in order."""
+    const = set(sp[3])
+    return [c for c in range(sp[0]) if c not in const]
+
+
+class _Ops:
+    """Floating-point operations on one builder, each with the kernels' ``contract`` flag, on float64
+    or (``lanes > 1``) on vectors of ``lanes`` float64 (one trajectory per lane, element by element:
+    the same operations on each lane)."""
+
+    def __init__(self, builder, lanes: int = 1):
+        self.b = builder
+        self.lanes = lanes
+        self.ty = _F64 if lanes == 1 else ir.VectorType(_F64, lanes)
+        self.zero = self.const(0.0)
+        self._fabs = None
+
+    def const(self, x: float):
+        return ir.Constant(self.ty, x if self.lanes == 1 else [x] * self.lanes)
+
+    def splat(self, x):
+        """A float64 value on every lane."""
+        return x if self.lanes == 1 else self.pack([x] * self.lanes)
+
+    def pack(self, xs):
+        """The lanes' float64 values as one vector."""
+        if self.lanes == 1:
+            return xs[0]
+        v = ir.Constant(self.ty, None)
+        for i, x in enumerate(xs):
+            v = self.b.insert_element(v, x, ir.Constant(ir.IntType(32), i))
+        return v
+
+    def lane(self, v, i: int):
+        return v if self.lanes == 1 else self.b.extract_element(v, ir.Constant(ir.IntType(32), i))
+
+    def mul(self, a, c):
+        return self.b.fmul(a, c, flags=_FLAGS)
+
+    def add(self, a, c):
+        return self.b.fadd(a, c, flags=_FLAGS)
+
+    def sub(self, a, c):
+        return self.b.fsub(a, c, flags=_FLAGS)
+
+    def tree(self, v):
+        """``tree_sum`` of the terms ``v`` (each a function building its value): ``((v0 + v1) + (v2 +
+        v3))``, the first half one larger on an odd count. Each term is built where Python evaluates
+        it in the source's expression, so the IR is in the source's order (x86's instruction
+        scheduling follows that order, and with it the register pressure of a long block)."""
+        if len(v) == 1:
+            return v[0]()
+        half = (len(v) + 1) // 2
+        return self.add(self.tree(v[:half]), self.tree(v[half:]))
+
+    def chain(self, v):
+        """``chain_sum`` of the terms ``v`` (functions, as :meth:`tree`): ``(((v0 + v1) + v2) + v3)``."""
+        acc = v[0]()
+        for t in v[1:]:
+            acc = self.add(acc, t())
+        return acc
+
+    def abs(self, a):
+        if self._fabs is None:
+            name = "llvm.fabs." + ("f64" if self.lanes == 1 else f"v{self.lanes}f64")
+            self._fabs = cgutils.get_or_insert_function(
+                self.b.module, ir.FunctionType(self.ty, [self.ty]), name
+            )
+        return self.b.call(self._fabs, [a])
+
+    def amax(self, vals):
+        """``max(max(abs(v0), abs(v1)), ...)`` as numba lowers it: ``select(v > acc, v, acc)``."""
+        if not vals:
+            return self.zero
+        acc = self.abs(vals[0])
+        for t in vals[1:]:
+            v = self.abs(t)
+            acc = self.b.select(self.b.fcmp_ordered(">", v, acc), v, acc)
+        return acc
+
+
+def _coefficients(ops: _Ops, sp, y0, qv, lv, chain: bool) -> list:
+    """The Taylor coefficients ``k = 1..P`` of the variable components, component ``vi``'s ``k`` at
+    ``vi * P + k - 1`` (the recurrence of :mod:`refimpl._compiled_taylor`'s docstring,
+    unrolled: a square sums half its terms twice, a constant factor keeps its ``k = 0`` term)."""
+    d, P, mons, const, qptr, qmon, lptr, lidx = sp
+    const = set(const)
+    summ = ops.chain if chain else ops.tree
+    y = {(c, 0): y0[c] for c in range(d)}
+
+    def z(c, k):  # a constant component's coefficient k >= 1: zero, its terms dropped
+        return k >= 1 and c in const
+
+    def prod(i, a, j, b):  # the term y_{i,a} y_{j,b}, built when the sum reaches it
+        return lambda: ops.mul(y[i, a], y[j, b])
+
+    def scaled(c, v):
+        return lambda: ops.mul(c, v)
+
+    for k in range(P):
+        m = []
+        for i, j in mons:
+            e = None
+            if i == j:
+                pairs = [(a, k - a) for a in range((k + 1) // 2) if not z(i, a) and not z(i, k - a)]
+                if len(pairs) == 1:  # the source's 2.0*y_a*y_b: (2 y_a) y_b, no rounding in 2 y_a
+                    (a, b), two = pairs[0], ops.const(2.0)
+                    e = ops.mul(ops.mul(two, y[i, a]), y[i, b])
+                elif pairs:
+                    e = ops.mul(ops.const(2.0), summ([prod(i, a, i, b) for a, b in pairs]))
+                if k % 2 == 0 and not z(i, k // 2):
+                    sq = ops.mul(y[i, k // 2], y[i, k // 2])
+                    e = sq if e is None else ops.add(e, sq)
+            else:
+                pairs = [(a, k - a) for a in range(k + 1) if not z(i, a) and not z(j, k - a)]
+                if pairs:
+                    e = summ([prod(i, a, j, b) for a, b in pairs])
+            m.append(ops.zero if e is None else e)
+        inv = ops.const(1.0 / (k + 1))
+        for c in range(d):
+            if c in const:
+                continue
+            terms = [scaled(qv[t], m[qmon[t]]) for t in range(qptr[c], qptr[c + 1])]
+            terms += [
+                scaled(lv[t], y[lidx[t], k])
+                for t in range(lptr[c], lptr[c + 1])
+                if not z(lidx[t], k)
+            ]
+            y[c, k + 1] = ops.mul(summ(terms), inv) if terms else ops.zero
+    return [y[c, k] for c in variable_components(sp) for k in range(1, P + 1)]
+
+
+def _norms(ops: _Ops, sp, y0, C) -> list:
+    """``max|y_0|``, ``max|y_{P-1}|``, ``max|y_P|`` (the step size's inputs) of the state ``y0`` and
+    the coefficients ``C`` of :func:`_coefficients`."""
+    P, nv = sp[1], len(variable_components(sp))
+    return [
+        ops.amax(list(y0)),
+        ops.amax(
+            [C[vi * P + P - 2] if P > 1 else y0[c] for vi, c in enumerate(variable_components(sp))]
+        ),
+        ops.amax([C[vi * P + P - 1] for vi in range(nv)]),
+    ]
+
+
+def _update_one(ops: _Ops, y, e, coef, P: int, hs):
+    """One component's ``y + sum_{k>=1} Y_k hs^k``: the increment by Horner's rule, added with
+    Kahan's compensated summation (carry ``e``). ``coef(k)`` builds ``Y_k`` (``k = 1..P``), ``y()`` and
+    ``e()`` the state and the carry, each where the source's expression reads it (the IR in the
+    source's order: see :meth:`_Ops.tree`). Returns ``(y, e)`` new."""
+    inc = coef(P)
+    for k in range(P - 1, 0, -1):
+        inc = ops.add(ops.mul(inc, hs), coef(k))
+    zz = ops.sub(ops.mul(inc, hs), e())
+    y0 = y()
+    w = ops.add(y0, zz)
+    return w, ops.sub(ops.sub(w, y0), zz)
+
+
+def _update(ops: _Ops, sp, y0, e0, C, hs):
+    """:func:`_update_one` on every variable component (coefficients ``C`` as
+    :func:`_coefficients` lays them out). Returns the new state and carries."""
+    P = sp[1]
+    y, e = list(y0), list(e0)
+    for vi, c in enumerate(variable_components(sp)):
+        y[c], e[vi] = _update_one(
+            ops,
+            lambda c=c: y[c],
+            lambda vi=vi: e[vi],
+            lambda k, vi=vi: C[vi * P + k - 1],
+            P,
+            hs,
+        )
+    return y, e
+
+
+def _unpack(builder, tup, n):
+    return [builder.extract_value(tup, i) for i in range(n)]
+
+
+def _check_floats(name, *tys):
+    for ty in tys:
+        if not isinstance(ty, types.BaseTuple) or any(t != types.float64 for t in ty.types):
+            raise TypeError(f"{name}: expects tuples of float64, got {ty}")
+
+
+def coefficients_intrinsic(sp):
+    """The intrinsic ``C = coefficients(Y, Q, L)``: ``Y`` the state (``d`` floats), ``Q`` and ``L`` the
+    field's quadratic and linear numbers (``cf.qcoef``, ``cf.lcoef`` as tuples); ``C`` the
+    ``nv * P + 3`` floats of :func:`_coefficients` (component ``vi``'s coefficient ``k`` at
+    ``vi * P + k - 1``), sums as balanced trees."""
+    d, P = sp[0], sp[1]
+    nq, nl = len(sp[5]), len(sp[7])
+    nout = len(variable_components(sp)) * P + 3
+
+    @intrinsic
+    def coefficients(typingctx, Y, Q, L):
+        _check_floats("coefficients", Y, Q, L)
+        ret = types.UniTuple(types.float64, nout)
+
+        def codegen(context, builder, sig, args):
+            y, q, l = args
+            ops, y0 = _Ops(builder), _unpack(builder, y, d)
+            C = _coefficients(ops, sp, y0, _unpack(builder, q, nq), _unpack(builder, l, nl), False)
+            return context.make_tuple(builder, ret, C + _norms(ops, sp, y0, C))
+
+        return ret(Y, Q, L), codegen
+
+    return coefficients
+
+
+def update_intrinsic(sp):
+    """The intrinsic ``Y, E = update(Y, E, C, hs)`` (:func:`_update`): the state after a step ``hs``
+    from the coefficients ``C`` of :func:`coefficients_intrinsic`, and the new Kahan carries ``E``
+    (one per variable component)."""
+    d, P = sp[0], sp[1]
+    nv = len(variable_components(sp))
+    nc = nv * P + 3
+
+    @intrinsic
+    def update(typingctx, Y, E, C, hs):
+        _check_floats("update", Y, E, C)
+        ty, te = types.UniTuple(types.float64, d), types.UniTuple(types.float64, nv)
+        ret = types.Tuple((ty, te))
+
+        def codegen(context, builder, sig, args):
+            y, e, c, h = args
+            h = context.cast(builder, h, sig.args[3], types.float64)
+            yn, en = _update(
+                _Ops(builder),
+                sp,
+                _unpack(builder, y, d),
+                _unpack(builder, e, nv),
+                _unpack(builder, c, nc),
+                h,
+            )
+            return context.make_tuple(
+                builder,
+                ret,
+                [context.make_tuple(builder, ty, yn), context.make_tuple(builder, te, en)],
+            )
+
+        return ret(Y, E, C, types.float64), codegen
+
+    return update
+
+
+def lanes_coefficients_intrinsic(sp, W: int):
+    """The intrinsic ``C = coefficients(Y, Q, L)`` of :func:`coefficients_intrinsic` on ``W``
+    trajectories at once, one per lane of a vector (the pair kernel: the checking run and the answer
+    side by side). ``Y``: ``W d`` floats, trajectory ``i``'s state at ``Y[i d:(i + 1) d]``; ``C``:
+    trajectory ``i``'s coefficients at ``i nv P + vi P + k - 1``, then the three norms of each
+    trajectory in turn (from ``W nv P``). Each lane's values are the scalar intrinsic's: the same
+    operations in the same order, element by element."""
+    d, P = sp[0], sp[1]
+    nq, nl = len(sp[5]), len(sp[7])
+    n1 = len(variable_components(sp)) * P
+
+    @intrinsic
+    def coefficients(typingctx, Y, Q, L):
+        _check_floats("coefficients", Y, Q, L)
+        ret = types.UniTuple(types.float64, W * (n1 + 3))
+
+        def codegen(context, builder, sig, args):
+            ops = _Ops(builder, W)
+            ys = _unpack(builder, args[0], W * d)
+            y0 = [ops.pack([ys[i * d + c] for i in range(W)]) for c in range(d)]
+            qv = [ops.splat(v) for v in _unpack(builder, args[1], nq)]
+            lv = [ops.splat(v) for v in _unpack(builder, args[2], nl)]
+            C = _coefficients(ops, sp, y0, qv, lv, False)
+            norms = _norms(ops, sp, y0, C)
+            out = [ops.lane(v, i) for i in range(W) for v in C]
+            out += [ops.lane(v, i) for i in range(W) for v in norms]
+            return context.make_tuple(builder, ret, out)
+
+        return ret(Y, Q, L), codegen
+
+    return coefficients
+
+
+def lanes_update_intrinsic(sp, W: int):
+    """The intrinsic ``Y, E = update(Y, E, C, H)`` of :func:`update_intrinsic` on ``W`` lanes (the
+    layout of :func:`lanes_coefficients_intrinsic`; ``E``: trajectory ``i``'s carries at
+    ``i nv .. (i + 1) nv``; ``H``: the ``W`` steps). A lane whose step is 0 keeps its state and
+    carries (a trajectory already at its end, or failed, while another lane goes on)."""
+    d, P = sp[0], sp[1]
+    var = variable_components(sp)
+    nv = len(var)
+    n1 = nv * P
+
+    @intrinsic
+    def update(typingctx, Y, E, C, H):
+        _check_floats("update", Y, E, C, H)
+        ty, te = types.UniTuple(types.float64, W * d), types.UniTuple(types.float64, W * nv)
+        ret = types.Tuple((ty, te))
+
+        def codegen(context, builder, sig, args):
+            ops = _Ops(builder, W)
+            ys = _unpack(builder, args[0], W * d)
+            es = _unpack(builder, args[1], W * nv)
+            cs = _unpack(builder, args[2], W * (n1 + 3))
+            h = ops.pack(_unpack(builder, args[3], W))
+            idle = builder.fcmp_ordered("==", h, ops.zero)
+            y0 = [ops.pack([ys[i * d + c] for i in range(W)]) for c in range(d)]
+            e0 = [ops.pack([es[i * nv + vi] for i in range(W)]) for vi in range(nv)]
+            C = [ops.pack([cs[i * n1 + r] for i in range(W)]) for r in range(n1)]
+            yn, en = _update(ops, sp, y0, e0, C, h)
+            yn = [builder.select(idle, a, b) for a, b in zip(y0, yn)]
+            en = [builder.select(idle, a, b) for a, b in zip(e0, en)]
+            return context.make_tuple(
+                builder,
+                ret,
+                [
+                    context.make_tuple(builder, ty, [ops.lane(v, i) for i in range(W) for v in yn]),
+                    context.make_tuple(builder, te, [ops.lane(v, i) for i in range(W) for v in en]),
+                ],
+            )
+
+        return ret(Y, E, C, H), codegen
+
+    return update
+
+
+def _lane_ptr(context, builder, aryty, ary, wty, w, W: int):
+    """``row -> &B[row * W + w]`` for the flat float64 array ``B`` (no bounds check: the batch kernel
+    allocates ``B`` with every row)."""
+    data = context.make_array(aryty)(context, builder, ary).data
+    w = context.cast(builder, w, wty, types.intp)
+
+    def ptr(row):
+        return builder.gep(data, [builder.add(ir.Constant(w.type, row * W), w)], inbounds=True)
+
+    return ptr
+
+
+def _check_lanes(name, B):
+    if not (isinstance(B, types.Array) and B.ndim == 1 and B.dtype == types.float64):
+        raise TypeError(f"{name}: expects a 1-d float64 array, got {B}")
+
+
+def lane_update_intrinsic(sp, W: int, RY: int, RE: int, RC: int):
+    """The intrinsic ``lane_update(B, w, hs)``: :func:`_update` on lane ``w`` of the batch kernel's rows
+    (state ``B[(RY + c) W + w]``, carries ``B[(RE + c) W + w]``, coefficients from row ``RC`` in the
+    order of :func:`coefficients_intrinsic`), each component loaded, updated and stored in turn (all
+    loaded first, the lanes' code spilled more: 8 % slower on the heavy top)."""
+    P = sp[1]
+    var = variable_components(sp)
+
+    @intrinsic
+    def lane_update(typingctx, B, w, hs):
+        _check_lanes("lane_update", B)
+
+        def codegen(context, builder, sig, args):
+            ops = _Ops(builder)
+            at = _lane_ptr(context, builder, sig.args[0], args[0], sig.args[1], args[1], W)
+            h = context.cast(builder, args[2], sig.args[2], types.float64)
+            for vi, c in enumerate(var):
+                y, e = _update_one(
+                    ops,
+                    lambda c=c: builder.load(at(RY + c)),
+                    lambda c=c: builder.load(at(RE + c)),
+                    lambda k, vi=vi: builder.load(at(RC + vi * P + k - 1)),
+                    P,
+                    h,
+                )
+                builder.store(e, at(RE + c))
+                builder.store(y, at(RY + c))
+            return context.get_dummy_value()
+
+        return types.none(B, w, types.float64), codegen
+
+    return lane_update
+
+
+def lane_coefficients_intrinsic(sp, W: int, RY: int, RC: int):
+    """The intrinsic ``lane_coefficients(B, w, Q, L)``: :func:`_coefficients` (chain sums) on lane ``w``
+    of the batch kernel's rows, the state read from ``B[(RY + c) W + w]``, the coefficients written
+    from row ``RC`` in the order of :func:`coefficients_intrinsic`, then the three norms after them
+    (computed after the coefficients are stored: computed before, with every coefficient still
+    live, the lanes' code spilled more, 6-9 % slower on the heavy top's batch)."""
+    d = sp[0]
+    nq, nl = len(sp[5]), len(sp[7])
+
+    @intrinsic
+    def lane_coefficients(typingctx, B, w, Q, L):
+        _check_lanes("lane_coefficients", B)
+        _check_floats("lane_coefficients", Q, L)
+
+        def codegen(context, builder, sig, args):
+            ops = _Ops(builder)
+            at = _lane_ptr(context, builder, sig.args[0], args[0], sig.args[1], args[1], W)
+            y0 = [builder.load(at(RY + c)) for c in range(d)]
+            C = _coefficients(
+                ops, sp, y0, _unpack(builder, args[2], nq), _unpack(builder, args[3], nl), True
+            )
+            for r, v in enumerate(C):
+                builder.store(v, at(RC + r))
+            for r, v in enumerate(_norms(ops, sp, y0, C)):
+                builder.store(v, at(RC + len(C) + r))
+            return context.get_dummy_value()
+
+        return types.none(B, w, Q, L), codegen
+
+    return lane_coefficients
