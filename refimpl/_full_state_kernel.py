@@ -236,7 +236,7 @@ def expm(X, E):
                 E[i, j] = W[i, j]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def expm_frechet(X, Es, E, L):
     """``E = exp(X)`` and ``L[c] = L(X, Es[c])``, the Frechet derivatives of ``exp`` at ``X`` in the
     directions ``Es[c]`` (m, r, r): the blocks of ``exp([[X, Es[c]], [0, X]]) = [[E, L[c]], [0, E]]``
