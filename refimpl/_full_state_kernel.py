@@ -831,7 +831,9 @@ def abelian_batch(G, xs, s, P, Ppinv, D, Dr, mats, rtol):
 # Inlining is not free: numba deep-copies the callee's IR at every inlined site, so a helper called
 # at two sites of one caller (unpack_G in estimate) or a large one (refine_abelian: pair_log_refined
 # 8.3 -> 10.3 s inlined) stays a compiled function of its own; a helper compiled once for several
-# callers (expm, ad_batch, logm, _inverse_det, _matmul) costs its own compile once per installation.
+# callers (expm, ad_batch, logm, _inverse_det, _matmul) costs its own compile once per installation;
+# expm_frechet, called at one compiled site (the refine), is inlined there (Bianchi VI0 pair_log_refined
+# 7.4-7.7 -> 7.2-7.4 s), _project at two sites is not (se(3) pair_log 3.5 -> 3.85 s inlined).
 # The starting state and the logarithm of the full state as one compiled call each (the numpy glue
 # they replace cost ~10 us of call overhead apiece on one trajectory; the same formulas as
 # refimpl._full_state._pack and ._log_complete, which stay the documentation).
