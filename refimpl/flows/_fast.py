@@ -4,7 +4,9 @@
 :class:`refimpl.model.Model`, cached on the bytes of its inputs; the points), chooses a method
 (:func:`refimpl.flows.registry.choose`, or the one named) and integrates: an adaptive method at
 ``tol`` directly, a fixed-step one under :class:`refimpl.flows.step_doubling.StepDoubling` (or at the
-given ``steps``). State layout inside is components-first: ``(d, N)`` for ``N`` trajectories.
+given ``steps``). State layout inside is components-first: ``(d, N)`` for ``N`` trajectories. One
+trajectory given as 1-D float64 points with the default method (the protocol call) takes
+:func:`_flow_one`: the same checks and the same compiled flow, without the batch bookkeeping.
 :func:`integrate_fast` is the older entry point ``(model, method, x0, pi0, t, nsteps)``, the same
 ``integrate`` call.
 """
