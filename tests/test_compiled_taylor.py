@@ -683,3 +683,19 @@ def test_protocol_one_trajectory_route_equals_the_general_route(I, pot, ups, T):
     for xo, po in ((xb[0], pb[0]), (xm, pm)):
         np.testing.assert_array_equal(xo, x)
         np.testing.assert_array_equal(po, pi)
+
+
+def test_model_cache_keys_on_the_potential_values():
+    """The potential's arrays are part of the cache key: the same dict with ``L`` refilled in place
+    gives the flow of a freshly validated model (list input: the uncached route), not the first one."""
+    pot = {"kind": "gravity", "L": np.array([0.1, -0.2, 1.0]), "gamma": np.array([0.0, 0.0, -1.0])}
+    I = np.diag([1.0, 1.3, 0.5])
+    x0, pi0 = np.array([0.3, -0.2, 0.5]), np.array([0.4, -0.3, 1.2])
+    first = fast_flow(SU2.f, Z, Z, I, pot, x0, pi0, 3.0, tol=1e-9)
+    pot["L"][2] = 2.0
+    second = fast_flow(SU2.f, Z, Z, I, pot, x0, pi0, 3.0, tol=1e-9)
+    fresh = fast_flow(
+        SU2.f, Z, Z, I, {**pot, "L": pot["L"].tolist()}, x0.tolist(), pi0.tolist(), 3.0, tol=1e-9
+    )
+    assert not np.array_equal(first[1], second[1])
+    assert np.array_equal(second[0], fresh[0]) and np.array_equal(second[1], fresh[1])
