@@ -480,12 +480,16 @@ def test_checking_run_at_a_loose_full_keeps_the_proportional_estimate_a_bound(I,
     ],
     ids=["passes", "goes on", "free"],
 )
-def test_one_trajectory_path_equals_the_general_control(I, pot, T, tol):
-    """The protocol's one-trajectory call (refimpl._flow_compiled._first_pair: the kernel called
+def test_one_trajectory_path_equals_the_general_control(I, pot, T, tol, monkeypatch):
+    """The protocol's one-trajectory call (refimpl._flow_compiled._first_pair: the pair kernel called
     directly, estimate and logarithm in one compiled call) returns bit for bit what the general
-    two-run control returns for the same trajectory inside a batch of two (the same runs, row by row):
+    two-run control returns for the same trajectory inside a batch of two (the same runs, row by row,
+    with ``A`` at the one-trajectory path's tolerance A_LOOSE_PAIR, set for the batch here):
     ``pi``, ``Gamma``, ``quat``, ``x``, ``steps``, ``error_estimate``."""
+    from tstarg.refimpl import _flow_compiled as fc
     from tstarg.refimpl._flow_compiled import compiled_taylor_flow
+
+    monkeypatch.setattr(fc, "A_LOOSE_FULL", fc.A_LOOSE_PAIR)
 
     model = NumpyModel(SU2.f, Z, Z, np.diag(I), pot)
     x0, pi0 = np.array([0.1, 0.2, 0.0]), np.array([0.3, 0.2, 2.0])
