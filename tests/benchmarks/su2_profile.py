@@ -67,7 +67,7 @@ def profile(name: str, repeats: int, T: float = 100.0) -> dict:
     cf = m.compiled_full_field
     y0 = np.empty((1, 10))
     FC._start(p.x0[:, None].copy(), p.pi0[:, None].copy(), m.gamma, True, y0)
-    eps_a, eps_b = FC.local_tolerances(FAST.flow_tolerance, FC.A_LOOSE_PAIR)
+    eps_a, eps_b = FC.local_tolerances(FAST.flow_tolerance, FC.A_LOOSE_FULL)
     P = FC._order_b(cf, eps_b)
     kern = CT.unrolled_adaptive(cf, P)
     pair = CT.unrolled_pair(cf, P)
