@@ -28,9 +28,9 @@ Error control (per trajectory, never shared)
     ``B`` is returned when the estimate is at most ``tol`` on that trajectory. The quadratic su(2) full
     state (:func:`compiled_taylor_flow`) starts ``A`` at :data:`A_LOOSE_FULL` (one trajectory: ``A``
     and ``B`` in one pass of the pair kernel) and, on a trajectory over ``tol`` whose ``A`` is looser
-    than :data:`A_LOOSE`, first runs ``A`` alone again at :data:`A_LOOSE` (``B`` kept). A trajectory still over it is
-    run again with ``eps_A`` lowered by the observed excess (times 10), until it passes or ``eps_A``
-    reaches :data:`EPS_FLOOR` (then ``ValueError`` names it); when the ``B`` it holds is within
+    than :data:`A_LOOSE`, first runs ``A`` alone again at :data:`A_LOOSE` (``B`` kept). A trajectory
+    still over it is run again with ``eps_A`` lowered by the observed excess (times 10), until it passes
+    or ``eps_A`` reaches :data:`EPS_FLOOR` (then ``ValueError`` names it); when the ``B`` it holds is within
     :data:`REUSE_B` of that new ``eps_A``, that ``B`` becomes the new ``A`` and only a new ``B`` (at
     ``SAFETY`` times its tolerance) is run -- the pair still has ``r <= SAFETY``, all the estimate
     asks of it. The full state of every other algebra (:mod:`refimpl._full_state`) runs this same
@@ -99,7 +99,7 @@ coverage ``q`` of the estimate at 1e-8 (below; ``PROP = 30`` must exceed it): at
 seed 11's ten random models with the heavy, Lagrange and asymmetric tops
 (``tests/benchmarks/su2_estimate_constants.py 11 10 1e-6,1e-8``).
 
-At 1e-6 (the value before):``A``'s local tolerance for ``tol >= A_LOOSE_FROM`` on the su(2) quaternion full state with
+At 1e-6 (the value before): ``A``'s local tolerance for ``tol >= A_LOOSE_FROM`` on the su(2) quaternion full state with
 ``Upsilon = 0`` (:func:`compiled_taylor_flow`; the rational path and the sampled flows keep
 :data:`A_LOOSE`). ``A`` runs at ``B``'s order (:func:`_run_cf`), so at 1e-6 it takes 28 % fewer steps
 than at 1e-8 (heavy top, T = 100: 205 against 285 steps, 98 against 135 us at load 1.5). Measured (the kernel at ``B``'s order, error of ``(pi, Ad(g))`` against heyoka in long
