@@ -485,8 +485,7 @@ def _first_pair(model, y0, t, eps_a, eps_b, n, tol):
     est, x = np.empty(1), np.empty((n, 1))
     _finish(A, B, n, est, x)
     e = float(est[0])
-    if eps_a >= PROP_MIN_A and eps_b >= PROP_MIN_B and e <= PROP_MAX_D:  # as _control's first pair
-        e = min(e, PROP * (eps_b / eps_a) * e)
+    e = first_estimate(e, eps_a, eps_b, PROP_MIN_B, PROP_MAX_D)  # as _control's first pair
     if e <= tol:
         est[0] = e
         return B, sB, x, est
@@ -511,11 +510,20 @@ def first_estimate(d: float, eps_a: float, eps_b: float, prop_min_b: float, prop
     """The estimate of a pair of one trajectory from ``d = |A - B|``, before any floor: its
     proportional form ``PROP (eps_B / eps_A) d`` where :func:`_control` takes it (``A`` at
     :data:`PROP_MIN_A` or looser, ``B`` at ``prop_min_b`` or looser, ``d <= prop_max_d``; None: no
-    limit), else ``d``. The one rule of :func:`_control`'s first pair, shared with the callers that run
-    that pair themselves (:func:`refimpl._full_state.flow_one`)."""
+    limit), else ``d``. The one rule of the two-run estimate: :func:`prop_estimates` is the same on
+    arrays; the callers that run the first pair themselves (:func:`_first_pair`,
+    :func:`refimpl._full_state.flow_one`) and :func:`_control`'s first pair take this form."""
     if eps_a >= PROP_MIN_A and eps_b >= prop_min_b and (prop_max_d is None or d <= prop_max_d):
         return min(d, PROP * (eps_b / eps_a) * d)
     return d
+
+
+def prop_estimates(d, eps_a, eps_b, prop_min_b: float, prop_max_d):
+    """:func:`first_estimate` on arrays (``d``, and ``eps_a``, ``eps_b`` per row or scalars)."""
+    prop = (eps_a >= PROP_MIN_A) & (eps_b >= prop_min_b)
+    if prop_max_d is not None:  # a saturated |A - B| is no proportional estimate
+        prop = prop & (d <= prop_max_d)
+    return np.where(prop, np.minimum(d, PROP * (eps_b / eps_a) * d), d)
 
 
 def _control(
@@ -632,14 +640,10 @@ def _control(
         # gives the smaller estimate -- only while both runs stay clear of the rounding floor, where the
         # global error stops scaling with eps (A at 1e-12 or looser, B at 1e-14 or looser: the estimate
         # 30 kappa eps_B then exceeds the floor, about kappa 1e-14 on the heavy and the asymmetric top)
-        ea, eb = eps_a[todo], eps_b[todo]
-        prop = (ea >= PROP_MIN_A) & (eb >= prop_min_b)
-        if prop_max_d is not None:  # a saturated |A - B| is no proportional estimate
-            prop &= di <= prop_max_d
         kap[todo] = np.maximum(kap[todo], di / eps_a[todo])
         if floor is not None:
             fl[todo] = floor(Bt, steps[todo], kap[todo], todo)
-        est[todo] = np.where(prop, np.minimum(di, PROP * (eb / ea) * di), di) + fl[todo]
+        est[todo] = prop_estimates(di, eps_a[todo], eps_b[todo], prop_min_b, prop_max_d) + fl[todo]
         over = todo[est[todo] > tol]
         if over.size == 0:
             break
@@ -747,10 +751,7 @@ def compiled_taylor_samples(
             Ys[k][:, todo] = B.T
             if progress is not None:
                 progress(k, len(times) - 1)
-        prop = eps_a >= PROP_MIN_A and eps_b >= PROP_MIN_B
-        est[todo] = (
-            np.where(d <= PROP_MAX_D, np.minimum(d, PROP * (eps_b / eps_a) * d), d) if prop else d
-        )
+        est[todo] = prop_estimates(d, eps_a, eps_b, PROP_MIN_B, PROP_MAX_D)
         over = todo[est[todo] > tol]
         if over.size == 0:
             break
