@@ -336,7 +336,7 @@ def compile_count() -> dict:
     mods = loaded_modules("taylor_")
     out = {"compiled": 0, "loaded": 0, "structures": len(mods)}
     for mod in mods:
-        for name in ("coefficients", "horner", "fixed", "adaptive", "adaptive_batch"):
+        for name in ("coefficients", "horner", "fixed", "adaptive", "adaptive_batch", "pair"):
             disp = getattr(mod, name, None)
             if disp is None:
                 continue

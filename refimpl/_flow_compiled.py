@@ -26,10 +26,11 @@ Error control (per trajectory, never shared)
     estimate ``PROP (eps_B / eps_A) d`` with the safety factor ``PROP = 30`` (the ratio global error /
     ``eps`` varies by a factor 2-4 over ``eps`` = 1e-8 ... 1e-13 on the heavy and the asymmetric top).
     ``B`` is returned when the estimate is at most ``tol`` on that trajectory. The quadratic su(2) full
-    state (:func:`compiled_taylor_flow`) starts ``A`` at :data:`A_LOOSE_FULL` and, on a trajectory over
-    ``tol``, first runs ``A`` alone again at :data:`A_LOOSE` (``B`` kept). A trajectory still over it is
-    run again with ``eps_A`` lowered by the observed excess (times 10), until it passes or ``eps_A``
-    reaches :data:`EPS_FLOOR` (then ``ValueError`` names it); when the ``B`` it holds is within
+    state (:func:`compiled_taylor_flow`) starts ``A`` at :data:`A_LOOSE_FULL` (one trajectory: ``A``
+    and ``B`` in one pass of the pair kernel) and, on a trajectory over ``tol`` whose ``A`` is looser
+    than :data:`A_LOOSE`, first runs ``A`` alone again at :data:`A_LOOSE` (``B`` kept). A trajectory
+    still over it is run again with ``eps_A`` lowered by the observed excess (times 10), until it passes
+    or ``eps_A`` reaches :data:`EPS_FLOOR` (then ``ValueError`` names it); when the ``B`` it holds is within
     :data:`REUSE_B` of that new ``eps_A``, that ``B`` becomes the new ``A`` and only a new ``B`` (at
     ``SAFETY`` times its tolerance) is run -- the pair still has ``r <= SAFETY``, all the estimate
     asks of it. The full state of every other algebra (:mod:`refimpl._full_state`) runs this same
@@ -80,8 +81,25 @@ A_LOOSE = (
 )
 # (order 11; looser tolerances lower the order and take more steps)
 A_LOOSE_FROM = 1e-10  # from here on 30 kappa 1e-13 <= tol for amplifications kappa = err/eps <= 30
-A_LOOSE_FULL = 1e-6
+A_LOOSE_FULL = 1e-8
 """``A``'s local tolerance for ``tol >= A_LOOSE_FROM`` on the su(2) quaternion full state with
+``Upsilon = 0`` (:func:`compiled_taylor_flow`), now :data:`A_LOOSE` (issue 25, session 6; it was 1e-6,
+measured below). One trajectory runs ``A`` and ``B`` on the two lanes of one vector (the pair kernel,
+:func:`_first_pair`), where ``A`` costs nothing while it takes fewer steps than ``B``: its tolerance is
+chosen for the estimate, and at 1e-8 the first pair fails far less often (2000 starts around each
+problem, reports._bench_protocol.batch_initial, T = 100: the fraction whose first pair's estimate is
+over the default ``tol = 1e-10``, A at 1e-6 / 1e-7 / 1e-8, B at Jorba-Zou's order 16 where
+:data:`FAST_UNROLL_TERMS` allows): the heavy top 26 / 14 / 0 % (A 284 against B 646 steps), the heavy
+top with the inertia [[1, 0.1, 0], [0.1, 1.3, -0.05], [0, -0.05, 0.6]] 88 / 75 / 20 % (order 13: 367
+against 958 steps), the Lagrange top 0 / 0 / 0 %. A batch (the lane kernel, where ``A`` costs its own
+steps), 2000 of those starts, us per trajectory with ``A`` at 1e-6 / 1e-8 (B's order as now, load 2.7):
+heavy top 212.5 / 148.2, the off-diagonal inertia 286.1 / 183.8, Lagrange top 74.5 / 81.6. At 1e-8 the
+A-alone retry (``a_retry``) never applies (it asks for an ``A`` looser than :data:`A_LOOSE`). The
+coverage ``q`` of the estimate at 1e-8 (below; ``PROP = 30`` must exceed it): at most 2.2, and 2.02 on
+seed 11's ten random models with the heavy, Lagrange and asymmetric tops
+(``tests/benchmarks/su2_estimate_constants.py 11 10 1e-6,1e-8``).
+
+At 1e-6 (the value before): ``A``'s local tolerance for ``tol >= A_LOOSE_FROM`` on the su(2) quaternion full state with
 ``Upsilon = 0`` (:func:`compiled_taylor_flow`; the rational path and the sampled flows keep
 :data:`A_LOOSE`). ``A`` runs at ``B``'s order (:func:`_run_cf`), so at 1e-6 it takes 28 % fewer steps
 than at 1e-8 (heavy top, T = 100: 205 against 285 steps, 98 against 135 us at load 1.5). Measured (the kernel at ``B``'s order, error of ``(pi, Ad(g))`` against heyoka in long
@@ -129,19 +147,24 @@ tops sit at 1e-5 (heavy top, ``kappa`` 16 at 1e-6) and below."""
 REUSE_B = 10.0  # a held B within this factor of A's next tolerance becomes that A (see _control)
 FIRST = 1e-2  # A's first local tolerance relative to the global one (global/local error ~ 5-20
 # over 10^2-10^3 steps, so one pair of runs usually suffices)
-FAST_UNROLL_TERMS = 2800
-"""B's order is capped where the unrolled kernel has at most this many Cauchy-product terms (monomials
-times ``P (P + 1) / 2``): the heavy top (21 monomials) at 15, the Lagrange top (20) at Jorba-Zou's 16.
-First measured as order 17-18 costing 40 % more per step than 16; re-measured (issue 25, T = 100,
-kernel alone, B at 1e-13, load 2.2): heavy top orders 14-18 take 768/646/556/486/433 steps at
-0.42/0.46/0.51/0.56/0.62 us per step (321/298/285/273/267 us: the cliff is gone, a higher order is
-4-10 % faster at the same ``eps``), but their errors against heyoka in long double are 0.9/1.3/1.4/
-1.5/2.6e-13 and, on the Lagrange top, orders 16/17/18 give 1.6e-13/1.3e-12/1.9e-12 (the last two
-terms bound the remainder less well at the longer steps of a higher order: the global error at fixed
-``eps`` rises with the order), so per unit of accuracy there is no gain. (Each order more also
-lengthened the kernel's cold compilation, 8.3 s CPU at order 15 for the heavy top's first call while
-numba's front end typed the unrolled Python; written as LLVM IR, :mod:`refimpl.codegen._taylor_ir`,
-the kernel compiles in 0.7 s.) Kept."""
+FAST_UNROLL_TERMS = 3700
+"""B's order (Jorba-Zou's for its tolerance, 16 at 1e-13) is lowered while the unrolled kernel would
+have more than this many Cauchy-product terms (monomials times ``P (P + 1) / 2``): below it every su(2)
+full state runs Jorba-Zou's 16 at 1e-13 -- the heavy top with a diagonal inertia (21 monomials), the
+Lagrange top (20), any inertia (27). Past about 4000 terms the kernel falls off a cliff (27 monomials
+at order 17, 4131 terms: the pair kernel 681 against 386 us at 16, load 1.8). Measured (issue 25, T =
+100, the pair kernel alone, B at 1e-13 and A at 1e-6, one interleaved run, load 1.8; errors of B
+against heyoka in long double): the inertia [[1, 0.1, 0], [0.1, 1.3, -0.05], [0, -0.05, 0.6]] with
+L = (0.2, 0.1, 1): orders 13/14/15/16 470/431/399/386 us, errors 1.3e-12/6.9e-13/4.3e-13/4.2e-13 (the
+old cap, 2800 terms, held it at 13); the heavy top diag(1, 1.3, 0.6) 15/16/17/18 321/298/289/284 us,
+errors 1.1/1.4/0.25/5.1e-13 (earlier 1.3/1.4/1.5/2.6e-13; the Lagrange top 16/17/18 gave 1.6e-13/
+1.3e-12/1.9e-12: past Jorba-Zou's order the error at fixed ``eps`` may rise, the last two terms
+bounding the remainder less well at longer steps, so the order is not raised past it). One protocol
+call, mean over 300 starts around each (retries included, A at 1e-8, load 2.7), cap 2800 against
+3700: heavy top 310.4 / 303.0 us (15 / 16), the off-diagonal inertia 598.0 / 404.8 (13 / 16),
+Lagrange top 163.2 / 162.2 (16 / 16); batches: :data:`A_LOOSE_FULL`. Written as LLVM IR
+(:mod:`refimpl.codegen._taylor_ir`) the kernels compile in about 1 s (single, pair) and 3-5 s (lane) at
+these sizes; typed by numba's front end, order 15 took 8.3 s, which had set the old cap."""
 
 
 def supports_full(model) -> bool:
@@ -462,8 +485,7 @@ def _first_pair(model, y0, t, eps_a, eps_b, n, tol):
     est, x = np.empty(1), np.empty((n, 1))
     _finish(A, B, n, est, x)
     e = float(est[0])
-    if eps_a >= PROP_MIN_A and eps_b >= PROP_MIN_B and e <= PROP_MAX_D:  # as _control's first pair
-        e = min(e, PROP * (eps_b / eps_a) * e)
+    e = first_estimate(e, eps_a, eps_b, PROP_MIN_B, PROP_MAX_D)  # as _control's first pair
     if e <= tol:
         est[0] = e
         return B, sB, x, est
@@ -488,11 +510,20 @@ def first_estimate(d: float, eps_a: float, eps_b: float, prop_min_b: float, prop
     """The estimate of a pair of one trajectory from ``d = |A - B|``, before any floor: its
     proportional form ``PROP (eps_B / eps_A) d`` where :func:`_control` takes it (``A`` at
     :data:`PROP_MIN_A` or looser, ``B`` at ``prop_min_b`` or looser, ``d <= prop_max_d``; None: no
-    limit), else ``d``. The one rule of :func:`_control`'s first pair, shared with the callers that run
-    that pair themselves (:func:`refimpl._full_state.flow_one`)."""
+    limit), else ``d``. The one rule of the two-run estimate: :func:`prop_estimates` is the same on
+    arrays; the callers that run the first pair themselves (:func:`_first_pair`,
+    :func:`refimpl._full_state.flow_one`) and :func:`_control`'s first pair take this form."""
     if eps_a >= PROP_MIN_A and eps_b >= prop_min_b and (prop_max_d is None or d <= prop_max_d):
         return min(d, PROP * (eps_b / eps_a) * d)
     return d
+
+
+def prop_estimates(d, eps_a, eps_b, prop_min_b: float, prop_max_d):
+    """:func:`first_estimate` on arrays (``d``, and ``eps_a``, ``eps_b`` per row or scalars)."""
+    prop = (eps_a >= PROP_MIN_A) & (eps_b >= prop_min_b)
+    if prop_max_d is not None:  # a saturated |A - B| is no proportional estimate
+        prop = prop & (d <= prop_max_d)
+    return np.where(prop, np.minimum(d, PROP * (eps_b / eps_a) * d), d)
 
 
 def _control(
@@ -609,14 +640,10 @@ def _control(
         # gives the smaller estimate -- only while both runs stay clear of the rounding floor, where the
         # global error stops scaling with eps (A at 1e-12 or looser, B at 1e-14 or looser: the estimate
         # 30 kappa eps_B then exceeds the floor, about kappa 1e-14 on the heavy and the asymmetric top)
-        ea, eb = eps_a[todo], eps_b[todo]
-        prop = (ea >= PROP_MIN_A) & (eb >= prop_min_b)
-        if prop_max_d is not None:  # a saturated |A - B| is no proportional estimate
-            prop &= di <= prop_max_d
         kap[todo] = np.maximum(kap[todo], di / eps_a[todo])
         if floor is not None:
             fl[todo] = floor(Bt, steps[todo], kap[todo], todo)
-        est[todo] = np.where(prop, np.minimum(di, PROP * (eb / ea) * di), di) + fl[todo]
+        est[todo] = prop_estimates(di, eps_a[todo], eps_b[todo], prop_min_b, prop_max_d) + fl[todo]
         over = todo[est[todo] > tol]
         if over.size == 0:
             break
@@ -724,10 +751,7 @@ def compiled_taylor_samples(
             Ys[k][:, todo] = B.T
             if progress is not None:
                 progress(k, len(times) - 1)
-        prop = eps_a >= PROP_MIN_A and eps_b >= PROP_MIN_B
-        est[todo] = (
-            np.where(d <= PROP_MAX_D, np.minimum(d, PROP * (eps_b / eps_a) * d), d) if prop else d
-        )
+        est[todo] = prop_estimates(d, eps_a, eps_b, PROP_MIN_B, PROP_MAX_D)
         over = todo[est[todo] > tol]
         if over.size == 0:
             break

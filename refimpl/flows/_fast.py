@@ -4,7 +4,9 @@
 :class:`refimpl.model.Model`, cached on the bytes of its inputs; the points), chooses a method
 (:func:`refimpl.flows.registry.choose`, or the one named) and integrates: an adaptive method at
 ``tol`` directly, a fixed-step one under :class:`refimpl.flows.step_doubling.StepDoubling` (or at the
-given ``steps``). State layout inside is components-first: ``(d, N)`` for ``N`` trajectories.
+given ``steps``). State layout inside is components-first: ``(d, N)`` for ``N`` trajectories. One
+trajectory given as 1-D float64 points with the default method (the protocol call) takes
+:func:`_flow_one`: the same checks and the same compiled flow, without the batch bookkeeping.
 :func:`integrate_fast` is the older entry point ``(model, method, x0, pi0, t, nsteps)``, the same
 ``integrate`` call.
 """
@@ -121,9 +123,8 @@ def cached_model(f, theta, upsilon, inertia, potential) -> NumpyModel:
     earlier one is that model: the second call skips validation and preparation (inverse inertia,
     su(2) detection, compiled fields). Inputs that are not plain numeric arrays are validated afresh
     every time. The caller's arrays are only read (their bytes copied into the key)."""
-    if (  # the common call, native float64 arrays and no potential: one key (shapes, then bytes)
-        potential is None
-        and type(f) is np.ndarray
+    if (  # the common call, native float64 arrays: one key (shapes, then the bytes joined)
+        type(f) is np.ndarray
         and type(theta) is np.ndarray
         and type(upsilon) is np.ndarray
         and type(inertia) is np.ndarray
@@ -132,14 +133,22 @@ def cached_model(f, theta, upsilon, inertia, potential) -> NumpyModel:
         and upsilon.dtype is _F64
         and inertia.dtype is _F64
     ):
-        key = (
-            f.shape,
-            theta.shape,
-            upsilon.shape,
-            inertia.shape,
-            f.tobytes() + theta.tobytes() + upsilon.tobytes() + inertia.tobytes(),
-        )
-        return _MODELS.get(key, lambda: Model(f, theta, upsilon, inertia, None))
+        arrays = f.tobytes() + theta.tobytes() + upsilon.tobytes() + inertia.tobytes()
+        shapes = (f.shape, theta.shape, upsilon.shape, inertia.shape)
+        if potential is None:
+            key = (shapes, arrays)
+            return _MODELS.get(key, lambda: Model(f, theta, upsilon, inertia, None))
+        if type(potential) is dict and len(potential) == 3:  # a gravity dict of float64 arrays
+            kind, L, gamma = potential.get("kind"), potential.get("L"), potential.get("gamma")
+            if (
+                type(kind) is str
+                and type(L) is np.ndarray
+                and type(gamma) is np.ndarray
+                and L.dtype is _F64
+                and gamma.dtype is _F64
+            ):
+                key = (shapes, arrays, kind, L.shape, gamma.shape, L.tobytes() + gamma.tobytes())
+                return _MODELS.get(key, lambda: Model(f, theta, upsilon, inertia, potential))
     key = (
         _numeric_key(f),
         _numeric_key(theta),
