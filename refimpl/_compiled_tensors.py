@@ -59,7 +59,6 @@ __all__ = [
     "compile_count",
     "generic_degenerate_at_origin",
     "generic_poisson",
-    "start_degenerate",
     "su2_poisson",
 ]
 
@@ -206,22 +205,6 @@ def generic_degenerate_at_origin(f, theta, upsilon, p, *, consts: dict) -> np.nd
         cond = np.sqrt(np.einsum("kij,kij->k", Psi, Psi)) * fp / n
         sens = fp * (1 + np.sqrt(np.einsum("kij,kij->k", S, S)) * un) / math.sqrt(n)
         return ~((cond * c < 1.0) & (sens * c < 1.0))
-
-
-def start_degenerate(f, theta, upsilon, p) -> np.ndarray:
-    """The degenerate flags of the Poisson tensor at ``x = 0`` for the points ``p`` (N, n): the flows'
-    start check (:func:`refimpl.flows._fast._check_start`). su(2): its closed form
-    (:meth:`refimpl._fast_kernels.FastCore.poisson_batch_validated`); any other algebra
-    :func:`generic_degenerate_at_origin`, which compiles nothing."""
-    from . import _fast_kernels as _fk  # it imports this module
-
-    if _fk._is_su2(f):
-        return (
-            _fk.FastCore()
-            .poisson_batch_validated(f, theta, upsilon, np.zeros_like(p), p)
-            .degenerate
-        )
-    return generic_degenerate_at_origin(f, theta, upsilon, p, consts=_fk._ct_consts())
 
 
 def compile_count() -> dict:

@@ -499,6 +499,17 @@ def _check_points_fast(x, pi, n: int) -> tuple[np.ndarray, np.ndarray]:
     return check_points(x, pi, n, batched=True)
 
 
+def start_degenerate(f, theta, upsilon, p) -> np.ndarray:
+    """The degenerate flags of the Poisson tensor at ``x = 0`` for the points ``p`` (N, n): the flows'
+    start check (:func:`refimpl.flows._fast._check_start`). su(2): its closed form
+    (:meth:`FastCore.poisson_batch_validated`); any other algebra
+    :func:`refimpl._compiled_tensors.generic_degenerate_at_origin`, which compiles nothing (the
+    generic kernel costs ~4 s per dimension on a cold cache, issue 25)."""
+    if _is_su2(f):
+        return FastCore().poisson_batch_validated(f, theta, upsilon, np.zeros_like(p), p).degenerate
+    return _ctens.generic_degenerate_at_origin(f, theta, upsilon, p, consts=_ct_consts())
+
+
 # ------------------------------------------------ constants of the compiled kernels
 def _ct_consts() -> dict:
     """The error model's constants, written into the compiled kernels' source (refimpl._compiled_tensors)."""

@@ -21,7 +21,6 @@ import numpy as np
 from .. import _fast_kernels as _fast
 from .. import _full_state, _full_state_rational
 from .._algebra import LieAlgebra
-from .._compiled_tensors import start_degenerate
 from .._flow_checks import check_time
 from .._flow_compiled import (
     compiled_taylor_flow,
@@ -424,7 +423,7 @@ def _check_start(model: NumpyModel, P: np.ndarray) -> None:
     """Starting points on the degenerate set (``Delta = 0`` to float64 accuracy, vier12) are refused."""
     if model.upsilon_zero:
         return
-    degen = start_degenerate(model.f, model.theta, model.upsilon, P.T)  # issue 25: no kernel
+    degen = _fast.start_degenerate(model.f, model.theta, model.upsilon, P.T)  # issue 25: no kernel
     if np.any(degen):
         idx = np.argwhere(degen).ravel()
         raise ValueError(
