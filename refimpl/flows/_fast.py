@@ -26,6 +26,7 @@ from .._flow_checks import check_time
 from .._flow_compiled import (
     compiled_taylor_flow,
     compiled_taylor_samples,
+    one_trajectory,
     quat_to_x,
     supports_full,
 )
@@ -245,15 +246,14 @@ def _flow_one(model: NumpyModel, x0, pi0, tv: float, tol: float):
     None where any of that does not hold: the general route then runs, and refuses by name."""
     n = model.n
     if not (
-        type(x0) is np.ndarray
-        and type(pi0) is np.ndarray
-        and x0.dtype is _F64
-        and pi0.dtype is _F64
-        and x0.shape == (n,)
-        and pi0.shape == (n,)
+        type(x0) is type(pi0) is np.ndarray
+        and x0.dtype is pi0.dtype is _F64
+        and x0.shape == pi0.shape == (n,)
     ):
         return None
-    route = _one_route(model)
+    route = model.__dict__.get("_one_route")  # kept on the model by _one_route
+    if route is None:
+        route = _one_route(model)
     if not route:
         return None
     xl, pl = x0.tolist(), pi0.tolist()
@@ -262,7 +262,10 @@ def _flow_one(model: NumpyModel, x0, pi0, tv: float, tol: float):
     _check_rates(model, pi0, tv, max(map(abs, pl)))
     X = np.ascontiguousarray(x0).reshape(n, 1)  # only read (never written, never returned)
     P = np.ascontiguousarray(pi0).reshape(n, 1)
-    if route == 1:
+    run = one_trajectory(model, tol) if route == 3 else None  # su(2), Upsilon = 0: no dict
+    if run is not None:
+        x, pi = run(X, P, tv)
+    elif route == 1:
         x, pi = _full_state.flow_one(model, X, P, tv, tol, abelian=_AbelianPart)
     else:
         _check_start(model, P)  # nothing with Upsilon = 0
