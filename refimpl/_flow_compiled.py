@@ -509,20 +509,16 @@ def one_trajectory(model, tol: float):
     (``x0``, ``pi0`` C-contiguous float64 of shape (n, 1), ``t`` a float), ``Upsilon = 0``, at ``tol``:
     :func:`compiled_taylor_flow` of that trajectory, the same computation (:func:`_first_pair`'s pair,
     estimate and logarithm; :func:`_control` from that pair when it does not pass), with the constants
-    of the call (tolerances, kernel, field arrays) looked up once per model and ``tol`` (issue 25: the
-    Python around the protocol call). None where the pair kernel is not unrolled (the caller then
-    calls :func:`compiled_taylor_flow`). The last ``tol``'s runner is kept on the compiled field."""
+    of the call (tolerances, kernel, field arrays) looked up once, when the runner is built (issue 25:
+    the Python around the protocol call; :func:`refimpl.flows._fast._flow_one` keeps it per model and
+    ``tol``). None where the pair kernel is not unrolled or the state is not this one (the caller then
+    calls :func:`compiled_taylor_flow`)."""
     if not (model.upsilon_zero and supports_full(model)):  # e.g. the rational state
         return None
     cf = model.compiled_full_field
-    last = cf._kernels.get("one")  # the last tol's runner (one entry: bounded)
-    if last is not None and last[0] == tol:
-        return last[1]
     eps_a, eps_b = local_tolerances(tol, A_LOOSE_FULL)
     pair = _pair_kernel(cf, eps_b)
-    run = None if pair is None else _one_runner(model, tol, eps_a, eps_b, pair, cf.qcoef, cf.lcoef)
-    cf._kernels["one"] = (tol, run)
-    return run
+    return None if pair is None else _one_runner(model, tol, eps_a, eps_b, pair, cf.qcoef, cf.lcoef)
 
 
 def _one_runner(model, tol, eps_a, eps_b, pair, qcoef, lcoef):

@@ -236,6 +236,36 @@ def _one_route(model: NumpyModel) -> int:
     return one
 
 
+def _one_runner(model: NumpyModel, tol: float):
+    """``run(X, P, t) -> (x, pi)`` of :func:`_flow_one` on ``model`` at ``tol`` (``X``, ``P`` (n, 1)), by
+    :func:`_one_route`: the runners of :func:`refimpl._full_state.one_trajectory` and
+    :func:`refimpl._flow_compiled.one_trajectory` (their constants looked up once), else the rational
+    full state's flow or :func:`compiled_taylor_flow` after the start check; None: no such route."""
+    route = _one_route(model)
+    run = (
+        _full_state.one_trajectory(model, tol, _AbelianPart)
+        if route == 1
+        else one_trajectory(model, tol)
+        if route == 3
+        else None
+    )
+    if run is not None or not route:
+        return run
+
+    def run(X, P, tv):
+        _check_start(model, P)  # Upsilon != 0: the start off the degenerate set
+        out = (
+            _full_state_rational.rational_full_state_flow(
+                model, X, P, tv, tol, abelian=_AbelianPart
+            )
+            if route == 2
+            else compiled_taylor_flow(model, X, P, tv, tol)
+        )
+        return out["x"][:, 0], out["pi"][:, 0]
+
+    return run
+
+
 def _flow_one(model: NumpyModel, x0, pi0, tv: float, tol: float):
     """The call of one trajectory given as 1-D float64 arrays ``x0``, ``pi0`` of the model's
     dimension, on the compiled full state (:func:`_one_route`), ``0 < |t| < 256`` (no time probe),
@@ -251,32 +281,19 @@ def _flow_one(model: NumpyModel, x0, pi0, tv: float, tol: float):
         and x0.shape == pi0.shape == (n,)
     ):
         return None
-    route = model.__dict__.get("_one_route")  # kept on the model by _one_route
-    if route is None:
-        route = _one_route(model)
-    if not route:
-        return None
     xl, pl = x0.tolist(), pi0.tolist()
     if not all(map(_WITHIN, map(abs, xl + pl))):  # issue 30: finite and |v| <= MAX_MAGNITUDE
+        return None
+    one = model.__dict__.get("_one")  # (tol, runner) of the last tol, kept on the model
+    if one is None or one[0] != tol:
+        one = model.__dict__["_one"] = (tol, _one_runner(model, tol))
+    run = one[1]
+    if run is None:
         return None
     _check_rates(model, pi0, tv, max(map(abs, pl)))
     X = np.ascontiguousarray(x0).reshape(n, 1)  # only read (never written, never returned)
     P = np.ascontiguousarray(pi0).reshape(n, 1)
-    run = one_trajectory(model, tol) if route == 3 else None  # su(2), Upsilon = 0: no dict
-    if run is not None:
-        x, pi = run(X, P, tv)
-    elif route == 1:
-        x, pi = _full_state.flow_one(model, X, P, tv, tol, abelian=_AbelianPart)
-    else:
-        _check_start(model, P)  # nothing with Upsilon = 0
-        out = (
-            _full_state_rational.rational_full_state_flow(
-                model, X, P, tv, tol, abelian=_AbelianPart
-            )
-            if route == 2
-            else compiled_taylor_flow(model, X, P, tv, tol)
-        )
-        x, pi = out["x"][:, 0], out["pi"][:, 0]
+    x, pi = run(X, P, tv)
     if not math.isfinite(sum(x.tolist()) + sum(pi.tolist())):  # finite: every entry is
         _check_finite(x.reshape(n, 1), pi.reshape(n, 1), tv)
     return x, pi
