@@ -392,6 +392,15 @@ def test_model_cache_keys_on_values_not_identity(pot):
     assert np.array_equal(outs[0][1], outs[2][1])
     assert np.array_equal(outs[1][1], fresh[1]) and np.array_equal(outs[1][0], fresh[0])
     assert not np.array_equal(outs[0][1], outs[1][1])
+    if (
+        pot is not None
+    ):  # the potential's arrays refilled too: the last call's key holds their bytes
+        L = np.array(pot["L"], dtype=float)
+        refill = {"kind": pot["kind"], "L": L, "gamma": np.array(pot["gamma"], dtype=float)}
+        first = cached_model(SU2.f, Z, Z, I, refill)
+        L[0] += 0.5
+        second = cached_model(SU2.f, Z, Z, I, refill)
+        assert second is not first and second.Lvec[0] == L[0] != first.Lvec[0]
 
 
 HEAVY = {"kind": "gravity", "L": np.array([0.2, 0.1, 1.0]), "gamma": np.array([0.0, 0.0, -1.0])}
