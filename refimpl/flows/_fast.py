@@ -286,8 +286,9 @@ def _one_runner(model: NumpyModel, tol: float):
 def _flow_one(model: NumpyModel, x0, pi0, tv: float, tol: float):
     """The call of one trajectory given as 1-D float64 arrays ``x0``, ``pi0`` of the model's
     dimension, on the compiled full state (:func:`_one_route`), ``0 < |t| < 256`` (no time probe),
-    default method and steps: ``(x, pi)`` through :func:`refimpl._full_state.flow_one` (``Upsilon =
-    0``), the rational full state's flow or the su(2) one -- what the general route below computes,
+    default method and steps: ``(x, pi)`` through the model's runner at ``tol`` (:func:`_one_runner`,
+    kept on the model for the last ``tol``: :func:`refimpl._full_state.one_trajectory` for ``Upsilon =
+    0``, the rational full state's flow, or the su(2) one) -- what the general route below computes,
     with the same checks (the points finite and bounded, the rates, the start off the degenerate set,
     the results finite), without its batch bookkeeping (issue 25: the Python around one trajectory).
     None where any of that does not hold: the general route then runs, and refuses by name."""
