@@ -661,9 +661,7 @@ def _flow_one_at(model, tol, abelian, x0, pi0, t):
 
 def _one_runner(fs: FullState, model, tol: float, abelian):
     n, d, consts, start = fs.n, fs.d, fs.start_consts, _fk.start
-    min_t = (
-        GENERATED_MIN_WORK if fs.n_products <= GENERATED_MAX_PRODUCTS else GENERATED_MIN_WORK_LARGE
-    )
+    min_t = _generated_min_work(fs)  # N = 1
 
     def run(x0, pi0, t):
         if not abs(t) >= min_t:  # not the generated kernel's first pair: the general control
@@ -743,6 +741,14 @@ def _start(fs: FullState, x0, pi0) -> np.ndarray:
     return y0
 
 
+def _generated_min_work(fs: FullState) -> float:
+    """``N |t|`` from which ``fs``'s flows run its generated kernel (:data:`GENERATED_MIN_WORK`,
+    :data:`GENERATED_MIN_WORK_LARGE` above :data:`GENERATED_MAX_PRODUCTS`)."""
+    return (
+        GENERATED_MIN_WORK if fs.n_products <= GENERATED_MAX_PRODUCTS else GENERATED_MIN_WORK_LARGE
+    )
+
+
 def _solve(fs: FullState, model, y0, t, tol: float, run, *, first=None, ans=None):
     """The two-run control and the refusal of :func:`full_state_flow` from the rows ``y0``: ``(B,
     estimate, steps of B, the _Answer holding G, Ad(g), x of the final B)``. One trajectory on the
@@ -751,9 +757,7 @@ def _solve(fs: FullState, model, y0, t, tol: float, run, *, first=None, ans=None
     answer when the caller ran it, :func:`one_trajectory`)."""
     N, n = y0.shape[0], fs.n
     eps_a = local_tolerances(tol)[0] if run is not None or tol < A_LOOSE_FROM else A_LOOSE
-    gen = N * abs(t) >= (
-        GENERATED_MIN_WORK if fs.n_products <= GENERATED_MAX_PRODUCTS else GENERATED_MIN_WORK_LARGE
-    )
+    gen = N * abs(t) >= _generated_min_work(fs)
     if ans is None:
         ans = _Answer(fs, N)
     if first is None and N == 1 and run is None and gen and eps_a == A_LOOSE:  # the protocol call
