@@ -457,6 +457,16 @@ MAX_STEPS = (
 )
 
 
+def _pair_kernel(cf, eps_b: float):
+    """The unrolled pair kernel of ``cf`` at ``B``'s order for ``eps_b`` (kept on ``cf``), or None where
+    the kernel is not unrolled."""
+    key = ("first", eps_b)
+    pair = cf._kernels.get(key)
+    if pair is None:
+        pair = cf._kernels[key] = _ct.unrolled_pair(cf, _order_b(cf, eps_b))
+    return pair
+
+
 def _first_pair(model, y0, t, eps_a, eps_b, n, tol):
     """One trajectory, ``Upsilon = 0``: the first pair of :func:`_control` (``A`` at ``eps_a`` and ``B`` at
     ``eps_b``, both at ``B``'s order as :func:`_run_cf` runs them) in one call of the unrolled pair
@@ -469,27 +479,64 @@ def _first_pair(model, y0, t, eps_a, eps_b, n, tol):
     proportional form), ``(A, B, steps of B)`` for :func:`_control` to go on from when it does not,
     or None where the kernel is not unrolled (the general path runs). Raises as :func:`_run_cf`."""
     cf = model.compiled_full_field
-    key = ("first", eps_b)
-    pair = cf._kernels.get(key)
-    if pair is None:
-        pair = cf._kernels[key] = _ct.unrolled_pair(cf, _order_b(cf, eps_b))
+    pair = _pair_kernel(cf, eps_b)
     if pair is None:
         return None
-    A, B = np.empty_like(y0), np.empty_like(y0)
-    sA, sB = np.empty(1, dtype=np.int64), np.empty(1, dtype=np.int64)
-    pair(y0, t, eps_a, eps_b, MAX_STEPS, cf.qcoef, cf.lcoef, A, B, sA, sB)
+    return _pair_run(pair, cf.qcoef, cf.lcoef, y0, t, eps_a, eps_b, n, tol)
+
+
+def _pair_run(pair, qcoef, lcoef, y0, t, eps_a, eps_b, n, tol):
+    """:func:`_first_pair` on the pair kernel ``pair`` of the field arrays ``qcoef``, ``lcoef``."""
+    empty = np.empty
+    A, B = empty(y0.shape), empty(y0.shape)
+    sA, sB = empty(1, dtype=np.int64), empty(1, dtype=np.int64)
+    pair(y0, t, eps_a, eps_b, MAX_STEPS, qcoef, lcoef, A, B, sA, sB)
     if sA[0] < 0:
         _diverged(sA, t)
     if sB[0] < 0:
         _diverged(sB, t)
-    est, x = np.empty(1), np.empty((n, 1))
+    est, x = empty(1), empty((n, 1))
     _finish(A, B, n, est, x)
-    e = float(est[0])
-    e = first_estimate(e, eps_a, eps_b, PROP_MIN_B, PROP_MAX_D)  # as _control's first pair
+    e = first_estimate(float(est[0]), eps_a, eps_b, PROP_MIN_B, PROP_MAX_D)  # as _control's
     if e <= tol:
         est[0] = e
         return B, sB, x, est
     return A, B, sB
+
+
+def one_trajectory(model, tol: float):
+    """``run(x0, pi0, t) -> (x, pi)`` (each of shape (n,), fresh arrays) for one su(2) trajectory
+    (``x0``, ``pi0`` C-contiguous float64 of shape (n, 1), ``t`` a float), ``Upsilon = 0``, at ``tol``:
+    :func:`compiled_taylor_flow` of that trajectory, the same computation (:func:`_first_pair`'s pair,
+    estimate and logarithm; :func:`_control` from that pair when it does not pass), with the constants
+    of the call (tolerances, kernel, field arrays) looked up once, when the runner is built (issue 25:
+    the Python around the protocol call; :func:`refimpl.flows._fast._flow_one` keeps it per model and
+    ``tol``). None where the pair kernel is not unrolled or the state is not this one (the caller then
+    calls :func:`compiled_taylor_flow`)."""
+    if not (model.upsilon_zero and supports_full(model)):  # e.g. the rational state
+        return None
+    cf = model.compiled_full_field
+    eps_a, eps_b = local_tolerances(tol, A_LOOSE_FULL)
+    pair = _pair_kernel(cf, eps_b)
+    return None if pair is None else _one_runner(model, tol, eps_a, eps_b, pair, cf.qcoef, cf.lcoef)
+
+
+def _one_runner(model, tol, eps_a, eps_b, pair, qcoef, lcoef):
+    n = model.n
+    grav = model.gravity
+    gamma = model.gamma if grav else _NO_GAMMA
+    d = n + (n if grav else 0) + 4
+
+    def run(x0, pi0, t):
+        y0 = np.empty((1, d))
+        _start(x0, pi0, gamma, grav, y0)
+        first = _pair_run(pair, qcoef, lcoef, y0, t, eps_a, eps_b, n, tol)
+        if len(first) == 4:  # the pair passed: (B, steps, x, estimate)
+            return first[2][:, 0], first[0][0, :n]
+        out = _go_on(model, y0, t, eps_a, n, tol, first, True)
+        return out["x"][:, 0], out["pi"][:, 0]
+
+    return run
 
 
 GRID = (
@@ -795,29 +842,40 @@ def compiled_taylor_flow(model, x0, pi0, t: float, tol: float) -> dict:
     first = _first_pair(model, y0, t, eps_a, eps_b, n, tol) if N == 1 and uz else None
     if first is not None and len(first) == 4:  # the common protocol call: one pair passed
         res, steps, x, est = first
-    else:
-        runner = None
-        if uz and N >= _ct.BATCH_MIN:  # a batch: every run on the lane kernel, retried groups too
-            runner = _batch_runner(_full_field(model))
-        res, est, steps = _control(
-            model,
-            y0,
-            t,
-            eps_a,
-            n,
-            tol,
-            first=first,
-            a_retry=A_LOOSE if uz else None,
-            runner=runner,
+        return _answer(res, n, N, grav, x, steps, est)
+    return _go_on(model, y0, t, eps_a, n, tol, first, uz)
+
+
+def _go_on(model, y0, t, eps_a, n, tol, first, uz):
+    """:func:`compiled_taylor_flow` after the first pair (``first``: ``(A, B, steps of B)`` of one
+    trajectory that did not pass, or None): the two-run control, its refusal and the logarithm."""
+    N = y0.shape[0]
+    runner = None
+    if uz and N >= _ct.BATCH_MIN:  # a batch: every run on the lane kernel, retried groups too
+        runner = _batch_runner(_full_field(model))
+    res, est, steps = _control(
+        model,
+        y0,
+        t,
+        eps_a,
+        n,
+        tol,
+        first=first,
+        a_retry=A_LOOSE if uz else None,
+        runner=runner,
+    )
+    over = np.flatnonzero(est > tol)
+    if over.size:
+        raise ValueError(
+            f"compiled Taylor flow: tolerance {tol} not reached on trajectories {over[:10].tolist()} "
+            f"(estimated errors {est[over][:3].tolist()}) at the float64 floor of the local tolerance"
         )
-        over = np.flatnonzero(est > tol)
-        if over.size:
-            raise ValueError(
-                f"compiled Taylor flow: tolerance {tol} not reached on trajectories {over[:10].tolist()} "
-                f"(estimated errors {est[over][:3].tolist()}) at the float64 floor of the local tolerance"
-            )
-        x = np.empty((n, N))
-        _log(res, x)
+    x = np.empty((n, N))
+    _log(res, x)
+    return _answer(res, n, N, model.gravity, x, steps, est)
+
+
+def _answer(res, n, N, grav, x, steps, est) -> dict:
     res = res.T
     return {
         "pi": res[:n],

@@ -89,7 +89,7 @@ from ._flow_compiled import (
 from .codegen import import_source
 from .codegen.full_state import full_state_source
 
-__all__ = ["FullState", "applies", "flow_one", "full_state", "full_state_flow"]
+__all__ = ["FullState", "applies", "flow_one", "full_state", "full_state_flow", "one_trajectory"]
 
 EPS = np.finfo(float).eps
 _EPS = float(EPS)
@@ -643,6 +643,40 @@ def flow_one(model, x0, pi0, t: float, tol: float, *, abelian=None):
     return ans.all[2][0], res[0, : fs.n].copy()
 
 
+def one_trajectory(model, tol: float, abelian=None):
+    """``run(x0, pi0, t) -> (x, pi)``: :func:`flow_one` at ``tol`` on ``model`` (the same computation,
+    the same arguments but ``tol``), with what the protocol call's first pair needs (the start's
+    constants, the kernel's orders, the time from which the generated kernel runs) looked up once,
+    when the runner is built (issue 25: the Python around one trajectory;
+    :func:`refimpl.flows._fast._flow_one` keeps it per model and ``tol``)."""
+    fs = full_state(model, abelian)
+    if tol < A_LOOSE_FROM:  # A at FIRST * tol: the general control from the start
+        return functools.partial(_flow_one_at, model, tol, abelian)
+    return _one_runner(fs, model, tol, abelian)
+
+
+def _flow_one_at(model, tol, abelian, x0, pi0, t):
+    return flow_one(model, x0, pi0, t, tol, abelian=abelian)
+
+
+def _one_runner(fs: FullState, model, tol: float, abelian):
+    n, d, consts, start = fs.n, fs.d, fs.start_consts, _fk.start
+    min_t = _generated_min_work(fs)  # N = 1
+
+    def run(x0, pi0, t):
+        if not abs(t) >= min_t:  # not the generated kernel's first pair: the general control
+            return flow_one(model, x0, pi0, t, tol, abelian=abelian)
+        y0 = np.empty((1, d))
+        start(x0, pi0, *consts, y0)
+        ans = _Answer(fs, 1)
+        A, B, sB, e = _first_pair(fs, ans, y0, t)
+        if not e[0] <= tol:  # the control goes on from this pair, as _solve's
+            B = _solve(fs, model, y0, t, tol, None, first=(A, B, sB), ans=ans)[0]
+        return ans.all[2][0], B[0, :n].copy()
+
+    return run
+
+
 EPS_B_FIRST = _eps_b(A_LOOSE, B_MAX)
 """``B``'s first local tolerance at ``A``'s :data:`A_LOOSE` (as :func:`_control` derives it)."""
 _FIRST_ORDERS = (default_order(A_LOOSE), default_order(EPS_B_FIRST))  # the runner's orders for them
@@ -707,19 +741,26 @@ def _start(fs: FullState, x0, pi0) -> np.ndarray:
     return y0
 
 
-def _solve(fs: FullState, model, y0, t, tol: float, run):
+def _generated_min_work(fs: FullState) -> float:
+    """``N |t|`` from which ``fs``'s flows run its generated kernel (:data:`GENERATED_MIN_WORK`,
+    :data:`GENERATED_MIN_WORK_LARGE` above :data:`GENERATED_MAX_PRODUCTS`)."""
+    return (
+        GENERATED_MIN_WORK if fs.n_products <= GENERATED_MAX_PRODUCTS else GENERATED_MIN_WORK_LARGE
+    )
+
+
+def _solve(fs: FullState, model, y0, t, tol: float, run, *, first=None, ans=None):
     """The two-run control and the refusal of :func:`full_state_flow` from the rows ``y0``: ``(B,
     estimate, steps of B, the _Answer holding G, Ad(g), x of the final B)``. One trajectory on the
     generated kernel runs its first pair through :func:`_first_pair` and enters the control only when
-    that pair does not pass (the control then goes on from it)."""
+    that pair does not pass (the control then goes on from it; ``first``, ``ans``: that pair and its
+    answer when the caller ran it, :func:`one_trajectory`)."""
     N, n = y0.shape[0], fs.n
     eps_a = local_tolerances(tol)[0] if run is not None or tol < A_LOOSE_FROM else A_LOOSE
-    gen = N * abs(t) >= (
-        GENERATED_MIN_WORK if fs.n_products <= GENERATED_MAX_PRODUCTS else GENERATED_MIN_WORK_LARGE
-    )
-    ans = _Answer(fs, N)
-    first = None
-    if N == 1 and run is None and gen and eps_a == A_LOOSE:  # the common protocol call
+    gen = N * abs(t) >= _generated_min_work(fs)
+    if ans is None:
+        ans = _Answer(fs, N)
+    if first is None and N == 1 and run is None and gen and eps_a == A_LOOSE:  # the protocol call
         t = float(t)
         A, B, sB, e = _first_pair(fs, ans, y0, t)
         if e[0] <= tol:

@@ -350,10 +350,11 @@ def _control_alone(model, x0, pi0, T, tol):
 )
 @pytest.mark.parametrize("tol", [1e-10, 1e-9])
 def test_one_trajectory_route_is_the_controls(name, scale, T, tol):
-    """The protocol call of one trajectory (1-D points: ``_fast._flow_one`` -> ``_full_state.flow_one``,
-    its first pair run by ``_first_pair``) returns exactly what the two-run control returns run alone
-    from the same start (the same kernels, tolerances and estimate rule), the same as the (1, n) batch
-    route; the caller's arrays are neither written nor aliased by the result. h(3), T = 2: the first
+    """The protocol call of one trajectory (1-D points: ``_fast._flow_one`` -> the runner of
+    ``_full_state.one_trajectory``, its first pair run by ``_first_pair``) returns exactly what the
+    two-run control returns run alone from the same start (the same kernels, tolerances and estimate
+    rule), the same as the (1, n) batch route; the caller's arrays are neither written nor aliased by
+    the result, and a second call (the runner kept on the model) returns the same values in fresh arrays. h(3), T = 2: the first
     pair passes (|A - B| 5e-15); Bianchi III with pi0 scaled by 10, T = 40: it does not (4e-3, the
     control goes on from it to 2.3e-11)."""
     alg, theta, ups, inertia, pot, x0, pi0 = _model(name, seed=2)
@@ -372,6 +373,10 @@ def test_one_trajectory_route_is_the_controls(name, scale, T, tol):
     xb, pb = fast_flow(alg.f, theta, ups, inertia, pot, x0[None], pi0[None], T, tol=tol)
     np.testing.assert_array_equal(xb[0], x)
     np.testing.assert_array_equal(pb[0], pi)
+    x2, pi2 = fast_flow(alg.f, theta, ups, inertia, pot, x0, pi0, T, tol=tol)
+    np.testing.assert_array_equal(x2, x)
+    np.testing.assert_array_equal(pi2, pi)
+    assert not np.shares_memory(x2, x) and not np.shares_memory(pi2, pi)
 
 
 @needs_numba

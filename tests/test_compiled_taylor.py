@@ -392,6 +392,15 @@ def test_model_cache_keys_on_values_not_identity(pot):
     assert np.array_equal(outs[0][1], outs[2][1])
     assert np.array_equal(outs[1][1], fresh[1]) and np.array_equal(outs[1][0], fresh[0])
     assert not np.array_equal(outs[0][1], outs[1][1])
+    if (
+        pot is not None
+    ):  # the potential's arrays refilled too: the last call's key holds their bytes
+        L = np.array(pot["L"], dtype=float)
+        refill = {"kind": pot["kind"], "L": L, "gamma": np.array(pot["gamma"], dtype=float)}
+        first = cached_model(SU2.f, Z, Z, I, refill)
+        L[0] += 0.5
+        second = cached_model(SU2.f, Z, Z, I, refill)
+        assert second is not first and second.Lvec[0] == L[0] != first.Lvec[0]
 
 
 HEAVY = {"kind": "gravity", "L": np.array([0.2, 0.1, 1.0]), "gamma": np.array([0.0, 0.0, -1.0])}
@@ -489,7 +498,7 @@ def test_one_trajectory_path_equals_the_general_control(I, pot, T, tol):
     directly, estimate and logarithm in one compiled call) returns bit for bit what the general
     two-run control returns for the same trajectory inside a batch of two (the same runs, row by row):
     ``pi``, ``Gamma``, ``quat``, ``x``, ``steps``, ``error_estimate``."""
-    from tstarg.refimpl._flow_compiled import compiled_taylor_flow
+    from tstarg.refimpl._flow_compiled import compiled_taylor_flow, one_trajectory
 
     model = NumpyModel(SU2.f, Z, Z, np.diag(I), pot)
     x0, pi0 = np.array([0.1, 0.2, 0.0]), np.array([0.3, 0.2, 2.0])
@@ -504,6 +513,17 @@ def test_one_trajectory_path_equals_the_general_control(I, pot, T, tol):
         assert one[k].shape[-1] == 1 and np.array_equal(one[k][..., 0], two[k][..., 0]), k
         assert np.array_equal(two[k][..., 0], two[k][..., 1]), k
     assert np.all(np.isfinite(one["error_estimate"])) and one["error_estimate"][0] <= tol
+    # the protocol call's runner (refimpl._flow_compiled.one_trajectory, its constants looked up once):
+    # the same (x, pi), bit for bit, through the pair and, where it fails, the control; fresh
+    # arrays on every call, the inputs unchanged
+    run = one_trajectory(model, tol)
+    X, P = x0[:, None].copy(), pi0[:, None].copy()
+    x1, p1 = run(X, P, T)
+    x2, p2 = run(X, P, T)
+    assert np.array_equal(x1, one["x"][:, 0]) and np.array_equal(p1, one["pi"][:, 0])
+    assert np.array_equal(x1, x2) and np.array_equal(p1, p2)
+    assert not (np.shares_memory(x1, x2) or np.shares_memory(p1, p2) or np.shares_memory(x1, p1))
+    assert np.array_equal(X[:, 0], x0) and np.array_equal(P[:, 0], pi0)
 
 
 @needs_numba

@@ -209,3 +209,18 @@ def test_planner_picks_adaptive_taylor_and_samples_meet_tol(outputs):
         want = np.array([[float(v) for v in row] for row in tr.pi])
         err = np.max(np.abs(out["pi"][:, j] - want))
         assert np.isfinite(err) and err <= sc.tol, err
+
+
+@pytest.mark.parametrize("t", [100.0, -3.0])
+def test_one_trajectory_call_refuses_too_fast_points_as_the_batch(t):
+    """The protocol call of one trajectory (1-D points: ``_fast._flow_one``, whose rates check runs only
+    above a per-model bound on ``max |pi|``) refuses a point rotating too fast for the step budget with
+    the batch's message (refimpl._validate.check_flow_rates: ``|t| ||I^-1|| |pi| > 2^14 (2 + |t|)``;
+    here ``||I^-1|| = 2``, ``|pi| sqrt 3 = 1.7e7``), and flows the same point scaled below the bound."""
+    x0 = np.array([0.1, 0.2, 0.0])
+    fast = np.array([0.0, 0.0, 1e7])
+    for a, b in ((x0, fast), (x0[None], fast[None])):
+        with pytest.raises(ValueError, match="rotates too fast for the flow budget"):
+            fast_flow(F.f, np.zeros((3, 3)), np.zeros((3, 3)), I, POT, a, b, t)
+    x, pi = fast_flow(F.f, np.zeros((3, 3)), np.zeros((3, 3)), I, POT, x0, fast * 1e-7, t)
+    assert np.all(np.isfinite(x)) and np.all(np.isfinite(pi))

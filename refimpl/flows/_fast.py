@@ -25,6 +25,7 @@ from .._flow_checks import check_time
 from .._flow_compiled import (
     compiled_taylor_flow,
     compiled_taylor_samples,
+    one_trajectory,
     quat_to_x,
     supports_full,
 )
@@ -76,6 +77,10 @@ _MODELS = LRU(
     64
 )  # validated models kept (keyed on the bytes of the inputs), least recently used dropped
 
+
+_LAST: list = [None]
+"""``(key, model)`` of :func:`cached_model`'s last call on float64 arrays: the next call with the same
+bytes returns that model without hashing its key (the one :data:`_MODELS` gave for that key)."""
 
 _F64 = np.dtype(np.float64)
 _F64_STR = _F64.str
@@ -134,10 +139,10 @@ def cached_model(f, theta, upsilon, inertia, potential) -> NumpyModel:
     ):
         arrays = f.tobytes() + theta.tobytes() + upsilon.tobytes() + inertia.tobytes()
         shapes = (f.shape, theta.shape, upsilon.shape, inertia.shape)
+        key = None
         if potential is None:
             key = (shapes, arrays)
-            return _MODELS.get(key, lambda: Model(f, theta, upsilon, inertia, None))
-        if type(potential) is dict and len(potential) == 3:  # a gravity dict of float64 arrays
+        elif type(potential) is dict and len(potential) == 3:  # a gravity dict of float64 arrays
             kind, L, gamma = potential.get("kind"), potential.get("L"), potential.get("gamma")
             if (
                 type(kind) is str
@@ -147,7 +152,13 @@ def cached_model(f, theta, upsilon, inertia, potential) -> NumpyModel:
                 and gamma.dtype is _F64
             ):
                 key = (shapes, arrays, kind, L.shape, gamma.shape, L.tobytes() + gamma.tobytes())
-                return _MODELS.get(key, lambda: Model(f, theta, upsilon, inertia, potential))
+        if key is not None:
+            last = _LAST[0]  # the same inputs as the last call: compared, not hashed (issue 25)
+            if last is not None and last[0] == key:
+                return last[1]
+            model = _MODELS.get(key, lambda: Model(f, theta, upsilon, inertia, potential))
+            _LAST[0] = (key, model)  # one assignment: a concurrent call sees a whole pair
+            return model
     key = (
         _numeric_key(f),
         _numeric_key(theta),
@@ -212,6 +223,13 @@ def _check_rates(model: NumpyModel, pa, tv: float, pmax: float | None = None) ->
         check_flow_rates(model.f, model.inertia, pa, tv)
 
 
+def _rates_free_below(model: NumpyModel) -> float:
+    """A ``max |pi|`` below which :func:`_check_rates` passes at every ``t`` (``|t| <= |t| + 2``: its
+    condition holds where ``rate_const max(1, max|pi| sqrt(n)) <= 2^13``); -1 where none is."""
+    c = model.rate_const
+    return 2.0**13 / (c * math.sqrt(model.n)) if c <= 2.0**13 else -1.0
+
+
 def _one_route(model: NumpyModel) -> int:
     """The route of :func:`_flow_one` on ``model``'s full state, from its default method: 1 the compiled
     full state of :mod:`refimpl._full_state` (``taylor``, ``Upsilon = 0`` off su(2)), 2 its rational
@@ -234,37 +252,24 @@ def _one_route(model: NumpyModel) -> int:
     return one
 
 
-def _flow_one(model: NumpyModel, x0, pi0, tv: float, tol: float):
-    """The call of one trajectory given as 1-D float64 arrays ``x0``, ``pi0`` of the model's
-    dimension, on the compiled full state (:func:`_one_route`), ``0 < |t| < 256`` (no time probe),
-    default method and steps: ``(x, pi)`` through :func:`refimpl._full_state.flow_one` (``Upsilon =
-    0``), the rational full state's flow or the su(2) one -- what the general route below computes,
-    with the same checks (the points finite and bounded, the rates, the start off the degenerate set,
-    the results finite), without its batch bookkeeping (issue 25: the Python around one trajectory).
-    None where any of that does not hold: the general route then runs, and refuses by name."""
-    n = model.n
-    if not (
-        type(x0) is np.ndarray
-        and type(pi0) is np.ndarray
-        and x0.dtype is _F64
-        and pi0.dtype is _F64
-        and x0.shape == (n,)
-        and pi0.shape == (n,)
-    ):
-        return None
+def _one_runner(model: NumpyModel, tol: float):
+    """``run(X, P, t) -> (x, pi)`` of :func:`_flow_one` on ``model`` at ``tol`` (``X``, ``P`` (n, 1)), by
+    :func:`_one_route`: the runners of :func:`refimpl._full_state.one_trajectory` and
+    :func:`refimpl._flow_compiled.one_trajectory` (their constants looked up once), else the rational
+    full state's flow or :func:`compiled_taylor_flow` after the start check; None: no such route."""
     route = _one_route(model)
-    if not route:
-        return None
-    xl, pl = x0.tolist(), pi0.tolist()
-    if not all(map(_WITHIN, map(abs, xl + pl))):  # issue 30: finite and |v| <= MAX_MAGNITUDE
-        return None
-    _check_rates(model, pi0, tv, max(map(abs, pl)))
-    X = np.ascontiguousarray(x0).reshape(n, 1)  # only read (never written, never returned)
-    P = np.ascontiguousarray(pi0).reshape(n, 1)
-    if route == 1:
-        x, pi = _full_state.flow_one(model, X, P, tv, tol, abelian=_AbelianPart)
-    else:
-        _check_start(model, P)  # nothing with Upsilon = 0
+    run = (
+        _full_state.one_trajectory(model, tol, _AbelianPart)
+        if route == 1
+        else one_trajectory(model, tol)
+        if route == 3
+        else None
+    )
+    if run is not None or not route:
+        return run
+
+    def run(X, P, tv):
+        _check_start(model, P)  # Upsilon != 0: the start off the degenerate set
         out = (
             _full_state_rational.rational_full_state_flow(
                 model, X, P, tv, tol, abelian=_AbelianPart
@@ -272,7 +277,44 @@ def _flow_one(model: NumpyModel, x0, pi0, tv: float, tol: float):
             if route == 2
             else compiled_taylor_flow(model, X, P, tv, tol)
         )
-        x, pi = out["x"][:, 0], out["pi"][:, 0]
+        return out["x"][:, 0], out["pi"][:, 0]
+
+    return run
+
+
+def _flow_one(model: NumpyModel, x0, pi0, tv: float, tol: float):
+    """The call of one trajectory given as 1-D float64 arrays ``x0``, ``pi0`` of the model's
+    dimension, on the compiled full state (:func:`_one_route`), ``0 < |t| < 256`` (no time probe),
+    default method and steps: ``(x, pi)`` through the model's runner at ``tol`` (:func:`_one_runner`,
+    kept on the model for the last ``tol``: :func:`refimpl._full_state.one_trajectory` for ``Upsilon =
+    0``, the rational full state's flow, or the su(2) one) -- what the general route below computes,
+    with the same checks (the points finite and bounded, the rates, the start off the degenerate set,
+    the results finite), without its batch bookkeeping (issue 25: the Python around one trajectory).
+    None where any of that does not hold: the general route then runs, and refuses by name."""
+    n = model.n
+    if not (
+        type(x0) is type(pi0) is np.ndarray
+        and x0.dtype is pi0.dtype is _F64
+        and x0.shape == pi0.shape == (n,)
+    ):
+        return None
+    xl, pl = x0.tolist(), pi0.tolist()
+    if not all(map(_WITHIN, map(abs, xl + pl))):  # issue 30: finite and |v| <= MAX_MAGNITUDE
+        return None
+    one = model.__dict__.get(
+        "_one"
+    )  # (tol, runner, rates bound) of the last tol, kept on the model
+    if one is None or one[0] != tol:
+        one = model.__dict__["_one"] = (tol, _one_runner(model, tol), _rates_free_below(model))
+    run = one[1]
+    if run is None:
+        return None
+    pmax = max(map(abs, pl))
+    if not pmax <= one[2]:  # the rates' check, where it could refuse
+        _check_rates(model, pi0, tv, pmax)
+    X = np.ascontiguousarray(x0).reshape(n, 1)  # only read (never written, never returned)
+    P = np.ascontiguousarray(pi0).reshape(n, 1)
+    x, pi = run(X, P, tv)
     if not math.isfinite(sum(x.tolist()) + sum(pi.tolist())):  # finite: every entry is
         _check_finite(x.reshape(n, 1), pi.reshape(n, 1), tv)
     return x, pi
