@@ -27,9 +27,7 @@ Error control (per trajectory, never shared)
     ``eps`` varies by a factor 2-4 over ``eps`` = 1e-8 ... 1e-13 on the heavy and the asymmetric top).
     ``B`` is returned when the estimate is at most ``tol`` on that trajectory. The quadratic su(2) full
     state (:func:`compiled_taylor_flow`) starts ``A`` at :data:`A_LOOSE_FULL` (one trajectory: ``A``
-    and ``B`` in one pass of the pair kernel) and, on a trajectory over ``tol`` whose ``A`` is looser
-    than :data:`A_LOOSE`, first runs ``A`` alone again at :data:`A_LOOSE` (``B`` kept). A trajectory
-    still over it is run again with ``eps_A`` lowered by the observed excess (times 10), until it passes
+    and ``B`` in one pass of the pair kernel). A trajectory over ``tol`` is run again with ``eps_A`` lowered by the observed excess (times 10), until it passes
     or ``eps_A`` reaches :data:`EPS_FLOOR` (then ``ValueError`` names it); when the ``B`` it holds is within
     :data:`REUSE_B` of that new ``eps_A``, that ``B`` becomes the new ``A`` and only a new ``B`` (at
     ``SAFETY`` times its tolerance) is run -- the pair still has ``r <= SAFETY``, all the estimate
@@ -81,7 +79,7 @@ A_LOOSE = (
 )
 # (order 11; looser tolerances lower the order and take more steps)
 A_LOOSE_FROM = 1e-10  # from here on 30 kappa 1e-13 <= tol for amplifications kappa = err/eps <= 30
-A_LOOSE_FULL = 1e-8
+A_LOOSE_FULL = A_LOOSE
 """``A``'s local tolerance for ``tol >= A_LOOSE_FROM`` on the su(2) quaternion full state with
 ``Upsilon = 0`` (:func:`compiled_taylor_flow`), now :data:`A_LOOSE` (issue 25, session 6; it was 1e-6,
 measured below). One trajectory runs ``A`` and ``B`` on the two lanes of one vector (the pair kernel,
@@ -93,9 +91,9 @@ over the default ``tol = 1e-10``, A at 1e-6 / 1e-7 / 1e-8, B at Jorba-Zou's orde
 top with the inertia [[1, 0.1, 0], [0.1, 1.3, -0.05], [0, -0.05, 0.6]] 88 / 75 / 20 % (order 13: 367
 against 958 steps), the Lagrange top 0 / 0 / 0 %. A batch (the lane kernel, where ``A`` costs its own
 steps), 2000 of those starts, us per trajectory with ``A`` at 1e-6 / 1e-8 (B's order as now, load 2.7):
-heavy top 212.5 / 148.2, the off-diagonal inertia 286.1 / 183.8, Lagrange top 74.5 / 81.6. At 1e-8 the
-A-alone retry (``a_retry``) never applies (it asks for an ``A`` looser than :data:`A_LOOSE`). The
-coverage ``q`` of the estimate at 1e-8 (below; ``PROP = 30`` must exceed it): at most 2.2, and 2.02 on
+heavy top 212.5 / 148.2, the off-diagonal inertia 286.1 / 183.8, Lagrange top 74.5 / 81.6. With ``A``
+at :data:`A_LOOSE` from the start, the retry of ``A`` alone at :data:`A_LOOSE` that 1e-6 needed (below)
+is gone. The coverage ``q`` of the estimate at 1e-8 (below; ``PROP = 30`` must exceed it): at most 2.2, and 2.02 on
 seed 11's ten random models with the heavy, Lagrange and asymmetric tops
 (``tests/benchmarks/su2_estimate_constants.py 11 10 1e-6,1e-8``).
 
@@ -112,23 +110,13 @@ trajectories included; the pass condition of one pair, ``kappa_A = err(A) / eps_
 eps_B)`` (33 at the default ``tol``), holds as often as at 1e-8 (heavy top 16 vs 4.9, Lagrange 6.7 vs
 7.2; the non-chaotic random models 0.02-110 either way, over 33 on the same two at both), but not
 near the heavy top: on the 10^4 starts of its batch (reports._bench_protocol.batch_initial) 27 % fail
-one pair at 1e-6, 0.04 % at 1e-8, hence the retry of ``A`` alone at :data:`A_LOOSE` (``_control``'s
-``a_retry``; a rerun of ``B`` at ~3e-14 costs 2.4 times as much): that batch then costs the same
+one pair at 1e-6, 0.04 % at 1e-8, hence, then, a retry of ``A`` alone at :data:`A_LOOSE` (a rerun of ``B`` at ~3e-14 costs 2.4 times as much): that batch then costs the same
 with ``A`` at 1e-8, 1e-7 and 1e-6 (166.7, 166.7, 165.8 us per trajectory, one interleaved run, load
 2.0), and one trajectory that passes saves 28 % of ``A``. Script:
 ``tests/benchmarks/su2_estimate_constants.py``. Seed 5's ten random models (issue 25): q at most 0.66
 at 1e-6 where the estimate is used; two chaotic trajectories whose ``A`` saturates (``|A - B|`` 2.7 and
 3.3) have q = 3.1 and 1.4e4 -- there the proportional form is no estimate at all, hence
 :data:`PROP_MAX_D`."""
-A_RETRY_EXCESS = 3.0
-"""Largest ``estimate / tol`` of a trajectory whose retry is ``A`` alone at ``a_retry`` (``_control``): a
-cost rule, not a bound (every pair's estimate is checked as any other). Measured on the heavy and the
-Lagrange top (one trajectory; excess ``estimate / tol`` of the first pair at 1e-6, then with ``A`` at
-1e-8): T = 100 both pass at 1e-6 (of the heavy top's 10^4 batch starts 26 % fail, all pass at 1e-8, 84 %
-of them with excess at most 2, 93 % at most 3); T = 200 heavy 1.72 -> 0.85 (passes); T = 300 1.71 -> 3.38 and 1.33 ->
-1.52; T = 1000 4.09 -> 49 and 11.6 -> 16.5: a large excess does not come down with a tighter ``A`` (the
-flow's amplification grows with T), and the futile ``A`` costs 15 % there (T = 1000: 8.8 against 7.6
-ms)."""
 PROP_MIN_A = 1e-12  # the proportionality estimate only for A at this local tolerance or looser
 PROP_MIN_B = 1e-14  # ... and B at this local tolerance or looser
 PROP = 30.0  # safety factor of the proportionality estimate err(B) ~ (eps_B / eps_A) |A - B|
@@ -559,7 +547,7 @@ def first_estimate(d: float, eps_a: float, eps_b: float, prop_min_b: float, prop
     :data:`PROP_MIN_A` or looser, ``B`` at ``prop_min_b`` or looser, ``d <= prop_max_d``; None: no
     limit), else ``d``. The one rule of the two-run estimate: :func:`prop_estimates` is the same on
     arrays; the callers that run the first pair themselves (:func:`_first_pair`,
-    :func:`refimpl._full_state.flow_one`) and :func:`_control`'s first pair take this form."""
+    :func:`refimpl._full_state._first_pair`) and :func:`_control`'s first pair take this form."""
     if eps_a >= PROP_MIN_A and eps_b >= prop_min_b and (prop_max_d is None or d <= prop_max_d):
         return min(d, PROP * (eps_b / eps_a) * d)
     return d
@@ -590,7 +578,6 @@ def _control(
     floor=None,
     reuse_last=False,
     first=None,
-    a_retry=None,
 ):
     """The two-run control of the module docstring on the rows of ``y0``: ``(B, estimate, steps of B)``.
 
@@ -609,11 +596,7 @@ def _control(
     ``rows``: the indices of ``B``'s rows in ``y0``, None for the first pair of one trajectory; ``B`` is
     the array just given to ``estimate``), default none; ``reuse_last``: when ``A`` cannot be tightened further
     (at :data:`EPS_FLOOR`), its held ``B`` becomes ``A`` once as a last resort (with ``reuse_b = 0``);
-    ``first``: ``(A, B, steps of B)`` of the first pair already run (one trajectory; default: run here);
-    ``a_retry``: a local tolerance for ``A``'s first retry -- a row over ``tol`` by at most
-    :data:`A_RETRY_EXCESS` whose ``A`` is looser runs ``A`` alone again at ``a_retry`` (its ``B`` kept:
-    ``B``'s tolerance does not change) before any other retry (default none; su(2): ``A_LOOSE_FULL``
-    first, then :data:`A_LOOSE`).
+    ``first``: ``(A, B, steps of B)`` of the first pair already run (one trajectory; default: run here).
 
     A trajectory whose ``A`` must be tightened to ``new`` while it holds a ``B`` at a tolerance
     ``eps_B <= REUSE_B * new`` takes that ``B`` as its new ``A`` (one run, the new ``B`` at
@@ -698,15 +681,6 @@ def _control(
         # is kept: one run), else a tighter A (and B with it) by the observed excess, times 10
         moved = False
         for k in over.tolist():
-            if (
-                a_retry is not None
-                and eps_a[k] > a_retry
-                and est[k] <= A_RETRY_EXCESS * tol
-                and eps_b_of(a_retry) == eps_b[k]
-            ):
-                eps_a[k] = a_retry  # su2 hook: only A runs again
-                moved = True
-                continue
             eb_req = _grid_down((tol - fl[k]) * eps_a[k] / (PROP * max(d[k], 1e-300)) / 2)
             if (
                 eps_a[k] >= PROP_MIN_A
@@ -861,7 +835,6 @@ def _go_on(model, y0, t, eps_a, n, tol, first, uz):
         n,
         tol,
         first=first,
-        a_retry=A_LOOSE if uz else None,
         runner=runner,
     )
     over = np.flatnonzero(est > tol)

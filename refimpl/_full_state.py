@@ -89,7 +89,7 @@ from ._flow_compiled import (
 from .codegen import import_source
 from .codegen.full_state import full_state_source
 
-__all__ = ["FullState", "applies", "flow_one", "full_state", "full_state_flow", "one_trajectory"]
+__all__ = ["FullState", "applies", "full_state", "full_state_flow", "one_trajectory"]
 
 EPS = np.finfo(float).eps
 _EPS = float(EPS)
@@ -634,44 +634,19 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
     }
 
 
-def flow_one(model, x0, pi0, t: float, tol: float, *, abelian=None):
-    """:func:`full_state_flow` of one trajectory (``x0``, ``pi0`` C-contiguous float64 of shape (n, 1),
-    ``t`` and ``tol`` floats), the same computation: ``(x, pi)`` at ``t``, each of shape (n,), without
-    the rest of the dictionary (the protocol call, :func:`refimpl.flows._fast.fast_flow`)."""
-    fs = full_state(model, abelian)
-    res, _, _, ans = _solve(fs, model, _start(fs, x0, pi0), t, tol, None)
-    return ans.all[2][0], res[0, : fs.n].copy()
-
-
 def one_trajectory(model, tol: float, abelian=None):
-    """``run(x0, pi0, t) -> (x, pi)``: :func:`flow_one` at ``tol`` on ``model`` (the same computation,
-    the same arguments but ``tol``), with what the protocol call's first pair needs (the start's
-    constants, the kernel's orders, the time from which the generated kernel runs) looked up once,
-    when the runner is built (issue 25: the Python around one trajectory;
+    """``run(x0, pi0, t) -> (x, pi)`` at ``tol`` on ``model``: :func:`full_state_flow` of one trajectory
+    (``x0``, ``pi0`` C-contiguous float64 of shape (n, 1), ``t`` a float; ``x``, ``pi`` fresh arrays of
+    shape (n,)), the same computation, without its dictionary and with the start's constants looked
+    up once, when the runner is built (issue 25: the Python around one trajectory;
     :func:`refimpl.flows._fast._flow_one` keeps it per model and ``tol``)."""
     fs = full_state(model, abelian)
-    if tol < A_LOOSE_FROM:  # A at FIRST * tol: the general control from the start
-        return functools.partial(_flow_one_at, model, tol, abelian)
-    return _one_runner(fs, model, tol, abelian)
-
-
-def _flow_one_at(model, tol, abelian, x0, pi0, t):
-    return flow_one(model, x0, pi0, t, tol, abelian=abelian)
-
-
-def _one_runner(fs: FullState, model, tol: float, abelian):
     n, d, consts, start = fs.n, fs.d, fs.start_consts, _fk.start
-    min_t = _generated_min_work(fs)  # N = 1
 
     def run(x0, pi0, t):
-        if not abs(t) >= min_t:  # not the generated kernel's first pair: the general control
-            return flow_one(model, x0, pi0, t, tol, abelian=abelian)
         y0 = np.empty((1, d))
         start(x0, pi0, *consts, y0)
-        ans = _Answer(fs, 1)
-        A, B, sB, e = _first_pair(fs, ans, y0, t)
-        if not e[0] <= tol:  # the control goes on from this pair, as _solve's
-            B = _solve(fs, model, y0, t, tol, None, first=(A, B, sB), ans=ans)[0]
+        B, _, _, ans = _solve(fs, model, y0, t, tol, None)
         return ans.all[2][0], B[0, :n].copy()
 
     return run
@@ -749,18 +724,17 @@ def _generated_min_work(fs: FullState) -> float:
     )
 
 
-def _solve(fs: FullState, model, y0, t, tol: float, run, *, first=None, ans=None):
+def _solve(fs: FullState, model, y0, t, tol: float, run):
     """The two-run control and the refusal of :func:`full_state_flow` from the rows ``y0``: ``(B,
     estimate, steps of B, the _Answer holding G, Ad(g), x of the final B)``. One trajectory on the
     generated kernel runs its first pair through :func:`_first_pair` and enters the control only when
-    that pair does not pass (the control then goes on from it; ``first``, ``ans``: that pair and its
-    answer when the caller ran it, :func:`one_trajectory`)."""
+    that pair does not pass (the control then goes on from it)."""
     N, n = y0.shape[0], fs.n
     eps_a = local_tolerances(tol)[0] if run is not None or tol < A_LOOSE_FROM else A_LOOSE
     gen = N * abs(t) >= _generated_min_work(fs)
-    if ans is None:
-        ans = _Answer(fs, N)
-    if first is None and N == 1 and run is None and gen and eps_a == A_LOOSE:  # the protocol call
+    ans = _Answer(fs, N)
+    first = None
+    if N == 1 and run is None and gen and eps_a == A_LOOSE:  # the protocol call
         t = float(t)
         A, B, sB, e = _first_pair(fs, ans, y0, t)
         if e[0] <= tol:
