@@ -43,8 +43,6 @@ numpy path; :data:`PATH` and the ``path`` field of every result say which path r
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ._compiled_taylor import HAVE_NUMBA
@@ -53,14 +51,7 @@ from ._phi import PHI1_TAYLOR
 from .codegen import import_source, loaded_modules
 from .codegen.tensors import generic_source, su2_source
 
-__all__ = [
-    "HAVE_NUMBA",
-    "PATH",
-    "compile_count",
-    "generic_degenerate_at_origin",
-    "generic_poisson",
-    "su2_poisson",
-]
+__all__ = ["HAVE_NUMBA", "PATH", "compile_count", "generic_poisson", "su2_poisson"]
 
 PATH = "numba" if HAVE_NUMBA else "numpy"
 
@@ -155,56 +146,6 @@ def generic_poisson(
         r,
     )
     return r
-
-
-def generic_degenerate_at_origin(f, theta, upsilon, p, *, consts: dict) -> np.ndarray:
-    """The ``degen`` flags :func:`generic_poisson` returns at ``x = 0`` for the points ``p`` (N, n),
-    without its kernel (compiled per dimension: ~4 s on a cold cache for n = 8, for a start check).
-
-    At ``x = 0`` the frame is ``L = 1`` exactly (``ad_x = 0``, the series' first term), so the flag
-    is the template's ``not (max(cond, sens) n C_P eps < 1)`` alone: ``Psi = 1 + Upsilon S``,
-    ``S_aj = pi_i f^i_aj - Theta_aj``, ``cond = ||Psi||_F ||Psi^-1||_F / n``,
-    ``sens = ||Psi^-1||_F (1 + ||S||_F ||Upsilon||_F) / sqrt(n)``; the inverse by LAPACK (the numpy
-    path's), an exactly singular ``Psi`` or a non-finite one degenerate (the kernel's NaN).
-    ``upsilon`` None: ``Psi = 1``, no point is. ``consts``: see :mod:`refimpl.codegen.tensors`."""
-    p = np.asarray(p, dtype=float)
-    N, n = p.shape
-    if upsilon is None:
-        return np.zeros(N, dtype=bool)
-    ups = np.asarray(upsilon, dtype=float)
-    S = (p @ np.asarray(f, dtype=float).reshape(n, n * n)).reshape(N, n, n)
-    if theta is not None:
-        S -= np.asarray(theta, dtype=float)
-    Psi = ups @ S
-    Psi.reshape(N, n * n)[:, :: n + 1] += 1.0
-    c = (
-        n * consts["C_P"] * consts["EPS"]
-    )  # degenerate unless max(cond, sens) c < 1 (NaN: degenerate)
-    un = math.sqrt(np.vdot(ups, ups))
-    with np.errstate(all="ignore"):
-        # one point (a protocol call): 2-d operations and floats, half the batched ones' overhead
-        if N == 1:
-            try:
-                Pi = np.linalg.inv(Psi[0])
-            except np.linalg.LinAlgError:  # exactly singular
-                return np.ones(1, dtype=bool)
-            fp = math.sqrt(np.vdot(Pi, Pi))
-            cond = math.sqrt(np.vdot(Psi, Psi)) * fp / n
-            sens = fp * (1 + math.sqrt(np.vdot(S, S)) * un) / math.sqrt(n)
-            return np.array([not (cond * c < 1.0 and sens * c < 1.0)])
-        try:
-            Pi = np.linalg.inv(Psi)
-        except np.linalg.LinAlgError:  # an exactly singular Psi somewhere: per point, NaN there
-            Pi = np.full_like(Psi, np.nan)
-            for k in range(N):
-                try:
-                    Pi[k] = np.linalg.inv(Psi[k])
-                except np.linalg.LinAlgError:
-                    pass
-        fp = np.sqrt(np.einsum("kij,kij->k", Pi, Pi))
-        cond = np.sqrt(np.einsum("kij,kij->k", Psi, Psi)) * fp / n
-        sens = fp * (1 + np.sqrt(np.einsum("kij,kij->k", S, S)) * un) / math.sqrt(n)
-        return ~((cond * c < 1.0) & (sens * c < 1.0))
 
 
 def compile_count() -> dict:

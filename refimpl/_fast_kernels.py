@@ -3,6 +3,7 @@ stated in :mod:`refimpl.fast`, the public face built on these kernels."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -422,6 +423,14 @@ def _generic_poisson(f, theta, upsilon, x, p, out=None):
     return P, cond, sens, bound, degen
 
 
+def _psi_cond_sens(f_psi, f_psi_inv, f_s, n_ups, n: int):
+    """The conditioning of the solve by ``Psi = 1 + Upsilon S`` in the error model, from Frobenius norms
+    (floats or arrays alike): ``cond = ||Psi|| ||Psi^-1|| / n`` and ``sens = ||Psi^-1|| (1 + ||S||
+    ||Upsilon||) / sqrt(n)``; a point is degenerate unless ``max(cond, sens) n C_P eps < 1``
+    (:func:`_generic_poisson_chunk`, :func:`_degenerate_at_origin`)."""
+    return f_psi * f_psi_inv / n, f_psi_inv * (1 + f_s * n_ups) / math.sqrt(n)
+
+
 def _generic_poisson_chunk(f, theta, upsilon, x, p, P, cond_out, sens_out, bound_out, degen_out):
     N, n = x.shape
     A = (x @ f.transpose(1, 0, 2).reshape(n, n * n)).reshape(N, n, n)
@@ -443,7 +452,9 @@ def _generic_poisson_chunk(f, theta, upsilon, x, p, P, cond_out, sens_out, bound
         Psi += np.eye(n)
         Psi_inv = _inv_batch(Psi)
         with np.errstate(invalid="ignore", over="ignore"):
-            sens = _frob(Psi_inv) * (1 + _frob(S) * np.linalg.norm(upsilon)) / np.sqrt(n)
+            cond, sens = _psi_cond_sens(
+                _frob(Psi), _frob(Psi_inv), _frob(S), float(np.linalg.norm(upsilon)), n
+            )
         sens = np.where(np.isfinite(sens), sens, np.inf)
         Pxp = L @ Psi_inv
         Ppp = -(S @ Psi_inv)
@@ -452,8 +463,6 @@ def _generic_poisson_chunk(f, theta, upsilon, x, p, P, cond_out, sens_out, bound
         P[:, :n, n:] = Pxp
         P[:, n:, :n] = -Pxp.transpose(0, 2, 1)
         P[:, n:, n:] = 0.5 * (Ppp - Ppp.transpose(0, 2, 1))
-        with np.errstate(invalid="ignore", over="ignore"):
-            cond = _frob(Psi) * _frob(Psi_inv) / n
     cond = np.where(np.isfinite(cond), cond, np.inf)
     frame = 1.0 / np.maximum(1.0 - np.minimum(r, 1.0), EPS)
     with np.errstate(invalid="ignore", over="ignore"):
@@ -502,12 +511,48 @@ def _check_points_fast(x, pi, n: int) -> tuple[np.ndarray, np.ndarray]:
 def start_degenerate(f, theta, upsilon, p) -> np.ndarray:
     """The degenerate flags of the Poisson tensor at ``x = 0`` for the points ``p`` (N, n): the flows'
     start check (:func:`refimpl.flows._fast._check_start`). su(2): its closed form
-    (:meth:`FastCore.poisson_batch_validated`); any other algebra
-    :func:`refimpl._compiled_tensors.generic_degenerate_at_origin`, which compiles nothing (the
-    generic kernel costs ~4 s per dimension on a cold cache, issue 25)."""
+    (:meth:`FastCore.poisson_batch_validated`); any other algebra :func:`_degenerate_at_origin`, which
+    compiles nothing (the generic kernel costs ~4 s per dimension on a cold cache, issue 25)."""
     if _is_su2(f):
         return FastCore().poisson_batch_validated(f, theta, upsilon, np.zeros_like(p), p).degenerate
-    return _ctens.generic_degenerate_at_origin(f, theta, upsilon, p, consts=_ct_consts())
+    return _degenerate_at_origin(f, theta, upsilon, p)
+
+
+def _degenerate_at_origin(f, theta, upsilon, p) -> np.ndarray:
+    """The ``degen`` flags of :func:`_generic_poisson` (and of the compiled generic kernel) at ``x = 0``
+    for the points ``p`` (N, n), computing only them: there the frame is ``L = 1`` exactly (``ad_x =
+    0``), so the flag is the solve's conditioning alone (:func:`_psi_cond_sens`, with ``S_aj = pi_i
+    f^i_aj - Theta_aj``); an exactly singular or non-finite ``Psi`` is degenerate. ``upsilon`` None:
+    ``Psi = 1``, no point is. One point (a protocol call) by 2-d operations and floats."""
+    p = np.asarray(p, dtype=float)
+    N, n = p.shape
+    if upsilon is None:
+        return np.zeros(N, dtype=bool)
+    ups = np.asarray(upsilon, dtype=float)
+    S = (p @ np.asarray(f, dtype=float).reshape(n, n * n)).reshape(N, n, n)
+    if theta is not None:
+        S -= np.asarray(theta, dtype=float)
+    Psi = ups @ S
+    Psi.reshape(N, n * n)[:, :: n + 1] += 1.0
+    c = n * C_P * EPS  # degenerate unless max(cond, sens) c < 1 (NaN: degenerate)
+    n_ups = math.sqrt(np.vdot(ups, ups))
+    with np.errstate(all="ignore"):
+        if N == 1:
+            try:
+                Pi = np.linalg.inv(Psi[0])
+            except np.linalg.LinAlgError:  # exactly singular
+                return np.ones(1, dtype=bool)
+            cond, sens = _psi_cond_sens(
+                math.sqrt(np.vdot(Psi, Psi)),
+                math.sqrt(np.vdot(Pi, Pi)),
+                math.sqrt(np.vdot(S, S)),
+                n_ups,
+                n,
+            )
+            return np.array([not (cond * c < 1.0 and sens * c < 1.0)])
+        Pi = _inv_batch(Psi)
+        cond, sens = _psi_cond_sens(_frob(Psi), _frob(Pi), _frob(S), n_ups, n)
+        return ~((cond * c < 1.0) & (sens * c < 1.0))
 
 
 # ------------------------------------------------ constants of the compiled kernels

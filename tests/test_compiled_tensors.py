@@ -13,6 +13,7 @@ import pytest
 from tests._helpers import assert_within_bound
 from tstarg.refimpl import CATALOGUE_NAMES, catalogue, su2
 from tstarg.refimpl import _compiled_tensors as ct
+from tstarg.refimpl import _fast_kernels as fk
 from tstarg.refimpl._errors import ChartError
 from tstarg.refimpl.fast import implementation as fast
 from tstarg.refimpl.reference import DegeneratePointError, Reference
@@ -216,23 +217,22 @@ def test_degenerate_and_outside_points_flagged_and_refused():
 
 
 def test_degenerate_at_origin_without_the_kernel():
-    """generic_degenerate_at_origin (the flows' start check, no kernel compiled) gives the flags of the
+    """_fast_kernels._degenerate_at_origin (the flows' start check, no kernel compiled) gives the flags of the
     compiled generic kernel and of numpy at x = 0 on aff(1)'s exactly singular and 2^-49-close Psi
     (see above), numpy's on every catalogue algebra but su(2) (its own closed form) under the four
     models of _model at |pi| from 1e-3 to 1e6 (the compiled flags equal numpy's: the tests above);
     and the fast flow refuses those aff(1) starts naming them."""
-    consts = {"EPS": EPS, "C_P": 16.0}
     g = catalogue("aff(1)")
     U = np.array([[0.0, 0.5], [-0.5, 0.0]])
     pi_g = np.array([[0.7, 2.0], [0.7, 2.0 - 2.0**-49], [0.7, 0.3]])
     z2 = np.zeros((2, 2))
-    flags = ct.generic_degenerate_at_origin(g.f, None, U, pi_g, consts=consts)
+    flags = fk._degenerate_at_origin(g.f, None, U, pi_g)
     c, p = _both(g, z2, U, np.zeros_like(pi_g), pi_g)
     assert flags.tolist() == c.degenerate.tolist() == p.degenerate.tolist() == [True, True, False]
     for k in range(3):  # one point at a time: its own route (2-d operations)
-        one = ct.generic_degenerate_at_origin(g.f, None, U, pi_g[k : k + 1], consts=consts)
+        one = fk._degenerate_at_origin(g.f, None, U, pi_g[k : k + 1])
         assert one.tolist() == [flags[k]]
-    assert not ct.generic_degenerate_at_origin(g.f, None, None, pi_g, consts=consts).any()
+    assert not fk._degenerate_at_origin(g.f, None, None, pi_g).any()
     for name in CATALOGUE_NAMES:
         alg = catalogue(name)
         if name == "su(2)" or alg.dim < 2:
@@ -243,12 +243,9 @@ def test_degenerate_at_origin_without_the_kernel():
             pi = rng.normal(size=(20, alg.dim)) * np.logspace(-3, 6, 20)[:, None]
             with np.errstate(all="ignore"):  # numpy's path: no kernel compiled per dimension here
                 ref = fast.poisson_batch(alg.f, theta, ups, np.zeros_like(pi), pi, compiled=False)
-            flags = ct.generic_degenerate_at_origin(alg.f, theta, ups, pi, consts=consts)
+            flags = fk._degenerate_at_origin(alg.f, theta, ups, pi)
             assert flags.tolist() == ref.degenerate.tolist(), (name, kind)
-            ones = [
-                ct.generic_degenerate_at_origin(alg.f, theta, ups, q[None], consts=consts)[0]
-                for q in pi
-            ]
+            ones = [fk._degenerate_at_origin(alg.f, theta, ups, q[None])[0] for q in pi]
             assert ones == flags.tolist(), (name, kind)
     I2 = np.diag([1.0, 2.0])
     with pytest.raises(ValueError, match=r"initial point\(s\) \[0, 1\] lie on the degenerate set"):
