@@ -712,6 +712,21 @@ def _finish(
     if state["failure"] is not None and not res.passed:
         res.falsifying_example = state["failure"]["text"][:8000]
         res.extra["example"] = {k: v for k, v in state["failure"].items() if k != "text"}
+    if not res.passed and not res.worst_ratio > 1.0:
+        # a failed check never reads as within tolerance: its failing example's ratio when the body
+        # returned one above 1 (already in worst_ratio), else (it raised) the ratio that example
+        # recorded (returned, or noted as ``ratio``) when above 1, else inf -- the column is "the
+        # largest error / tolerance seen"
+        fail = state["failure"] or {}
+        fr = next(
+            (
+                r
+                for r in (fail.get("ratio"), fail.get("notes", {}).get("ratio"))
+                if isinstance(r, (int, float)) and r > 1.0
+            ),
+            math.inf,
+        )
+        res.worst_ratio = float(fr)
     if res.passed and res.examples == 0 and state["stopped"] and not state["over"]:
         res.passed = False
         res.worst_ratio = math.inf

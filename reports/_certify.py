@@ -158,8 +158,8 @@ def main(args) -> int:
             target, args.seed, n, result.reason if isinstance(result, Died) else str(result)
         )
     )
-    cert.command = (
-        "tstarg " + " ".join(shlex.quote(a) for a in sys.argv[2:])
+    cert.command = (  # argv[1] is the subcommand ("certify"): the line as typed
+        "tstarg " + " ".join(shlex.quote(a) for a in sys.argv[1:])
         if len(sys.argv) > 2
         else cert.command
     )

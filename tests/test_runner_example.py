@@ -293,3 +293,30 @@ def test_error_while_drawing_is_reported_as_such():
     )
     assert not res.passed and "LinAlgError" in res.detail
     assert "while drawing an example" in res.falsifying_example and "boom" in res.falsifying_example
+
+
+@pytest.mark.parametrize("noted", [22.5, None])
+def test_a_check_that_raises_never_reports_a_ratio_within_tolerance(noted):
+    """A body that raises on a bad example (its own assertion, not a returned ratio) fails the check,
+    and the check's worst ratio -- "the largest error / tolerance seen" -- is that example's noted
+    ratio, or inf when it noted none; never the passing examples' maximum (here 1e-3)."""
+
+    def body(v):
+        if v < 50:
+            return 1e-3, None  # within tolerance
+        if noted is not None:
+            note(ratio=noted)
+        raise AssertionError("planted: the example is wrong")
+
+    res = run_property(
+        "planted.raises",
+        "-",
+        body,
+        st.integers(0, 100),
+        max_examples=40,
+        seed=1,
+        explicit=(3, 77),
+        shrink_seconds=1.0,
+    )
+    assert not res.passed
+    assert res.worst_ratio == (noted if noted is not None else math.inf)
