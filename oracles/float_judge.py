@@ -29,7 +29,7 @@ import numpy as np
 import scipy.linalg
 from scipy.integrate import solve_ivp
 
-from tstarg.refimpl import RepresentationError, representation_for
+from tstarg.refimpl import PROTOCOL, RepresentationError, representation_for
 
 __all__ = [
     "C_CERT",
@@ -179,7 +179,7 @@ def max_err(got, ref) -> float:
 
 def flow_tol(impl, n, cond, frame) -> float:
     return max(
-        float(getattr(impl, "flow_tolerance", 1e-9)), C_CERT * n * eps_impl(impl) * cond * frame
+        float(PROTOCOL.declared(impl, "flow_tolerance")), C_CERT * n * eps_impl(impl) * cond * frame
     )
 
 

@@ -378,6 +378,11 @@ def _fmt(a: Any) -> str:
         return repr(a.tolist()) if a.dtype != object else repr([str(v) for v in a.ravel()])
     if isinstance(a, str):
         return a
+    if isinstance(a, np.generic):  # numpy 2's repr would read np.float64(22.7)
+        return repr(a.item())
+    if isinstance(a, (list, tuple)):
+        inner = ", ".join(repr(v) if isinstance(v, str) else _fmt(v) for v in a)
+        return f"[{inner}]" if isinstance(a, list) else f"({inner}{',' if len(a) == 1 else ''})"
     return repr(a)
 
 

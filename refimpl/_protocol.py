@@ -255,9 +255,15 @@ ATTRIBUTES: tuple[Attribute, ...] = (
         low=0.0,
         low_open=True,
         high=1e-4,
+        default=1e-9,
     ),
     Attribute("order", "integer", "the integrator's order (flow.order)", low=1, high=100),
-    Attribute("poisson_integrator", "boolean", "the flow map is a Poisson map (flow.poisson_map)"),
+    Attribute(
+        "poisson_integrator",
+        "boolean",
+        "the flow map is a Poisson map (flow.poisson_map)",
+        default=False,
+    ),
     Attribute(
         "group",
         "string",
@@ -304,6 +310,11 @@ class Spec:
 
     def attribute(self, name: str) -> Attribute:
         return next(a for a in self.attributes if a.name == name)
+
+    def declared(self, impl, name: str) -> Any:
+        """``impl``'s attribute ``name`` as it declares it, else the protocol's default for it (the
+        attribute's ``default``, the one place a default is written; None where there is none)."""
+        return getattr(impl, name, self.attribute(name).default)
 
 
 def _validate(spec: Spec) -> Spec:
@@ -462,5 +473,7 @@ def markdown_table() -> str:
             hi = "inf" if a.high is None else f"{a.high:g}"
             rng = f"{'(' if a.low_open else '['}{lo}, {hi}]"
         doc = a.doc.replace("|", "\\|")
+        if a.default is not None:
+            doc += f" (default: {a.default!r})"
         rows.append(f"| `{a.name}` | {a.type} | {rng} | {where} | {doc} |")
     return "\n".join(rows)

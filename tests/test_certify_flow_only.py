@@ -114,3 +114,36 @@ def test_verdict_is_printed_before_shrinking_and_the_example_says_if_minimal(tmp
     assert first < text.index("certificate for ")
     assert "shrinking it (at most 5 s)" in text
     assert "example shown: minimal" in text or "example shown: not minimal" in text
+
+
+def test_verdict_only_does_not_announce_a_shrink(tmp_path, capfd):
+    """--verdict-only stops at the first failing example: the verdict line used to say "shrinking
+    it" there too (a newcomer waited for a shrink that never came)."""
+    out = tmp_path / "cert"
+    argv = ["certify", "tests.meta.flow_only:loose_after_5", "--check", "flow.long"]
+    argv += ["--max-examples", "4", "--workers", "1", "--verdict-only"]
+    assert main([*argv, "--out", str(out)]) == 1
+    text = capfd.readouterr().out
+    assert "verdict FAIL: flow.long found a failing example" in text, text
+    assert "shrinking it" not in text, text
+    assert "not shrunk" in text, text
+
+
+def test_declared_adjoint_on_an_algebra_with_a_centre_says_it_is_set_aside():
+    """Ad(g) is not faithful where the algebra has a centre (h(3): Ad(exp(z e_3)) = 1 for every z),
+    so a declared "adjoint" is set aside there; the group's name and the certificate's description
+    used to say "the adjoint group Ad(G) (declared)" all the same."""
+    from tstarg.refimpl import catalogue
+    from tstarg.reports.certification.group import describe_group, group_for
+
+    h3 = np.asarray(catalogue("h(3)").f, dtype=float)
+    g = group_for("adjoint", h3)
+    assert g is not None and "set aside" in g.name, g.name
+    # the judged group is faithful: a central element (ad_z = 0) moves it, unlike Ad
+    z = np.zeros(3)
+    z[[a for a in range(3) if not np.any(h3[:, a, :])][0]] = 1.0
+    assert not np.any(np.einsum("a,mab->mb", z, h3))
+    assert np.max(np.abs(g.exp(z) - np.eye(g.dim))) > 0.5
+    su3 = np.asarray(catalogue("su(3)").f, dtype=float)
+    assert "set aside" not in group_for("adjoint", su3).name
+    assert "set aside" in describe_group("adjoint")

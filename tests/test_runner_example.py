@@ -320,3 +320,19 @@ def test_a_check_that_raises_never_reports_a_ratio_within_tolerance(noted):
     )
     assert not res.passed
     assert res.worst_ratio == (noted if noted is not None else math.inf)
+
+
+def test_noted_numpy_scalars_render_as_plain_numbers():
+    """A failing example's notes are paste-able Python: numpy 2's scalar repr
+    (``np.float64(22.7)``) showed in certificates when a check noted a numpy ratio."""
+
+    def body(v):
+        note(ratio=np.float64(22.5), pair=(np.float64(0.25), "a"), steps=np.int64(7))
+        raise AssertionError("planted")
+
+    res = run_property(
+        "planted.numpy", "-", body, st.integers(0, 3), max_examples=2, seed=0, shrink_seconds=1.0
+    )
+    text = res.falsifying_example
+    assert not res.passed and "np." not in text, text
+    assert "ratio = 22.5" in text and "pair = (0.25, 'a')" in text and "steps = 7" in text, text

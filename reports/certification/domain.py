@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tstarg.refimpl import CATALOGUE_NAMES, catalogue
+from tstarg.refimpl import CATALOGUE_NAMES, PROTOCOL, catalogue
 
 
 @dataclass
@@ -120,4 +120,4 @@ def _batched(impl) -> bool:
     dom = getattr(impl, "domain", None)
     if isinstance(dom, dict) and "batched" in dom:
         return bool(dom["batched"])
-    return bool(getattr(impl, "batched", False))
+    return bool(PROTOCOL.declared(impl, "batched"))

@@ -118,9 +118,10 @@ def _note_stats(cert, cid: str, stats: dict, dom) -> None:
         )
 
 
-def _announcing(body, name: str, t0: float, announce: bool):
+def _announcing(body, name: str, t0: float, announce: bool, shrink: bool = True):
     """``body``, printing the verdict when it first fails (an exception or a ratio above 1): one
-    line per failing check, the first of them is the verdict."""
+    line per failing check, the first of them is the verdict; what follows it is said as it will
+    happen (``shrink=False``, ``--verdict-only``: the example as found, no shrinking)."""
     if not announce:
         return body
     said: list[bool] = []
@@ -129,11 +130,18 @@ def _announcing(body, name: str, t0: float, announce: bool):
         if said:
             return
         said.append(True)
-        shrink = runner.current().limits.shrink_seconds
-        print(
+        found = (
             f"tstarg certify: verdict FAIL: {name} found a failing example after "
-            f"{time.perf_counter() - t0:.1f} s; shrinking it"
-            + (f" (at most {shrink:g} s)" if shrink is not None else "")
+            f"{time.perf_counter() - t0:.1f} s"
+        )
+        if not shrink:
+            print(found + "; the certificate shows it as found (not shrunk)", flush=True)
+            return
+        budget = runner.current().limits.shrink_seconds
+        print(
+            found
+            + "; shrinking it"
+            + (f" (at most {budget:g} s)" if budget is not None else "")
             + ", then the certificate with the smallest failing example found",
             flush=True,
         )
@@ -216,7 +224,7 @@ def _certify(
             res = run_property(
                 name,
                 variant.equations or check.equations,
-                _announcing(body, name, t0, announce),
+                _announcing(body, name, t0, announce, shrink),
                 strat,
                 max_examples=variant.factor * check.budget(max_examples),
                 seed=seed,

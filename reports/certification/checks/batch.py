@@ -14,6 +14,7 @@ from tstarg.oracles.float_judge import (
     eps_impl,
     max_err,
 )
+from tstarg.refimpl import PROTOCOL
 
 from .._common import (
     _call,
@@ -141,7 +142,7 @@ def _batch(impl, dom, stats):
                 scale = max(1.0, float(np.max(np.abs(o))))
                 tol = C_CERT * n * eps_impl(impl) * cond * scale
                 if method == "flow":
-                    tol = max(tol, float(getattr(impl, "flow_tolerance", 1e-9)) * scale)
+                    tol = max(tol, float(PROTOCOL.declared(impl, "flow_tolerance")) * scale)
                 worst = max(worst, max_err(g[k], o) / tol)
         return worst
 

@@ -20,7 +20,7 @@ from tstarg.oracles.float_judge import (
     meets_degenerate_set,
     reference_work,
 )
-from tstarg.refimpl import su2
+from tstarg.refimpl import PROTOCOL, su2
 
 from .._common import (
     DRIFT_T,
@@ -35,7 +35,7 @@ from ..models import _hamiltonians
 
 def _flow_drift(impl, dom, stats):
     T_max = min(DRIFT_T, dom.max_abs_t or math.inf)
-    poisson = bool(getattr(impl, "poisson_integrator", False))
+    poisson = bool(PROTOCOL.declared(impl, "poisson_integrator"))
 
     def body(ex):
         (((_name, f, theta, ups, x, pi), inertia, pot),) = ex
@@ -90,7 +90,7 @@ def _flow_drift(impl, dom, stats):
 
 
 def _applies(impl, dom):
-    if getattr(impl, "order", None) is None and not getattr(impl, "poisson_integrator", False):
+    if getattr(impl, "order", None) is None and not PROTOCOL.declared(impl, "poisson_integrator"):
         return "a structure check for integrators: declare order or poisson_integrator = True to run it"
     return None
 
@@ -103,6 +103,6 @@ CHECK = Check(
     order=100,
     budget=lambda k: 2,
     applies=_applies,
-    extra=lambda impl: {"poisson": bool(getattr(impl, "poisson_integrator", False))},
+    extra=lambda impl: {"poisson": bool(PROTOCOL.declared(impl, "poisson_integrator"))},
     mutants=planted("energy_dissipation"),
 )

@@ -17,6 +17,7 @@ from tstarg.oracles.float_judge import (
     max_err,
     meets_degenerate_set,
 )
+from tstarg.refimpl import PROTOCOL
 
 from .._common import (
     _REF,
@@ -85,7 +86,7 @@ PoissonMapExample = namedtuple("PoissonMapExample", "hamiltonian steps")
 
 
 def _applies(impl, dom):
-    if not getattr(impl, "poisson_integrator", False):
+    if not PROTOCOL.declared(impl, "poisson_integrator"):
         return "the implementation does not declare poisson_integrator = True"
     if not _accepts_steps(impl):
         return "flow does not accept steps= (the Poisson-map test uses few fixed steps)"
