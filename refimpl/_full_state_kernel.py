@@ -517,6 +517,217 @@ def logm(G, L):
     return True
 
 
+# ---------------------------------------------------------------------- the logarithm in closed form
+# Small real representations (issue 25: on n = 3 the logarithm by square roots was half the pair's
+# cost): rho real 2 x 2 (sl(2, R)), and rho real 3 x 3 with one row ``k`` zero in every rho(E_a)
+# (the affine algebras R x| R^2 -- se(2), Bianchi II-VII, h(3) -- where exp(rho(x)) keeps row k at
+# e_k: after moving k last, G = [[A, b], [0, 1]] and log G = [[log A, v], [0, 0]] with
+# phi1(log A) v = b, phi1(z) = (e^z - 1)/z). The shape is read from the matrices (the
+# representation), never from a value.
+
+
+@njit(cache=True, nogil=True)
+def small_shape(mats, cplx):
+    """:func:`log_small`'s shape of the representation ``mats`` (n, r, r): -1 real 2 x 2; ``k``
+    (0..2) real 3 x 3 with row ``k`` of every ``rho(E_a)`` zero; -2 otherwise (:func:`logm`)."""
+    n, r, _ = mats.shape
+    if cplx:
+        return -2
+    if r == 2:
+        return -1
+    if r != 3:
+        return -2
+    for k in range(3):
+        zero = True
+        for a in range(n):
+            for j in range(3):
+                if mats[a, k, j] != 0.0:
+                    zero = False
+        if zero:
+            return k
+    return -2
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _block(r, k):
+    """The rows/columns ``(i0, i1)`` of the 2 x 2 block: ``(0, 1)`` for ``r = 2``, else the two
+    indices other than ``k``."""
+    if r == 2:
+        return 0, 1
+    return (1 if k == 0 else 0), (1 if k == 2 else 2)
+
+
+@njit(cache=True, nogil=True)
+def _phi1(z):
+    """``(e^z - 1) / z`` (1 at 0), by ``expm1``: accurate to a few ulp for every real ``z``."""
+    return 1.0 if z == 0.0 else math.expm1(z) / z
+
+
+@njit(cache=True, nogil=True)
+def _solve_phi1(l0, p, q, c, bx, by):
+    """``v`` with ``phi1(L) v = b`` for ``L = l0 I + N``, ``N = [[p, q], [c, -p]]`` (traceless, so
+    ``N^2 = delta I``, ``delta = p^2 + q c``): every function of ``L`` is ``alpha I + beta N``.
+    ``phi1(L)`` by scaling and squaring on those pairs (Taylor series of ``L / 2^s`` with
+    ``|l0| + sqrt|delta|`` scaled to 1/2 or less, then ``phi1(2Y) = (e^Y + I) phi1(Y) / 2``,
+    ``e^(2Y) = (e^Y)^2``), the inverse ``(alpha I - beta N) / det`` with ``det = alpha^2 - beta^2
+    delta = phi1(l0 + t) phi1(l0 - t)`` (``t = sqrt(delta)``: that product when ``delta > 0``, where
+    the difference cancels; a sum of squares when ``delta <= 0``). Returns ``(v0, v1, ok)``."""
+    delta = p * p + q * c
+    nrm = abs(l0) + math.sqrt(abs(delta))
+    if not math.isfinite(nrm):
+        return 0.0, 0.0, False
+    s = 0
+    while nrm > 0.5:
+        nrm *= 0.5
+        s += 1
+    h = 0.5**s
+    y0 = l0 * h  # Y = y0 I + h N
+    y1 = h
+    e0, e1 = 1.0, 0.0  # e^Y
+    f0, f1 = 1.0, 0.0  # phi1(Y)
+    t0, t1 = 1.0, 0.0  # Y^k / k!
+    for k in range(1, 30):
+        u0 = (t0 * y0 + t1 * y1 * delta) / k
+        u1 = (t0 * y1 + t1 * y0) / k
+        t0, t1 = u0, u1
+        e0 += t0
+        e1 += t1
+        f0 += t0 / (k + 1)
+        f1 += t1 / (k + 1)
+        if abs(t0) + abs(t1) * math.sqrt(abs(delta)) <= 1e-18:
+            break
+    for _ in range(s):
+        a0 = 0.5 * ((e0 + 1.0) * f0 + e1 * f1 * delta)
+        a1 = 0.5 * ((e0 + 1.0) * f1 + e1 * f0)
+        f0, f1 = a0, a1
+        a0 = e0 * e0 + e1 * e1 * delta
+        a1 = 2.0 * e0 * e1
+        e0, e1 = a0, a1
+    if delta > 0.0:
+        t = math.sqrt(delta)
+        det = _phi1(l0 + t) * _phi1(l0 - t)
+    else:
+        det = f0 * f0 - f1 * f1 * delta
+    nbx = p * bx + q * by
+    nby = c * bx - p * by
+    v0 = (f0 * bx - f1 * nbx) / det
+    v1 = (f0 * by - f1 * nby) / det
+    return v0, v1, math.isfinite(v0) and math.isfinite(v1) and det > 0.0
+
+
+@njit(cache=True, nogil=True)
+def log_small(G, L, k):
+    """The principal logarithm ``L`` of ``G`` in closed form for :func:`small_shape` ``k`` (-1: 2 x 2;
+    0..2: 3 x 3 with row ``k`` of ``G`` equal to ``e_k``). False where :func:`logm` has none either: a
+    block ``A`` with ``det A <= 0`` or a negative eigenvalue.
+
+    ``A = e^l0 C``, ``l0 = log(det A) / 2``, ``det C = 1``; ``C = c I + M``, ``c = tr C / 2``, ``M``
+    traceless with ``M^2 = -det(M) I``: ``log C = (theta / sinh theta) M``, ``theta = asinh(sqrt(-det
+    M))``, when ``det M < 0`` (hyperbolic; ``c > 0`` needed, else the eigenvalues are negative);
+    ``(theta / sin theta) M``, ``theta = atan2(sqrt(det M), c)`` in ``(0, pi)``, when ``det M > 0``
+    (elliptic); ``M`` itself when ``det M = 0`` (parabolic, ``c > 0``). ``theta`` is read from
+    ``sqrt|det M|``, never from ``c`` (no cancellation near the parabolic case, where the factor tends
+    to 1). The 3 x 3 case then solves ``phi1(log A) v = b`` (:func:`_solve_phi1`)."""
+    r = G.shape[0]
+    i0, i1 = _block(r, k)
+    a = G[i0, i0].real
+    b = G[i0, i1].real
+    c = G[i1, i0].real
+    d = G[i1, i1].real
+    det = a * d - b * c
+    if not (det > 0.0 and math.isfinite(det)):
+        return False
+    l0 = 0.5 * math.log(det)
+    e = 1.0 / math.sqrt(det)
+    tc = 0.5 * (a + d) * e
+    p = 0.5 * (a - d) * e
+    q = b * e
+    cc = c * e
+    dm = -(p * p) - q * cc  # det M
+    if dm < 0.0:
+        if not tc > 0.0:
+            return False
+        sh = math.sqrt(-dm)
+        f = math.asinh(sh) / sh
+    elif dm > 0.0:
+        sn = math.sqrt(dm)
+        f = math.atan2(sn, tc) / sn
+    else:
+        if not tc > 0.0:
+            return False
+        f = 1.0
+    for i in range(r):
+        for j in range(r):
+            L[i, j] = 0.0
+    L[i0, i0] = l0 + f * p
+    L[i0, i1] = f * q
+    L[i1, i0] = f * cc
+    L[i1, i1] = l0 - f * p
+    if r == 2:
+        return True
+    v0, v1, good = _solve_phi1(l0, f * p, f * q, f * cc, G[i0, k].real, G[i1, k].real)
+    L[i0, k] = v0
+    L[i1, k] = v1
+    return good
+
+
+@njit(cache=True, nogil=True)
+def derived_is_translations(Dr, k):
+    """Whether ``[g, g]`` (``Dr``, (m, 3, 3): ``rho`` of its basis) is the whole translation part of the
+    :func:`small_shape` ``k >= 0`` representation: ``m = 2`` and no ``rho(D_c)`` has a 2 x 2 block
+    (to ``1e-12`` of its size: ``D`` comes from an SVD). Then the block of ``rho(x)`` depends on
+    ``x``'s abelian part alone (:func:`log_from_abelian`)."""
+    if Dr.shape[0] != 2 or Dr.shape[1] != 3:
+        return False
+    i0, i1 = _block(3, k)
+    for c in range(2):
+        big = 0.0
+        for i in range(3):
+            for j in range(3):
+                big = max(big, abs(Dr[c, i, j]))
+        for i in (i0, i1):
+            for j in (i0, i1):
+                if abs(Dr[c, i, j]) > 1e-12 * big:
+                    return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def log_from_abelian(s, Ppinv, mats, k, G, L):
+    """The logarithm ``L`` of ``G`` with the abelian part ``s`` (``P x = s``) on a representation where
+    :func:`derived_is_translations`: ``x = pinv(P) s + D w``, the block ``log A`` of ``rho(x)`` is that
+    of ``rho(pinv(P) s)`` (``rho(D w)`` has none), and ``w`` solves ``phi1(log A) v = b``
+    (:func:`_solve_phi1`) -- the exact minimiser of ``|exp(rho(x)) - G|`` over ``w`` that
+    :func:`refine_abelian` approaches by Gauss-Newton, in closed form. False when ``v`` is not finite."""
+    n = mats.shape[0]
+    i0, i1 = _block(3, k)
+    t00 = 0.0
+    t01 = 0.0
+    t10 = 0.0
+    t11 = 0.0
+    for a in range(n):
+        xa = 0.0
+        for ell in range(s.shape[0]):
+            xa += Ppinv[a, ell] * s[ell]
+        t00 += xa * mats[a, i0, i0]
+        t01 += xa * mats[a, i0, i1]
+        t10 += xa * mats[a, i1, i0]
+        t11 += xa * mats[a, i1, i1]
+    l0 = 0.5 * (t00 + t11)
+    p = 0.5 * (t00 - t11)
+    v0, v1, good = _solve_phi1(l0, p, t01, t10, G[i0, k], G[i1, k])
+    for i in range(3):
+        for j in range(3):
+            L[i, j] = 0.0
+    L[i0, i0] = t00
+    L[i0, i1] = t01
+    L[i1, i0] = t10
+    L[i1, i1] = t11
+    L[i0, k] = v0
+    L[i1, k] = v1
+    return good
+
+
 @njit(cache=True, nogil=True)
 def _project(X, proj, cplx, out):
     """``out = proj @ vec(X)`` (real parts, then imaginary parts when ``cplx``)."""
@@ -595,35 +806,47 @@ def log_batch(G, mats, proj, cplx, out, ok):
 
 @njit(cache=True, nogil=True, inline="always")
 def log_batch_exp(G, mats, proj, cplx, out, ok, Ex):
-    """:func:`log_batch`, keeping ``Ex[N] = exp(rho(x))`` of the acceptance test (what
+    """:func:`log_batch` (the logarithm :func:`log_small` on the representations of its
+    :func:`small_shape`, else :func:`logm`), keeping ``Ex[N] = exp(rho(x))`` of the acceptance test (what
     :func:`log_residual` computes again from ``x``: the same arithmetic) for the rows reaching it."""
     N, r, _ = G.shape
     n = mats.shape[0]
     L = np.zeros((r, r), dtype=G.dtype)
     X = np.zeros((r, r), dtype=G.dtype)
     x = np.zeros(n)
-    eps = 2.220446049250313e-16
+    shape = small_shape(mats, cplx)
     for it in range(N):
         ok[it] = False
         Gt = G[it]
         E = Ex[it]
-        if not logm(Gt, L):
+        if not (log_small(Gt, L, shape) if shape >= -1 else logm(Gt, L)):
             continue
-        _project(L, proj, cplx, x)
-        _exp_rho(x, mats, X, E)
-        err = 0.0
-        gmax = 0.0
-        for i in range(r):
-            for j in range(r):
-                err = max(err, abs(E[i, j] - Gt[i, j]))
-                gmax = max(gmax, abs(Gt[i, j]))
-        cond = math.exp(min(50.0, _norm1(X)))
-        good = err <= 1e3 * eps * cond * max(1.0, gmax) * r
-        for a in range(n):
-            out[it, a] = x[a]
-            if not math.isfinite(x[a]):
-                good = False
-        ok[it] = good
+        ok[it] = _accept_log(L, Gt, mats, proj, cplx, x, X, E, out[it])
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _accept_log(L, Gt, mats, proj, cplx, x, X, E, out):
+    """``out = x``, the coordinates of the logarithm ``L`` of ``Gt``, ``E = exp(rho(x))``; whether
+    ``x`` is finite and ``exp(rho(x)) = Gt`` to ``1e3 eps cond max(1, |Gt|) r`` (``cond =
+    exp(||rho(x)||_1)``, the acceptance test of Representation._accept)."""
+    r = Gt.shape[0]
+    n = x.shape[0]
+    eps = 2.220446049250313e-16
+    _project(L, proj, cplx, x)
+    _exp_rho(x, mats, X, E)
+    err = 0.0
+    gmax = 0.0
+    for i in range(r):
+        for j in range(r):
+            err = max(err, abs(E[i, j] - Gt[i, j]))
+            gmax = max(gmax, abs(Gt[i, j]))
+    cond = math.exp(min(50.0, _norm1(X)))
+    good = err <= 1e3 * eps * cond * max(1.0, gmax) * r
+    for a in range(n):
+        out[a] = x[a]
+        if not math.isfinite(x[a]):
+            good = False
+    return good
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -926,23 +1149,42 @@ def log_state(G, Ad, mats, proj, cplx, ab_mode, xs, ok, resid):
 def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid):
     """:func:`log_state` of a real representation with an abelian part: after :func:`log_batch` (when
     it accepted every row) :func:`abelian_batch` with ``s`` the last ``k = P.shape[0]`` entries of the
-    states ``B`` (N, d), then ``resid``. Returns whether ``xs`` and ``resid`` are final."""
+    states ``B`` (N, d), then ``resid``; on a representation where :func:`derived_is_translations`,
+    :func:`log_from_abelian` (the refine's answer in closed form) instead of both. Returns whether
+    ``xs`` and ``resid`` are final (else the caller completes the rows not ``ok``)."""
     Ex = np.empty_like(G)
     # False (a real representation: proj has r^2 columns), computed rather than written: a literal
     # False is typed Literal[bool] and compiled ad_batch and _project a second time (0.7 s cold)
     cplx = proj.shape[1] != mats.shape[1] * mats.shape[2]
-    log_batch_exp(G, mats, proj, cplx, xs, ok, Ex)
     N, n = xs.shape
+    k = P.shape[0]
+    d = B.shape[1]
+    r = G.shape[1]
+    sj = np.empty(k)
+    shape = small_shape(mats, cplx)
+    if shape >= 0 and derived_is_translations(Dr, shape):
+        # the refine's answer in closed form (log_from_abelian), accepted as log_batch's
+        L = np.empty((r, r))
+        X = np.empty((r, r))
+        x = np.empty(n)
+        done = True
+        for j in range(N):
+            for ell in range(k):
+                sj[ell] = B[j, d - k + ell]
+            ok[j] = log_from_abelian(sj, Ppinv, mats, shape, G[j], L) and _accept_log(
+                L, G[j], mats, proj, cplx, x, X, Ex[j], xs[j]
+            )
+            done = done and ok[j]
+        if done:
+            _residual_final(Ex, mats, proj, cplx, Ad, resid)
+        return done
+    log_batch_exp(G, mats, proj, cplx, xs, ok, Ex)
     for j in range(N):
         if not ok[j]:
             return False
     # abelian_batch's test and refine, written here (one nested compiled level fewer: numba links and
     # re-optimizes every callee's whole call tree into each caller, so depth costs compile time;
     # measured from an empty numba cache, load ~1.2: pair_log_refined 13.9-14.0 -> 12.5 s)
-    k = P.shape[0]
-    d = B.shape[1]
-    r = G.shape[1]
-    sj = np.empty(k)
     xj = np.empty(n)
     out = np.empty(n)
     X = np.empty((r, r))

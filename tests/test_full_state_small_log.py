@@ -1,0 +1,211 @@
+"""The closed-form logarithm of small real representations (refimpl._full_state_kernel.log_small,
+log_from_abelian, small_shape, derived_is_translations).
+
+Checked: on real 2 x 2 matrices (sl(2, R), gl(2, R)) and on 3 x 3 matrices with one row ``e_k`` (the
+affine representations of se(2) and Bianchi II-VII), ``log_small`` returns the principal logarithm
+(mpmath's ``logm``), including near the identity, near the parabolic case (a repeated eigenvalue),
+elliptic near ``theta = pi`` and at large ``|x|``; it refuses exactly where there is no real principal
+logarithm (an eigenvalue on the closed negative real axis), as ``logm`` does. ``log_from_abelian``
+(the logarithm with the abelian part given) reproduces ``x`` with ``P x = s`` on the Bianchi algebras
+whose derived algebra is the translations.
+
+Independent route: mpmath at 40-60 digits (``mpmath.expm``; the principal logarithm from mpmath's
+eigen-decomposition, or ``mpmath.logm`` where the eigenvalues coincide), rounded to float64.
+
+Error model (a bound for any backward-stable logarithm, never fitted to this one): a logarithm
+computed with a backward error ``|dG| <= c eps |G|`` errs by at most ``||K^-1||_2 c eps |G|_F`` to
+first order, ``K`` the Frechet derivative of ``exp`` at ``L = log G`` as an ``r^2 x r^2`` matrix
+(its inverse is the derivative of ``log``: the condition number of the logarithm), plus the rounding
+of ``L`` itself, ``c eps |L|``; ``c = 100 r^2`` (a few operations per entry, each a few ulp). ``K`` is
+formed in float64 by scipy's ``expm_frechet``: it only sizes the bound.
+"""
+
+from __future__ import annotations
+
+import mpmath
+import numpy as np
+import pytest
+import scipy.linalg
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
+
+from tstarg.refimpl import _full_state_kernel as fk
+from tstarg.refimpl._catalogue import catalogue
+from tstarg.refimpl._representation import representation_for
+from tstarg.refimpl.flows._common import _AbelianPart
+
+EPS = np.finfo(float).eps
+
+
+def _mp_expm(X):
+    with mpmath.workdps(40):
+        E = mpmath.expm(mpmath.matrix(np.asarray(X, float).tolist()))
+        return np.array([[float(mpmath.re(v)) for v in row] for row in E.tolist()])
+
+
+def _mp_logm(G):
+    """The principal logarithm at 60 digits: ``V diag(log mu) V^-1`` from mpmath's eigenvectors with
+    the principal scalar ``log`` when the eigenvalues differ (by 1e-20 or more: 60 digits then leave
+    40 or more through ``V^-1``) (``mpmath.logm`` takes a wrong branch
+    on rotations near ``pi``), else ``mpmath.logm`` (eigenvalues together: near the identity, or
+    parabolic, where its square roots converge to the principal ones)."""
+    with mpmath.workdps(60):
+        M = mpmath.matrix(np.asarray(G, float).tolist())
+        mu, V = mpmath.eig(M)
+        big = max(abs(m) for m in mu)
+        apart = min(abs(a - b) for i, a in enumerate(mu) for b in mu[i + 1 :]) > 1e-20 * big
+        if apart:
+            L = V * mpmath.diag([mpmath.log(m) for m in mu]) * mpmath.inverse(V)
+        else:
+            L = mpmath.logm(M)
+        return np.array([[complex(v) for v in row] for row in L.tolist()])
+
+
+def _log_bound(L_ref, G):
+    """The error model of the module docstring for the logarithm ``L_ref`` of ``G``."""
+    r = G.shape[0]
+    K = np.empty((r * r, r * r))
+    for c in range(r * r):
+        E = np.zeros(r * r)
+        E[c] = 1.0
+        K[:, c] = scipy.linalg.expm_frechet(L_ref, E.reshape(r, r), compute_expm=False).ravel()
+    kinv = 1.0 / np.linalg.svd(K, compute_uv=False)[-1]
+    c = 100 * r * r
+    return c * EPS * (kinv * np.linalg.norm(G) + np.max(np.abs(L_ref)))
+
+
+def _negative_axis(G, k):
+    """Whether the block ``A`` of ``G`` (2 x 2; ``k >= 0``: without row and column ``k``) has an
+    eigenvalue on the closed negative real axis (to 1e-7 of its size): no real principal logarithm."""
+    keep = [i for i in range(G.shape[0]) if i != k]
+    mu = np.linalg.eigvals(G[np.ix_(keep, keep)])
+    return bool(np.any((mu.real <= 0) & (np.abs(mu.imag) <= 1e-7 * np.abs(mu))))
+
+
+def _check(G, k):
+    """``log_small`` of ``G`` against mpmath's principal logarithm (or a refusal where none exists)."""
+    L = np.zeros_like(G)
+    got = fk.log_small(np.ascontiguousarray(G), L, k)
+    if not got:
+        assert _negative_axis(G, k), G
+        assert not fk.logm(np.ascontiguousarray(G), np.zeros_like(G))  # logm refuses it too
+        return
+    Lr = _mp_logm(G)
+    assert np.max(np.abs(Lr.imag)) <= 1e-20 * max(1.0, np.max(np.abs(Lr.real)))  # real principal
+    Lr = Lr.real
+    err = np.max(np.abs(L - Lr))
+    assert np.all(np.isfinite(L))
+    assert err <= _log_bound(Lr, G), (err, _log_bound(Lr, G), G)
+
+
+SCALES = [1e-9, 1e-3, 0.3, 1.5, 4.0]
+
+
+@settings(deadline=None)
+@given(
+    k=st.sampled_from([-1, 0, 1, 2]),
+    scale=st.sampled_from(SCALES),
+    entries=st.lists(st.floats(-1.0, 1.0), min_size=9, max_size=9),
+)
+@example(k=-1, scale=1.0, entries=[0.0, 3.1, -3.1, 0.0] + [0.0] * 5)  # elliptic, theta = 3.1
+@example(k=2, scale=1.0, entries=[0.2, -3.14, 3.14, 0.2, 1.0, 2.0, 0, 0, 0])  # affine, near pi
+@example(k=-1, scale=1.0, entries=[1e-9, 1.0, -1e-9, 0.0] + [0.0] * 5)  # near parabolic
+@example(k=0, scale=1.0, entries=[0.0, 0.0, 0.0, 3.0, 0.0, 9.0, -2.0, 0.0, -9.0])  # |x| ~ 9
+@example(k=-1, scale=1.0, entries=[0.0, np.pi, -np.pi, 0.0] + [0.0] * 5)  # -I + 1e-16 (theta ~ pi)
+def test_log_small_is_the_principal_log(k, scale, entries):
+    """``G = exp(X)`` (mpmath) for ``X`` a real 2 x 2 (``k = -1``) or a 3 x 3 with row ``k`` zero."""
+    r = 2 if k == -1 else 3
+    X = scale * np.array(entries[: r * r]).reshape(r, r)
+    if k >= 0:
+        X[k, :] = 0.0
+    _check(_mp_expm(X), k)
+
+
+@pytest.mark.parametrize(
+    "G",
+    [
+        np.diag([-1.0, -2.0]),  # negative eigenvalues
+        np.array([[-1.0, 1.0], [0.0, -1.0]]),  # parabolic at -1
+        np.diag([2.0, -1.0]),  # det < 0
+        np.array([[-2.0, 0.0, 1.0], [0.0, -0.5, 2.0], [0.0, 0.0, 1.0]]),  # affine, A negative
+    ],
+)
+def test_log_small_refuses_where_no_real_principal_log_exists(G):
+    k = -1 if G.shape[0] == 2 else 2
+    assert not fk.log_small(G, np.zeros_like(G), k)
+    assert not fk.logm(G, np.zeros_like(G))
+
+
+# the shapes by hand: r = 2 real; the affine ones with the index of their row e_k; the rest -2
+SHAPES = {
+    "sl(2,R)": -1,
+    "se(2)": 2,
+    "Bianchi II": 2,
+    "Bianchi III": 2,
+    "Bianchi IV": 0,
+    "Bianchi V": 0,
+    "Bianchi VI0": 2,
+    "h(3)": 2,
+    "su(2)": -2,
+    "su(3)": -2,
+    "se(3)": -2,
+    "so(4)": -2,
+}
+# exponential algebras with [g, g] the two translations (log_from_abelian applies)
+DERIVED_TRANSLATIONS = {"Bianchi IV": True, "Bianchi V": True, "Bianchi VI0": True}
+DERIVED_TRANSLATIONS |= {"Bianchi II": False, "Bianchi III": False, "h(3)": False}
+
+
+def _rep(name):
+    alg = catalogue(name)
+    f = np.array(alg.f, dtype=float)
+    mats = np.asarray(representation_for(alg).mats)
+    return f, mats
+
+
+@pytest.mark.parametrize("name", sorted(SHAPES))
+def test_small_shape_reads_the_representation(name):
+    _, mats = _rep(name)
+    cplx = np.iscomplexobj(mats)
+    assert fk.small_shape(np.ascontiguousarray(mats), cplx) == SHAPES[name]
+
+
+def _abelian(name):
+    f, mats = _rep(name)
+    ab = _AbelianPart.of(f, 1)
+    Dr = np.ascontiguousarray(np.einsum("ak,aij->kij", ab.D, mats.real))
+    return f, np.ascontiguousarray(mats.real), ab, Dr
+
+
+@pytest.mark.parametrize("name", sorted(DERIVED_TRANSLATIONS))
+def test_derived_is_translations(name):
+    _, mats, _, Dr = _abelian(name)
+    assert fk.derived_is_translations(Dr, SHAPES[name]) == DERIVED_TRANSLATIONS[name]
+
+
+@settings(deadline=None)
+@given(
+    name=st.sampled_from(sorted(k for k, v in DERIVED_TRANSLATIONS.items() if v)),
+    x=st.lists(st.floats(-3.0, 3.0), min_size=3, max_size=3),
+)
+@example(name="Bianchi VI0", x=[5.07794626, -5.40291662, 5.72304174])  # |x| ~ 9
+def test_log_from_abelian_recovers_x(name, x):
+    """``G = exp(rho(x))`` (mpmath), ``s = P x``: the logarithm keeps ``P x = s`` (to the rounding of
+    ``pinv(P) s``, ``10 eps |s|``) and equals ``x`` to the conditioning of ``phi1(log A) v = b``
+    (``cond(phi1) = |phi1| |phi1^-1|`` times ``100 eps |x|``: the block ``log A`` is exact from
+    ``s`` up to rounding, ``v`` the solution of that 2 x 2 system)."""
+    _, mats, ab, Dr = _abelian(name)
+    k = SHAPES[name]
+    x = np.array(x)
+    G = _mp_expm(np.einsum("a,aij->ij", x, mats))
+    s = ab.P @ x
+    L = np.zeros((3, 3))
+    assert fk.log_from_abelian(s, np.ascontiguousarray(np.linalg.pinv(ab.P)), mats, k, G, L)
+    proj = np.linalg.pinv(mats.reshape(3, -1).T)
+    xl = proj @ L.ravel()
+    assert np.max(np.abs(ab.P @ xl - s)) <= 10 * EPS * max(1.0, np.max(np.abs(s)))
+    keep = [i for i in range(3) if i != k]
+    Lb = np.einsum("a,aij->ij", x, mats)[np.ix_(keep, keep)]
+    phi1 = scipy.linalg.expm(np.block([[Lb, np.eye(2)], [np.zeros((2, 4))]]))[:2, 2:]
+    cond = np.linalg.cond(phi1)
+    assert np.max(np.abs(xl - x)) <= 100 * EPS * cond * max(1.0, np.max(np.abs(x)))
