@@ -37,9 +37,9 @@ try:  # only the generated kernels use the intrinsics
 except ImportError:  # pragma: no cover - exercised only where numba is missing
     ir = types = cgutils = intrinsic = None
 
-from ._taylor_ir import _Ops, _unpack
+from ._taylor_ir import _F64, _Ops, _unpack
 
-__all__ = ["IR_VERSION", "load_intrinsic", "order_intrinsic"]
+__all__ = ["IR_VERSION", "lanes_order_intrinsic", "load_intrinsic", "order_intrinsic"]
 
 IR_VERSION = "1"
 
@@ -178,6 +178,102 @@ def order_intrinsic(sp):
             for row, terms in state:
                 s = ops.tree([term(*t) for t in terms]) if terms else ops.zero
                 builder.store(ops.mul(s, ik), at(row, kp1))
+            return context.get_dummy_value()
+
+        return types.none(V, k, C), codegen
+
+    return order
+
+
+def lanes_order_intrinsic(sp, W: int):
+    """The intrinsic ``order(V, k, C)`` of the lane-batched kernel
+    (:func:`refimpl.codegen.full_state_batch.batch_source`): the order-``k`` body of the recurrence
+    on ``W`` trajectories at once, ``V[k, row, lane]`` (``(P + 1, rows, W)``, C order: the ``W`` lanes
+    of one coefficient are contiguous and move as one vector of ``W`` float64), each lane's
+    operations those of the scalar body, element by element.
+
+    ``sp = (ncoef, derived, groups, consts, state)`` as :func:`order_intrinsic`'s ``spec`` (the
+    terms of the state rows' products all :data:`SCALED`), ``groups`` the general products summed
+    side by side in one loop over ``a`` (each distinct factor row loaded once per ``a``). The products
+    stay values (never stored into ``V``)."""
+    ncoef, derived, groups, consts, state = sp
+
+    @intrinsic
+    def order(typingctx, V, k, C):
+        _check_array("order", V, 3)
+        if not (
+            isinstance(k, types.Integer)
+            and isinstance(C, types.BaseTuple)
+            and len(C) == ncoef
+            and all(t == types.float64 for t in C.types)
+        ):
+            raise TypeError(f"order: expects (V, int, {ncoef} float64), got ({V}, {k}, {C})")
+
+        def codegen(context, builder, sig, args):
+            ops = _Ops(builder, W)
+            i64 = ir.IntType(64)
+            vptr = ir.PointerType(ops.ty)
+            arr = context.make_array(sig.args[0])(context, builder, args[0])
+            data = arr.data
+            nrow = cgutils.unpack_tuple(builder, arr.shape, 3)[1]
+            kk = context.cast(builder, args[1], sig.args[1], types.int64)
+            kp1 = builder.add(kk, ir.Constant(i64, 1))
+            c = [ops.splat(x) for x in _unpack(builder, args[2], ncoef)]
+            stride = builder.mul(nrow, ir.Constant(i64, W))  # one order's floats
+
+            def base(kv):  # offset of V[kv, 0, 0]
+                return builder.mul(kv, stride)
+
+            def at(off, row):  # the W lanes of V[., row, :] (off: base of the order)
+                p = builder.gep(data, [builder.add(off, ir.Constant(i64, row * W))], inbounds=True)
+                return builder.bitcast(p, vptr)
+
+            def load(off, row):
+                return builder.load(at(off, row), align=8)
+
+            o0, ok, ok1 = ir.Constant(i64, 0), base(kk), base(kp1)
+            for row, terms in derived:
+                v = ops.tree([lambda ci=ci, s=s: ops.mul(c[ci], load(ok, s)) for ci, s in terms])
+                builder.store(v, at(ok, row), align=8)
+            prod: dict[int, object] = {}
+            for grp in groups:
+                accs = [cgutils.alloca_once_value(builder, ops.zero) for _ in grp]
+                with cgutils.for_range(builder, kp1) as loop:
+                    oa = base(loop.index)
+                    ob = base(builder.sub(kk, loop.index))
+                    fu, fw = {}, {}
+                    for (_, u, w), acc in zip(grp, accs):
+                        if u not in fu:
+                            fu[u] = load(oa, u)
+                        if w not in fw:
+                            fw[w] = load(ob, w)
+                        builder.store(ops.add(builder.load(acc), ops.mul(fu[u], fw[w])), acc)
+                for (p, _, _), acc in zip(grp, accs):
+                    prod[p] = builder.load(acc)
+            is0 = builder.icmp_signed("==", kk, o0)
+            for p, u, w, cls in consts:
+                if cls == BOTH_CONST:
+                    prod[p] = builder.select(is0, ops.mul(load(o0, u), load(o0, w)), ops.zero)
+                elif cls == U_CONST:
+                    prod[p] = ops.mul(load(o0, u), load(ok, w))
+                else:
+                    prod[p] = ops.mul(load(ok, u), load(o0, w))
+            ik = ops.splat(
+                builder.fdiv(ir.Constant(_F64, 1.0), builder.sitofp(kp1, _F64), flags=("contract",))
+            )
+
+            def term(kind, ci, x):
+                if kind == SCALED:
+                    return lambda: ops.mul(c[ci], prod[x])
+                if kind == LIN_CONST:
+                    return lambda: builder.select(is0, ops.mul(c[ci], load(o0, x)), ops.zero)
+                if kind == LIN:
+                    return lambda: ops.mul(c[ci], load(ok, x))
+                raise ValueError(f"lanes order: term kind {kind}")
+
+            for row, terms in state:
+                s = ops.tree([term(*t) for t in terms]) if terms else ops.zero
+                builder.store(ops.mul(s, ik), at(ok1, row), align=8)
             return context.get_dummy_value()
 
         return types.none(V, k, C), codegen
