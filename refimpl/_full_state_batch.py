@@ -10,13 +10,15 @@ under the two-run control of :func:`refimpl._full_state.full_state_flow`; a lane
 changes another lane's arithmetic.
 
 Vectorisation
-    The kernel's statements run in short loops over the lanes of a C-contiguous ``V[k, row, lane]``;
-    LLVM unrolls them and its SLP vectoriser packs the lanes into SIMD instructions. numba leaves that
-    pass off by default (``NUMBA_SLP_VECTORIZE=0``, for compile time), so :func:`kernel` compiles the
-    batch kernel -- and only it -- with the pass on, under numba's compiler lock. The pass does not
-    reassociate (no ``fastmath`` beyond ``contract``, as in every Taylor kernel here): a lane's
+    The order body of the recurrence is LLVM IR on vectors of ``W`` float64, one lane per trajectory
+    (:func:`refimpl.codegen._full_state_ir.lanes_order_intrinsic`, over a C-contiguous ``V[k, row,
+    lane]``); the rest of the kernel (step sizes, the compensated Horner update) runs in short loops
+    over the lanes, which LLVM unrolls and its SLP vectoriser packs into SIMD instructions. numba
+    leaves that pass off by default (``NUMBA_SLP_VECTORIZE=0``, for compile time), so :func:`kernel`
+    compiles the batch kernel -- and only it -- with the pass on, under numba's compiler lock. Nothing
+    reassociates (no ``fastmath`` beyond ``contract``, as in every Taylor kernel here): a lane's
     arithmetic is the single kernel's, each Cauchy product summed in the order ``a = 0..k``; the
-    packed code may contract a different subset of multiply-adds into FMAs (one rounding each way).
+    compiler may contract a different subset of multiply-adds into FMAs (one rounding each way).
 """
 
 from __future__ import annotations
@@ -40,60 +42,44 @@ __all__ = [
     "GENERATED_MIN_WORK",
     "LANES",
     "MAX_GENERATED_TERMS",
-    "MAX_SIZE",
     "adaptive_packed",
     "applies",
     "kernel",
     "run",
-    "size",
 ]
 
-MAX_SIZE = 240
-"""The largest structure whose lane kernel has every Cauchy product written out, counted as general
-products plus the terms of the derived and state rows (the statements of the generated recurrence);
-a larger one gets the packed form (the products in blocks of factor rows through index tables:
-:func:`refimpl.codegen.full_state_batch.batch_source` ``packed=True``, or :func:`adaptive_packed`
-beyond :data:`MAX_GENERATED_TERMS`). The cold compilation (numba's typing and lowering dominate, about
-linear in the statements: twelve per written-out product) measured, one run each, CPU, load average
-7-8: written out kirchhoff_se3 (117) 6.3 s, manakov_so4 (162) 9.2-10.4 s, so(4) with gravity (264)
-14.1 s, free_su3 (365) 19.7 s; generated packed so(4) with gravity 5.3 s, free_su3 6.0 s. Per
-trajectory, kernel alone at 3e-14: manakov_so4 15.1 us written out, 26.2 us generated packed, 34.8 us
-in :func:`adaptive_packed`; free_su3 40.4 us generated packed, 52.0 us in :func:`adaptive_packed`,
-67.4 us in the single-trajectory generated kernel."""
-
-MAX_GENERATED_TERMS = 300
-"""The most terms (numbers) of the derived and state rows for which the packed form is generated per
-structure: its source, and its cold compilation, grow with them (free_su3, 225 terms: 6.0 s; so(5) in
-its adjoint representation, 820 terms: 38.4 s, one run each at load ~7). Beyond it the one kernel
-compiled for every structure, :func:`adaptive_packed` (about 3 s once, then numba's disk cache), runs:
-the rows from the tables, about 1.3 times slower per trajectory (free_su3 52.0 against 40.4 us)."""
+MAX_GENERATED_TERMS = 1000
+"""The most terms (numbers) of the derived and state rows for which the lane kernel is generated per
+structure (:func:`refimpl.codegen.full_state_batch.batch_source`, every product written out in the
+LLVM IR of :func:`refimpl.codegen._full_state_ir.lanes_order_intrinsic`): its IR, and LLVM's time on
+it, grow with them. Fully cold, the kernel alone, CPU, load 1.3-2.0: free_su3 (225 terms, 140 general
+products) 1.63 s, kirchhoff_se3 1.53, manakov_so4 1.49, sl(3, R) 1.57, h(3) 1.39, so(5) in its adjoint
+representation (820 terms, 660 products) 2.66 s. Beyond it the one kernel compiled for every
+structure, :func:`adaptive_packed` (about 3 s once, then numba's disk cache), runs: the rows from the
+tables, slower per trajectory."""
 
 
 GENERATED_MIN_WORK = 1024.0
 """``N |T|`` (rows of one :func:`run` times the time span) from which a batch runs the lane kernel
 generated for its structure; below it, :func:`adaptive_packed` (compiled once for every structure),
-as the rational path's ``GENERATED_MIN_WORK``. The generated lane kernel's cold compilation is the
-largest per-structure cost of a first batch call (measured fully cold, CPU, load 2-3.6, one run
-each: manakov_so4 8.8 s, sl(3, R) 9.1 s, kirchhoff_se3 5.9 s, free_su3 5.8 s), repaid only by a
-long batch; a short one (64 trajectories of the bench problems over ``T = 10``: 640) now costs no
-compilation per structure and about 2x per trajectory (manakov_so4 34.8 against 15.1 us, above).
-A function of the call's inputs, so a row's result never depends on what ran before it."""
-
-
-def size(fs) -> int:
-    """The structure's size in the sense of :data:`MAX_SIZE`."""
-    tb = fs.tables()
-    return int((tb[7] == 0).sum()) + len(tb[3]) + len(tb[10]) + len(tb[13])
+as the rational path's ``GENERATED_MIN_WORK``. The generated lane kernel's cold compilation is a cost
+per structure, repaid only by a long batch: with its order body in LLVM IR it is 1.4-1.7 s fully cold
+(the kernel alone, :data:`MAX_GENERATED_TERMS`; it was 5.8-9.1 s as numba Python), against about 3 s
+once per installation for :func:`adaptive_packed`; a short batch (64 trajectories of the bench
+problems over ``T = 10``: 640) costs no compilation per structure once that is cached, and about 2x
+per trajectory. A function of the call's inputs, so a row's result never depends on what ran before
+it."""
 
 
 def applies(fs) -> bool:
-    """Every structure has a lane kernel (written out up to :data:`MAX_SIZE`, packed beyond)."""
+    """Every structure has a lane kernel (generated up to :data:`MAX_GENERATED_TERMS`, else
+    :func:`adaptive_packed`)."""
     return True
 
 
 _SIG = (
     "(float64[:, ::1], float64, float64, int64, int64, float64[::1], int64[::1], int64[::1], "
-    "int64[::1], int64[::1], int64[::1], float64[:, ::1], int64[::1])"
+    "float64[:, ::1], int64[::1])"
 )
 _SIG_PACKED = (
     "(float64[:, ::1], float64, float64, int64, int64, int64, int64[::1], int64[::1], int64[::1], "
@@ -122,9 +108,9 @@ def _compile(fn, sig):
 def kernel(fs, generated: bool = True):
     """``(fn, args)`` for the structure of ``fs`` (kept on ``fs``): ``fn(y0, T, tol, P, max_steps,
     *args, out, nsteps)``. The module generated for the structure (imported from the kernel cache,
-    :func:`refimpl.codegen.import_source`): every product written out up to :data:`MAX_SIZE`, packed
-    beyond; beyond that and :data:`MAX_GENERATED_TERMS` too, or when not ``generated``,
-    :func:`adaptive_packed` with the tables and the blocks of
+    :func:`refimpl.codegen.import_source`), every product written out, up to
+    :data:`MAX_GENERATED_TERMS`; beyond, or when not ``generated``, :func:`adaptive_packed` with the
+    tables and the blocks of
     :func:`refimpl.codegen.full_state_batch.batch_groups`. Each compiled with LLVM's SLP vectoriser on
     (or loaded from numba's disk cache)."""
     key = "_batch_kernel" if generated else "_batch_kernel_tables"
@@ -132,16 +118,14 @@ def kernel(fs, generated: bool = True):
     if kb is not None:
         return kb
     tables = fs.tables()
-    groups = batch_groups(tables)
     terms = len(tables[4]) + len(tables[11]) + len(tables[14])
-    if not generated or (size(fs) > MAX_SIZE and terms > MAX_GENERATED_TERMS):
+    if not generated or terms > MAX_GENERATED_TERMS:
         _compile(adaptive_packed, _SIG_PACKED)
-        kb = (adaptive_packed, (int(tables[0]), *tables[1:], *groups))
+        kb = (adaptive_packed, (int(tables[0]), *tables[1:], *batch_groups(tables)))
     else:
-        src = batch_source(tables, fs.d, LANES, GROUP, packed=size(fs) > MAX_SIZE)
-        fn = import_source(src, "fsbatch_").adaptive_batch
+        fn = import_source(batch_source(tables, fs.d, LANES, GROUP), "fsbatch_").adaptive_batch
         _compile(fn, _SIG)
-        kb = (fn, (batch_numbers(tables), tables[8], tables[16], *groups))
+        kb = (fn, (batch_numbers(tables), tables[8], tables[16]))
     fs.__dict__[key] = kb
     return kb
 
@@ -161,7 +145,7 @@ def run(fs, y0, T: float, tol: float, P: int, max_steps: int, *, generated: bool
 
 
 # ---------------------------------------------------------------------- the packed lane kernel
-# One machine-code function for every structure beyond MAX_SIZE (the field as the sparse tables of
+# One machine-code function for every structure (short batches, and beyond MAX_GENERATED_TERMS; the field as the sparse tables of
 # FullState.tables, arguments, never literals): compiled once, kept by numba's disk cache. Four lanes
 # written out (LANES).
 

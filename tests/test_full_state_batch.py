@@ -87,11 +87,8 @@ def fs():
 
 
 def _force(monkeypatch, f, form):
-    """Make ``f`` (a small structure) take the lane kernel ``form``: ``written`` (its own), ``packed``
-    (generated, MAX_SIZE = 0) or ``tables`` (refimpl._full_state_batch.adaptive_packed, also
-    MAX_GENERATED_TERMS = 0)."""
-    if form in ("packed", "tables"):
-        monkeypatch.setattr(fsb, "MAX_SIZE", 0)
+    """Make ``f`` (a small structure) take the lane kernel ``form``: ``written`` (its own, generated)
+    or ``tables`` (refimpl._full_state_batch.adaptive_packed: MAX_GENERATED_TERMS = 0)."""
     if form == "tables":
         monkeypatch.setattr(fsb, "MAX_GENERATED_TERMS", 0)
     monkeypatch.delitem(f.__dict__, "_batch_kernel", raising=False)
@@ -133,7 +130,7 @@ def test_batch_kernel_backwards_in_time(fs):
 
 
 @needs_numba
-@pytest.mark.parametrize("form", ["written", "packed", "tables"])
+@pytest.mark.parametrize("form", ["written", "tables"])
 @pytest.mark.parametrize("bad", [np.nan, np.inf])
 def test_a_failing_lane_is_reported_alone(fs, monkeypatch, bad, form):
     """A non-finite row fails in its own lane (negative status, NaN row); every other row is what it
@@ -289,43 +286,55 @@ def test_share_groups_partition_the_products():
     assert len({pu[p] for p in first}) + len({pw[p] for p in first}) == 6
 
 
-def test_lane_kernel_size_rule():
-    """Small structures (Bianchi III: a few dozen statements) get every product written out; the
-    largest (su(3): 140 general products alone, over MAX_SIZE) the packed form, whose source does not
-    grow with the products (one fixed block over the index tables)."""
+def test_lane_kernel_spec_covers_the_field():
+    """The generated lane kernel's spec (:func:`batch_spec`) on su(3) (140 general products, complex
+    representation): every general product in exactly one group of at most ``GROUP``, every product
+    with a constant factor among the constant classes, every term of every derived and state row of
+    the tables once, each with its number's index into ``c`` (:func:`batch_numbers`); the source
+    names the IR version (numba's cache key is the source's text)."""
     from tstarg.refimpl._catalogue import catalogue
+    from tstarg.refimpl.codegen import _full_state_ir as ir
+    from tstarg.refimpl.codegen.full_state_batch import GROUP, batch_numbers, batch_spec
 
-    small = cached_model(*_args())
-    fsmall = fs_mod.FullState(small, small.representation)
-    assert fsb.applies(fsmall) and fsb.size(fsmall) <= fsb.MAX_SIZE
     su3 = catalogue("su(3)")
     z = np.zeros((8, 8))
     big = cached_model(su3.f, z, z, np.diag(np.linspace(1.0, 2.0, 8)), None)
     fbig = fs_mod.FullState(big, big.representation)
-    assert int((fbig.tables()[7] == 0).sum()) > fsb.MAX_SIZE // 2
-    assert fsb.applies(fbig) and fsb.size(fbig) > fsb.MAX_SIZE
     tb = fbig.tables()
-    packed = batch_source(tb, fbig.d, packed=True)
-    assert "UB[g, a, 0, 0]" in packed
-    assert len(packed) < len(batch_source(tb, fbig.d)) / 2
+    c = batch_numbers(tb)
+    ncoef, derived, groups, consts, state = batch_spec(tb)
+    assert ncoef == len(c)
+    general = np.flatnonzero(tb[7] == 0)
+    assert len(general) == 140
+    assert sorted(p for g in groups for p, _, _ in g) == general.tolist()
+    assert all(1 <= len(g) <= GROUP for g in groups)
+    assert all((tb[5][p], tb[6][p]) == (u, w) for g in groups for p, u, w in g)
+    assert sorted(p for p, *_ in consts) == np.flatnonzero(np.isin(tb[7], (1, 2, 3))).tolist()
+    assert [r for r, _ in derived] == tb[1].tolist()
+    assert [c[ci] for _, terms in derived for ci, _ in terms] == tb[4].tolist()
+    assert [r for r, _ in state] == tb[8].tolist()
+    quad = [(c[ci], x) for _, terms in state for kd, ci, x in terms if kd == ir.SCALED]
+    assert quad == list(zip(tb[11].tolist(), tb[10].tolist()))
+    lin = [(c[ci], x) for _, terms in state for kd, ci, x in terms if kd != ir.SCALED]
+    assert lin == list(zip(tb[14].tolist(), tb[13].tolist()))
+    assert f"IR version {ir.IR_VERSION}" in batch_source(tb, fbig.d)
 
 
 @needs_numba
-@pytest.mark.parametrize("form", ["packed", "tables"])
 @pytest.mark.parametrize("N", [1, W + 1, 2 * W + 3])
-def test_packed_batch_kernel_equals_the_single_kernel(fs, monkeypatch, N, form):
-    """Both packed kernels (generated, and the one for every structure; forced on a small structure by
+def test_packed_batch_kernel_equals_the_single_kernel(fs, monkeypatch, N):
+    """The packed kernel compiled for every structure (forced on a small structure by
     :func:`_force`) against the table-driven single kernel: every row, the same step counts, under the rounding model of the written-out form (the same
     sums in the same order, FMAs possibly contracted differently); the blocks' pairs that are no
     product (the zero row into the sink row) change no row."""
     model, f = fs
-    _force(monkeypatch, f, form)
+    _force(monkeypatch, f, "tables")
     y = _states(f, model, N, seed=11)
     keep = y.copy()
     T, tol = 1.1, 1e-12
     P = fs_mod.default_order(tol)
     fn, args = fsb.kernel(f)
-    assert (fn is fsb.adaptive_packed) == (form == "tables")
+    assert fn is fsb.adaptive_packed
     gp, gu, gw = args[-3:]
     tb = f.tables()
     nv, npr = int(tb[0]), len(tb[5])

@@ -1,0 +1,281 @@
+"""One order of the generated full-state kernel's recurrence as LLVM IR, built by a numba intrinsic.
+
+Why IR (issue 25, the compile time of :func:`refimpl.codegen.full_state.full_state_source`'s kernel):
+numba's front end types and lowers every statement of a function on its own, and the per-order body
+of the full state is hundreds of them (su(3): 26 derived rows, 140 Cauchy products in chunk loops,
+26 state rows): measured on free su(3), empty caches, 3.6 s of CPU, of which type inference 2.0 s
+(1.2 s of it the product helpers'), lowering 1.0 s, LLVM about 0.8 s. The intrinsic ``_order(V, k,
+C)`` is one call for the front end; its ``codegen`` writes the order-``k`` body straight into the
+kernel's LLVM function, the operations of the former Python source in its evaluation order, each
+with the kernels' ``contract`` flag (:class:`refimpl.codegen._taylor_ir._Ops`):
+
+* the derived rows ``V[r, k] = sum_t C[ci_t] V[s_t, k]`` (``Omega_k``, then ``M_k``), sums as the
+  balanced trees of :func:`refimpl.codegen.taylor.tree_sum`;
+* the general Cauchy products ``p = sum_{a=0..k} V[u, a] V[w, k - a]``, side by side in loops over
+  ``a`` of at most :data:`refimpl.codegen.full_state.PRODUCT_CHUNK` products (each accumulated in the
+  order ``a = 0..k``; each distinct factor loaded once per ``a``);
+* the products with a constant factor (``k``-th coefficient times the other's ``0``-th; both
+  constant: their product at ``k = 0``, else 0);
+* the state rows ``V[v, k + 1] = (sum of terms) * (1 / (k + 1))``, terms ``p``, ``-p``, ``C[ci] p``,
+  ``C[ci] V[u, k]`` and, for a constant ``u``, ``C[ci] V[u, 0]`` at ``k = 0`` (else 0).
+
+The field's numbers ``C`` travel as a tuple of float64 read once per call by ``_load(c)``
+(:func:`load_intrinsic`): loaded from the array inside the order, LLVM could not keep them in
+registers across the stores into ``V`` (it cannot tell the two arrays apart).
+
+The generated module names :data:`IR_VERSION` (numba's disk cache keys on the generated file's text,
+not on this module, so a change of the IR built here must change that text).
+"""
+
+from __future__ import annotations
+
+try:  # only the generated kernels use the intrinsics
+    import llvmlite.ir as ir
+    from numba import types
+    from numba.core import cgutils
+    from numba.extending import intrinsic
+except ImportError:  # pragma: no cover - exercised only where numba is missing
+    ir = types = cgutils = intrinsic = None
+
+from ._taylor_ir import _F64, _Ops, _unpack
+
+__all__ = ["IR_VERSION", "lanes_order_intrinsic", "load_intrinsic", "order_intrinsic"]
+
+IR_VERSION = "1"
+
+# the kinds of a state row's term (the spec's ``(kind, ci, x)``; ``x`` a product or a row)
+PLUS, MINUS, SCALED, LIN_CONST, LIN = range(5)
+# the classes of a product with a constant factor (the spec's ``(p, u, w, cls)``)
+U_CONST, W_CONST, BOTH_CONST = 1, 2, 3
+
+
+def _check_array(name, V, ndim):
+    if not (
+        isinstance(V, types.Array)
+        and V.ndim == ndim
+        and V.dtype == types.float64
+        and V.layout == "C"
+    ):
+        raise TypeError(f"{name}: expects a C-contiguous {ndim}-d float64 array, got {V}")
+
+
+def load_intrinsic(ncoef: int):
+    """The intrinsic ``C = load(c)``: the first ``ncoef`` floats of the 1-d array ``c`` as a tuple
+    (the caller checks ``c`` has them)."""
+
+    @intrinsic
+    def load(typingctx, c):
+        _check_array("load", c, 1)
+        ret = types.UniTuple(types.float64, ncoef)
+
+        def codegen(context, builder, sig, args):
+            data = context.make_array(sig.args[0])(context, builder, args[0]).data
+            vals = [
+                builder.load(builder.gep(data, [ir.Constant(ir.IntType(64), i)], inbounds=True))
+                for i in range(ncoef)
+            ]
+            return context.make_tuple(builder, ret, vals)
+
+        return ret(c), codegen
+
+    return load
+
+
+def order_intrinsic(sp):
+    """The intrinsic ``order(V, k, C)``: the order-``k`` body of the recurrence (module docstring) on
+    the coefficient rows ``V`` (``(rows, P + 1)``, C order), ``C`` the tuple of :func:`load_intrinsic`.
+
+    ``sp = (ncoef, derived, chunks, consts, state)`` (literal in the generated text):
+    ``derived``: ``(row, ((ci, src), ...))`` in order; ``chunks``: the general products, each chunk
+    ``((p, u, w), ...)`` one loop over ``a``; ``consts``: ``(p, u, w, cls)``; ``state``: ``(row,
+    ((kind, ci, x), ...))`` (kinds :data:`PLUS` ...)."""
+    ncoef, derived, chunks, consts, state = sp
+    nrows = 1 + max(
+        [r for r, t in derived for r in (r, *(x for _, x in t))]
+        + [r for ch in chunks for _, u, w in ch for r in (u, w)]
+        + [r for _, u, w, _ in consts for r in (u, w)]
+        + [r for r, t in state for r in (r, *(x for kd, _, x in t if kd >= LIN_CONST))]
+    )
+
+    @intrinsic
+    def order(typingctx, V, k, C):
+        _check_array("order", V, 2)
+        if not (
+            isinstance(k, types.Integer)
+            and isinstance(C, types.BaseTuple)
+            and len(C) == ncoef
+            and all(t == types.float64 for t in C.types)
+        ):
+            raise TypeError(f"order: expects (V, int, {ncoef} float64), got ({V}, {k}, {C})")
+
+        def codegen(context, builder, sig, args):
+            ops = _Ops(builder)
+            i64 = ir.IntType(64)
+            arr = context.make_array(sig.args[0])(context, builder, args[0])
+            data = arr.data
+            ncol = cgutils.unpack_tuple(builder, arr.shape, 2)[1]
+            kk = context.cast(builder, args[1], sig.args[1], types.int64)
+            c = _unpack(builder, args[2], ncoef)
+            # each row's offset computed once, before the loops (a value made inside a loop body
+            # would not dominate its uses after it)
+            base = {r: builder.mul(ir.Constant(i64, r), ncol) for r in range(nrows)}
+
+            def at(row, col):  # &V[row, col]
+                return builder.gep(data, [builder.add(base[row], col)], inbounds=True)
+
+            def load(row, col):
+                return builder.load(at(row, col))
+
+            zero_col = ir.Constant(i64, 0)
+            # derived rows: Omega_k, then M_k
+            for row, terms in derived:
+                v = ops.tree([lambda ci=ci, s=s: ops.mul(c[ci], load(s, kk)) for ci, s in terms])
+                builder.store(v, at(row, kk))
+            # general products, a loop over a per chunk
+            prod: dict[int, object] = {}
+            kp1 = builder.add(kk, ir.Constant(i64, 1))
+            for chunk in chunks:
+                accs = [cgutils.alloca_once_value(builder, ops.zero) for _ in chunk]
+                with cgutils.for_range(builder, kp1) as loop:
+                    a = loop.index
+                    b = builder.sub(kk, a)
+                    fu = {u: None for _, u, _ in chunk}
+                    fw = {w: None for _, _, w in chunk}
+                    for u in fu:
+                        fu[u] = load(u, a)
+                    for w in fw:
+                        fw[w] = load(w, b)
+                    for (_, u, w), acc in zip(chunk, accs):
+                        builder.store(ops.add(builder.load(acc), ops.mul(fu[u], fw[w])), acc)
+                for (p, _, _), acc in zip(chunk, accs):
+                    prod[p] = builder.load(acc)
+            # products with a constant factor
+            is0 = builder.icmp_signed("==", kk, zero_col)
+            for p, u, w, cls in consts:
+                if cls == BOTH_CONST:
+                    prod[p] = builder.select(
+                        is0, ops.mul(load(u, zero_col), load(w, zero_col)), ops.zero
+                    )
+                elif cls == U_CONST:
+                    prod[p] = ops.mul(load(u, zero_col), load(w, kk))
+                else:
+                    prod[p] = ops.mul(load(u, kk), load(w, zero_col))
+            ik = builder.fdiv(
+                ops.const(1.0), builder.sitofp(kp1, ops.ty), flags=("contract",)
+            )  # 1.0 / (k + 1)
+
+            def term(kind, ci, x):
+                if kind == PLUS:
+                    return lambda: prod[x]
+                if kind == MINUS:
+                    return lambda: ops.sub(ops.const(-0.0), prod[x])
+                if kind == SCALED:
+                    return lambda: ops.mul(c[ci], prod[x])
+                if kind == LIN_CONST:
+                    return lambda: builder.select(is0, ops.mul(c[ci], load(x, zero_col)), ops.zero)
+                return lambda: ops.mul(c[ci], load(x, kk))
+
+            for row, terms in state:
+                s = ops.tree([term(*t) for t in terms]) if terms else ops.zero
+                builder.store(ops.mul(s, ik), at(row, kp1))
+            return context.get_dummy_value()
+
+        return types.none(V, k, C), codegen
+
+    return order
+
+
+def lanes_order_intrinsic(sp, W: int):
+    """The intrinsic ``order(V, k, C)`` of the lane-batched kernel
+    (:func:`refimpl.codegen.full_state_batch.batch_source`): the order-``k`` body of the recurrence
+    on ``W`` trajectories at once, ``V[k, row, lane]`` (``(P + 1, rows, W)``, C order: the ``W`` lanes
+    of one coefficient are contiguous and move as one vector of ``W`` float64), each lane's
+    operations those of the scalar body, element by element.
+
+    ``sp = (ncoef, derived, groups, consts, state)`` as :func:`order_intrinsic`'s ``spec`` (the
+    terms of the state rows' products all :data:`SCALED`), ``groups`` the general products summed
+    side by side in one loop over ``a`` (each distinct factor row loaded once per ``a``). The products
+    stay values (never stored into ``V``)."""
+    ncoef, derived, groups, consts, state = sp
+
+    @intrinsic
+    def order(typingctx, V, k, C):
+        _check_array("order", V, 3)
+        if not (
+            isinstance(k, types.Integer)
+            and isinstance(C, types.BaseTuple)
+            and len(C) == ncoef
+            and all(t == types.float64 for t in C.types)
+        ):
+            raise TypeError(f"order: expects (V, int, {ncoef} float64), got ({V}, {k}, {C})")
+
+        def codegen(context, builder, sig, args):
+            ops = _Ops(builder, W)
+            i64 = ir.IntType(64)
+            vptr = ir.PointerType(ops.ty)
+            arr = context.make_array(sig.args[0])(context, builder, args[0])
+            data = arr.data
+            nrow = cgutils.unpack_tuple(builder, arr.shape, 3)[1]
+            kk = context.cast(builder, args[1], sig.args[1], types.int64)
+            kp1 = builder.add(kk, ir.Constant(i64, 1))
+            c = [ops.splat(x) for x in _unpack(builder, args[2], ncoef)]
+            stride = builder.mul(nrow, ir.Constant(i64, W))  # one order's floats
+
+            def base(kv):  # offset of V[kv, 0, 0]
+                return builder.mul(kv, stride)
+
+            def at(off, row):  # the W lanes of V[., row, :] (off: base of the order)
+                p = builder.gep(data, [builder.add(off, ir.Constant(i64, row * W))], inbounds=True)
+                return builder.bitcast(p, vptr)
+
+            def load(off, row):
+                return builder.load(at(off, row), align=8)
+
+            o0, ok, ok1 = ir.Constant(i64, 0), base(kk), base(kp1)
+            for row, terms in derived:
+                v = ops.tree([lambda ci=ci, s=s: ops.mul(c[ci], load(ok, s)) for ci, s in terms])
+                builder.store(v, at(ok, row), align=8)
+            prod: dict[int, object] = {}
+            for grp in groups:
+                accs = [cgutils.alloca_once_value(builder, ops.zero) for _ in grp]
+                with cgutils.for_range(builder, kp1) as loop:
+                    oa = base(loop.index)
+                    ob = base(builder.sub(kk, loop.index))
+                    fu, fw = {}, {}
+                    for (_, u, w), acc in zip(grp, accs):
+                        if u not in fu:
+                            fu[u] = load(oa, u)
+                        if w not in fw:
+                            fw[w] = load(ob, w)
+                        builder.store(ops.add(builder.load(acc), ops.mul(fu[u], fw[w])), acc)
+                for (p, _, _), acc in zip(grp, accs):
+                    prod[p] = builder.load(acc)
+            is0 = builder.icmp_signed("==", kk, o0)
+            for p, u, w, cls in consts:
+                if cls == BOTH_CONST:
+                    prod[p] = builder.select(is0, ops.mul(load(o0, u), load(o0, w)), ops.zero)
+                elif cls == U_CONST:
+                    prod[p] = ops.mul(load(o0, u), load(ok, w))
+                else:
+                    prod[p] = ops.mul(load(ok, u), load(o0, w))
+            ik = ops.splat(
+                builder.fdiv(ir.Constant(_F64, 1.0), builder.sitofp(kp1, _F64), flags=("contract",))
+            )
+
+            def term(kind, ci, x):
+                if kind == SCALED:
+                    return lambda: ops.mul(c[ci], prod[x])
+                if kind == LIN_CONST:
+                    return lambda: builder.select(is0, ops.mul(c[ci], load(o0, x)), ops.zero)
+                if kind == LIN:
+                    return lambda: ops.mul(c[ci], load(ok, x))
+                raise ValueError(f"lanes order: term kind {kind}")
+
+            for row, terms in state:
+                s = ops.tree([term(*t) for t in terms]) if terms else ops.zero
+                builder.store(ops.mul(s, ik), at(ok1, row), align=8)
+            return context.get_dummy_value()
+
+        return types.none(V, k, C), codegen
+
+    return order
