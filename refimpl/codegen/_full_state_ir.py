@@ -39,7 +39,13 @@ except ImportError:  # pragma: no cover - exercised only where numba is missing
 
 from ._taylor_ir import _F64, _Ops, _unpack
 
-__all__ = ["IR_VERSION", "lanes_order_intrinsic", "load_intrinsic", "order_intrinsic"]
+__all__ = [
+    "IR_VERSION",
+    "lanes_order_intrinsic",
+    "load_intrinsic",
+    "order_intrinsic",
+    "update_intrinsic",
+]
 
 IR_VERSION = "1"
 
@@ -279,3 +285,63 @@ def lanes_order_intrinsic(sp, W: int):
         return types.none(V, k, C), codegen
 
     return order
+
+
+def update_intrinsic(rows):
+    """The intrinsic ``fin = update(V, comp, hs, P)``: the compensated Horner update of the kernel's
+    step on the rows ``rows`` of ``V`` (``(rows, P + 1)``, C order), row ``rows[c]`` with the carry
+    ``comp[c]``: ``z = V[i, P]``, ``z = z hs + V[i, kk]`` for ``kk = P - 1 .. 1``, ``z = z hs -
+    comp[c]``, ``w = V[i, 0] + z``, ``comp[c] = (w - V[i, 0]) - z``, ``V[i, 0] = w``; ``fin``: every
+    ``w`` finite. Each row's operations in that order (as the Python loop it replaces), the rows'
+    Horner chains interleaved in one loop over ``kk``: one row's chain is ``P`` dependent multiply-adds
+    (latency-bound, one row at a time), the rows side by side fill the multiply-add units."""
+    rows = tuple(int(r) for r in rows)
+
+    @intrinsic
+    def update(typingctx, V, comp, hs, P):
+        _check_array("update", V, 2)
+        _check_array("update", comp, 1)
+        if not (isinstance(hs, types.Float) and isinstance(P, types.Integer)):
+            raise TypeError(f"update: expects (V, comp, float, int), got {hs}, {P}")
+
+        def codegen(context, builder, sig, args):
+            ops = _Ops(builder)
+            i64 = ir.IntType(64)
+            arr = context.make_array(sig.args[0])(context, builder, args[0])
+            data = arr.data
+            ncol = cgutils.unpack_tuple(builder, arr.shape, 2)[1]
+            cdata = context.make_array(sig.args[1])(context, builder, args[1]).data
+            h = context.cast(builder, args[2], sig.args[2], types.float64)
+            pp = context.cast(builder, args[3], sig.args[3], types.int64)
+            base = [builder.mul(ir.Constant(i64, r), ncol) for r in rows]
+
+            def at(c, col):
+                return builder.gep(data, [builder.add(base[c], col)], inbounds=True)
+
+            def cat(c):
+                return builder.gep(cdata, [ir.Constant(i64, c)], inbounds=True)
+
+            zs = [
+                cgutils.alloca_once_value(builder, builder.load(at(c, pp)))
+                for c in range(len(rows))
+            ]
+            top = builder.sub(pp, ir.Constant(i64, 1))  # kk = P - 1 - j, j = 0 .. P - 2
+            with cgutils.for_range(builder, top) as loop:
+                kk = builder.sub(top, loop.index)
+                for c, z in enumerate(zs):
+                    builder.store(ops.add(ops.mul(builder.load(z), h), builder.load(at(c, kk))), z)
+            fin = cgutils.true_bit
+            inf = ops.const(float("inf"))
+            zero = ir.Constant(i64, 0)
+            for c, z in enumerate(zs):
+                zz = ops.sub(ops.mul(builder.load(z), h), builder.load(cat(c)))
+                y = builder.load(at(c, zero))
+                w = ops.add(y, zz)
+                builder.store(ops.sub(ops.sub(w, y), zz), cat(c))
+                builder.store(w, at(c, zero))
+                fin = builder.and_(fin, builder.fcmp_ordered("<", ops.abs(w), inf))
+            return fin
+
+        return types.boolean(V, comp, hs, P), codegen
+
+    return update
