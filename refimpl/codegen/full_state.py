@@ -8,10 +8,10 @@ literal :func:`spec` in the source): the derived rows (``Omega_k``, then ``M_k =
 Cauchy products (independent sums side by side in loops over ``a``), the state rows from their
 terms. Per step the compensated Horner update of the non-constant rows is the intrinsic
 ``_update`` (the rows' chains side by side in one loop; each row's operations in the order of the
-Python loop it replaced: bitwise equal on the four bench structures, 1-10 % faster per call, at
-2e-15, interleaved, best of 300, load 1.9-2.3: kirchhoff_se3 102.0 -> 99.5 us, manakov_so4 44.2 ->
-43.2, free_su3 66.5 -> 65.9, bianchi_cocycle 32.9 -> 31.6), the step control numba Python around
-it; the recurrence and control as :mod:`refimpl._full_state_kernel` (the kernel compiled for every structure, same recurrence; this one
+Python loop it replaced: bitwise equal on the four bench structures), the step control numba
+Python around it (with both intrinsics, against the numba Python kernel of 58f381e in one run, at
+2e-15, interleaved, best of 300, load 1.9-2.3: kirchhoff_se3 111.3 -> 99.5 us, manakov_so4 49.3 ->
+43.2, free_su3 72.1 -> 65.9, bianchi_cocycle 32.2 -> 31.6); the recurrence and control as :mod:`refimpl._full_state_kernel` (the kernel compiled for every structure, same recurrence; this one
 unrolls the products: about 2.2x faster per step).
 
 Compile time (issue 25): the order body as IR instead of Python statements, fully cold (empty numba
