@@ -345,3 +345,183 @@ def update_intrinsic(rows):
         return types.boolean(V, comp, hs, P), codegen
 
     return update
+
+
+def _aryptr(context, builder, ty, val):
+    """The data pointer of the numba array ``val`` of type ``ty``."""
+    return context.make_array(ty)(context, builder, val).data
+
+
+def _packed_order(context, builder, sig, args):
+    """The codegen of :func:`packed_order` (its docstring)."""
+    W = 4
+    ops = _Ops(builder, W)
+    i64 = ir.IntType(64)
+    c = lambda x: ir.Constant(i64, x)  # noqa: E731
+    vptr = ir.PointerType(ops.ty)
+    tys = sig.args
+    V, UB, WB = (context.make_array(tys[i])(context, builder, args[i]) for i in range(3))
+    kk = context.cast(builder, args[3], tys[3], types.int64)
+    nv = context.cast(builder, args[4], tys[4], types.int64)
+    (drow, dptr, didx, dcoef, gp, gu, gw, pu, pw, pcls, vrow, qptr, qprod, qcoef, lptr, lvar,
+     lcoef, lcon) = (_aryptr(context, builder, tys[i], args[i]) for i in range(5, 23))  # fmt: skip
+    nd = builder.sub(
+        cgutils.unpack_tuple(
+            builder, context.make_array(tys[6])(context, builder, args[6]).shape, 1
+        )[0],
+        ir.Constant(i64, 1),
+    )
+
+    def get(ptr, i):  # ptr[i] of a 1-d table
+        return builder.load(builder.gep(ptr, [i], inbounds=True))
+
+    vshape = cgutils.unpack_tuple(builder, V.shape, 3)
+    vrows = vshape[1]
+    ngu = cgutils.unpack_tuple(
+        builder, context.make_array(tys[10])(context, builder, args[10]).shape, 1
+    )[0]
+    ngrp = builder.sdiv(ngu, c(2))  # the blocks (UB has at least one, used or not)
+    P1 = cgutils.unpack_tuple(builder, UB.shape, 4)[1]
+    npr = cgutils.unpack_tuple(
+        builder, context.make_array(tys[12])(context, builder, args[12]).shape, 1
+    )[0]
+    nvar = cgutils.unpack_tuple(
+        builder, context.make_array(tys[15])(context, builder, args[15]).shape, 1
+    )[0]
+
+    def vat(kv, row):  # &V[kv, row, :] as a vector pointer
+        off = builder.mul(builder.add(builder.mul(kv, vrows), row), c(W))
+        return builder.bitcast(builder.gep(V.data, [off], inbounds=True), vptr)
+
+    def bat(B, nj, g, kv, j):  # &B[g, kv, j, :] (B: (ngrp, P + 1, nj, W))
+        off = builder.add(builder.mul(builder.add(builder.mul(g, P1), kv), c(nj)), j)
+        return builder.bitcast(builder.gep(B.data, [builder.mul(off, c(W))], inbounds=True), vptr)
+
+    def vload(p):
+        return builder.load(p, align=8)
+
+    def vstore(v, p):
+        builder.store(v, p, align=8)
+
+    kp1 = builder.add(kk, c(1))
+    is0 = builder.icmp_signed("==", kk, c(0))
+    acc = cgutils.alloca_once(builder, ops.ty)
+    # derived rows: V[k, drow[r]] = sum_t dcoef[t] V[k, didx[t]] (from 0.0, in the order of t)
+    with cgutils.for_range(builder, nd) as lr:
+        builder.store(ops.zero, acc)
+        t0, t1 = get(dptr, lr.index), get(dptr, builder.add(lr.index, c(1)))
+        with cgutils.for_range(builder, t1, start=t0) as lt:
+            cf = ops.splat(get(dcoef, lt.index))
+            term = ops.mul(cf, vload(vat(kk, get(didx, lt.index))))
+            builder.store(ops.add(builder.load(acc), term), acc)
+        vstore(builder.load(acc), vat(kk, get(drow, lr.index)))
+    # the general products in blocks of 2 x 4 factor rows
+    accs = [cgutils.alloca_once(builder, ops.ty) for _ in range(8)]
+    with cgutils.for_range(builder, ngrp) as lg:
+        g = lg.index
+        for blk, idx, nj in ((UB, gu, 2), (WB, gw, 4)):
+            for j in range(nj):
+                u = get(idx, builder.add(builder.mul(g, c(nj)), c(j)))
+                vstore(vload(vat(kk, u)), bat(blk, nj, g, kk, c(j)))
+        for a_ in accs:
+            builder.store(ops.zero, a_)
+        with cgutils.for_range(builder, kp1) as la:
+            b = builder.sub(kk, la.index)
+            us = [vload(bat(UB, 2, g, la.index, c(i))) for i in range(2)]
+            ws = [vload(bat(WB, 4, g, b, c(j))) for j in range(4)]
+            for i in range(2):
+                for j in range(4):
+                    a_ = accs[i * 4 + j]
+                    builder.store(ops.add(builder.load(a_), ops.mul(us[i], ws[j])), a_)
+        for i in range(2):
+            for j in range(4):
+                q = get(gp, builder.add(builder.mul(g, c(8)), c(i * 4 + j)))
+                vstore(builder.load(accs[i * 4 + j]), vat(kk, q))
+    # the products with a constant factor (classes 1, 2, 3; 0 above, 5 the padding)
+    zero_k = c(0)
+    with cgutils.for_range(builder, npr) as lp:
+        p = lp.index
+        cl = get(pcls, p)
+        isc = builder.and_(builder.icmp_signed(">=", cl, c(1)), builder.icmp_signed("<=", cl, c(3)))
+        with builder.if_then(isc):
+            u, w = get(pu, p), get(pw, p)
+            row = builder.add(nv, p)
+            with builder.if_else(builder.icmp_signed("==", cl, c(1))) as (one, other):
+                with one:
+                    vstore(ops.mul(vload(vat(zero_k, u)), vload(vat(kk, w))), vat(kk, row))
+                with other:
+                    with builder.if_else(builder.icmp_signed("==", cl, c(2))) as (two, three):
+                        with two:
+                            vstore(ops.mul(vload(vat(kk, u)), vload(vat(zero_k, w))), vat(kk, row))
+                        with three:
+                            v3 = ops.mul(vload(vat(zero_k, u)), vload(vat(zero_k, w)))
+                            vstore(builder.select(is0, v3, ops.zero), vat(kk, row))
+    ik = ops.splat(builder.fdiv(ir.Constant(_F64, 1.0), builder.sitofp(kp1, _F64), flags=_IKFLAGS))
+    # the state rows: V[k + 1, vrow[c]] = (sum of qcoef prod + sum of lcoef V[k or 0, lvar]) / (k + 1)
+    with cgutils.for_range(builder, nvar) as lc:
+        builder.store(ops.zero, acc)
+        t0, t1 = get(qptr, lc.index), get(qptr, builder.add(lc.index, c(1)))
+        with cgutils.for_range(builder, t1, start=t0) as lt:
+            cf = ops.splat(get(qcoef, lt.index))
+            term = ops.mul(cf, vload(vat(kk, builder.add(nv, get(qprod, lt.index)))))
+            builder.store(ops.add(builder.load(acc), term), acc)
+        t0, t1 = get(lptr, lc.index), get(lptr, builder.add(lc.index, c(1)))
+        with cgutils.for_range(builder, t1, start=t0) as lt:
+            cf = ops.splat(get(lcoef, lt.index))
+            i = get(lvar, lt.index)
+            con = builder.icmp_unsigned("!=", get(lcon, lt.index), ir.Constant(ir.IntType(8), 0))
+            with builder.if_else(con) as (yes, no):
+                with yes:
+                    with builder.if_then(is0):
+                        term = ops.mul(cf, vload(vat(zero_k, i)))
+                        builder.store(ops.add(builder.load(acc), term), acc)
+                with no:
+                    term = ops.mul(cf, vload(vat(kk, i)))
+                    builder.store(ops.add(builder.load(acc), term), acc)
+        vstore(ops.mul(builder.load(acc), ik), vat(kp1, get(vrow, lc.index)))
+    del vshape
+    return context.get_dummy_value()
+
+
+_IKFLAGS = ("contract",)
+
+
+def packed_order():
+    """The intrinsic ``order(V, UB, WB, k, nv, drow, dptr, didx, dcoef, gp, gu, gw, pu, pw, pcls,
+    vrow, qptr, qprod, qcoef, lptr, lvar, lcoef, lcon)`` of :func:`refimpl._full_state_batch.
+    adaptive_packed` (one machine code for every structure: the field as the tables of
+    :meth:`refimpl._full_state.FullState.tables`, the blocks ``gp, gu, gw`` of
+    :func:`refimpl.codegen.full_state_batch.batch_groups`): the order-``k`` body on four lanes,
+    ``V[k, row, lane]`` with the lanes as one vector of four float64, each lane's operations those of
+    the numba Python it replaced (sums from ``0.0`` in the order of the tables; the blocks' eight sums
+    in the order ``a = 0..k``). ``None`` without numba.
+
+    numba's disk cache keys :func:`refimpl._full_state_batch.adaptive_packed` on that module's file,
+    not on this one: a change of the IR built here must change that file too (its comment naming
+    :data:`IR_VERSION`)."""
+    if intrinsic is None:  # pragma: no cover - exercised only where numba is missing
+        return None
+
+    @intrinsic
+    def order(typingctx, V, UB, WB, k, nv, drow, dptr, didx, dcoef, gp, gu, gw, pu, pw, pcls, vrow, qptr, qprod, qcoef, lptr, lvar, lcoef, lcon):  # fmt: skip
+        _check_array("packed order", V, 3)
+        _check_array("packed order", UB, 4)
+        _check_array("packed order", WB, 4)
+        for name, a, dt in (
+            ("drow", drow, types.int64), ("dptr", dptr, types.int64),
+            ("didx", didx, types.int64), ("dcoef", dcoef, types.float64),
+            ("gp", gp, types.int64), ("gu", gu, types.int64), ("gw", gw, types.int64),
+            ("pu", pu, types.int64), ("pw", pw, types.int64), ("pcls", pcls, types.int64),
+            ("vrow", vrow, types.int64), ("qptr", qptr, types.int64),
+            ("qprod", qprod, types.int64), ("qcoef", qcoef, types.float64),
+            ("lptr", lptr, types.int64), ("lvar", lvar, types.int64),
+            ("lcoef", lcoef, types.float64), ("lcon", lcon, types.boolean),
+        ):  # fmt: skip
+            if not (
+                isinstance(a, types.Array) and a.ndim == 1 and a.dtype == dt and a.layout == "C"
+            ):
+                raise TypeError(f"packed order: {name} must be a 1-d {dt} array, got {a}")
+        sig = types.none(V, UB, WB, k, nv, drow, dptr, didx, dcoef, gp, gu, gw, pu, pw, pcls, vrow, qptr, qprod, qcoef, lptr, lvar, lcoef, lcon)  # fmt: skip
+        return sig, _packed_order
+
+    return order
