@@ -44,6 +44,8 @@ __all__ = [
     "lanes_order_intrinsic",
     "load_intrinsic",
     "order_intrinsic",
+    "packed_order",
+    "rational_order",
     "update_intrinsic",
 ]
 
@@ -525,3 +527,215 @@ def packed_order():
         return sig, _packed_order
 
     return order
+
+
+class _Arrays:
+    """Element pointers of numba arrays passed to an intrinsic inside tuples (any layout, no bounds
+    or wraparound checks: the kernels index within their arrays)."""
+
+    def __init__(self, context, builder, tupty, tupval):
+        self.ctx, self.b = context, builder
+        self.arrs = []
+        for i, ty in enumerate(tupty.types):
+            ary = context.make_array(ty)(context, builder, builder.extract_value(tupval, i))
+            shape = cgutils.unpack_tuple(builder, ary.shape, ty.ndim)
+            strides = cgutils.unpack_tuple(builder, ary.strides, ty.ndim)
+            self.arrs.append((ty, ary, shape, strides))
+
+    def ptr(self, i, *idx):
+        ty, ary, shape, strides = self.arrs[i]
+        return cgutils.get_item_pointer2(
+            self.ctx, self.b, ary.data, shape, strides, ty.layout, list(idx)
+        )
+
+    def get(self, i, *idx):
+        v = self.b.load(self.ptr(i, *idx))
+        if self.arrs[i][0].dtype == types.boolean:  # stored as a byte
+            v = self.b.icmp_unsigned("!=", v, ir.Constant(v.type, 0))
+        return v
+
+    def put(self, v, i, *idx):
+        self.b.store(v, self.ptr(i, *idx))
+
+    def len(self, i, axis=0):
+        return self.arrs[i][2][axis]
+
+
+def rational_order():
+    """The intrinsic ``order(k, grav, S, Wk, D, T)`` of :func:`refimpl._full_state_rational_kernel.
+    adaptive` (one machine code for every structure): the order-``k`` body of its recurrence (that
+    module's docstring), each operation as in the numba Python it replaced and in the same order.
+    ``S = (PI, GA, OM, DK, W, GG, MM, SS)`` the series rows, ``Wk = (po, pd, pwv, og, gm, r, q, cs)``
+    work vectors, ``D = (Mi, Ii, U, UGL, th, GL, Pab)`` matrices, ``T = (tm, ta, tb, fv, svm, svb,
+    sv_of, stm, sta, st_of, gpa, gpm, gp_of, mptr, mb, mc, pu, pw, pconst, gvar, gptr, gprod, gsign)``
+    the tables. ``None`` without numba.
+
+    numba's disk cache keys that kernel on its module's file, not on this one: a change of the IR
+    built here must change that file too (its comment naming :data:`IR_VERSION`)."""
+    if intrinsic is None:  # pragma: no cover - exercised only where numba is missing
+        return None
+
+    @intrinsic
+    def order(typingctx, k, grav, S, Wk, D, T):
+        for name, tup, n_ in (("S", S, 8), ("Wk", Wk, 8), ("D", D, 7), ("T", T, 23)):
+            if not (
+                isinstance(tup, types.BaseTuple)
+                and len(tup) == n_
+                and all(isinstance(t, types.Array) for t in tup.types)
+            ):
+                raise TypeError(f"rational order: {name} must be a tuple of {n_} arrays, got {tup}")
+        return types.none(k, grav, S, Wk, D, T), _rational_order
+
+    return order
+
+
+def _rational_order(context, builder, sig, args):
+    """The codegen of :func:`rational_order`."""
+    ops = _Ops(builder)
+    i64 = ir.IntType(64)
+    c = lambda x: ir.Constant(i64, x)  # noqa: E731
+    kk = context.cast(builder, args[0], sig.args[0], types.int64)
+    grav = context.cast(builder, args[1], sig.args[1], types.boolean)
+    S = _Arrays(context, builder, sig.args[2], args[2])
+    Wk = _Arrays(context, builder, sig.args[3], args[3])
+    D = _Arrays(context, builder, sig.args[4], args[4])
+    T = _Arrays(context, builder, sig.args[5], args[5])
+    PI, GA, OM, DK, W_, GG, MM, SS = range(8)
+    po, pd, pwv, og, gm, r, q, cs = range(8)
+    Mi, Ii, U, UGL, th, GL, Pab = range(7)
+    (tm, ta, tb, fv, svm, svb, sv_of, stm, sta, st_of, gpa, gpm, gp_of, mptr, mb, mc, pu, pw, pconst,
+     gvar, gptr, gprod, gsign) = range(23)  # fmt: skip
+    del tm
+    n = S.len(PI)
+    ntr = T.len(ta)
+    kp1 = builder.add(kk, c(1))
+    ik = builder.fdiv(ops.const(1.0), builder.sitofp(kp1, _F64), flags=_IKFLAGS)
+    acc = cgutils.alloca_once(builder, _F64)
+    loop = cgutils.for_range
+
+    def add_to(v):
+        builder.store(ops.add(builder.load(acc), v), acc)
+
+    def pairs(X, xi, Y, yi, j0, out):
+        """out[p] = sum_{j=j0..k} X[xi[p], j] Y[yi[p], k - j], four sums side by side (as _pairs)."""
+        npr = T.len(xi)
+        s4 = [cgutils.alloca_once(builder, _F64) for _ in range(4)]
+        nq = builder.sdiv(npr, c(4))
+        with loop(builder, nq) as lq:
+            p0 = builder.mul(lq.index, c(4))
+            us = [T.get(xi, builder.add(p0, c(i))) for i in range(4)]
+            ws = [T.get(yi, builder.add(p0, c(i))) for i in range(4)]
+            for s in s4:
+                builder.store(ops.zero, s)
+            with loop(builder, kp1, start=c(j0)) as lj:
+                b = builder.sub(kk, lj.index)
+                for i in range(4):
+                    v = ops.mul(S.get(X, us[i], lj.index), S.get(Y, ws[i], b))
+                    builder.store(ops.add(builder.load(s4[i]), v), s4[i])
+            for i in range(4):
+                Wk.put(builder.load(s4[i]), out, builder.add(p0, c(i)))
+        with loop(builder, npr, start=builder.mul(nq, c(4))) as lp:
+            u, w = T.get(xi, lp.index), T.get(yi, lp.index)
+            builder.store(ops.zero, acc)
+            with loop(builder, kp1, start=c(j0)) as lj:
+                add_to(ops.mul(S.get(X, u, lj.index), S.get(Y, w, builder.sub(kk, lj.index))))
+            Wk.put(builder.load(acc), out, lp.index)
+
+    def scatter(dst, idx, src, src_of, sign):  # dst[idx[e]] (+/-)= fv[e] * src[src_of[e]]
+        with loop(builder, ntr) as le:
+            e = le.index
+            i = T.get(idx, e)
+            v = ops.mul(T.get(fv, e), Wk.get(src, T.get(src_of, e)))
+            old = Wk.get(dst, i)
+            Wk.put(ops.add(old, v) if sign > 0 else ops.sub(old, v), dst, i)
+
+    def zero(vec):
+        with loop(builder, n) as la:
+            Wk.put(ops.zero, vec, la.index)
+
+    def matvec(M, vec, transpose, store):  # store(a, sum_b M[a, b] vec[b]) (M[b, a]: transpose)
+        with loop(builder, n) as la:
+            builder.store(ops.zero, acc)
+            with loop(builder, n) as lb:
+                a, b = la.index, lb.index
+                m = D.get(M, b, a) if transpose else D.get(M, a, b)
+                add_to(ops.mul(m, vec(b)))
+            store(a, builder.load(acc))
+
+    # ---- Omega_k
+    pairs(PI, svm, OM, svb, 1, po)
+    zero(cs)
+    scatter(cs, ta, po, sv_of, +1)
+    with loop(builder, n) as la:
+        a = la.index
+        builder.store(ops.zero, acc)
+        with loop(builder, n) as lb:
+            b = lb.index
+            add_to(
+                ops.sub(
+                    ops.mul(D.get(Ii, a, b), S.get(PI, b, kk)),
+                    ops.mul(D.get(U, a, b), Wk.get(cs, b)),
+                )
+            )
+            with builder.if_then(grav):
+                add_to(ops.mul(D.get(UGL, a, b), S.get(GA, b, kk)))
+        Wk.put(builder.load(acc), r, a)
+    matvec(Mi, lambda b: Wk.get(r, b), False, lambda a, v: S.put(v, OM, a, kk))
+    matvec(Ii, lambda b: S.get(PI, b, kk), False, lambda a, v: S.put(v, DK, a, kk))
+    # ---- pidot_k
+    pairs(PI, svm, DK, svb, 0, pd)
+    pairs(PI, stm, W_, sta, 1, pwv)
+    with loop(builder, n) as la:
+        a = la.index
+        builder.store(ops.zero, acc)
+        with loop(builder, n) as lb:
+            b = lb.index
+            add_to(ops.mul(D.get(th, a, b), S.get(DK, b, kk)))
+            with builder.if_then(grav):
+                add_to(ops.mul(D.get(GL, a, b), S.get(GA, b, kk)))
+        Wk.put(builder.load(acc), q, a)
+    with loop(builder, ntr) as le:  # q[ta] -= fv pd[sv_of], then q[tb] -= fv pwv[st_of], per e
+        e = le.index
+        f = T.get(fv, e)
+        i = T.get(ta, e)
+        Wk.put(ops.sub(Wk.get(q, i), ops.mul(f, Wk.get(pd, T.get(sv_of, e)))), q, i)
+        i = T.get(tb, e)
+        Wk.put(ops.sub(Wk.get(q, i), ops.mul(f, Wk.get(pwv, T.get(st_of, e)))), q, i)
+
+    def pidot(a, v):
+        Wk.put(v, r, a)
+        S.put(ops.mul(v, ik), PI, a, kp1)
+
+    matvec(Mi, lambda b: Wk.get(q, b), True, pidot)
+    matvec(U, lambda b: Wk.get(r, b), True, lambda a, v: S.put(v, W_, a, kk))
+    with builder.if_then(grav):
+        pairs(OM, gpa, GA, gpm, 0, og)
+        zero(q)
+        scatter(q, tb, og, gp_of, +1)
+        with loop(builder, n) as la:
+            S.put(ops.mul(Wk.get(q, la.index), ik), GA, la.index, kp1)
+    # ---- G_{k+1} from M_k = rho(Omega_k)
+    with loop(builder, builder.sub(T.len(mptr), c(1))) as le:  # the nm = len(mptr) - 1 entries
+        e = le.index
+        builder.store(ops.zero, acc)
+        with loop(builder, T.get(mptr, builder.add(e, c(1))), start=T.get(mptr, e)) as lz:
+            add_to(ops.mul(T.get(mc, lz.index), S.get(OM, T.get(mb, lz.index), kk)))
+        S.put(builder.load(acc), MM, e, kk)
+    pairs(GG, pu, MM, pw, 0, gm)
+    with loop(builder, T.len(pu)) as lp:
+        p = lp.index
+        with builder.if_then(T.get(pconst, p)):
+            Wk.put(ops.mul(S.get(GG, T.get(pu, p), c(0)), S.get(MM, T.get(pw, p), kk)), gm, p)
+    with loop(builder, T.len(gvar)) as lc:
+        builder.store(ops.zero, acc)
+        with loop(
+            builder, T.get(gptr, builder.add(lc.index, c(1))), start=T.get(gptr, lc.index)
+        ) as lz:
+            add_to(ops.mul(T.get(gsign, lz.index), Wk.get(gm, T.get(gprod, lz.index))))
+        S.put(ops.mul(builder.load(acc), ik), GG, T.get(gvar, lc.index), kp1)
+    with loop(builder, D.len(Pab)) as ll:
+        builder.store(ops.zero, acc)
+        with loop(builder, n) as lb:
+            add_to(ops.mul(D.get(Pab, ll.index, lb.index), S.get(OM, lb.index, kk)))
+        S.put(ops.mul(builder.load(acc), ik), SS, ll.index, kp1)
+    return context.get_dummy_value()
