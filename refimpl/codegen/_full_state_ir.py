@@ -46,7 +46,6 @@ __all__ = [
     "order_intrinsic",
     "packed_order",
     "rational_order",
-    "series_intrinsic",
     "update_intrinsic",
 ]
 
@@ -90,172 +89,6 @@ def load_intrinsic(ncoef: int):
     return load
 
 
-def _order_body(builder, ops, sp, c, load, at, k):
-    """The order-``k`` body of :func:`order_intrinsic` on ``builder``: ``k`` an LLVM ``i64`` (the
-    products in loops over ``a``) or a Python int (every loop unrolled, the indices constants: the
-    same operations in the same order); ``load(row, col)`` the value of ``V[row, col]`` and
-    ``at(row, col, v, state)`` its new value ``v`` (``state``: a state row's, read after the order
-    body), ``col`` an LLVM ``i64`` constant or value."""
-    _, derived, chunks, consts, state = sp
-    i64 = ir.IntType(64)
-    static = isinstance(k, int)
-    kk = ir.Constant(i64, k) if static else k
-    kp1 = ir.Constant(i64, k + 1) if static else builder.add(kk, ir.Constant(i64, 1))
-    zero_col = ir.Constant(i64, 0)
-    # derived rows: Omega_k, then M_k
-    for row, terms in derived:
-        v = ops.tree([lambda ci=ci, s=s: ops.mul(c[ci], load(s, kk)) for ci, s in terms])
-        at(row, kk, v, False)
-    # general products, a loop over a per chunk (unrolled: the same sums from 0.0 in the order of a)
-    prod: dict[int, object] = {}
-    for chunk in chunks:
-        if static:
-            acc = [ops.zero] * len(chunk)
-            for a in range(k + 1):
-                ca, cb = ir.Constant(i64, a), ir.Constant(i64, k - a)
-                fu = {u: None for _, u, _ in chunk}
-                fw = {w: None for _, _, w in chunk}
-                for u in fu:
-                    fu[u] = load(u, ca)
-                for w in fw:
-                    fw[w] = load(w, cb)
-                acc = [ops.add(s, ops.mul(fu[u], fw[w])) for s, (_, u, w) in zip(acc, chunk)]
-            for (p, _, _), v in zip(chunk, acc):
-                prod[p] = v
-            continue
-        accs = [cgutils.alloca_once_value(builder, ops.zero) for _ in chunk]
-        with cgutils.for_range(builder, kp1) as loop:
-            a = loop.index
-            b = builder.sub(kk, a)
-            fu = {u: None for _, u, _ in chunk}
-            fw = {w: None for _, _, w in chunk}
-            for u in fu:
-                fu[u] = load(u, a)
-            for w in fw:
-                fw[w] = load(w, b)
-            for (_, u, w), acc in zip(chunk, accs):
-                builder.store(ops.add(builder.load(acc), ops.mul(fu[u], fw[w])), acc)
-        for (p, _, _), acc in zip(chunk, accs):
-            prod[p] = builder.load(acc)
-
-    def first(v):  # v at k = 0, else 0
-        if static:
-            return v() if k == 0 else ops.zero
-        return builder.select(builder.icmp_signed("==", kk, zero_col), v(), ops.zero)
-
-    # products with a constant factor
-    for p, u, w, cls in consts:
-        if cls == BOTH_CONST:
-            prod[p] = first(lambda u=u, w=w: ops.mul(load(u, zero_col), load(w, zero_col)))
-        elif cls == U_CONST:
-            prod[p] = ops.mul(load(u, zero_col), load(w, kk))
-        else:
-            prod[p] = ops.mul(load(u, kk), load(w, zero_col))
-    if static:
-        ik = ops.const(1.0 / (k + 1))  # correctly rounded, as the division at run time
-    else:
-        ik = builder.fdiv(ops.const(1.0), builder.sitofp(kp1, ops.ty), flags=_IKFLAGS)
-
-    def term(kind, ci, x):
-        if kind == PLUS:
-            return lambda: prod[x]
-        if kind == MINUS:
-            return lambda: ops.sub(ops.const(-0.0), prod[x])
-        if kind == SCALED:
-            return lambda: ops.mul(c[ci], prod[x])
-        if kind == LIN_CONST:
-            return lambda: first(lambda: ops.mul(c[ci], load(x, zero_col)))
-        return lambda: ops.mul(c[ci], load(x, kk))
-
-    for row, terms in state:
-        s = ops.tree([term(*t) for t in terms]) if terms else ops.zero
-        at(row, kp1, ops.mul(s, ik), True)
-
-
-def _rows(sp) -> int:
-    """The rows of ``V`` a spec of :func:`order_intrinsic` reads or writes (one more than the largest)."""
-    _, derived, chunks, consts, state = sp
-    return 1 + max(
-        [r for r, t in derived for r in (r, *(x for _, x in t))]
-        + [r for ch in chunks for _, u, w in ch for r in (u, w)]
-        + [r for _, u, w, _ in consts for r in (u, w)]
-        + [r for r, t in state for r in (r, *(x for kd, _, x in t if kd >= LIN_CONST))]
-    )
-
-
-def _order_intrinsic(sp, P):
-    ncoef = sp[0]
-    nrows = _rows(sp)
-
-    def check(name, V, C):
-        _check_array(name, V, 2)
-        if not (
-            isinstance(C, types.BaseTuple)
-            and len(C) == ncoef
-            and all(t == types.float64 for t in C.types)
-        ):
-            raise TypeError(f"{name}: expects (V, [k,] {ncoef} float64), got ({V}, {C})")
-
-    def setup(context, builder, sig, args, iv, ic):
-        ops = _Ops(builder)
-        i64 = ir.IntType(64)
-        arr = context.make_array(sig.args[iv])(context, builder, args[iv])
-        data = arr.data
-        # the series knows its order: V has P + 1 columns (the caller's allocation), so every index
-        # is a constant and LLVM can tell the rows apart (keeping stored coefficients in registers)
-        ncol = (
-            cgutils.unpack_tuple(builder, arr.shape, 2)[1] if P is None else ir.Constant(i64, P + 1)
-        )
-        c = _unpack(builder, args[ic], ncoef)
-        # each row's offset computed once, before the loops (a value made inside a loop body
-        # would not dominate its uses after it)
-        base = {r: builder.mul(ir.Constant(i64, r), ncol) for r in range(nrows)}
-
-        def ptr(row, col):  # &V[row, col]
-            return builder.gep(data, [builder.add(base[row], col)], inbounds=True)
-
-        def load(row, col):
-            return builder.load(ptr(row, col))
-
-        def at(row, col, v, state):  # every row stored (the series: LLVM forwards or reloads; the
-            # coefficients all kept as values instead spilled more: 34.1 against 27.2 us, Bianchi VI0)
-            builder.store(v, ptr(row, col))
-
-        return ops, c, load, at
-
-    if P is None:
-
-        @intrinsic
-        def order(typingctx, V, k, C):
-            check("order", V, C)
-            if not isinstance(k, types.Integer):
-                raise TypeError(f"order: k must be an integer, got {k}")
-
-            def codegen(context, builder, sig, args):
-                ops, c, load, at = setup(context, builder, sig, args, 0, 2)
-                kk = context.cast(builder, args[1], sig.args[1], types.int64)
-                _order_body(builder, ops, sp, c, load, at, kk)
-                return context.get_dummy_value()
-
-            return types.none(V, k, C), codegen
-
-        return order
-
-    @intrinsic
-    def series(typingctx, V, C):
-        check("series", V, C)
-
-        def codegen(context, builder, sig, args):
-            ops, c, load, at = setup(context, builder, sig, args, 0, 1)
-            for k in range(P):
-                _order_body(builder, ops, sp, c, load, at, k)
-            return context.get_dummy_value()
-
-        return types.none(V, C), codegen
-
-    return series
-
-
 def order_intrinsic(sp):
     """The intrinsic ``order(V, k, C)``: the order-``k`` body of the recurrence (module docstring) on
     the coefficient rows ``V`` (``(rows, P + 1)``, C order), ``C`` the tuple of :func:`load_intrinsic`.
@@ -264,14 +97,100 @@ def order_intrinsic(sp):
     ``derived``: ``(row, ((ci, src), ...))`` in order; ``chunks``: the general products, each chunk
     ``((p, u, w), ...)`` one loop over ``a``; ``consts``: ``(p, u, w, cls)``; ``state``: ``(row,
     ((kind, ci, x), ...))`` (kinds :data:`PLUS` ...)."""
-    return _order_intrinsic(sp, None)
+    ncoef, derived, chunks, consts, state = sp
+    nrows = 1 + max(
+        [r for r, t in derived for r in (r, *(x for _, x in t))]
+        + [r for ch in chunks for _, u, w in ch for r in (u, w)]
+        + [r for _, u, w, _ in consts for r in (u, w)]
+        + [r for r, t in state for r in (r, *(x for kd, _, x in t if kd >= LIN_CONST))]
+    )
 
+    @intrinsic
+    def order(typingctx, V, k, C):
+        _check_array("order", V, 2)
+        if not (
+            isinstance(k, types.Integer)
+            and isinstance(C, types.BaseTuple)
+            and len(C) == ncoef
+            and all(t == types.float64 for t in C.types)
+        ):
+            raise TypeError(f"order: expects (V, int, {ncoef} float64), got ({V}, {k}, {C})")
 
-def series_intrinsic(sp, P: int):
-    """The intrinsic ``series(V, C)``: the bodies of :func:`order_intrinsic` for ``k = 0 .. P - 1``,
-    every loop unrolled (the same operations in the same order; the indices constants, so LLVM keeps
-    the coefficients of one order in registers for the next instead of reloading them)."""
-    return _order_intrinsic(sp, int(P))
+        def codegen(context, builder, sig, args):
+            ops = _Ops(builder)
+            i64 = ir.IntType(64)
+            arr = context.make_array(sig.args[0])(context, builder, args[0])
+            data = arr.data
+            ncol = cgutils.unpack_tuple(builder, arr.shape, 2)[1]
+            kk = context.cast(builder, args[1], sig.args[1], types.int64)
+            c = _unpack(builder, args[2], ncoef)
+            # each row's offset computed once, before the loops (a value made inside a loop body
+            # would not dominate its uses after it)
+            base = {r: builder.mul(ir.Constant(i64, r), ncol) for r in range(nrows)}
+
+            def at(row, col):  # &V[row, col]
+                return builder.gep(data, [builder.add(base[row], col)], inbounds=True)
+
+            def load(row, col):
+                return builder.load(at(row, col))
+
+            zero_col = ir.Constant(i64, 0)
+            # derived rows: Omega_k, then M_k
+            for row, terms in derived:
+                v = ops.tree([lambda ci=ci, s=s: ops.mul(c[ci], load(s, kk)) for ci, s in terms])
+                builder.store(v, at(row, kk))
+            # general products, a loop over a per chunk
+            prod: dict[int, object] = {}
+            kp1 = builder.add(kk, ir.Constant(i64, 1))
+            for chunk in chunks:
+                accs = [cgutils.alloca_once_value(builder, ops.zero) for _ in chunk]
+                with cgutils.for_range(builder, kp1) as loop:
+                    a = loop.index
+                    b = builder.sub(kk, a)
+                    fu = {u: None for _, u, _ in chunk}
+                    fw = {w: None for _, _, w in chunk}
+                    for u in fu:
+                        fu[u] = load(u, a)
+                    for w in fw:
+                        fw[w] = load(w, b)
+                    for (_, u, w), acc in zip(chunk, accs):
+                        builder.store(ops.add(builder.load(acc), ops.mul(fu[u], fw[w])), acc)
+                for (p, _, _), acc in zip(chunk, accs):
+                    prod[p] = builder.load(acc)
+            # products with a constant factor
+            is0 = builder.icmp_signed("==", kk, zero_col)
+            for p, u, w, cls in consts:
+                if cls == BOTH_CONST:
+                    prod[p] = builder.select(
+                        is0, ops.mul(load(u, zero_col), load(w, zero_col)), ops.zero
+                    )
+                elif cls == U_CONST:
+                    prod[p] = ops.mul(load(u, zero_col), load(w, kk))
+                else:
+                    prod[p] = ops.mul(load(u, kk), load(w, zero_col))
+            ik = builder.fdiv(
+                ops.const(1.0), builder.sitofp(kp1, ops.ty), flags=("contract",)
+            )  # 1.0 / (k + 1)
+
+            def term(kind, ci, x):
+                if kind == PLUS:
+                    return lambda: prod[x]
+                if kind == MINUS:
+                    return lambda: ops.sub(ops.const(-0.0), prod[x])
+                if kind == SCALED:
+                    return lambda: ops.mul(c[ci], prod[x])
+                if kind == LIN_CONST:
+                    return lambda: builder.select(is0, ops.mul(c[ci], load(x, zero_col)), ops.zero)
+                return lambda: ops.mul(c[ci], load(x, kk))
+
+            for row, terms in state:
+                s = ops.tree([term(*t) for t in terms]) if terms else ops.zero
+                builder.store(ops.mul(s, ik), at(row, kp1))
+            return context.get_dummy_value()
+
+        return types.none(V, k, C), codegen
+
+    return order
 
 
 def lanes_order_intrinsic(sp, W: int):

@@ -116,44 +116,11 @@ def spec(fs) -> tuple:
     return sp, len(idx), [idx[v] for v in fs.var], [idx[v] for v in fs.step_vars]
 
 
-UNROLL_MAX_TERMS = 2600
-"""The largest series (``sum_k (k + 1)`` multiply-adds of the general Cauchy products over the
-orders ``k < P``) the generated kernel also has fully unrolled (:func:`unrolled_orders`): LLVM's time
-on the unrolled series grows with it, about 0.35 s per 1000. Measured (kernel alone, against the
-kernel with the orders in loops of 58f381e, interleaved in one process, best of 200-300, CPU, load
-2.1-2.7; cold compile from empty caches): Bianchi VI0 with a cocycle (12 products; A at order 10,
-B at 20, both unrolled) 10.7 -> 9.3 us at 1e-6, 32.1 -> 27.2 us at 2e-15 (loops in IR: 10.6, 31.6),
-bitwise equal, compile 0.83 -> 1.77 s; se(2) (12 products) 3.8 -> 3.4 and 10.1 -> 10.3 us (within
-4.4e-16), compile 2.04 s; Kirchhoff se(3) unrolled at order 10 only (45 products, 2475 terms): 27.0
--> 25.2 us for 0.94 -> 1.68 s of compilation, hence :data:`UNROLL_MAX_PRODUCTS`. Set to 0: no
-structure with a general product has unrolled series."""
-
-UNROLL_MAX_PRODUCTS = 16
-"""The most general Cauchy products of a structure whose kernel has unrolled series (the small
-algebras, where the loops' overhead is the largest share)."""
-
-
-def unrolled_orders(sp) -> tuple:
-    """The orders ``P`` at which the kernel of the spec ``sp`` also has its series unrolled
-    (:func:`refimpl.codegen._full_state_ir.series_intrinsic`): the orders of the full state's two runs
-    (:data:`refimpl._full_state.A_LOOSE`, :data:`refimpl._full_state.B_MAX` at
-    :func:`refimpl._full_state.default_order`) within :data:`UNROLL_MAX_TERMS`."""
-    from .._full_state import A_LOOSE, B_MAX, default_order  # the flows' policy, read at call time
-
-    ngen = sum(len(ch) for ch in sp[2])
-    return tuple(
-        P
-        for P in sorted({default_order(A_LOOSE), default_order(B_MAX)})
-        if ngen <= UNROLL_MAX_PRODUCTS and ngen * P * (P + 1) // 2 <= UNROLL_MAX_TERMS
-    )
-
-
 def full_state_source(fs) -> str:
     """The kernel module ``adaptive(y0, T, tol, P, max_steps, c, out, nsteps)`` for the structure of
     ``fs`` (a :class:`refimpl._full_state.FullState`)."""
     sp, nv, vrows, srows = spec(fs)
     I1, I2, I3, I4 = ("    " * i for i in range(1, 5))
-    orders = unrolled_orders(sp)
 
     def amax(k):  # max |V[row, k]| over the step rows: one loop over the table SR
         # order 0 as the run-time K0, not a literal: numba types a literal 0 as Literal[int] and
@@ -187,7 +154,6 @@ def full_state_source(fs) -> str:
         "_order = _full_state_ir.order_intrinsic(SPEC)",
         f"_load = _full_state_ir.load_intrinsic({sp[0]})",
         f"_update = _full_state_ir.update_intrinsic({tuple(vrows)!r})",
-        *[f"_series{P} = _full_state_ir.series_intrinsic(SPEC, {P})" for P in orders],
         "",
         "",
         _JIT,
@@ -224,13 +190,9 @@ def full_state_source(fs) -> str:
         I2 + "nst = 0",
         I2 + "status = 0",
         I2 + "while t < Tabs:",
+        I3 + "for k in range(P):",
+        I4 + "_order(V, k, C)",
     ]
-    for i, P in enumerate(orders):
-        src += [I3 + f"{'el' if i else ''}if P == {P}:", I4 + f"_series{P}(V, C)"]
-    loop = [("else:" if orders else "") + "for k in range(P):", I1 + "_order(V, k, C)"]
-    if orders:
-        loop = ["else:", I1 + "for k in range(P):", I2 + "_order(V, k, C)"]
-    src += [I3 + x for x in loop]
     src += [I3 + x for x in step]
     src += [
         I2 + f"for q in range({fs.d}):",
