@@ -292,7 +292,7 @@ def test_generated_kernel_every_term_kind_against_the_generic_one():
     Bianchi III) or a constant one (``Gamma`` of a heavy h(3) top), products with a constant first,
     second or both factors (h(3) with gravity, the abelian R^3) -- against the kernel compiled for every structure (sparse tables):
     the same step counts (``+- 1``) and end states within rounding (the error model of
-    ``test_generated_kernel_against_the_generic_one``)."""
+    ``test_generated_kernel_against_the_generic_one``); a non-finite row fails alone (status -1)."""
     from tstarg.refimpl.codegen import _full_state_ir as ir
     from tstarg.refimpl.codegen import full_state as cg
 
@@ -318,6 +318,15 @@ def test_generated_kernel_every_term_kind_against_the_generic_one():
         assert abs(int(sg[0]) - int(st[0])) <= 1 and sg[0] > 0, name
         bound = 10 * 1e2 * EPS * int(st[0]) * max(1.0, np.max(np.abs(yt)))
         assert np.max(np.abs(yg - yt)) <= bound, name
+        # a non-finite start fails its own row (status -1, NaN state), the next row is unchanged
+        y2 = np.concatenate([y0, y0])
+        y2[0, 0] = np.nan
+        out, st = np.empty_like(y2), np.zeros(2, dtype=np.int64)
+        P = fs_mod.default_order(1e-13)
+        fs.module().adaptive(y2, 1.0, 1e-13, P, 10**7, fs.coef, out, st)
+        assert st[0] == -1 and np.all(np.isnan(out[0])), name
+        np.testing.assert_array_equal(out[1], yg[0])
+        assert st[1] == sg[0]
     assert kinds == {ir.PLUS, ir.MINUS, ir.SCALED, ir.LIN_CONST, ir.LIN}
     assert classes == {ir.U_CONST, ir.W_CONST, ir.BOTH_CONST}
 

@@ -354,6 +354,42 @@ def test_packed_batch_kernel_equals_the_single_kernel(fs, monkeypatch, N):
 
 
 @needs_numba
+@pytest.mark.parametrize("name", ["h(3) + gravity", "R^3"])
+def test_packed_kernel_on_constant_factors(name):
+    """:func:`adaptive_packed` (its order body the IR of
+    :func:`refimpl.codegen._full_state_ir.packed_order`) on the branches the Bianchi III fixture does
+    not reach: products with a constant first, second or both factors and linear terms in a constant
+    row (h(3) with gravity, the abelian R^3; seen in the tables), against the table-driven single
+    kernel (same step counts, the rounding model above)."""
+    from tstarg.refimpl._catalogue import catalogue
+
+    alg = catalogue(name.split(" ")[0])
+    n = alg.f.shape[0]
+    rng = np.random.default_rng(17)
+    A = rng.standard_normal((n, n))
+    z = np.zeros((n, n))
+    grav = "gravity" in name
+    pot = {"kind": "gravity", "L": np.arange(1.0, n + 1), "gamma": np.ones(n)} if grav else None
+    f = fs_mod.full_state(cached_model(alg.f, z, z, A @ A.T / n + np.eye(n), pot), _AbelianPart)
+    tb = f.tables()
+    want = {1, 2} if grav else {3}
+    assert want <= set(tb[7].tolist()) and (not grav or np.any(tb[15]))
+    N = W + 3
+    x0 = 0.2 * rng.standard_normal((n, N))
+    G0 = np.empty((N, f.r, f.r), dtype=f.mats.dtype)
+    fk.exp_batch(np.ascontiguousarray(x0.T), f.mats, G0)
+    s0 = None if f.abelian is None else f.abelian.P @ x0
+    ga0 = rng.standard_normal((n, N)) if grav else None
+    y = fs_mod._pack(f, rng.standard_normal((n, N)), ga0, G0, s0)
+    T, tol = 1.0, 1e-12
+    P = fs_mod.default_order(tol)
+    out, steps = fsb.run(f, y, T, tol, P, 10**7, generated=False)
+    ref, rsteps = _single(f, y, T, tol, P)
+    np.testing.assert_array_equal(steps, rsteps)
+    _assert_rounding_close(out, ref, rsteps)
+
+
+@needs_numba
 def test_time_probe_runs_on_a_sample_of_the_batch(monkeypatch):
     """fast_flow's time probe (issue 30 budget) runs on at most PROBE_ROWS trajectories, not on the
     whole batch; the budget still refuses, with its estimate, a batch it cannot afford."""

@@ -39,7 +39,15 @@ except ImportError:  # pragma: no cover - exercised only where numba is missing
 
 from ._taylor_ir import _F64, _Ops, _unpack
 
-__all__ = ["IR_VERSION", "lanes_order_intrinsic", "load_intrinsic", "order_intrinsic"]
+__all__ = [
+    "IR_VERSION",
+    "lanes_order_intrinsic",
+    "load_intrinsic",
+    "order_intrinsic",
+    "packed_order",
+    "rational_order",
+    "update_intrinsic",
+]
 
 IR_VERSION = "1"
 
@@ -279,3 +287,455 @@ def lanes_order_intrinsic(sp, W: int):
         return types.none(V, k, C), codegen
 
     return order
+
+
+def update_intrinsic(rows):
+    """The intrinsic ``fin = update(V, comp, hs, P)``: the compensated Horner update of the kernel's
+    step on the rows ``rows`` of ``V`` (``(rows, P + 1)``, C order), row ``rows[c]`` with the carry
+    ``comp[c]``: ``z = V[i, P]``, ``z = z hs + V[i, kk]`` for ``kk = P - 1 .. 1``, ``z = z hs -
+    comp[c]``, ``w = V[i, 0] + z``, ``comp[c] = (w - V[i, 0]) - z``, ``V[i, 0] = w``; ``fin``: every
+    ``w`` finite. Each row's operations in that order (as the Python loop it replaces), the rows'
+    Horner chains interleaved in one loop over ``kk``: one row's chain is ``P`` dependent multiply-adds
+    (latency-bound, one row at a time), the rows side by side fill the multiply-add units."""
+    rows = tuple(int(r) for r in rows)
+
+    @intrinsic
+    def update(typingctx, V, comp, hs, P):
+        _check_array("update", V, 2)
+        _check_array("update", comp, 1)
+        if not (isinstance(hs, types.Float) and isinstance(P, types.Integer)):
+            raise TypeError(f"update: expects (V, comp, float, int), got {hs}, {P}")
+
+        def codegen(context, builder, sig, args):
+            ops = _Ops(builder)
+            i64 = ir.IntType(64)
+            arr = context.make_array(sig.args[0])(context, builder, args[0])
+            data = arr.data
+            ncol = cgutils.unpack_tuple(builder, arr.shape, 2)[1]
+            cdata = context.make_array(sig.args[1])(context, builder, args[1]).data
+            h = context.cast(builder, args[2], sig.args[2], types.float64)
+            pp = context.cast(builder, args[3], sig.args[3], types.int64)
+            base = [builder.mul(ir.Constant(i64, r), ncol) for r in rows]
+
+            def at(c, col):
+                return builder.gep(data, [builder.add(base[c], col)], inbounds=True)
+
+            def cat(c):
+                return builder.gep(cdata, [ir.Constant(i64, c)], inbounds=True)
+
+            zs = [
+                cgutils.alloca_once_value(builder, builder.load(at(c, pp)))
+                for c in range(len(rows))
+            ]
+            top = builder.sub(pp, ir.Constant(i64, 1))  # kk = P - 1 - j, j = 0 .. P - 2
+            with cgutils.for_range(builder, top) as loop:
+                kk = builder.sub(top, loop.index)
+                for c, z in enumerate(zs):
+                    builder.store(ops.add(ops.mul(builder.load(z), h), builder.load(at(c, kk))), z)
+            fin = cgutils.true_bit
+            inf = ops.const(float("inf"))
+            zero = ir.Constant(i64, 0)
+            for c, z in enumerate(zs):
+                zz = ops.sub(ops.mul(builder.load(z), h), builder.load(cat(c)))
+                y = builder.load(at(c, zero))
+                w = ops.add(y, zz)
+                builder.store(ops.sub(ops.sub(w, y), zz), cat(c))
+                builder.store(w, at(c, zero))
+                fin = builder.and_(fin, builder.fcmp_ordered("<", ops.abs(w), inf))
+            return fin
+
+        return types.boolean(V, comp, hs, P), codegen
+
+    return update
+
+
+def _aryptr(context, builder, ty, val):
+    """The data pointer of the numba array ``val`` of type ``ty``."""
+    return context.make_array(ty)(context, builder, val).data
+
+
+def _packed_order(context, builder, sig, args):
+    """The codegen of :func:`packed_order` (its docstring)."""
+    W = 4
+    ops = _Ops(builder, W)
+    i64 = ir.IntType(64)
+    c = lambda x: ir.Constant(i64, x)  # noqa: E731
+    vptr = ir.PointerType(ops.ty)
+    tys = sig.args
+    V, UB, WB = (context.make_array(tys[i])(context, builder, args[i]) for i in range(3))
+    kk = context.cast(builder, args[3], tys[3], types.int64)
+    nv = context.cast(builder, args[4], tys[4], types.int64)
+    (drow, dptr, didx, dcoef, gp, gu, gw, pu, pw, pcls, vrow, qptr, qprod, qcoef, lptr, lvar,
+     lcoef, lcon) = (_aryptr(context, builder, tys[i], args[i]) for i in range(5, 23))  # fmt: skip
+    nd = builder.sub(
+        cgutils.unpack_tuple(
+            builder, context.make_array(tys[6])(context, builder, args[6]).shape, 1
+        )[0],
+        ir.Constant(i64, 1),
+    )
+
+    def get(ptr, i):  # ptr[i] of a 1-d table
+        return builder.load(builder.gep(ptr, [i], inbounds=True))
+
+    vshape = cgutils.unpack_tuple(builder, V.shape, 3)
+    vrows = vshape[1]
+    ngu = cgutils.unpack_tuple(
+        builder, context.make_array(tys[10])(context, builder, args[10]).shape, 1
+    )[0]
+    ngrp = builder.sdiv(ngu, c(2))  # the blocks (UB has at least one, used or not)
+    P1 = cgutils.unpack_tuple(builder, UB.shape, 4)[1]
+    npr = cgutils.unpack_tuple(
+        builder, context.make_array(tys[12])(context, builder, args[12]).shape, 1
+    )[0]
+    nvar = cgutils.unpack_tuple(
+        builder, context.make_array(tys[15])(context, builder, args[15]).shape, 1
+    )[0]
+
+    def vat(kv, row):  # &V[kv, row, :] as a vector pointer
+        off = builder.mul(builder.add(builder.mul(kv, vrows), row), c(W))
+        return builder.bitcast(builder.gep(V.data, [off], inbounds=True), vptr)
+
+    def bat(B, nj, g, kv, j):  # &B[g, kv, j, :] (B: (ngrp, P + 1, nj, W))
+        off = builder.add(builder.mul(builder.add(builder.mul(g, P1), kv), c(nj)), j)
+        return builder.bitcast(builder.gep(B.data, [builder.mul(off, c(W))], inbounds=True), vptr)
+
+    def vload(p):
+        return builder.load(p, align=8)
+
+    def vstore(v, p):
+        builder.store(v, p, align=8)
+
+    kp1 = builder.add(kk, c(1))
+    is0 = builder.icmp_signed("==", kk, c(0))
+    acc = cgutils.alloca_once(builder, ops.ty)
+    # derived rows: V[k, drow[r]] = sum_t dcoef[t] V[k, didx[t]] (from 0.0, in the order of t)
+    with cgutils.for_range(builder, nd) as lr:
+        builder.store(ops.zero, acc)
+        t0, t1 = get(dptr, lr.index), get(dptr, builder.add(lr.index, c(1)))
+        with cgutils.for_range(builder, t1, start=t0) as lt:
+            cf = ops.splat(get(dcoef, lt.index))
+            term = ops.mul(cf, vload(vat(kk, get(didx, lt.index))))
+            builder.store(ops.add(builder.load(acc), term), acc)
+        vstore(builder.load(acc), vat(kk, get(drow, lr.index)))
+    # the general products in blocks of 2 x 4 factor rows
+    accs = [cgutils.alloca_once(builder, ops.ty) for _ in range(8)]
+    with cgutils.for_range(builder, ngrp) as lg:
+        g = lg.index
+        for blk, idx, nj in ((UB, gu, 2), (WB, gw, 4)):
+            for j in range(nj):
+                u = get(idx, builder.add(builder.mul(g, c(nj)), c(j)))
+                vstore(vload(vat(kk, u)), bat(blk, nj, g, kk, c(j)))
+        for a_ in accs:
+            builder.store(ops.zero, a_)
+        with cgutils.for_range(builder, kp1) as la:
+            b = builder.sub(kk, la.index)
+            us = [vload(bat(UB, 2, g, la.index, c(i))) for i in range(2)]
+            ws = [vload(bat(WB, 4, g, b, c(j))) for j in range(4)]
+            for i in range(2):
+                for j in range(4):
+                    a_ = accs[i * 4 + j]
+                    builder.store(ops.add(builder.load(a_), ops.mul(us[i], ws[j])), a_)
+        for i in range(2):
+            for j in range(4):
+                q = get(gp, builder.add(builder.mul(g, c(8)), c(i * 4 + j)))
+                vstore(builder.load(accs[i * 4 + j]), vat(kk, q))
+    # the products with a constant factor (classes 1, 2, 3; 0 above, 5 the padding)
+    zero_k = c(0)
+    with cgutils.for_range(builder, npr) as lp:
+        p = lp.index
+        cl = get(pcls, p)
+        isc = builder.and_(builder.icmp_signed(">=", cl, c(1)), builder.icmp_signed("<=", cl, c(3)))
+        with builder.if_then(isc):
+            u, w = get(pu, p), get(pw, p)
+            row = builder.add(nv, p)
+            with builder.if_else(builder.icmp_signed("==", cl, c(1))) as (one, other):
+                with one:
+                    vstore(ops.mul(vload(vat(zero_k, u)), vload(vat(kk, w))), vat(kk, row))
+                with other:
+                    with builder.if_else(builder.icmp_signed("==", cl, c(2))) as (two, three):
+                        with two:
+                            vstore(ops.mul(vload(vat(kk, u)), vload(vat(zero_k, w))), vat(kk, row))
+                        with three:
+                            v3 = ops.mul(vload(vat(zero_k, u)), vload(vat(zero_k, w)))
+                            vstore(builder.select(is0, v3, ops.zero), vat(kk, row))
+    ik = ops.splat(builder.fdiv(ir.Constant(_F64, 1.0), builder.sitofp(kp1, _F64), flags=_IKFLAGS))
+    # the state rows: V[k + 1, vrow[c]] = (sum of qcoef prod + sum of lcoef V[k or 0, lvar]) / (k + 1)
+    with cgutils.for_range(builder, nvar) as lc:
+        builder.store(ops.zero, acc)
+        t0, t1 = get(qptr, lc.index), get(qptr, builder.add(lc.index, c(1)))
+        with cgutils.for_range(builder, t1, start=t0) as lt:
+            cf = ops.splat(get(qcoef, lt.index))
+            term = ops.mul(cf, vload(vat(kk, builder.add(nv, get(qprod, lt.index)))))
+            builder.store(ops.add(builder.load(acc), term), acc)
+        t0, t1 = get(lptr, lc.index), get(lptr, builder.add(lc.index, c(1)))
+        with cgutils.for_range(builder, t1, start=t0) as lt:
+            cf = ops.splat(get(lcoef, lt.index))
+            i = get(lvar, lt.index)
+            con = builder.icmp_unsigned("!=", get(lcon, lt.index), ir.Constant(ir.IntType(8), 0))
+            with builder.if_else(con) as (yes, no):
+                with yes:
+                    with builder.if_then(is0):
+                        term = ops.mul(cf, vload(vat(zero_k, i)))
+                        builder.store(ops.add(builder.load(acc), term), acc)
+                with no:
+                    term = ops.mul(cf, vload(vat(kk, i)))
+                    builder.store(ops.add(builder.load(acc), term), acc)
+        vstore(ops.mul(builder.load(acc), ik), vat(kp1, get(vrow, lc.index)))
+    del vshape
+    return context.get_dummy_value()
+
+
+_IKFLAGS = ("contract",)
+
+
+def packed_order():
+    """The intrinsic ``order(V, UB, WB, k, nv, drow, dptr, didx, dcoef, gp, gu, gw, pu, pw, pcls,
+    vrow, qptr, qprod, qcoef, lptr, lvar, lcoef, lcon)`` of :func:`refimpl._full_state_batch.
+    adaptive_packed` (one machine code for every structure: the field as the tables of
+    :meth:`refimpl._full_state.FullState.tables`, the blocks ``gp, gu, gw`` of
+    :func:`refimpl.codegen.full_state_batch.batch_groups`): the order-``k`` body on four lanes,
+    ``V[k, row, lane]`` with the lanes as one vector of four float64, each lane's operations those of
+    the numba Python it replaced (sums from ``0.0`` in the order of the tables; the blocks' eight sums
+    in the order ``a = 0..k``). ``None`` without numba.
+
+    numba's disk cache keys :func:`refimpl._full_state_batch.adaptive_packed` on that module's file,
+    not on this one: a change of the IR built here must change that file too (its comment naming
+    :data:`IR_VERSION`)."""
+    if intrinsic is None:  # pragma: no cover - exercised only where numba is missing
+        return None
+
+    @intrinsic
+    def order(typingctx, V, UB, WB, k, nv, drow, dptr, didx, dcoef, gp, gu, gw, pu, pw, pcls, vrow, qptr, qprod, qcoef, lptr, lvar, lcoef, lcon):  # fmt: skip
+        _check_array("packed order", V, 3)
+        _check_array("packed order", UB, 4)
+        _check_array("packed order", WB, 4)
+        for name, a, dt in (
+            ("drow", drow, types.int64), ("dptr", dptr, types.int64),
+            ("didx", didx, types.int64), ("dcoef", dcoef, types.float64),
+            ("gp", gp, types.int64), ("gu", gu, types.int64), ("gw", gw, types.int64),
+            ("pu", pu, types.int64), ("pw", pw, types.int64), ("pcls", pcls, types.int64),
+            ("vrow", vrow, types.int64), ("qptr", qptr, types.int64),
+            ("qprod", qprod, types.int64), ("qcoef", qcoef, types.float64),
+            ("lptr", lptr, types.int64), ("lvar", lvar, types.int64),
+            ("lcoef", lcoef, types.float64), ("lcon", lcon, types.boolean),
+        ):  # fmt: skip
+            if not (
+                isinstance(a, types.Array) and a.ndim == 1 and a.dtype == dt and a.layout == "C"
+            ):
+                raise TypeError(f"packed order: {name} must be a 1-d {dt} array, got {a}")
+        sig = types.none(V, UB, WB, k, nv, drow, dptr, didx, dcoef, gp, gu, gw, pu, pw, pcls, vrow, qptr, qprod, qcoef, lptr, lvar, lcoef, lcon)  # fmt: skip
+        return sig, _packed_order
+
+    return order
+
+
+class _Arrays:
+    """Element pointers of numba arrays passed to an intrinsic inside tuples (any layout, no bounds
+    or wraparound checks: the kernels index within their arrays)."""
+
+    def __init__(self, context, builder, tupty, tupval):
+        self.ctx, self.b = context, builder
+        self.arrs = []
+        for i, ty in enumerate(tupty.types):
+            ary = context.make_array(ty)(context, builder, builder.extract_value(tupval, i))
+            shape = cgutils.unpack_tuple(builder, ary.shape, ty.ndim)
+            strides = cgutils.unpack_tuple(builder, ary.strides, ty.ndim)
+            self.arrs.append((ty, ary, shape, strides))
+
+    def ptr(self, i, *idx):
+        ty, ary, shape, strides = self.arrs[i]
+        return cgutils.get_item_pointer2(
+            self.ctx, self.b, ary.data, shape, strides, ty.layout, list(idx)
+        )
+
+    def get(self, i, *idx):
+        v = self.b.load(self.ptr(i, *idx))
+        if self.arrs[i][0].dtype == types.boolean:  # stored as a byte
+            v = self.b.icmp_unsigned("!=", v, ir.Constant(v.type, 0))
+        return v
+
+    def put(self, v, i, *idx):
+        self.b.store(v, self.ptr(i, *idx))
+
+    def len(self, i, axis=0):
+        return self.arrs[i][2][axis]
+
+
+def rational_order():
+    """The intrinsic ``order(k, grav, S, Wk, D, T)`` of :func:`refimpl._full_state_rational_kernel.
+    adaptive` (one machine code for every structure): the order-``k`` body of its recurrence (that
+    module's docstring), each operation as in the numba Python it replaced and in the same order.
+    ``S = (PI, GA, OM, DK, W, GG, MM, SS)`` the series rows, ``Wk = (po, pd, pwv, og, gm, r, q, cs)``
+    work vectors, ``D = (Mi, Ii, U, UGL, th, GL, Pab)`` matrices, ``T = (tm, ta, tb, fv, svm, svb,
+    sv_of, stm, sta, st_of, gpa, gpm, gp_of, mptr, mb, mc, pu, pw, pconst, gvar, gptr, gprod, gsign)``
+    the tables. ``None`` without numba.
+
+    numba's disk cache keys that kernel on its module's file, not on this one: a change of the IR
+    built here must change that file too (its comment naming :data:`IR_VERSION`)."""
+    if intrinsic is None:  # pragma: no cover - exercised only where numba is missing
+        return None
+
+    @intrinsic
+    def order(typingctx, k, grav, S, Wk, D, T):
+        for name, tup, n_ in (("S", S, 8), ("Wk", Wk, 8), ("D", D, 7), ("T", T, 23)):
+            if not (
+                isinstance(tup, types.BaseTuple)
+                and len(tup) == n_
+                and all(isinstance(t, types.Array) for t in tup.types)
+            ):
+                raise TypeError(f"rational order: {name} must be a tuple of {n_} arrays, got {tup}")
+        return types.none(k, grav, S, Wk, D, T), _rational_order
+
+    return order
+
+
+def _rational_order(context, builder, sig, args):
+    """The codegen of :func:`rational_order`."""
+    ops = _Ops(builder)
+    i64 = ir.IntType(64)
+    c = lambda x: ir.Constant(i64, x)  # noqa: E731
+    kk = context.cast(builder, args[0], sig.args[0], types.int64)
+    grav = context.cast(builder, args[1], sig.args[1], types.boolean)
+    S = _Arrays(context, builder, sig.args[2], args[2])
+    Wk = _Arrays(context, builder, sig.args[3], args[3])
+    D = _Arrays(context, builder, sig.args[4], args[4])
+    T = _Arrays(context, builder, sig.args[5], args[5])
+    PI, GA, OM, DK, W_, GG, MM, SS = range(8)
+    po, pd, pwv, og, gm, r, q, cs = range(8)
+    Mi, Ii, U, UGL, th, GL, Pab = range(7)
+    (tm, ta, tb, fv, svm, svb, sv_of, stm, sta, st_of, gpa, gpm, gp_of, mptr, mb, mc, pu, pw, pconst,
+     gvar, gptr, gprod, gsign) = range(23)  # fmt: skip
+    del tm
+    n = S.len(PI)
+    ntr = T.len(ta)
+    kp1 = builder.add(kk, c(1))
+    ik = builder.fdiv(ops.const(1.0), builder.sitofp(kp1, _F64), flags=_IKFLAGS)
+    acc = cgutils.alloca_once(builder, _F64)
+    loop = cgutils.for_range
+
+    def add_to(v):
+        builder.store(ops.add(builder.load(acc), v), acc)
+
+    def pairs(X, xi, Y, yi, j0, out):
+        """out[p] = sum_{j=j0..k} X[xi[p], j] Y[yi[p], k - j], four sums side by side (as _pairs)."""
+        npr = T.len(xi)
+        s4 = [cgutils.alloca_once(builder, _F64) for _ in range(4)]
+        nq = builder.sdiv(npr, c(4))
+        with loop(builder, nq) as lq:
+            p0 = builder.mul(lq.index, c(4))
+            us = [T.get(xi, builder.add(p0, c(i))) for i in range(4)]
+            ws = [T.get(yi, builder.add(p0, c(i))) for i in range(4)]
+            for s in s4:
+                builder.store(ops.zero, s)
+            with loop(builder, kp1, start=c(j0)) as lj:
+                b = builder.sub(kk, lj.index)
+                for i in range(4):
+                    v = ops.mul(S.get(X, us[i], lj.index), S.get(Y, ws[i], b))
+                    builder.store(ops.add(builder.load(s4[i]), v), s4[i])
+            for i in range(4):
+                Wk.put(builder.load(s4[i]), out, builder.add(p0, c(i)))
+        with loop(builder, npr, start=builder.mul(nq, c(4))) as lp:
+            u, w = T.get(xi, lp.index), T.get(yi, lp.index)
+            builder.store(ops.zero, acc)
+            with loop(builder, kp1, start=c(j0)) as lj:
+                add_to(ops.mul(S.get(X, u, lj.index), S.get(Y, w, builder.sub(kk, lj.index))))
+            Wk.put(builder.load(acc), out, lp.index)
+
+    def scatter(dst, idx, src, src_of, sign):  # dst[idx[e]] (+/-)= fv[e] * src[src_of[e]]
+        with loop(builder, ntr) as le:
+            e = le.index
+            i = T.get(idx, e)
+            v = ops.mul(T.get(fv, e), Wk.get(src, T.get(src_of, e)))
+            old = Wk.get(dst, i)
+            Wk.put(ops.add(old, v) if sign > 0 else ops.sub(old, v), dst, i)
+
+    def zero(vec):
+        with loop(builder, n) as la:
+            Wk.put(ops.zero, vec, la.index)
+
+    def matvec(M, vec, transpose, store):  # store(a, sum_b M[a, b] vec[b]) (M[b, a]: transpose)
+        with loop(builder, n) as la:
+            builder.store(ops.zero, acc)
+            with loop(builder, n) as lb:
+                a, b = la.index, lb.index
+                m = D.get(M, b, a) if transpose else D.get(M, a, b)
+                add_to(ops.mul(m, vec(b)))
+            store(a, builder.load(acc))
+
+    # ---- Omega_k
+    pairs(PI, svm, OM, svb, 1, po)
+    zero(cs)
+    scatter(cs, ta, po, sv_of, +1)
+    with loop(builder, n) as la:
+        a = la.index
+        builder.store(ops.zero, acc)
+        with loop(builder, n) as lb:
+            b = lb.index
+            add_to(
+                ops.sub(
+                    ops.mul(D.get(Ii, a, b), S.get(PI, b, kk)),
+                    ops.mul(D.get(U, a, b), Wk.get(cs, b)),
+                )
+            )
+            with builder.if_then(grav):
+                add_to(ops.mul(D.get(UGL, a, b), S.get(GA, b, kk)))
+        Wk.put(builder.load(acc), r, a)
+    matvec(Mi, lambda b: Wk.get(r, b), False, lambda a, v: S.put(v, OM, a, kk))
+    matvec(Ii, lambda b: S.get(PI, b, kk), False, lambda a, v: S.put(v, DK, a, kk))
+    # ---- pidot_k
+    pairs(PI, svm, DK, svb, 0, pd)
+    pairs(PI, stm, W_, sta, 1, pwv)
+    with loop(builder, n) as la:
+        a = la.index
+        builder.store(ops.zero, acc)
+        with loop(builder, n) as lb:
+            b = lb.index
+            add_to(ops.mul(D.get(th, a, b), S.get(DK, b, kk)))
+            with builder.if_then(grav):
+                add_to(ops.mul(D.get(GL, a, b), S.get(GA, b, kk)))
+        Wk.put(builder.load(acc), q, a)
+    with loop(builder, ntr) as le:  # q[ta] -= fv pd[sv_of], then q[tb] -= fv pwv[st_of], per e
+        e = le.index
+        f = T.get(fv, e)
+        i = T.get(ta, e)
+        Wk.put(ops.sub(Wk.get(q, i), ops.mul(f, Wk.get(pd, T.get(sv_of, e)))), q, i)
+        i = T.get(tb, e)
+        Wk.put(ops.sub(Wk.get(q, i), ops.mul(f, Wk.get(pwv, T.get(st_of, e)))), q, i)
+
+    def pidot(a, v):
+        Wk.put(v, r, a)
+        S.put(ops.mul(v, ik), PI, a, kp1)
+
+    matvec(Mi, lambda b: Wk.get(q, b), True, pidot)
+    matvec(U, lambda b: Wk.get(r, b), True, lambda a, v: S.put(v, W_, a, kk))
+    with builder.if_then(grav):
+        pairs(OM, gpa, GA, gpm, 0, og)
+        zero(q)
+        scatter(q, tb, og, gp_of, +1)
+        with loop(builder, n) as la:
+            S.put(ops.mul(Wk.get(q, la.index), ik), GA, la.index, kp1)
+    # ---- G_{k+1} from M_k = rho(Omega_k)
+    with loop(builder, builder.sub(T.len(mptr), c(1))) as le:  # the nm = len(mptr) - 1 entries
+        e = le.index
+        builder.store(ops.zero, acc)
+        with loop(builder, T.get(mptr, builder.add(e, c(1))), start=T.get(mptr, e)) as lz:
+            add_to(ops.mul(T.get(mc, lz.index), S.get(OM, T.get(mb, lz.index), kk)))
+        S.put(builder.load(acc), MM, e, kk)
+    pairs(GG, pu, MM, pw, 0, gm)
+    with loop(builder, T.len(pu)) as lp:
+        p = lp.index
+        with builder.if_then(T.get(pconst, p)):
+            Wk.put(ops.mul(S.get(GG, T.get(pu, p), c(0)), S.get(MM, T.get(pw, p), kk)), gm, p)
+    with loop(builder, T.len(gvar)) as lc:
+        builder.store(ops.zero, acc)
+        with loop(
+            builder, T.get(gptr, builder.add(lc.index, c(1))), start=T.get(gptr, lc.index)
+        ) as lz:
+            add_to(ops.mul(T.get(gsign, lz.index), Wk.get(gm, T.get(gprod, lz.index))))
+        S.put(ops.mul(builder.load(acc), ik), GG, T.get(gvar, lc.index), kp1)
+    with loop(builder, D.len(Pab)) as ll:
+        builder.store(ops.zero, acc)
+        with loop(builder, n) as lb:
+            add_to(ops.mul(D.get(Pab, ll.index, lb.index), S.get(OM, lb.index, kk)))
+        S.put(ops.mul(builder.load(acc), ik), SS, ll.index, kp1)
+    return context.get_dummy_value()
