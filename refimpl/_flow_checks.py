@@ -12,7 +12,7 @@ import numpy as np
 
 from ._reference_core import _to_mpf
 
-__all__ = ["check_time"]
+__all__ = ["check_time", "load_point"]
 
 _PLAIN = (float, int, np.floating, np.integer)
 
@@ -39,3 +39,35 @@ def check_time(t, name: str = "t", *, allow_negative: bool = False) -> float:
     if not math.isfinite(tv) or (tv < 0 and not allow_negative):
         raise ValueError(f"{name} must be {cond}, got {t!r}")
     return tv
+
+
+def _load_point_py(x0, pi0, X, P, bound: float) -> float:
+    """:func:`load_point` without numba."""
+    xl, pl = x0.tolist(), pi0.tolist()
+    if not all(abs(v) <= bound for v in xl + pl):  # NaN fails the comparison
+        return -1.0
+    X[:, 0], P[:, 0] = xl, pl
+    return max(map(abs, pl), default=0.0)
+
+
+try:  # numba is a core dependency; the plain-Python path keeps the package usable without it
+    from numba import njit
+except ImportError:  # pragma: no cover - exercised only where numba is missing
+    load_point = _load_point_py
+else:
+
+    @njit(cache=True, nogil=True)
+    def load_point(x0, pi0, X, P, bound):  # pragma: no cover - compiled; same as _load_point_py
+        """One trajectory's start ``x0``, ``pi0`` (1-D, the same length) copied into the columns
+        ``X[:, 0]``, ``P[:, 0]``: ``max |pi0|`` when every entry is finite with ``|v| <= bound``, else
+        -1.0 (the columns then partly written; NaN fails every comparison)."""
+        pmax = 0.0
+        for i in range(x0.shape[0]):
+            v, w = x0[i], pi0[i]
+            if not (abs(v) <= bound and abs(w) <= bound):
+                return -1.0
+            X[i, 0] = v
+            P[i, 0] = w
+            if abs(w) > pmax:
+                pmax = abs(w)
+        return pmax

@@ -510,21 +510,69 @@ def one_trajectory(model, tol: float):
 
 
 def _one_runner(model, tol, eps_a, eps_b, pair, qcoef, lcoef):
+    """:func:`one_trajectory`'s runner: :func:`_pair_run`'s computation into work arrays kept between
+    calls (``y0``, ``A``, ``B``, their steps and the estimate; taken from a pool, so concurrent calls
+    never share them, and never returned: ``pi`` is a copy, ``x`` fresh); after the first call, the
+    compiled functions through their entry points (:func:`entry_point`: every argument's type is
+    fixed here)."""
     n = model.n
     grav = model.gravity
     gamma = model.gamma if grav else _NO_GAMMA
     d = n + (n if grav else 0) + 4
+    pool = []
+    empty, i64 = np.empty, np.int64
+    start, pair_, finish = _start, pair, _finish
 
     def run(x0, pi0, t):
-        y0 = np.empty((1, d))
-        _start(x0, pi0, gamma, grav, y0)
-        first = _pair_run(pair, qcoef, lcoef, y0, t, eps_a, eps_b, n, tol)
-        if len(first) == 4:  # the pair passed: (B, steps, x, estimate)
-            return first[2][:, 0], first[0][0, :n]
-        out = _go_on(model, y0, t, eps_a, n, tol, first, True)
+        nonlocal start, pair_, finish
+        t = float(t)  # the entry points take the types of the first call
+        try:
+            s = pool.pop()
+        except IndexError:  # none free (the first call, or one running in another thread)
+            s = (
+                empty((1, d)),
+                empty((1, d)),
+                empty((1, d)),
+                empty(1, i64),
+                empty(1, i64),
+                empty(1),
+            )
+        y0, A, B, sA, sB, est = s
+        start(x0, pi0, gamma, grav, y0)
+        pair_(y0, t, eps_a, eps_b, MAX_STEPS, qcoef, lcoef, A, B, sA, sB)
+        if sA[0] < 0:
+            _diverged(sA, t)
+        if sB[0] < 0:
+            _diverged(sB, t)
+        x = empty((n, 1))
+        finish(A, B, n, est, x)
+        if start is _start:  # the first call: the entry points of the types it used
+            start = entry_point(_start, (x0, pi0, gamma, grav, y0))
+            pair_ = entry_point(pair, (y0, t, eps_a, eps_b, MAX_STEPS, qcoef, lcoef, A, B, sA, sB))
+            finish = entry_point(_finish, (A, B, n, est, x))
+        if first_estimate(est.item(), eps_a, eps_b, PROP_MIN_B, PROP_MAX_D) <= tol:  # as _pair_run
+            pi = B[0, :n].copy()
+            pool.append(s)
+            return x[:, 0], pi
+        out = _go_on(model, y0, t, eps_a, n, tol, (A, B, sB), True)  # s stays with this call
         return out["x"][:, 0], out["pi"][:, 0]
 
     return run
+
+
+def entry_point(fn, args):
+    """The compiled entry point of the numba dispatcher ``fn`` for exactly the types of ``args`` (a
+    call just made with them): the same call without numba's dispatch, which types every argument and
+    looks the overload up on each call (0.1-0.35 us per call of one trajectory, issue 25). ``fn``
+    itself where there is none (no numba, or no overload of exactly those types). The entry point does
+    not check the types it is given: only for calls whose argument types are fixed by their caller
+    (arrays it allocates, Python floats, ints and bools)."""
+    try:
+        from numba import typeof
+
+        return fn.overloads[tuple(typeof(a) for a in args)].entry_point
+    except (ImportError, AttributeError, KeyError, TypeError, ValueError):
+        return fn
 
 
 GRID = (
@@ -547,7 +595,7 @@ def first_estimate(d: float, eps_a: float, eps_b: float, prop_min_b: float, prop
     :data:`PROP_MIN_A` or looser, ``B`` at ``prop_min_b`` or looser, ``d <= prop_max_d``; None: no
     limit), else ``d``. The one rule of the two-run estimate: :func:`prop_estimates` is the same on
     arrays; the callers that run the first pair themselves (:func:`_first_pair`,
-    :func:`refimpl._full_state._first_pair`) and :func:`_control`'s first pair take this form."""
+    :func:`refimpl._full_state._pair_of`) and :func:`_control`'s first pair take this form."""
     if eps_a >= PROP_MIN_A and eps_b >= prop_min_b and (prop_max_d is None or d <= prop_max_d):
         return min(d, PROP * (eps_b / eps_a) * d)
     return d

@@ -83,6 +83,7 @@ from ._flow_compiled import (
     REUSE_B,
     _control,
     _eps_b,
+    entry_point,
     first_estimate,
     local_tolerances,
 )
@@ -544,6 +545,14 @@ def _log_complete(fs: FullState, B, G, Ad, xs, ok, resid) -> None:
     resid[~np.isfinite(resid)] = 0.0
 
 
+def _floor_one(steps: int, n: int, size: float, kappa: float, resid: float) -> float:
+    """The floor of :meth:`_Answer.floor` for one trajectory, in Python floats: the rounding floor
+    (:data:`ROUND_PER_STEP` per step, :data:`ROUND_AMPLIFIED` times ``kappa``) of an answer of ``steps``
+    steps and size ``max(1, |pi|, |Ad|) <= max(1, size)``, plus its logarithm's residual ``resid``."""
+    per_step = ROUND_PER_STEP * (math.sqrt(steps) + n) * max(1.0, size)
+    return _EPS * (per_step + ROUND_AMPLIFIED * kappa) + resid
+
+
 class _Answer:
     """What the control's ``estimate`` hook measured of the ``B`` it was given, and what its ``floor``
     hook keeps of it per row: one compiled call per estimate (:func:`refimpl._full_state_kernel.pair_log`:
@@ -585,10 +594,15 @@ class _Answer:
             self.measure(B, B, np.empty(B.shape[0]))
         if self.N == 1:  # Python floats (numpy scalar arithmetic costs more)
             self.all = (self.G, self.Ad, self.xs, self.resid)
-            per_step = (
-                ROUND_PER_STEP * (math.sqrt(int(steps[0])) + self.n) * max(1.0, float(self.size[0]))
+            return (
+                _floor_one(
+                    int(steps[0]),
+                    self.n,
+                    float(self.size[0]),
+                    float(kappa[0]),
+                    float(self.resid[0]),
+                ),
             )
-            return (_EPS * (per_step + ROUND_AMPLIFIED * float(kappa[0])) + float(self.resid[0]),)
         if self.all is None:
             fs, N = self.fs, self.N
             self.all = (
@@ -636,17 +650,45 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
 
 def one_trajectory(model, tol: float, abelian=None):
     """``run(x0, pi0, t) -> (x, pi)`` at ``tol`` on ``model``: :func:`full_state_flow` of one trajectory
-    (``x0``, ``pi0`` C-contiguous float64 of shape (n, 1), ``t`` a float; ``x``, ``pi`` fresh arrays of
-    shape (n,)), the same computation, without its dictionary and with the start's constants looked
-    up once, when the runner is built (issue 25: the Python around one trajectory;
-    :func:`refimpl.flows._fast._flow_one` keeps it per model and ``tol``)."""
+    (``x0``, ``pi0`` C-contiguous float64 of shape (n, 1), ``t`` a float; ``x``, ``pi`` fresh arrays
+    of shape (n,)), the same computation, without its dictionary and with
+    the constants of the call looked up once, when the runner is built (issue 25: the Python around
+    one trajectory; :func:`refimpl.flows._fast._flow_one` keeps it per model and ``tol``). Where
+    :func:`_solve` runs a first pair (:func:`_protocol_pair`), the runner runs it into work arrays it
+    keeps between calls (:func:`_scratch`; taken from a pool, so concurrent calls never share them,
+    and never returned: ``x`` and ``pi`` are copies) and enters the control only when that pair does
+    not pass; elsewhere it calls :func:`_solve`."""
     fs = full_state(model, abelian)
     n, d, consts, start = fs.n, fs.d, fs.start_consts, _fk.start
 
+    if not _protocol_pair(fs, tol):
+
+        def run(x0, pi0, t):
+            y0 = np.empty((1, d))
+            start(x0, pi0, *consts, y0)
+            B, _, _, ans = _solve(fs, model, y0, t, tol, None)
+            return ans.all[2][0], B[0, :n].copy()
+
+        return run
+
+    pair, pool = _pair_of(fs), []
+
     def run(x0, pi0, t):
-        y0 = np.empty((1, d))
+        nonlocal start
+        t = float(t)  # the entry points take the types of the first call
+        try:
+            s = pool.pop()
+        except IndexError:  # none free (the first call, or one running in another thread)
+            s = _scratch(fs)
+        y0 = s[0]
         start(x0, pi0, *consts, y0)
-        B, _, _, ans = _solve(fs, model, y0, t, tol, None)
+        if start is _fk.start:  # the first call: the entry point of the types it used
+            start = entry_point(_fk.start, (x0, pi0, *consts, y0))
+        if pair(y0, t, s) <= tol:
+            x, pi = s[9][0].copy(), s[2][0, :n].copy()
+            pool.append(s)
+            return x, pi
+        B, _, _, ans = _go_on(fs, model, y0, t, tol, s)  # s stays with this call's results
         return ans.all[2][0], B[0, :n].copy()
 
     return run
@@ -657,28 +699,84 @@ EPS_B_FIRST = _eps_b(A_LOOSE, B_MAX)
 _FIRST_ORDERS = (default_order(A_LOOSE), default_order(EPS_B_FIRST))  # the runner's orders for them
 
 
-def _first_pair(fs: FullState, ans, y0, t: float):
-    """One trajectory's first pair on the generated kernel, ``A`` at :data:`A_LOOSE` and ``B`` at
-    :data:`EPS_B_FIRST`, estimated as :func:`_control`'s first pair (:func:`first_estimate` of the
-    ``|A - B|`` that ``ans`` measures, plus ``ans``'s floor): ``(A, B, steps of B, estimate (1,))``. The
-    kernel calls of the general route's runner, without its per-call Python (the protocol call of one
-    trajectory: issue 25)."""
-    kernel = fs.module().adaptive
-    A, B = np.empty_like(y0), np.empty_like(y0)
-    sA, sB = np.empty(1, dtype=np.int64), np.empty(1, dtype=np.int64)
+def _protocol_pair(fs: FullState, tol: float, t: float = 0.0) -> bool:
+    """Whether :func:`_solve` runs one trajectory's first pair itself (:func:`_pair_of`) for a call
+    at ``tol`` to ``t``: ``A`` at :data:`A_LOOSE` (``tol >= A_LOOSE_FROM``) on the generated kernel
+    (``|t| >= _generated_min_work(fs)``; ``t = 0``: at every ``t``)."""
+    return tol >= A_LOOSE_FROM and abs(t) >= _generated_min_work(fs)
+
+
+def _scratch(fs: FullState):
+    """The arrays of one trajectory's first pair (:func:`_pair_of`): ``(y0, A, B, steps of A, steps
+    of B, G, Ad(g), |A - B|, size, x, ok, residual)``, as :func:`refimpl._full_state_kernel.pair_log`
+    fills them."""
+    n, d, r = fs.n, fs.d, fs.r
+    return (
+        np.empty((1, d)),
+        np.empty((1, d)),
+        np.empty((1, d)),
+        np.empty(1, dtype=np.int64),
+        np.empty(1, dtype=np.int64),
+        np.empty((1, r, r), dtype=fs.mats.dtype),
+        np.empty((1, n, n)),
+        np.empty(1),
+        np.empty(1),
+        np.empty((1, n)),
+        np.empty(1, dtype=np.bool_),
+        np.empty(1),
+    )
+
+
+def _pair_of(fs: FullState):
+    """``pair(y0, t, s) -> estimate``: one trajectory's first pair on the generated kernel, ``A`` at
+    :data:`A_LOOSE` and ``B`` at :data:`EPS_B_FIRST`, into the arrays ``s`` of :func:`_scratch`,
+    estimated as :func:`_control`'s first pair (:func:`first_estimate` of ``|A - B|`` plus
+    :class:`_Answer`'s floor, :func:`_floor_one`), with ``G``, ``Ad(g)``, ``x`` and the residual of
+    ``B`` in ``s`` (:class:`_Answer`'s ``measure``: one compiled call). The kernel calls of the general
+    route's runner, without its per-call Python (issue 25); built once per structure (kept on ``fs``)."""
+    pair = fs.__dict__.get("_pair")
+    if pair is not None:
+        return pair
+    kernel, coef, n = fs.module().adaptive, fs.coef, fs.n
     order_a, order_b = _FIRST_ORDERS
-    kernel(y0, t, A_LOOSE, order_a, MAX_STEPS, fs.coef, A, sA)
-    kernel(y0, t, EPS_B_FIRST, order_b, MAX_STEPS, fs.coef, B, sB)
-    if sA[0] < 0:
-        _check_steps(sA, t)
-    if sB[0] < 0:
-        _check_steps(sB, t)
-    d1 = np.empty(1)
-    ans.measure(A, B, d1)
-    d = float(d1[0])
-    e = first_estimate(d, A_LOOSE, EPS_B_FIRST, PROP_MIN_B, PROP_MAX_D)
-    d1[0] = e + ans.floor(B, sB, (d / A_LOOSE,), None)[0]
-    return A, B, sB, d1
+    if fs.refine:
+        log = _fk.pair_log_refined
+        args = (n, *fs.gidx, fs.mats, fs.proj, *fs.abelian_tables, ABELIAN_RTOL)
+    else:
+        log = _fk.pair_log
+        args = (n, *fs.gidx, fs.unit, fs.mats, fs.proj, fs.cplx, fs.ab_mode)
+
+    kernel_, log_ = kernel, log
+
+    def pair(y0, t, s):
+        nonlocal kernel_, log_
+        _, A, B, sA, sB, G, Ad, est, size, xs, ok, resid = s
+        kernel_(y0, t, A_LOOSE, order_a, MAX_STEPS, coef, A, sA)
+        kernel_(y0, t, EPS_B_FIRST, order_b, MAX_STEPS, coef, B, sB)
+        if sA[0] < 0:
+            _check_steps(sA, t)
+        if sB[0] < 0:
+            _check_steps(sB, t)
+        if not log_(A, B, *args, G, Ad, est, size, xs, ok, resid):
+            _log_complete(fs, B, G, Ad, xs, ok, resid)
+        if kernel_ is kernel:  # the first call: the entry points of the types it used
+            kernel_ = entry_point(kernel, (y0, t, A_LOOSE, order_a, MAX_STEPS, coef, A, sA))
+            log_ = entry_point(log, (A, B, *args, G, Ad, est, size, xs, ok, resid))
+        d = est.item()
+        e = first_estimate(d, A_LOOSE, EPS_B_FIRST, PROP_MIN_B, PROP_MAX_D)
+        return e + _floor_one(sB.item(), n, size.item(), d / A_LOOSE, resid.item())
+
+    fs._pair = pair
+    return pair
+
+
+def _measured(fs: FullState, s) -> _Answer:
+    """The :class:`_Answer` of one trajectory whose first pair ran into ``s`` (:func:`_pair_of`): its
+    ``B``, ``G``, ``Ad(g)``, size, ``x`` and residual, as its ``measure`` and ``floor`` leave them."""
+    ans = _Answer(fs, 1)
+    ans.B, ans.G, ans.Ad, ans.size, ans.xs, ans.resid = s[2], s[5], s[6], s[8], s[9], s[11]
+    ans.all = (s[5], s[6], s[9], s[11])
+    return ans
 
 
 def _runner(fs: FullState, run, gen: bool, N: int):
@@ -727,19 +825,29 @@ def _generated_min_work(fs: FullState) -> float:
 def _solve(fs: FullState, model, y0, t, tol: float, run):
     """The two-run control and the refusal of :func:`full_state_flow` from the rows ``y0``: ``(B,
     estimate, steps of B, the _Answer holding G, Ad(g), x of the final B)``. One trajectory on the
-    generated kernel runs its first pair through :func:`_first_pair` and enters the control only when
-    that pair does not pass (the control then goes on from it)."""
+    generated kernel runs its first pair through :func:`_pair_of` and enters the control only when
+    that pair does not pass (:func:`_go_on`: the control then goes on from it)."""
+    N = y0.shape[0]
+    if N == 1 and run is None and _protocol_pair(fs, tol, t):
+        t = float(t)
+        s = (y0, *_scratch(fs)[1:])
+        e = _pair_of(fs)(y0, t, s)
+        if e <= tol:
+            return s[2], np.array([e]), s[4], _measured(fs, s)
+        return _go_on(fs, model, y0, t, tol, s)
+    return _go_on(fs, model, y0, t, tol, None, run)
+
+
+def _go_on(fs: FullState, model, y0, t, tol: float, s, run=None):
+    """:func:`_solve` from the start, or, one trajectory, from the first pair in ``s`` (the arrays of
+    :func:`_pair_of`, whose estimate is over ``tol``): the two-run control and its refusal."""
     N, n = y0.shape[0], fs.n
     eps_a = local_tolerances(tol)[0] if run is not None or tol < A_LOOSE_FROM else A_LOOSE
     gen = N * abs(t) >= _generated_min_work(fs)
-    ans = _Answer(fs, N)
-    first = None
-    if N == 1 and run is None and gen and eps_a == A_LOOSE:  # the protocol call
-        t = float(t)
-        A, B, sB, e = _first_pair(fs, ans, y0, t)
-        if e[0] <= tol:
-            return B, e, sB, ans
-        first = (A, B, sB)  # the control goes on from this pair
+    if s is None:
+        ans, first = _Answer(fs, N), None
+    else:
+        ans, first = _measured(fs, s), (s[1], s[2], s[4])
     res, est, steps = _control(
         model,
         y0,

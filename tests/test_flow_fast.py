@@ -224,3 +224,84 @@ def test_one_trajectory_call_refuses_too_fast_points_as_the_batch(t):
             fast_flow(F.f, np.zeros((3, 3)), np.zeros((3, 3)), I, POT, a, b, t)
     x, pi = fast_flow(F.f, np.zeros((3, 3)), np.zeros((3, 3)), I, POT, x0, fast * 1e-7, t)
     assert np.all(np.isfinite(x)) and np.all(np.isfinite(pi))
+
+
+def test_load_point_copies_the_start_and_refuses_unbounded_entries():
+    """``_flow_checks.load_point`` (compiled) and its plain-Python twin: ``max |pi0|`` with ``x0``,
+    ``pi0`` copied into the columns of ``X``, ``P`` when every entry is finite with ``|v| <= bound``
+    (the bound itself included, -0.0 read as 0), else -1.0, for NaN, +-inf and ``|v|`` past the bound
+    in either array; a strided and a read-only ``x0`` are read as their values."""
+    from tstarg.refimpl._flow_checks import _load_point_py, load_point
+
+    x0 = np.array([0.5, -2.0, 1e300])
+    pi0 = np.array([-3.0, 0.25, -0.0])
+    strided = np.repeat(x0, 2)[::2]
+    frozen = x0.copy()
+    frozen.flags.writeable = False
+    for fn in (load_point, _load_point_py):
+        for xa in (x0, strided, frozen):
+            X, P = np.full((3, 1), 7.0), np.full((3, 1), 7.0)
+            assert fn(xa, pi0, X, P, 1e300) == 3.0
+            assert np.array_equal(X[:, 0], x0) and np.array_equal(P[:, 0], pi0)
+        for bad in (np.nan, np.inf, -np.inf, -1.0000000000000001e301):
+            for k in range(3):
+                xb, pb = x0.copy(), pi0.copy()
+                xb[k] = bad
+                assert fn(xb, pi0, np.empty((3, 1)), np.empty((3, 1)), 1e300) == -1.0
+                pb[k] = bad
+                assert fn(x0, pb, np.empty((3, 1)), np.empty((3, 1)), 1e300) == -1.0
+
+
+@pytest.mark.parametrize("name", ["h(3)", "su(2)"])
+def test_one_trajectory_call_reads_any_1d_layout_and_refuses_bad_points_by_name(name):
+    """The protocol call of one trajectory (1-D points, ``_fast._flow_one``: the start copied into
+    work arrays kept per model) gives bit for bit the same answer for a contiguous, a strided and a
+    read-only start, leaves them unchanged, and refuses NaN, inf and |v| > 1e300 in ``x0`` or ``pi0``
+    with the batch's messages (``refimpl._validate.check_points``)."""
+    alg = catalogue(name)
+    z = np.zeros((3, 3))
+    args = (alg.f, z, z, np.diag([1.0, 1.7, 2.3]), None)
+    x0, pi0 = np.array([0.1, -0.2, 0.3]), np.array([0.4, 0.5, -0.6])
+    x, pi = fast_flow(*args, x0, pi0, 1.5)
+    frozen = x0.copy()
+    frozen.flags.writeable = False
+    for xa, pa in ((np.repeat(x0, 3)[::3], np.repeat(pi0, 2)[::2]), (frozen, pi0), (x0, pi0)):
+        keep = (xa.copy(), pa.copy())
+        xo, po = fast_flow(*args, xa, pa, 1.5)
+        assert np.array_equal(xo, x) and np.array_equal(po, pi)
+        assert np.array_equal(xa, keep[0]) and np.array_equal(pa, keep[1])
+        assert not (np.shares_memory(xo, x) or np.shares_memory(po, pi))
+    for bad, msg in ((np.nan, "NaN or infinity"), (-np.inf, "NaN or infinity"), (2e300, "beyond")):
+        for which in ("x", "pi"):
+            xb, pb = x0.copy(), pi0.copy()
+            (xb if which == "x" else pb)[1] = bad
+            with pytest.raises(ValueError, match=rf"^{which} .*{msg}"):
+                fast_flow(*args, xb, pb, 1.5)
+
+
+@pytest.mark.parametrize("name", ["h(3)", "su(2)"])
+def test_one_trajectory_calls_from_threads_return_the_same_fresh_answers(name):
+    """Calls of one trajectory from four threads at once (the compiled kernels release the GIL; each
+    call takes its own work arrays from the runner's pool, or new ones when none is free) return bit
+    for bit the single call's answer, in arrays no other call returns."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    alg = catalogue(name)
+    z = np.zeros((3, 3))
+    args = (alg.f, z, z, np.diag([1.0, 1.7, 2.3]), None)
+    rng = np.random.default_rng(5)
+    starts = [(0.3 * rng.standard_normal(3), rng.standard_normal(3)) for _ in range(4)]
+    want = [fast_flow(*args, x0, pi0, 2.0) for x0, pi0 in starts]
+
+    def calls(k):
+        x0, pi0 = starts[k]
+        return [fast_flow(*args, x0, pi0, 2.0) for _ in range(40)]
+
+    with ThreadPoolExecutor(4) as ex:
+        got = list(ex.map(calls, range(4)))
+    seen = []
+    for k, outs in enumerate(got):
+        for x, pi in outs:
+            assert np.array_equal(x, want[k][0]) and np.array_equal(pi, want[k][1])
+            seen += [x, pi]
+    assert len({id(a.base if a.base is not None else a) for a in seen}) == len(seen)

@@ -21,7 +21,7 @@ import numpy as np
 from .. import _fast_kernels as _fast
 from .. import _full_state, _full_state_rational
 from .._algebra import LieAlgebra
-from .._flow_checks import check_time
+from .._flow_checks import check_time, load_point
 from .._flow_compiled import (
     compiled_taylor_flow,
     compiled_taylor_samples,
@@ -32,6 +32,7 @@ from .._flow_compiled import (
 from .._lru import LRU
 from .._validate import (
     MAX_MAGNITUDE,
+    MIN_FLOW_TOL,
     StepBudget,
     check_flow_rates,
     check_flow_request,
@@ -84,6 +85,7 @@ bytes returns that model without hashing its key (the one :data:`_MODELS` gave f
 
 _F64 = np.dtype(np.float64)
 _F64_STR = _F64.str
+_NP_F64 = np.float64
 
 
 def _numeric_key(a):
@@ -291,32 +293,38 @@ def _flow_one(model: NumpyModel, x0, pi0, tv: float, tol: float):
     with the same checks (the points finite and bounded, the rates, the start off the degenerate set,
     the results finite), without its batch bookkeeping (issue 25: the Python around one trajectory).
     None where any of that does not hold: the general route then runs, and refuses by name."""
-    n = model.n
+    one = model.__dict__.get("_one")  # (tol, runner, rates bound, (n,), pool) of the last tol
+    if one is None or one[0] != tol:  # the runner is built once the points pass (below)
+        one = (tol, None, _rates_free_below(model), (model.n,), [])
+    tol, run, free, shape, pool = one  # pool: (X, P) (n, 1) of calls that returned, for the next
     if not (
-        type(x0) is type(pi0) is np.ndarray
-        and x0.dtype is pi0.dtype is _F64
-        and x0.shape == pi0.shape == (n,)
+        run is not False  # False: no such route on this model
+        and type(x0) is np.ndarray
+        and type(pi0) is np.ndarray
+        and x0.dtype is _F64
+        and pi0.dtype is _F64
+        and x0.shape == shape
+        and pi0.shape == shape
     ):
         return None
-    xl, pl = x0.tolist(), pi0.tolist()
-    if not all(map(_WITHIN, map(abs, xl + pl))):  # issue 30: finite and |v| <= MAX_MAGNITUDE
+    try:
+        X, P = pool.pop()
+    except IndexError:  # none free (the first call, or one running in another thread)
+        X, P = np.empty(shape + (1,)), np.empty(shape + (1,))
+    pmax = load_point(x0, pi0, X, P, MAX_MAGNITUDE)  # issue 30: finite and |v| <= MAX_MAGNITUDE
+    if pmax < 0.0:
         return None
-    one = model.__dict__.get(
-        "_one"
-    )  # (tol, runner, rates bound) of the last tol, kept on the model
-    if one is None or one[0] != tol:
-        one = model.__dict__["_one"] = (tol, _one_runner(model, tol), _rates_free_below(model))
-    run = one[1]
     if run is None:
-        return None
-    pmax = max(map(abs, pl))
-    if not pmax <= one[2]:  # the rates' check, where it could refuse
+        run = _one_runner(model, tol) or False
+        model.__dict__["_one"] = (tol, run, free, shape, pool)
+        if run is False:
+            return None
+    if not pmax <= free:  # the rates' check, where it could refuse
         _check_rates(model, pi0, tv, pmax)
-    X = np.ascontiguousarray(x0).reshape(n, 1)  # only read (never written, never returned)
-    P = np.ascontiguousarray(pi0).reshape(n, 1)
     x, pi = run(X, P, tv)
+    pool.append((X, P))
     if not math.isfinite(sum(x.tolist()) + sum(pi.tolist())):  # finite: every entry is
-        _check_finite(x.reshape(n, 1), pi.reshape(n, 1), tv)
+        _check_finite(x.reshape(-1, 1), pi.reshape(-1, 1), tv)
     return x, pi
 
 
@@ -368,16 +376,24 @@ def fast_flow(
     degenerate set (naming them), trajectories that reach it, and algebras whose representation
     cannot be built (:class:`refimpl._representation.RepresentationError`).
     """
+    if (  # the protocol call of one trajectory (issue 25): t, tol as _flow_one takes them
+        steps is None
+        and method_name is None
+        and not return_group
+        and (type(t) is float or type(t) is _NP_F64)
+        and type(tol) is float
+        and 0.0 < abs(t) < 256.0
+        and MIN_FLOW_TOL <= tol < math.inf
+    ):
+        one = _flow_one(cached_model(f, theta, upsilon, inertia, potential), x0, pi0, float(t), tol)
+        if one is not None:  # None: not that call (the general route below checks and refuses)
+            return one
     # plain float t: the exact conversion of check_time is the identity (the same checks, no mpmath)
     tv = float(t) if type(t) in (float, np.float64) and math.isfinite(t) else None
     tv = check_time(t, allow_negative=True) if tv is None else tv
     tol = tol if type(tol) is float and 0.0 < tol < math.inf else check_tolerance(tol)
     check_flow_request(tv, tol, steps, method_name, METHODS)  # issue 15 hook: the stated budget
     model = cached_model(f, theta, upsilon, inertia, potential)
-    if steps is None and method_name is None and not return_group and 0.0 < abs(tv) < 256.0:
-        one = _flow_one(model, x0, pi0, tv, tol)  # one trajectory (issue 25); None: not that call
-        if one is not None:
-            return one
     n = model.n
     xa, pa = _points(x0, pi0, n)
     if steps is None:  # issue 15 hook: refuse points too fast for the step-doubling budget
