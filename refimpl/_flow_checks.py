@@ -12,7 +12,7 @@ import numpy as np
 
 from ._reference_core import _to_mpf
 
-__all__ = ["check_time", "load_point"]
+__all__ = ["check_time", "load_point", "point_max"]
 
 _PLAIN = (float, int, np.floating, np.integer)
 
@@ -41,33 +41,48 @@ def check_time(t, name: str = "t", *, allow_negative: bool = False) -> float:
     return tv
 
 
-def _load_point_py(x0, pi0, X, P, bound: float) -> float:
-    """:func:`load_point` without numba."""
+def _point_max_py(x0, pi0, bound: float) -> float:
+    """:func:`point_max` without numba."""
     xl, pl = x0.tolist(), pi0.tolist()
     if not all(abs(v) <= bound for v in xl + pl):  # NaN fails the comparison
         return -1.0
-    X[:, 0], P[:, 0] = xl, pl
     return max(map(abs, pl), default=0.0)
+
+
+def _load_point_py(x0, pi0, X, P, bound: float) -> float:
+    """:func:`load_point` without numba."""
+    pmax = _point_max_py(x0, pi0, bound)
+    if pmax >= 0.0:
+        X[:, 0], P[:, 0] = x0, pi0
+    return pmax
 
 
 try:  # numba is a core dependency; the plain-Python path keeps the package usable without it
     from numba import njit
 except ImportError:  # pragma: no cover - exercised only where numba is missing
-    load_point = _load_point_py
+    point_max, load_point = _point_max_py, _load_point_py
 else:
+
+    @njit(cache=True, nogil=True, inline="always")
+    def point_max(x0, pi0, bound):  # pragma: no cover - compiled; same as _point_max_py
+        """``max |pi0|`` when every entry of the 1-D ``x0``, ``pi0`` (the same length) is finite with
+        ``|v| <= bound``, else -1.0 (NaN fails every comparison). Inlined into its callers."""
+        pmax = 0.0
+        for i in range(x0.shape[0]):
+            v, w = abs(x0[i]), abs(pi0[i])
+            if not (v <= bound and w <= bound):
+                return -1.0
+            if w > pmax:
+                pmax = w
+        return pmax
 
     @njit(cache=True, nogil=True)
     def load_point(x0, pi0, X, P, bound):  # pragma: no cover - compiled; same as _load_point_py
-        """One trajectory's start ``x0``, ``pi0`` (1-D, the same length) copied into the columns
-        ``X[:, 0]``, ``P[:, 0]``: ``max |pi0|`` when every entry is finite with ``|v| <= bound``, else
-        -1.0 (the columns then partly written; NaN fails every comparison)."""
-        pmax = 0.0
-        for i in range(x0.shape[0]):
-            v, w = x0[i], pi0[i]
-            if not (abs(v) <= bound and abs(w) <= bound):
-                return -1.0
-            X[i, 0] = v
-            P[i, 0] = w
-            if abs(w) > pmax:
-                pmax = abs(w)
+        """One trajectory's start: :func:`point_max`, and where that is not -1.0, ``x0``, ``pi0``
+        copied into the columns ``X[:, 0]``, ``P[:, 0]``."""
+        pmax = point_max(x0, pi0, bound)
+        if pmax >= 0.0:
+            for i in range(x0.shape[0]):
+                X[i, 0] = x0[i]
+                P[i, 0] = pi0[i]
         return pmax

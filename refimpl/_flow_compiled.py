@@ -48,6 +48,8 @@ import numpy as np
 from . import _compiled_rational as _cr
 from . import _compiled_taylor as _ct
 from . import _fast_kernels as _fast
+from ._flow_checks import point_max
+from ._validate import MAX_MAGNITUDE
 
 __all__ = [
     "PATH",
@@ -296,34 +298,41 @@ if _ct.HAVE_NUMBA:
 
     from numba import njit
 
+    @njit(cache=True, nogil=True, inline="always")
+    def _start_row(x0, x1, x2, p0, p1, p2, gamma, grav, y0, j):  # pragma: no cover - compiled
+        t = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+        s = math.sin(t / 2) / t if t > 0 else 0.5
+        w, a, b, c = math.cos(t / 2), s * x0, s * x1, s * x2
+        y0[j, 0], y0[j, 1], y0[j, 2] = p0, p1, p2
+        if grav:  # Gamma_b = sum_m R_mb gamma_m, R = (w^2 - |v|^2) 1 + 2 v v^T + 2 w [v]_x (quat_rotation)
+            r = w * w - a * a - b * b - c * c
+            g0, g1, g2 = gamma[0], gamma[1], gamma[2]
+            y0[j, 3] = (
+                g0 * (r + 2 * a * a) + g1 * (2 * b * a + 2 * w * c) + g2 * (2 * c * a - 2 * w * b)
+            )
+            y0[j, 4] = (
+                g0 * (2 * a * b - 2 * w * c) + g1 * (r + 2 * b * b) + g2 * (2 * c * b + 2 * w * a)
+            )
+            y0[j, 5] = (
+                g0 * (2 * a * c + 2 * w * b) + g1 * (2 * b * c - 2 * w * a) + g2 * (r + 2 * c * c)
+            )
+        k = y0.shape[1] - 4
+        y0[j, k], y0[j, k + 1], y0[j, k + 2], y0[j, k + 3] = w, a, b, c
+
     @njit(cache=True, nogil=True)
     def _start(X, P, gamma, grav, y0):  # pragma: no cover - compiled; same as _start_py
         for j in range(X.shape[1]):
-            x0, x1, x2 = X[0, j], X[1, j], X[2, j]
-            t = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
-            s = math.sin(t / 2) / t if t > 0 else 0.5
-            w, a, b, c = math.cos(t / 2), s * x0, s * x1, s * x2
-            y0[j, 0], y0[j, 1], y0[j, 2] = P[0, j], P[1, j], P[2, j]
-            if grav:  # Gamma_b = sum_m R_mb gamma_m, R = (w^2 - |v|^2) 1 + 2 v v^T + 2 w [v]_x (quat_rotation)
-                r = w * w - a * a - b * b - c * c
-                g0, g1, g2 = gamma[0], gamma[1], gamma[2]
-                y0[j, 3] = (
-                    g0 * (r + 2 * a * a)
-                    + g1 * (2 * b * a + 2 * w * c)
-                    + g2 * (2 * c * a - 2 * w * b)
-                )
-                y0[j, 4] = (
-                    g0 * (2 * a * b - 2 * w * c)
-                    + g1 * (r + 2 * b * b)
-                    + g2 * (2 * c * b + 2 * w * a)
-                )
-                y0[j, 5] = (
-                    g0 * (2 * a * c + 2 * w * b)
-                    + g1 * (2 * b * c - 2 * w * a)
-                    + g2 * (r + 2 * c * c)
-                )
-            k = y0.shape[1] - 4
-            y0[j, k], y0[j, k + 1], y0[j, k + 2], y0[j, k + 3] = w, a, b, c
+            _start_row(X[0, j], X[1, j], X[2, j], P[0, j], P[1, j], P[2, j], gamma, grav, y0, j)
+
+    @njit(cache=True, nogil=True)
+    def _load_start(x0, pi0, gamma, grav, y0, bound):  # pragma: no cover - compiled
+        """One trajectory's start from the 1-D ``x0``, ``pi0``: :func:`refimpl._flow_checks.point_max`
+        (``max |pi0|``, or -1.0 where an entry is not finite with ``|v| <= bound``) and, where that
+        holds, the row of :func:`_start` in ``y0[0]``: one compiled call for both."""
+        pmax = point_max(x0, pi0, bound)
+        if pmax >= 0.0:
+            _start_row(x0[0], x0[1], x0[2], pi0[0], pi0[1], pi0[2], gamma, grav, y0, 0)
+        return pmax
 
     # _estimate and _log are inline="always": _finish, the one-trajectory path's single compiled call
     # after the pair, inlines their IR rather than compiling each as a library of its own on a cold
@@ -357,6 +366,12 @@ if _ct.HAVE_NUMBA:
 
 else:  # pragma: no cover - exercised only where numba is missing
     _start, _estimate, _log = _start_py, _estimate_py, _log_py
+
+    def _load_start(x0, pi0, gamma, grav, y0, bound):
+        pmax = point_max(x0, pi0, bound)
+        if pmax >= 0.0:
+            _start_py(x0.reshape(3, 1), pi0.reshape(3, 1), gamma, grav, y0)
+        return pmax
 
     def _finish(A, B, n, est, x):
         _estimate(A, B, n, est)
@@ -492,39 +507,45 @@ def _pair_run(pair, qcoef, lcoef, y0, t, eps_a, eps_b, n, tol):
     return A, B, sB
 
 
-def one_trajectory(model, tol: float):
+def one_trajectory(model, tol: float, limits=(math.inf, None)):
     """``run(x0, pi0, t) -> (x, pi)`` (each of shape (n,), fresh arrays) for one su(2) trajectory
-    (``x0``, ``pi0`` C-contiguous float64 of shape (n, 1), ``t`` a float), ``Upsilon = 0``, at ``tol``:
+    (``x0``, ``pi0`` 1-D float64 of shape (n,), ``t`` a float), ``Upsilon = 0``, at ``tol``:
     :func:`compiled_taylor_flow` of that trajectory, the same computation (:func:`_first_pair`'s pair,
     estimate and logarithm; :func:`_control` from that pair when it does not pass), with the constants
     of the call (tolerances, kernel, field arrays) looked up once, when the runner is built (issue 25:
     the Python around the protocol call; :func:`refimpl.flows._fast._flow_one` keeps it per model and
-    ``tol``). None where the pair kernel is not unrolled or the state is not this one (the caller then
-    calls :func:`compiled_taylor_flow`)."""
+    ``tol``). The start is checked as it is read (:func:`_load_start`): ``run`` returns None where an
+    entry is not finite with ``|v| <= MAX_MAGNITUDE``, and calls ``rates(pi0, t, max |pi0|)`` of
+    ``limits = (free, rates)`` where ``max |pi0| > free`` (the caller's rates check; default never).
+    None where the pair kernel is not unrolled or the state is not this one (the caller then calls
+    :func:`compiled_taylor_flow`)."""
     if not (model.upsilon_zero and supports_full(model)):  # e.g. the rational state
         return None
     cf = model.compiled_full_field
     eps_a, eps_b = local_tolerances(tol, A_LOOSE_FULL)
     pair = _pair_kernel(cf, eps_b)
-    return None if pair is None else _one_runner(model, tol, eps_a, eps_b, pair, cf.qcoef, cf.lcoef)
+    if pair is None:
+        return None
+    return _one_runner(model, tol, eps_a, eps_b, pair, cf.qcoef, cf.lcoef, limits)
 
 
-def _one_runner(model, tol, eps_a, eps_b, pair, qcoef, lcoef):
+def _one_runner(model, tol, eps_a, eps_b, pair, qcoef, lcoef, limits):
     """:func:`one_trajectory`'s runner: :func:`_pair_run`'s computation into work arrays kept between
     calls (``y0``, ``A``, ``B``, their steps and the estimate; taken from a pool, so concurrent calls
     never share them, and never returned: ``pi`` is a copy, ``x`` fresh); after the first call, the
-    compiled functions through their entry points (:func:`entry_point`: every argument's type is
-    fixed here)."""
+    compiled functions whose argument types it fixes through their entry points
+    (:func:`entry_point`; not :func:`_load_start`, which reads the caller's arrays)."""
     n = model.n
     grav = model.gravity
     gamma = model.gamma if grav else _NO_GAMMA
     d = n + (n if grav else 0) + 4
+    free, rates = limits
     pool = []
     empty, i64 = np.empty, np.int64
-    start, pair_, finish = _start, pair, _finish
+    pair_, finish = pair, _finish
 
     def run(x0, pi0, t):
-        nonlocal start, pair_, finish
+        nonlocal pair_, finish
         t = float(t)  # the entry points take the types of the first call
         try:
             s = pool.pop()
@@ -538,7 +559,12 @@ def _one_runner(model, tol, eps_a, eps_b, pair, qcoef, lcoef):
                 empty(1),
             )
         y0, A, B, sA, sB, est = s
-        start(x0, pi0, gamma, grav, y0)
+        pmax = _load_start(x0, pi0, gamma, grav, y0, MAX_MAGNITUDE)
+        if pmax < 0.0:  # issue 30: not finite, or |v| > MAX_MAGNITUDE
+            pool.append(s)
+            return None
+        if not pmax <= free:
+            rates(pi0, t, pmax)
         pair_(y0, t, eps_a, eps_b, MAX_STEPS, qcoef, lcoef, A, B, sA, sB)
         if sA[0] < 0:
             _diverged(sA, t)
@@ -546,8 +572,7 @@ def _one_runner(model, tol, eps_a, eps_b, pair, qcoef, lcoef):
             _diverged(sB, t)
         x = empty((n, 1))
         finish(A, B, n, est, x)
-        if start is _start:  # the first call: the entry points of the types it used
-            start = entry_point(_start, (x0, pi0, gamma, grav, y0))
+        if finish is _finish:  # the first call: the entry points of the types it used
             pair_ = entry_point(pair, (y0, t, eps_a, eps_b, MAX_STEPS, qcoef, lcoef, A, B, sA, sB))
             finish = entry_point(_finish, (A, B, n, est, x))
         if first_estimate(est.item(), eps_a, eps_b, PROP_MIN_B, PROP_MAX_D) <= tol:  # as _pair_run

@@ -77,6 +77,7 @@ import numpy as np
 from . import _compiled_taylor as _ct
 from . import _full_state_batch as _fsb
 from . import _full_state_kernel as _fk
+from ._flow_checks import load_point
 from ._flow_compiled import (
     A_LOOSE_FROM,
     PROP_MAX_D,
@@ -87,6 +88,7 @@ from ._flow_compiled import (
     first_estimate,
     local_tolerances,
 )
+from ._validate import MAX_MAGNITUDE
 from .codegen import import_source
 from .codegen.full_state import full_state_source
 
@@ -648,24 +650,34 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
     }
 
 
-def one_trajectory(model, tol: float, abelian=None):
+def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None)):
     """``run(x0, pi0, t) -> (x, pi)`` at ``tol`` on ``model``: :func:`full_state_flow` of one trajectory
-    (``x0``, ``pi0`` C-contiguous float64 of shape (n, 1), ``t`` a float; ``x``, ``pi`` fresh arrays
-    of shape (n,)), the same computation, without its dictionary and with
-    the constants of the call looked up once, when the runner is built (issue 25: the Python around
-    one trajectory; :func:`refimpl.flows._fast._flow_one` keeps it per model and ``tol``). Where
-    :func:`_solve` runs a first pair (:func:`_protocol_pair`), the runner runs it into work arrays it
-    keeps between calls (:func:`_scratch`; taken from a pool, so concurrent calls never share them,
-    and never returned: ``x`` and ``pi`` are copies) and enters the control only when that pair does
-    not pass; elsewhere it calls :func:`_solve`."""
+    (``x0``, ``pi0`` 1-D float64 of shape (n,), ``t`` a float; ``x``, ``pi`` fresh arrays of shape
+    (n,)), the same computation, without its dictionary and with the constants of the call looked up
+    once, when the runner is built (issue 25: the Python around one trajectory;
+    :func:`refimpl.flows._fast._flow_one` keeps it per model and ``tol``). The start is checked as it
+    is read (:func:`refimpl._flow_checks.load_point`): ``run`` returns None where an entry is not
+    finite with ``|v| <= MAX_MAGNITUDE``, and calls ``rates(pi0, t, max |pi0|)`` of ``limits = (free,
+    rates)`` where ``max |pi0| > free`` (the caller's rates check; default never). Where :func:`_solve`
+    runs a first pair (:func:`_protocol_pair`), the runner runs it into work arrays it keeps between
+    calls (:func:`_scratch`; taken from a pool, so concurrent calls never share them, and never
+    returned: ``x`` and ``pi`` are copies) and enters the control only when that pair does not pass;
+    elsewhere it calls :func:`_solve`."""
     fs = full_state(model, abelian)
     n, d, consts, start = fs.n, fs.d, fs.start_consts, _fk.start
+    free, rates = limits
 
     if not _protocol_pair(fs, tol):
 
         def run(x0, pi0, t):
+            X, P = np.empty((n, 1)), np.empty((n, 1))
+            pmax = load_point(x0, pi0, X, P, MAX_MAGNITUDE)
+            if pmax < 0.0:  # issue 30: not finite, or |v| > MAX_MAGNITUDE
+                return None
+            if not pmax <= free:
+                rates(pi0, t, pmax)
             y0 = np.empty((1, d))
-            start(x0, pi0, *consts, y0)
+            start(X, P, *consts, y0)
             B, _, _, ans = _solve(fs, model, y0, t, tol, None)
             return ans.all[2][0], B[0, :n].copy()
 
@@ -677,16 +689,22 @@ def one_trajectory(model, tol: float, abelian=None):
         nonlocal start
         t = float(t)  # the entry points take the types of the first call
         try:
-            s = pool.pop()
+            s, X, P = pool.pop()
         except IndexError:  # none free (the first call, or one running in another thread)
-            s = _scratch(fs)
+            s, X, P = _scratch(fs), np.empty((n, 1)), np.empty((n, 1))
+        pmax = load_point(x0, pi0, X, P, MAX_MAGNITUDE)
+        if pmax < 0.0:  # issue 30: not finite, or |v| > MAX_MAGNITUDE
+            pool.append((s, X, P))
+            return None
+        if not pmax <= free:
+            rates(pi0, t, pmax)
         y0 = s[0]
-        start(x0, pi0, *consts, y0)
+        start(X, P, *consts, y0)
         if start is _fk.start:  # the first call: the entry point of the types it used
-            start = entry_point(_fk.start, (x0, pi0, *consts, y0))
+            start = entry_point(_fk.start, (X, P, *consts, y0))
         if pair(y0, t, s) <= tol:
             x, pi = s[9][0].copy(), s[2][0, :n].copy()
-            pool.append(s)
+            pool.append((s, X, P))
             return x, pi
         B, _, _, ans = _go_on(fs, model, y0, t, tol, s)  # s stays with this call's results
         return ans.all[2][0], B[0, :n].copy()

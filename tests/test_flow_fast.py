@@ -305,3 +305,43 @@ def test_one_trajectory_calls_from_threads_return_the_same_fresh_answers(name):
             assert np.array_equal(x, want[k][0]) and np.array_equal(pi, want[k][1])
             seen += [x, pi]
     assert len({id(a.base if a.base is not None else a) for a in seen}) == len(seen)
+
+
+def test_su2_start_read_from_1d_points_is_the_batch_start():
+    """``_flow_compiled._load_start`` (the su(2) runner's start, read from the caller's 1-D points in
+    one compiled call) writes bit for bit the row of ``_start`` (the batch's, from (3, 1) columns), with
+    and without gravity, for a strided start too, and returns ``max |pi0|``; -1.0 and nothing used
+    where an entry is NaN, infinite or past the bound."""
+    from tstarg.refimpl._flow_compiled import _load_start, _start
+
+    rng = np.random.default_rng(3)
+    gamma = np.array([0.1, -0.4, 0.9])
+    for grav, d in ((True, 10), (False, 7)):
+        for _ in range(5):
+            x0, pi0 = 2.0 * rng.standard_normal(3), rng.standard_normal(3)
+            want = np.empty((1, d))
+            _start(x0[:, None].copy(), pi0[:, None].copy(), gamma, grav, want)
+            for xa in (x0, np.repeat(x0, 2)[::2]):
+                got = np.full((1, d), np.nan)
+                assert _load_start(xa, pi0, gamma, grav, got, 1e300) == np.max(np.abs(pi0))
+                assert np.array_equal(got, want)
+        for bad in (np.nan, np.inf, 2e300):
+            xb = np.array([0.1, bad, 0.2])
+            assert _load_start(xb, np.ones(3), gamma, grav, np.empty((1, d)), 1e300) == -1.0
+            assert _load_start(np.ones(3), xb, gamma, grav, np.empty((1, d)), 1e300) == -1.0
+
+
+@pytest.mark.parametrize("t", [100.0, -3.0])
+def test_one_trajectory_call_off_su2_refuses_too_fast_points_as_the_batch(t):
+    """As the su(2) test above on h(3) (the generic runner, ``_full_state.one_trajectory``, whose rates
+    check runs inside the runner above the per-model bound): the batch's message for a point rotating
+    too fast (``||I^-1|| = 2``, ``|pi| = 1e7``), and the same point scaled below the bound flows."""
+    alg = catalogue("h(3)")
+    z = np.zeros((3, 3))
+    x0 = np.array([0.1, 0.2, 0.0])
+    fast = np.array([0.0, 0.0, 1e7])
+    for a, b in ((x0, fast), (x0[None], fast[None])):
+        with pytest.raises(ValueError, match="rotates too fast for the flow budget"):
+            fast_flow(alg.f, z, z, I, None, a, b, t)
+    x, pi = fast_flow(alg.f, z, z, I, None, x0, fast * 1e-7, t)
+    assert np.all(np.isfinite(x)) and np.all(np.isfinite(pi))

@@ -255,22 +255,36 @@ def _one_route(model: NumpyModel) -> int:
 
 
 def _one_runner(model: NumpyModel, tol: float):
-    """``run(X, P, t) -> (x, pi)`` of :func:`_flow_one` on ``model`` at ``tol`` (``X``, ``P`` (n, 1)), by
+    """``run(x0, pi0, t) -> (x, pi)`` of :func:`_flow_one` on ``model`` at ``tol`` (``x0``, ``pi0`` 1-D
+    float64 of shape (n,)), or None from ``run`` where the start is not finite and bounded, by
     :func:`_one_route`: the runners of :func:`refimpl._full_state.one_trajectory` and
     :func:`refimpl._flow_compiled.one_trajectory` (their constants looked up once), else the rational
-    full state's flow or :func:`compiled_taylor_flow` after the start check; None: no such route."""
+    full state's flow or :func:`compiled_taylor_flow` after the start check; each runs the rates'
+    check (:func:`_check_rates`) above :func:`_rates_free_below`. None: no such route."""
     route = _one_route(model)
+
+    def rates(pi0, tv, pmax):  # the rates' check, where it could refuse
+        _check_rates(model, pi0, tv, pmax)
+
+    limits = (_rates_free_below(model), rates)
     run = (
-        _full_state.one_trajectory(model, tol, _AbelianPart)
+        _full_state.one_trajectory(model, tol, _AbelianPart, limits)
         if route == 1
-        else one_trajectory(model, tol)
+        else one_trajectory(model, tol, limits)
         if route == 3
         else None
     )
     if run is not None or not route:
         return run
+    n, free = model.n, limits[0]
 
-    def run(X, P, tv):
+    def run(x0, pi0, tv):
+        X, P = np.empty((n, 1)), np.empty((n, 1))
+        pmax = load_point(x0, pi0, X, P, MAX_MAGNITUDE)
+        if pmax < 0.0:  # issue 30: not finite, or |v| > MAX_MAGNITUDE
+            return None
+        if not pmax <= free:
+            rates(pi0, tv, pmax)
         _check_start(model, P)  # Upsilon != 0: the start off the degenerate set
         out = (
             _full_state_rational.rational_full_state_flow(
@@ -293,12 +307,24 @@ def _flow_one(model: NumpyModel, x0, pi0, tv: float, tol: float):
     with the same checks (the points finite and bounded, the rates, the start off the degenerate set,
     the results finite), without its batch bookkeeping (issue 25: the Python around one trajectory).
     None where any of that does not hold: the general route then runs, and refuses by name."""
-    one = model.__dict__.get("_one")  # (tol, runner, rates bound, (n,), pool) of the last tol
-    if one is None or one[0] != tol:  # the runner is built once the points pass (below)
-        one = (tol, None, _rates_free_below(model), (model.n,), [])
-    tol, run, free, shape, pool = one  # pool: (X, P) (n, 1) of calls that returned, for the next
+    one = model.__dict__.get("_one")  # (tol, runner or False: no route, (n,)) of the last tol
+    if one is None or one[0] != tol:
+        shape = (model.n,)
+        if not (  # points refused anyway build no runner (its kernels may compile on first use)
+            type(x0) is np.ndarray
+            and type(pi0) is np.ndarray
+            and x0.dtype is _F64
+            and pi0.dtype is _F64
+            and x0.shape == shape
+            and pi0.shape == shape
+            and load_point(x0, pi0, np.empty(shape + (1,)), np.empty(shape + (1,)), MAX_MAGNITUDE)
+            >= 0.0
+        ):
+            return None
+        one = model.__dict__["_one"] = (tol, _one_runner(model, tol) or False, shape)
+    tol, run, shape = one
     if not (
-        run is not False  # False: no such route on this model
+        run is not False
         and type(x0) is np.ndarray
         and type(pi0) is np.ndarray
         and x0.dtype is _F64
@@ -307,25 +333,10 @@ def _flow_one(model: NumpyModel, x0, pi0, tv: float, tol: float):
         and pi0.shape == shape
     ):
         return None
-    try:
-        X, P = pool.pop()
-    except IndexError:  # none free (the first call, or one running in another thread)
-        X, P = np.empty(shape + (1,)), np.empty(shape + (1,))
-    pmax = load_point(x0, pi0, X, P, MAX_MAGNITUDE)  # issue 30: finite and |v| <= MAX_MAGNITUDE
-    if pmax < 0.0:
-        return None
-    if run is None:
-        run = _one_runner(model, tol) or False
-        model.__dict__["_one"] = (tol, run, free, shape, pool)
-        if run is False:
-            return None
-    if not pmax <= free:  # the rates' check, where it could refuse
-        _check_rates(model, pi0, tv, pmax)
-    x, pi = run(X, P, tv)
-    pool.append((X, P))
-    if not math.isfinite(sum(x.tolist()) + sum(pi.tolist())):  # finite: every entry is
-        _check_finite(x.reshape(-1, 1), pi.reshape(-1, 1), tv)
-    return x, pi
+    out = run(x0, pi0, tv)  # None: an entry not finite, or beyond MAX_MAGNITUDE (issue 30)
+    if out is not None and not math.isfinite(sum(out[0].tolist()) + sum(out[1].tolist())):
+        _check_finite(out[0].reshape(-1, 1), out[1].reshape(-1, 1), tv)  # finite: every entry is
+    return out
 
 
 def _check_finite(x, pi, tv: float) -> None:
