@@ -12,7 +12,7 @@ import numpy as np
 
 from ._reference_core import _to_mpf
 
-__all__ = ["check_time", "load_point", "point_max"]
+__all__ = ["check_finite", "check_time", "finite_one", "load_point", "point_max"]
 
 _PLAIN = (float, int, np.floating, np.integer)
 
@@ -86,3 +86,27 @@ else:
                 X[i, 0] = x0[i]
                 P[i, 0] = pi0[i]
         return pmax
+
+
+def check_finite(x, pi, tv: float) -> None:
+    """Trajectories (columns of ``x``, ``pi`` (n, N)) not finite at ``tv`` are refused, by index (the
+    flows' last check, :func:`refimpl.flows.fast_flow`)."""
+    bad_pi = ~np.all(np.isfinite(pi), axis=0)
+    if np.any(bad_pi):
+        raise ValueError(
+            f"fast_flow: trajectories {np.flatnonzero(bad_pi)[:10].tolist()} became non-finite before t = {tv} "
+            "(they reached the degenerate set Pi_1, vier12, or diverged); no point is dropped"
+        )
+    bad = ~np.all(np.isfinite(x), axis=0)
+    if np.any(bad):
+        raise ValueError(
+            f"fast_flow: no logarithm x(t) of g(t) found for trajectories {np.flatnonzero(bad)[:10].tolist()}"
+        )
+
+
+def finite_one(x, pi, tv: float):
+    """``(x, pi)`` of one trajectory (1-D) when every entry is finite (a finite sum: every entry is),
+    else :func:`check_finite`'s refusal."""
+    if not math.isfinite(sum(x.tolist()) + sum(pi.tolist())):
+        check_finite(x.reshape(-1, 1), pi.reshape(-1, 1), tv)
+    return x, pi

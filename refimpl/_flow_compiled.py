@@ -48,7 +48,7 @@ import numpy as np
 from . import _compiled_rational as _cr
 from . import _compiled_taylor as _ct
 from . import _fast_kernels as _fast
-from ._flow_checks import point_max
+from ._flow_checks import finite_one, point_max
 from ._validate import MAX_MAGNITUDE
 
 __all__ = [
@@ -285,12 +285,19 @@ def _estimate_py(A, B, n, est):
 
 
 def _log_py(B, x):
-    x[:] = quat_to_x(B[:, -4:].T).T
+    x[:] = quat_to_x(B[:, -4:].T)  # (3, N), as _log writes it
 
 
 def _finish_py(A, B, n, est, x):
     _estimate_py(A, B, n, est)
     _log_py(B, x)
+
+
+def _finish_one_py(A, B, n, est, x, sA, sB):
+    if sA[0] < 0 or sB[0] < 0:
+        return 1
+    _finish_py(A, B, n, est, x)
+    return 0 if np.all(np.isfinite(B[0, :n])) and np.all(np.isfinite(x[:, 0])) else 2
 
 
 if _ct.HAVE_NUMBA:
@@ -364,6 +371,19 @@ if _ct.HAVE_NUMBA:
         _estimate(A, B, n, est)
         _log(B, x)
 
+    @njit(cache=True, nogil=True)
+    def _finish_one(A, B, n, est, x, sA, sB):  # pragma: no cover - compiled; as _finish_one_py
+        """:func:`_finish` of one trajectory's pair with the checks around it: 1 where a run
+        diverged (steps < 0; nothing computed), 2 where ``B``'s ``pi`` or ``x`` is not finite, else 0."""
+        if sA[0] < 0 or sB[0] < 0:
+            return 1
+        _estimate(A, B, n, est)
+        _log(B, x)
+        for c in range(n):
+            if not (math.isfinite(B[0, c]) and math.isfinite(x[c, 0])):
+                return 2
+        return 0
+
 else:  # pragma: no cover - exercised only where numba is missing
     _start, _estimate, _log = _start_py, _estimate_py, _log_py
 
@@ -376,6 +396,9 @@ else:  # pragma: no cover - exercised only where numba is missing
     def _finish(A, B, n, est, x):
         _estimate(A, B, n, est)
         _log(B, x)
+
+    def _finish_one(A, B, n, est, x, sA, sB):
+        return _finish_one_py(A, B, n, est, x, sA, sB)
 
 
 def _full_field(model) -> _ct.CompiledField:
@@ -542,7 +565,7 @@ def _one_runner(model, tol, eps_a, eps_b, pair, qcoef, lcoef, limits):
     free, rates = limits
     pool = []
     empty, i64 = np.empty, np.int64
-    pair_, finish = pair, _finish
+    pair_, finish = pair, _finish_one
 
     def run(x0, pi0, t):
         nonlocal pair_, finish
@@ -566,21 +589,21 @@ def _one_runner(model, tol, eps_a, eps_b, pair, qcoef, lcoef, limits):
         if not pmax <= free:
             rates(pi0, t, pmax)
         pair_(y0, t, eps_a, eps_b, MAX_STEPS, qcoef, lcoef, A, B, sA, sB)
-        if sA[0] < 0:
-            _diverged(sA, t)
-        if sB[0] < 0:
-            _diverged(sB, t)
         x = empty((n, 1))
-        finish(A, B, n, est, x)
-        if finish is _finish:  # the first call: the entry points of the types it used
+        status = finish(A, B, n, est, x, sA, sB)
+        if finish is _finish_one:  # the first call: the entry points of the types it used
             pair_ = entry_point(pair, (y0, t, eps_a, eps_b, MAX_STEPS, qcoef, lcoef, A, B, sA, sB))
-            finish = entry_point(_finish, (A, B, n, est, x))
+            finish = entry_point(_finish_one, (A, B, n, est, x, sA, sB))
+        if status == 1:  # a run diverged: named
+            _diverged(sA if sA[0] < 0 else sB, t)
+        if status == 2:  # B's pi or x not finite: refused by name
+            finite_one(x[:, 0], B[0, :n], t)
         if first_estimate(est.item(), eps_a, eps_b, PROP_MIN_B, PROP_MAX_D) <= tol:  # as _pair_run
             pi = B[0, :n].copy()
             pool.append(s)
-            return x[:, 0], pi
+            return x[:, 0], pi  # finite (_finish_one)
         out = _go_on(model, y0, t, eps_a, n, tol, (A, B, sB), True)  # s stays with this call
-        return out["x"][:, 0], out["pi"][:, 0]
+        return finite_one(out["x"][:, 0], out["pi"][:, 0], t)
 
     return run
 

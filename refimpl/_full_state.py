@@ -77,7 +77,7 @@ import numpy as np
 from . import _compiled_taylor as _ct
 from . import _full_state_batch as _fsb
 from . import _full_state_kernel as _fk
-from ._flow_checks import load_point
+from ._flow_checks import finite_one, load_point
 from ._flow_compiled import (
     A_LOOSE_FROM,
     PROP_MAX_D,
@@ -653,8 +653,8 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
 def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None)):
     """``run(x0, pi0, t) -> (x, pi)`` at ``tol`` on ``model``: :func:`full_state_flow` of one trajectory
     (``x0``, ``pi0`` 1-D float64 of shape (n,), ``t`` a float; ``x``, ``pi`` fresh arrays of shape
-    (n,)), the same computation, without its dictionary and with the constants of the call looked up
-    once, when the runner is built (issue 25: the Python around one trajectory;
+    (n,), finite: else refused by name, :func:`refimpl._flow_checks.finite_one`), the same computation,
+    without its dictionary and with the constants of the call looked up once, when the runner is built (issue 25: the Python around one trajectory;
     :func:`refimpl.flows._fast._flow_one` keeps it per model and ``tol``). The start is checked as it
     is read (:func:`refimpl._flow_checks.load_point`): ``run`` returns None where an entry is not
     finite with ``|v| <= MAX_MAGNITUDE``, and calls ``rates(pi0, t, max |pi0|)`` of ``limits = (free,
@@ -679,7 +679,7 @@ def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None)):
             y0 = np.empty((1, d))
             start(X, P, *consts, y0)
             B, _, _, ans = _solve(fs, model, y0, t, tol, None)
-            return ans.all[2][0], B[0, :n].copy()
+            return finite_one(ans.all[2][0], B[0, :n].copy(), t)
 
         return run
 
@@ -705,9 +705,9 @@ def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None)):
         if pair(y0, t, s) <= tol:
             x, pi = s[9][0].copy(), s[2][0, :n].copy()
             pool.append((s, X, P))
-            return x, pi
+            return finite_one(x, pi, t)
         B, _, _, ans = _go_on(fs, model, y0, t, tol, s)  # s stays with this call's results
-        return ans.all[2][0], B[0, :n].copy()
+        return finite_one(ans.all[2][0], B[0, :n].copy(), t)
 
     return run
 

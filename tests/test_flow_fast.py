@@ -345,3 +345,31 @@ def test_one_trajectory_call_off_su2_refuses_too_fast_points_as_the_batch(t):
             fast_flow(alg.f, z, z, I, None, a, b, t)
     x, pi = fast_flow(alg.f, z, z, I, None, x0, fast * 1e-7, t)
     assert np.all(np.isfinite(x)) and np.all(np.isfinite(pi))
+
+
+def test_su2_finish_of_one_pair_checks_steps_and_finiteness():
+    """``_flow_compiled._finish_one`` (the su(2) runner's one compiled call after the pair) and its
+    plain-Python twin: 0 with ``_finish``'s estimate and logarithm (bit for bit compiled; the twin's
+    numpy sqrt/arctan2 within 8 eps of |x| <= 2 pi, 4 eps of the estimate); 1 where either run's step
+    count is negative (a diverged run); 2 where ``B``'s ``pi`` or the logarithm ``x`` is not finite."""
+    from tstarg.refimpl._flow_compiled import _finish, _finish_one, _finish_one_py
+
+    rng = np.random.default_rng(4)
+    q = rng.standard_normal(4)
+    B = np.concatenate([rng.standard_normal(3), q / np.linalg.norm(q)])[None]
+    A = B + 1e-9 * rng.standard_normal(B.shape)
+    est0, x0 = np.empty(1), np.empty((3, 1))
+    _finish(A, B, 3, est0, x0)
+    ok, bad = np.array([5]), np.array([-1])
+    for fn in (_finish_one, _finish_one_py):
+        est, x = np.empty(1), np.empty((3, 1))
+        assert fn(A, B, 3, est, x, ok, ok) == 0
+        if fn is _finish_one:
+            assert np.array_equal(est, est0) and np.array_equal(x, x0)
+        np.testing.assert_allclose(x, x0, rtol=0, atol=8 * EPS * 2 * np.pi)
+        np.testing.assert_allclose(est, est0, rtol=4 * EPS, atol=0)
+        assert fn(A, B, 3, est, x, bad, ok) == 1 and fn(A, B, 3, est, x, ok, bad) == 1
+        for k, v in ((1, np.nan), (2, np.inf), (4, np.nan)):  # pi entries, then the quaternion
+            Bb = B.copy()
+            Bb[0, k] = v
+            assert fn(A, Bb, 3, np.empty(1), np.empty((3, 1)), ok, ok) == 2

@@ -21,7 +21,7 @@ import numpy as np
 from .. import _fast_kernels as _fast
 from .. import _full_state, _full_state_rational
 from .._algebra import LieAlgebra
-from .._flow_checks import check_time, load_point
+from .._flow_checks import check_finite, check_time, finite_one, load_point
 from .._flow_compiled import (
     compiled_taylor_flow,
     compiled_taylor_samples,
@@ -293,7 +293,7 @@ def _one_runner(model: NumpyModel, tol: float):
             if route == 2
             else compiled_taylor_flow(model, X, P, tv, tol)
         )
-        return out["x"][:, 0], out["pi"][:, 0]
+        return finite_one(out["x"][:, 0], out["pi"][:, 0], tv)
 
     return run
 
@@ -333,25 +333,7 @@ def _flow_one(model: NumpyModel, x0, pi0, tv: float, tol: float):
         and pi0.shape == shape
     ):
         return None
-    out = run(x0, pi0, tv)  # None: an entry not finite, or beyond MAX_MAGNITUDE (issue 30)
-    if out is not None and not math.isfinite(sum(out[0].tolist()) + sum(out[1].tolist())):
-        _check_finite(out[0].reshape(-1, 1), out[1].reshape(-1, 1), tv)  # finite: every entry is
-    return out
-
-
-def _check_finite(x, pi, tv: float) -> None:
-    """Trajectories (columns of ``x``, ``pi`` (n, N)) not finite at ``tv`` are refused, by index."""
-    bad_pi = ~np.all(np.isfinite(pi), axis=0)
-    if np.any(bad_pi):
-        raise ValueError(
-            f"fast_flow: trajectories {np.flatnonzero(bad_pi)[:10].tolist()} became non-finite before t = {tv} "
-            "(they reached the degenerate set Pi_1, vier12, or diverged); no point is dropped"
-        )
-    bad = ~np.all(np.isfinite(x), axis=0)
-    if np.any(bad):
-        raise ValueError(
-            f"fast_flow: no logarithm x(t) of g(t) found for trajectories {np.flatnonzero(bad)[:10].tolist()}"
-        )
+    return run(x0, pi0, tv)  # None: an entry not finite, or beyond MAX_MAGNITUDE (issue 30)
 
 
 def fast_flow(
@@ -471,7 +453,7 @@ def fast_flow(
     # one sum when all is finite (a finite sum); the per-trajectory check only otherwise
     x, pi = out.x, out.pi
     if not (_finite_sum(pi) and _finite_sum(x)):
-        _check_finite(x, pi, tv)
+        check_finite(x, pi, tv)
     xs, ps = x.T.reshape(shape + (n,)), pi.T.reshape(shape + (n,))
     if return_group:
         g = out.get("g")
