@@ -1,0 +1,149 @@
+"""The full state's first pair (refimpl._full_state: A's order and tolerance) against the reference.
+
+    python tests/benchmarks/full_state_estimate_constants.py [SEED] [PER_ALGEBRA] [A_ORDERS] [TIMES]
+
+For random models on h(3), Bianchi III (with a cocycle Theta), V, VI0, se(2), sl(2, R), se(3), so(4)
+and su(3) (SPD inertia with eigenvalues in [0.5, 3], ``x0 = 0.3 N(0, 1)``, ``pi0 = N(0, 1)``; PER_ALGEBRA
+models each, seeded by SEED) at the times TIMES (default 1,3,10,30; 1,3,10 for n > 3): the first pair
+of one trajectory as the protocol call runs it (:func:`refimpl._full_state._pair_of`: ``A`` at
+:data:`A_LOOSE`, ``B`` at :data:`EPS_B_FIRST`), with ``A`` at each order of A_ORDERS (default: the
+current one and B's), and the answer's error against heyoka in long double at tol 1e-19 (``err(B)``
+over ``pi`` and ``Ad(exp x)``, the bench's). Printed per order: the worst coverage ``err(B) / estimate``
+(the estimate, with its floor, must bound the error: below 1), the worst ``err(B)`` over the
+proportional part alone where ``|A - B| >= PROP_SEEN`` (what the safety factor PROP = 30 covers), and the fraction of starts whose
+first pair passes ``tol = 1e-10`` (the others go on through the control). Needs heyoka (the bench
+extra). No timing.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+from tstarg.refimpl import _flow_compiled as FC  # noqa: E402
+from tstarg.refimpl import _full_state as FS  # noqa: E402
+from tstarg.refimpl import _full_state_kernel as fk  # noqa: E402
+from tstarg.refimpl._catalogue import bianchi, catalogue  # noqa: E402
+from tstarg.refimpl._cohomology import cocycle_basis  # noqa: E402
+from tstarg.refimpl.flows import cached_model  # noqa: E402
+from tstarg.refimpl.flows._common import _AbelianPart  # noqa: E402
+from tstarg.reports import _bench_protocol as bp  # noqa: E402
+
+ALGEBRAS = ["h(3)", "Bianchi III", "Bianchi V", "Bianchi VI0", "se(2)", "sl(2,R)", "se(3)", "so(4)"]
+ALGEBRAS += ["su(3)"]
+PROP_SEEN = 1e-12
+"""``|A - B|`` from which the proportional part is reported on its own: below it ``A`` and ``B`` agree
+to a few hundred ``eps`` (A at B's order over one or two steps) and the floor carries the estimate."""
+
+
+def _spd(rng, n):
+    Q, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    return Q @ np.diag(rng.uniform(0.5, 3.0, n)) @ Q.T
+
+
+def problems(seed: int, per: int, times: list[float]) -> list:
+    rng = np.random.default_rng(seed)
+    out = []
+    for name in ALGEBRAS:
+        alg = bianchi(name.split()[1]) if name.startswith("Bianchi") else catalogue(name)
+        f = np.asarray(alg.f, dtype=float)
+        n = f.shape[0]
+        theta = np.zeros((n, n))
+        if name == "Bianchi III":
+            basis = cocycle_basis(alg, exact=False)
+            theta = np.asarray(sum(c * b for c, b in zip([0.5, -0.3, 0.2], basis)), float)
+        for k in range(per):
+            inertia = _spd(rng, n)
+            x0, pi0 = 0.3 * rng.standard_normal(n), rng.standard_normal(n)
+            for T in times if n == 3 else [t for t in times if t <= 10]:
+                label = f"{name} #{k} T={T:g}"
+                out.append(
+                    bp.ProtocolProblem(
+                        label,
+                        label,
+                        name,
+                        f,
+                        theta,
+                        np.zeros((n, n)),
+                        inertia,
+                        None,
+                        x0,
+                        pi0,
+                        T,
+                        [],
+                    )
+                )
+    return out
+
+
+def first_pair(p, order_a: int):
+    """``(estimate, err(B), proportional part, |A - B|, steps of A, steps of B)`` of ``p``'s first pair
+    with ``A`` at ``order_a`` (B at its order), through :func:`refimpl._full_state._pair_of`."""
+    model = cached_model(p.f, p.theta, p.upsilon, p.inertia, p.potential)
+    fs = FS.full_state(model, _AbelianPart)
+    keep = FS._FIRST_ORDERS
+    FS._FIRST_ORDERS = (order_a, keep[1])
+    fs.__dict__.pop("_pair", None)
+    try:
+        s = FS._scratch(fs)
+        X, P = p.x0[:, None].copy(), p.pi0[:, None].copy()
+        fk.start(X, P, *fs.start_consts, s[0])
+        e = FS._pair_of(fs)(s[0], float(p.T), s)
+    finally:
+        FS._FIRST_ORDERS = keep
+        fs.__dict__.pop("_pair", None)
+    d = float(s[7][0])
+    prop = FC.first_estimate(d, FS.A_LOOSE, FS.EPS_B_FIRST, FS.PROP_MIN_B, FC.PROP_MAX_D)
+    return e, s[9][0].copy(), s[2][0, : p.n].copy(), prop, d, int(s[3][0]), int(s[4][0])
+
+
+def main(argv: list[str]) -> int:
+    seed = int(argv[1]) if len(argv) > 1 else 25
+    per = int(argv[2]) if len(argv) > 2 else 2
+    orders = (
+        [int(v) for v in argv[3].split(",")]
+        if len(argv) > 3
+        else [FS._FIRST_ORDERS[0], FS._FIRST_ORDERS[1]]
+    )
+    times = [float(v) for v in argv[4].split(",")] if len(argv) > 4 else [1.0, 3.0, 10.0, 30.0]
+    probs = problems(seed, per, times)
+    worst = {o: [0.0, 0.0, 0, 0] for o in orders}  # err/estimate, err/prop, passes, cases
+    for i, p in enumerate(probs):
+        ref_ta = bp.heyoka_taylor(p, 1e-19, fp="longdouble", compact=True)
+        ref_ta.propagate_until(np.longdouble(p.T))
+        ref = np.array(ref_ta.state, dtype=np.longdouble)
+        line = [f"[{i + 1}/{len(probs)}] {p.name}:"]
+        for o in orders:
+            try:
+                e, x, pi, prop, d, sa, sb = first_pair(p, o)
+            except (
+                ValueError
+            ) as exc:  # refused (e.g. g(t) outside exp's image on sl(2, R)): no pair
+                line.append(f"A P{o}: refused ({str(exc)[:60]})")
+                continue
+            err = bp.ours_error(p, x, pi, ref)
+            w = worst[o]
+            w[0] = max(w[0], err / e)
+            if PROP_SEEN <= d <= FC.PROP_MAX_D:  # the proportional part in use, A and B apart
+                w[1] = max(w[1], err / prop)
+            w[2] += e <= 1e-10
+            w[3] += 1
+            line.append(
+                f"A P{o} ({sa} st) |A-B| {d:.1e} est {e:.1e} err(B) {err:.1e} ({sb} st) "
+                f"q {err / e:.2f}"
+            )
+        print(" | ".join(line), flush=True)
+    for o, (q, qp, passes, cases) in worst.items():
+        print(
+            f"A at order {o}: worst err(B)/estimate {q:.3f}, worst err(B)/proportional part "
+            f"{qp:.3f}, first pair passes tol 1e-10 on {passes}/{cases}"
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main(sys.argv))
