@@ -550,7 +550,10 @@ def _log_complete(fs: FullState, B, G, Ad, xs, ok, resid) -> None:
 def _floor_one(steps: int, n: int, size: float, kappa: float, resid: float) -> float:
     """The floor of :meth:`_Answer.floor` for one trajectory, in Python floats: the rounding floor
     (:data:`ROUND_PER_STEP` per step, :data:`ROUND_AMPLIFIED` times ``kappa``) of an answer of ``steps``
-    steps and size ``max(1, |pi|, |Ad|) <= max(1, size)``, plus its logarithm's residual ``resid``."""
+    steps and size ``max(1, |pi|, |Ad|) <= max(1, size)``, plus its logarithm's residual ``resid``;
+    inf where ``size`` is not finite (Python's ``max(1.0, nan)`` is 1.0: no such size may pass)."""
+    if not size < math.inf:
+        return math.inf
     per_step = ROUND_PER_STEP * (math.sqrt(steps) + n) * max(1.0, size)
     return _EPS * (per_step + ROUND_AMPLIFIED * kappa) + resid
 
