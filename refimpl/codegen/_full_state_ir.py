@@ -200,8 +200,10 @@ def lanes_order_intrinsic(sp, W: int):
     of one coefficient are contiguous and move as one vector of ``W`` float64), each lane's
     operations those of the scalar body, element by element.
 
-    ``sp = (ncoef, derived, groups, consts, state)`` as :func:`order_intrinsic`'s ``spec`` (the
-    terms of the state rows' products all :data:`SCALED`), ``groups`` the general products summed
+    ``sp = (ncoef, derived, groups, consts, state)`` as :func:`order_intrinsic`'s ``spec`` (the lane
+    kernel's: the terms of the state rows' products all :data:`SCALED`; the pair kernel of
+    :func:`refimpl.codegen.full_state.full_state_source` passes the single kernel's own spec, its
+    chunks as groups), ``groups`` the general products summed
     side by side in one loop over ``a`` (each distinct factor row loaded once per ``a``). The products
     stay values (never stored into ``V``)."""
     ncoef, derived, groups, consts, state = sp
@@ -271,6 +273,10 @@ def lanes_order_intrinsic(sp, W: int):
             )
 
             def term(kind, ci, x):
+                if kind == PLUS:  # the single kernel's spec (the pair kernel's lanes)
+                    return lambda: prod[x]
+                if kind == MINUS:
+                    return lambda: ops.sub(ops.const(-0.0), prod[x])
                 if kind == SCALED:
                     return lambda: ops.mul(c[ci], prod[x])
                 if kind == LIN_CONST:
