@@ -10,13 +10,15 @@ under the two-run control of :func:`refimpl._full_state.full_state_flow`; a lane
 changes another lane's arithmetic.
 
 Vectorisation
-    The kernel's statements run in short loops over the lanes of a C-contiguous ``V[k, row, lane]``;
-    LLVM unrolls them and its SLP vectoriser packs the lanes into SIMD instructions. numba leaves that
-    pass off by default (``NUMBA_SLP_VECTORIZE=0``, for compile time), so :func:`kernel` compiles the
-    batch kernel -- and only it -- with the pass on, under numba's compiler lock. The pass does not
-    reassociate (no ``fastmath`` beyond ``contract``, as in every Taylor kernel here): a lane's
+    The order body of the recurrence is LLVM IR on vectors of ``W`` float64, one lane per trajectory
+    (:func:`refimpl.codegen._full_state_ir.lanes_order_intrinsic`, over a C-contiguous ``V[k, row,
+    lane]``); the rest of the kernel (step sizes, the compensated Horner update) runs in short loops
+    over the lanes, which LLVM unrolls and its SLP vectoriser packs into SIMD instructions. numba
+    leaves that pass off by default (``NUMBA_SLP_VECTORIZE=0``, for compile time), so :func:`kernel`
+    compiles the batch kernel -- and only it -- with the pass on, under numba's compiler lock. Nothing
+    reassociates (no ``fastmath`` beyond ``contract``, as in every Taylor kernel here): a lane's
     arithmetic is the single kernel's, each Cauchy product summed in the order ``a = 0..k``; the
-    packed code may contract a different subset of multiply-adds into FMAs (one rounding each way).
+    compiler may contract a different subset of multiply-adds into FMAs (one rounding each way).
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ import math
 import numpy as np
 
 from .codegen import import_source
+from .codegen._full_state_ir import packed_order
 from .codegen.full_state_batch import GROUP, LANES, batch_groups, batch_numbers, batch_source
 
 try:
@@ -40,60 +43,45 @@ __all__ = [
     "GENERATED_MIN_WORK",
     "LANES",
     "MAX_GENERATED_TERMS",
-    "MAX_SIZE",
     "adaptive_packed",
     "applies",
     "kernel",
+    "pair_first",
     "run",
-    "size",
 ]
 
-MAX_SIZE = 240
-"""The largest structure whose lane kernel has every Cauchy product written out, counted as general
-products plus the terms of the derived and state rows (the statements of the generated recurrence);
-a larger one gets the packed form (the products in blocks of factor rows through index tables:
-:func:`refimpl.codegen.full_state_batch.batch_source` ``packed=True``, or :func:`adaptive_packed`
-beyond :data:`MAX_GENERATED_TERMS`). The cold compilation (numba's typing and lowering dominate, about
-linear in the statements: twelve per written-out product) measured, one run each, CPU, load average
-7-8: written out kirchhoff_se3 (117) 6.3 s, manakov_so4 (162) 9.2-10.4 s, so(4) with gravity (264)
-14.1 s, free_su3 (365) 19.7 s; generated packed so(4) with gravity 5.3 s, free_su3 6.0 s. Per
-trajectory, kernel alone at 3e-14: manakov_so4 15.1 us written out, 26.2 us generated packed, 34.8 us
-in :func:`adaptive_packed`; free_su3 40.4 us generated packed, 52.0 us in :func:`adaptive_packed`,
-67.4 us in the single-trajectory generated kernel."""
-
-MAX_GENERATED_TERMS = 300
-"""The most terms (numbers) of the derived and state rows for which the packed form is generated per
-structure: its source, and its cold compilation, grow with them (free_su3, 225 terms: 6.0 s; so(5) in
-its adjoint representation, 820 terms: 38.4 s, one run each at load ~7). Beyond it the one kernel
-compiled for every structure, :func:`adaptive_packed` (about 3 s once, then numba's disk cache), runs:
-the rows from the tables, about 1.3 times slower per trajectory (free_su3 52.0 against 40.4 us)."""
+MAX_GENERATED_TERMS = 1000
+"""The most terms (numbers) of the derived and state rows for which the lane kernel is generated per
+structure (:func:`refimpl.codegen.full_state_batch.batch_source`, every product written out in the
+LLVM IR of :func:`refimpl.codegen._full_state_ir.lanes_order_intrinsic`): its IR, and LLVM's time on
+it, grow with them. Fully cold, the kernel alone, CPU, load 1.3-2.0: free_su3 (225 terms, 140 general
+products) 1.63 s, kirchhoff_se3 1.53, manakov_so4 1.49, sl(3, R) 1.57, h(3) 1.39, so(5) in its adjoint
+representation (820 terms, 660 products) 2.66 s. Beyond it the one kernel compiled for every
+structure, :func:`adaptive_packed` (1.8 s once, then numba's disk cache), runs: the rows from the
+tables, slower per trajectory."""
 
 
 GENERATED_MIN_WORK = 1024.0
 """``N |T|`` (rows of one :func:`run` times the time span) from which a batch runs the lane kernel
 generated for its structure; below it, :func:`adaptive_packed` (compiled once for every structure),
-as the rational path's ``GENERATED_MIN_WORK``. The generated lane kernel's cold compilation is the
-largest per-structure cost of a first batch call (measured fully cold, CPU, load 2-3.6, one run
-each: manakov_so4 8.8 s, sl(3, R) 9.1 s, kirchhoff_se3 5.9 s, free_su3 5.8 s), repaid only by a
-long batch; a short one (64 trajectories of the bench problems over ``T = 10``: 640) now costs no
-compilation per structure and about 2x per trajectory (manakov_so4 34.8 against 15.1 us, above).
-A function of the call's inputs, so a row's result never depends on what ran before it."""
-
-
-def size(fs) -> int:
-    """The structure's size in the sense of :data:`MAX_SIZE`."""
-    tb = fs.tables()
-    return int((tb[7] == 0).sum()) + len(tb[3]) + len(tb[10]) + len(tb[13])
+as the rational path's ``GENERATED_MIN_WORK``. The generated lane kernel's cold compilation is a cost
+per structure, repaid only by a long batch: with its order body in LLVM IR it is 1.4-1.7 s fully cold
+(the kernel alone, :data:`MAX_GENERATED_TERMS`; it was 5.8-9.1 s as numba Python), against 1.8 s
+once per installation for :func:`adaptive_packed`; a short batch (64 trajectories of the bench
+problems over ``T = 10``: 640) costs no compilation per structure once that is cached, and about 2x
+per trajectory. A function of the call's inputs, so a row's result never depends on what ran before
+it."""
 
 
 def applies(fs) -> bool:
-    """Every structure has a lane kernel (written out up to :data:`MAX_SIZE`, packed beyond)."""
+    """Every structure has a lane kernel (generated up to :data:`MAX_GENERATED_TERMS`, else
+    :func:`adaptive_packed`)."""
     return True
 
 
 _SIG = (
     "(float64[:, ::1], float64, float64, int64, int64, float64[::1], int64[::1], int64[::1], "
-    "int64[::1], int64[::1], int64[::1], float64[:, ::1], int64[::1])"
+    "float64[:, ::1], int64[::1])"
 )
 _SIG_PACKED = (
     "(float64[:, ::1], float64, float64, int64, int64, int64, int64[::1], int64[::1], int64[::1], "
@@ -122,9 +110,9 @@ def _compile(fn, sig):
 def kernel(fs, generated: bool = True):
     """``(fn, args)`` for the structure of ``fs`` (kept on ``fs``): ``fn(y0, T, tol, P, max_steps,
     *args, out, nsteps)``. The module generated for the structure (imported from the kernel cache,
-    :func:`refimpl.codegen.import_source`): every product written out up to :data:`MAX_SIZE`, packed
-    beyond; beyond that and :data:`MAX_GENERATED_TERMS` too, or when not ``generated``,
-    :func:`adaptive_packed` with the tables and the blocks of
+    :func:`refimpl.codegen.import_source`), every product written out, up to
+    :data:`MAX_GENERATED_TERMS`; beyond, or when not ``generated``, :func:`adaptive_packed` with the
+    tables and the blocks of
     :func:`refimpl.codegen.full_state_batch.batch_groups`. Each compiled with LLVM's SLP vectoriser on
     (or loaded from numba's disk cache)."""
     key = "_batch_kernel" if generated else "_batch_kernel_tables"
@@ -132,16 +120,14 @@ def kernel(fs, generated: bool = True):
     if kb is not None:
         return kb
     tables = fs.tables()
-    groups = batch_groups(tables)
     terms = len(tables[4]) + len(tables[11]) + len(tables[14])
-    if not generated or (size(fs) > MAX_SIZE and terms > MAX_GENERATED_TERMS):
+    if not generated or terms > MAX_GENERATED_TERMS:
         _compile(adaptive_packed, _SIG_PACKED)
-        kb = (adaptive_packed, (int(tables[0]), *tables[1:], *groups))
+        kb = (adaptive_packed, (int(tables[0]), *tables[1:], *batch_groups(tables)))
     else:
-        src = batch_source(tables, fs.d, LANES, GROUP, packed=size(fs) > MAX_SIZE)
-        fn = import_source(src, "fsbatch_").adaptive_batch
+        fn = import_source(batch_source(tables, fs.d, LANES, GROUP), "fsbatch_").adaptive_batch
         _compile(fn, _SIG)
-        kb = (fn, (batch_numbers(tables), tables[8], tables[16], *groups))
+        kb = (fn, (batch_numbers(tables), tables[8], tables[16]))
     fs.__dict__[key] = kb
     return kb
 
@@ -160,8 +146,33 @@ def run(fs, y0, T: float, tol: float, P: int, max_steps: int, *, generated: bool
     return out, steps
 
 
+def pair_first(fs, y0, t: float, eps_a: float, eps_b: float, order_a: int, order_b: int):
+    """``(A, B, steps_a, steps_b)``: the runs A (local tolerance ``eps_a``, order ``order_a``) and B
+    (``eps_b``, ``order_b``) of one trajectory from its row ``y0`` (1, d) over ``t``, side by side on
+    the two lanes of one vector (the generated module's ``pair``,
+    :func:`refimpl.codegen.full_state.pair_lines`): each the single kernel's run
+    (:meth:`refimpl._full_state.FullState.run` with ``generated=True``) at its tolerance and order,
+    operation for operation, for about the cost of the longer one. ``A``, ``B``: fresh (1, d) rows
+    (NaN on failure); ``steps_a``, ``steps_b``: (1,) step counts (negative: the status). ``y0`` is
+    only read."""
+    from ._full_state import MAX_STEPS  # the full state's step budget (imported here: no cycle)
+
+    y = np.ascontiguousarray(y0, dtype=float)
+    if y.ndim != 2 or y.shape != (1, fs.d):
+        raise ValueError(f"pair_first: y0 must have shape (1, {fs.d}), got {y.shape}")
+    out = np.empty((2, fs.d))
+    steps = np.zeros(2, dtype=np.int64)
+    fs.module().pair(
+        y, float(t), float(eps_a), float(eps_b), int(order_a), int(order_b),
+        MAX_STEPS, fs.coef, out, steps,
+    )  # fmt: skip
+    return out[:1], out[1:], steps[:1], steps[1:]
+
+
 # ---------------------------------------------------------------------- the packed lane kernel
-# One machine-code function for every structure beyond MAX_SIZE (the field as the sparse tables of
+# the order body as one intrinsic, IR version 1 (rev 2) (numba's cache keys on this file: see packed_order)
+_packed_order = packed_order()
+# One machine-code function for every structure (short batches, and beyond MAX_GENERATED_TERMS; the field as the sparse tables of
 # FullState.tables, arguments, never literals): compiled once, kept by numba's disk cache. Four lanes
 # written out (LANES).
 
@@ -173,7 +184,14 @@ def adaptive_packed(y0, T, tol, P, max_steps, nv, drow, dptr, didx, dcoef, pu, p
     step, step count and status (a finished lane takes the next row of the queue, an idle one holds
     the zero state and steps by 0); the general products in the 2 x 4 blocks ``gp, gu, gw`` of
     :func:`refimpl.codegen.full_state_batch.batch_groups` (``V`` rows: the tables' ``nv`` named rows,
-    the products, the zero row, the sink row)."""
+    the products, the zero row, the sink row).
+
+    The order body is the intrinsic :func:`refimpl.codegen._full_state_ir.packed_order` (LLVM IR on
+    vectors of the four lanes, each lane's operations those of the numba Python loops it replaced):
+    compiled from empty caches, alone, CPU, load 2.6: 3.11 -> 1.79 s; end states bitwise equal and
+    per trajectory faster (128 trajectories, interleaved, best of 10, CPU, load 2.6-2.7, at 3e-14:
+    kirchhoff_se3 92.5 -> 74.7 us, free_su3 48.6 -> 39.8, manakov_so4 35.3 -> 31.0, bianchi_cocycle
+    28.8 -> 22.6)."""
     N, d = y0.shape
     npr = pu.shape[0]
     V = np.zeros((P + 1, nv + npr + 2, 4))
@@ -192,7 +210,6 @@ def adaptive_packed(y0, T, tol, P, max_steps, nv, drow, dptr, didx, dcoef, pu, p
     damp = math.exp(-0.7 / (P - 1))
     e1 = 1.0 / (P - 1)
     e2 = 1.0 / P
-    nd = drow.shape[0]
     nxt = 0
     live = 0
     for ln in range(4):
@@ -203,176 +220,10 @@ def adaptive_packed(y0, T, tol, P, max_steps, nv, drow, dptr, didx, dcoef, pu, p
             nxt += 1
             live += 1
     while live > 0:
-        # the Taylor coefficients V[1..P] (the recurrence of _full_state_kernel.coefficients, four lanes)
+        # the Taylor coefficients V[1..P] (the recurrence of _full_state_kernel.coefficients, four
+        # lanes): LLVM IR on vectors of the four lanes (codegen._full_state_ir.packed_order)
         for k in range(P):
-            for r in range(nd):
-                a0 = 0.0
-                a1 = 0.0
-                a2 = 0.0
-                a3 = 0.0
-                for t in range(dptr[r], dptr[r + 1]):
-                    cf = dcoef[t]
-                    i = didx[t]
-                    a0 += cf * V[k, i, 0]
-                    a1 += cf * V[k, i, 1]
-                    a2 += cf * V[k, i, 2]
-                    a3 += cf * V[k, i, 3]
-                o = drow[r]
-                V[k, o, 0] = a0
-                V[k, o, 1] = a1
-                V[k, o, 2] = a2
-                V[k, o, 3] = a3
-            # the general products in blocks of 2 x 4 factor rows: the k-th coefficients copied into
-            # UB, WB (all lanes loaded before they are stored: one SIMD load and store each), then one
-            # loop over a with a scalar accumulator per pair and lane (nothing stored inside)
-            for g in range(ngrp):
-                for j in range(2):
-                    u = gu[g * 2 + j]
-                    t0 = V[k, u, 0]
-                    t1 = V[k, u, 1]
-                    t2 = V[k, u, 2]
-                    t3 = V[k, u, 3]
-                    UB[g, k, j, 0] = t0
-                    UB[g, k, j, 1] = t1
-                    UB[g, k, j, 2] = t2
-                    UB[g, k, j, 3] = t3
-                for j in range(4):
-                    u = gw[g * 4 + j]
-                    t0 = V[k, u, 0]
-                    t1 = V[k, u, 1]
-                    t2 = V[k, u, 2]
-                    t3 = V[k, u, 3]
-                    WB[g, k, j, 0] = t0
-                    WB[g, k, j, 1] = t1
-                    WB[g, k, j, 2] = t2
-                    WB[g, k, j, 3] = t3
-                s00_0 = s00_1 = s00_2 = s00_3 = 0.0
-                s01_0 = s01_1 = s01_2 = s01_3 = 0.0
-                s02_0 = s02_1 = s02_2 = s02_3 = 0.0
-                s03_0 = s03_1 = s03_2 = s03_3 = 0.0
-                s10_0 = s10_1 = s10_2 = s10_3 = 0.0
-                s11_0 = s11_1 = s11_2 = s11_3 = 0.0
-                s12_0 = s12_1 = s12_2 = s12_3 = 0.0
-                s13_0 = s13_1 = s13_2 = s13_3 = 0.0
-                for a in range(k + 1):
-                    b = k - a
-                    s00_0 += UB[g, a, 0, 0] * WB[g, b, 0, 0]
-                    s00_1 += UB[g, a, 0, 1] * WB[g, b, 0, 1]
-                    s00_2 += UB[g, a, 0, 2] * WB[g, b, 0, 2]
-                    s00_3 += UB[g, a, 0, 3] * WB[g, b, 0, 3]
-                    s01_0 += UB[g, a, 0, 0] * WB[g, b, 1, 0]
-                    s01_1 += UB[g, a, 0, 1] * WB[g, b, 1, 1]
-                    s01_2 += UB[g, a, 0, 2] * WB[g, b, 1, 2]
-                    s01_3 += UB[g, a, 0, 3] * WB[g, b, 1, 3]
-                    s02_0 += UB[g, a, 0, 0] * WB[g, b, 2, 0]
-                    s02_1 += UB[g, a, 0, 1] * WB[g, b, 2, 1]
-                    s02_2 += UB[g, a, 0, 2] * WB[g, b, 2, 2]
-                    s02_3 += UB[g, a, 0, 3] * WB[g, b, 2, 3]
-                    s03_0 += UB[g, a, 0, 0] * WB[g, b, 3, 0]
-                    s03_1 += UB[g, a, 0, 1] * WB[g, b, 3, 1]
-                    s03_2 += UB[g, a, 0, 2] * WB[g, b, 3, 2]
-                    s03_3 += UB[g, a, 0, 3] * WB[g, b, 3, 3]
-                    s10_0 += UB[g, a, 1, 0] * WB[g, b, 0, 0]
-                    s10_1 += UB[g, a, 1, 1] * WB[g, b, 0, 1]
-                    s10_2 += UB[g, a, 1, 2] * WB[g, b, 0, 2]
-                    s10_3 += UB[g, a, 1, 3] * WB[g, b, 0, 3]
-                    s11_0 += UB[g, a, 1, 0] * WB[g, b, 1, 0]
-                    s11_1 += UB[g, a, 1, 1] * WB[g, b, 1, 1]
-                    s11_2 += UB[g, a, 1, 2] * WB[g, b, 1, 2]
-                    s11_3 += UB[g, a, 1, 3] * WB[g, b, 1, 3]
-                    s12_0 += UB[g, a, 1, 0] * WB[g, b, 2, 0]
-                    s12_1 += UB[g, a, 1, 1] * WB[g, b, 2, 1]
-                    s12_2 += UB[g, a, 1, 2] * WB[g, b, 2, 2]
-                    s12_3 += UB[g, a, 1, 3] * WB[g, b, 2, 3]
-                    s13_0 += UB[g, a, 1, 0] * WB[g, b, 3, 0]
-                    s13_1 += UB[g, a, 1, 1] * WB[g, b, 3, 1]
-                    s13_2 += UB[g, a, 1, 2] * WB[g, b, 3, 2]
-                    s13_3 += UB[g, a, 1, 3] * WB[g, b, 3, 3]
-                q = gp[g * 8 + 0]
-                V[k, q, 0] = s00_0
-                V[k, q, 1] = s00_1
-                V[k, q, 2] = s00_2
-                V[k, q, 3] = s00_3
-                q = gp[g * 8 + 1]
-                V[k, q, 0] = s01_0
-                V[k, q, 1] = s01_1
-                V[k, q, 2] = s01_2
-                V[k, q, 3] = s01_3
-                q = gp[g * 8 + 2]
-                V[k, q, 0] = s02_0
-                V[k, q, 1] = s02_1
-                V[k, q, 2] = s02_2
-                V[k, q, 3] = s02_3
-                q = gp[g * 8 + 3]
-                V[k, q, 0] = s03_0
-                V[k, q, 1] = s03_1
-                V[k, q, 2] = s03_2
-                V[k, q, 3] = s03_3
-                q = gp[g * 8 + 4]
-                V[k, q, 0] = s10_0
-                V[k, q, 1] = s10_1
-                V[k, q, 2] = s10_2
-                V[k, q, 3] = s10_3
-                q = gp[g * 8 + 5]
-                V[k, q, 0] = s11_0
-                V[k, q, 1] = s11_1
-                V[k, q, 2] = s11_2
-                V[k, q, 3] = s11_3
-                q = gp[g * 8 + 6]
-                V[k, q, 0] = s12_0
-                V[k, q, 1] = s12_1
-                V[k, q, 2] = s12_2
-                V[k, q, 3] = s12_3
-                q = gp[g * 8 + 7]
-                V[k, q, 0] = s13_0
-                V[k, q, 1] = s13_1
-                V[k, q, 2] = s13_2
-                V[k, q, 3] = s13_3
-            for p in range(npr):
-                c = pcls[p]
-                if c == 0 or c == 5:
-                    continue  # general (the blocks above) or the tables' padding (never read)
-                u = pu[p]
-                w = pw[p]
-                for ln in range(4):
-                    if c == 1:
-                        V[k, nv + p, ln] = V[0, u, ln] * V[k, w, ln]
-                    elif c == 2:
-                        V[k, nv + p, ln] = V[k, u, ln] * V[0, w, ln]
-                    elif c == 3:
-                        V[k, nv + p, ln] = V[0, u, ln] * V[0, w, ln] if k == 0 else 0.0
-            ik = 1.0 / (k + 1)
-            for c in range(nvar):
-                a0 = 0.0
-                a1 = 0.0
-                a2 = 0.0
-                a3 = 0.0
-                for t in range(qptr[c], qptr[c + 1]):
-                    cf = qcoef[t]
-                    q = nv + qprod[t]
-                    a0 += cf * V[k, q, 0]
-                    a1 += cf * V[k, q, 1]
-                    a2 += cf * V[k, q, 2]
-                    a3 += cf * V[k, q, 3]
-                for t in range(lptr[c], lptr[c + 1]):
-                    cf = lcoef[t]
-                    i = lvar[t]
-                    if lcon[t]:
-                        if k == 0:
-                            a0 += cf * V[0, i, 0]
-                            a1 += cf * V[0, i, 1]
-                            a2 += cf * V[0, i, 2]
-                            a3 += cf * V[0, i, 3]
-                    else:
-                        a0 += cf * V[k, i, 0]
-                        a1 += cf * V[k, i, 1]
-                        a2 += cf * V[k, i, 2]
-                        a3 += cf * V[k, i, 3]
-                o = vrow[c]
-                V[k + 1, o, 0] = a0 * ik
-                V[k + 1, o, 1] = a1 * ik
-                V[k + 1, o, 2] = a2 * ik
-                V[k + 1, o, 3] = a3 * ik
+            _packed_order(V, UB, WB, k, nv, drow, dptr, didx, dcoef, gp, gu, gw, pu, pw, pcls, vrow, qptr, qprod, qcoef, lptr, lvar, lcoef, lcon)  # fmt: skip
         for ln in range(4):
             hv[ln] = 0.0
             if who[ln] < 0:

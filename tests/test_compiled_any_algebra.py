@@ -285,35 +285,50 @@ def test_generated_kernel_against_the_generic_one(name):
 
 
 @needs_numba
-def test_generated_kernel_split_forms_against_the_generic_one(monkeypatch):
-    """The compile-time forms of the generated kernel -- derived rows by one loop over a table
-    (``DERIVED_TABLE_FROM``) and the products in several helper functions (``HELPER_PRODUCTS``),
-    which only large structures (so(5), sp(4) in the adjoint representation) reach by default --
-    forced on a free top on se(3): the same recurrence as the kernel compiled for every structure,
-    so the same step counts (``+- 1``) and end states within rounding (the error model of
-    ``test_generated_kernel_against_the_generic_one``)."""
+def test_generated_kernel_every_term_kind_against_the_generic_one():
+    """Every kind of term the generated kernel's order body (the LLVM IR of
+    :mod:`refimpl.codegen._full_state_ir`) writes -- a state row's product with sign +1 or -1 (the
+    complex representation of su(3)), times a number, a linear term in a varying row (the cocycle of
+    Bianchi III) or a constant one (``Gamma`` of a heavy h(3) top), products with a constant first,
+    second or both factors (h(3) with gravity, the abelian R^3) -- against the kernel compiled for every structure (sparse tables):
+    the same step counts (``+- 1``) and end states within rounding (the error model of
+    ``test_generated_kernel_against_the_generic_one``); a non-finite row fails alone (status -1)."""
+    from tstarg.refimpl.codegen import _full_state_ir as ir
     from tstarg.refimpl.codegen import full_state as cg
-    from tstarg.refimpl.codegen import import_source
 
-    alg, theta, ups, inertia, pot, x0, pi0 = _model("se(3)")
-    model = cached_model(alg, theta, ups, inertia, pot)
-    fs = fs_mod.full_state(model)
-    monkeypatch.setattr(cg, "DERIVED_TABLE_FROM", 0)
-    monkeypatch.setattr(cg, "HELPER_PRODUCTS", 5)
-    src = cg.full_state_source(fs)
-    assert "for ri in range(DR.shape[0]):" in src and "_prods1(V, k)" in src
-    mod = import_source(src, "fullstate_")
-    G0 = np.empty((1, fs.r, fs.r), dtype=fs.mats.dtype)
-    fk.exp_batch(np.ascontiguousarray(x0[None]), fs.mats, G0)
-    s0 = None if fs.abelian is None else fs.abelian.P @ x0[:, None]
-    y0 = fs_mod._pack(fs, pi0[:, None], None, G0, s0)
-    P = fs_mod.default_order(1e-13)
-    yg, sg = np.empty_like(y0), np.zeros(1, dtype=np.int64)
-    mod.adaptive(y0, 1.0, 1e-13, P, 10_000_000, fs.coef, yg, sg)
-    yt, st = fs.run(y0, 1.0, 1e-13, generated=False)
-    assert abs(int(sg[0]) - int(st[0])) <= 1 and sg[0] > 0
-    bound = 10 * 1e2 * EPS * int(st[0]) * max(1.0, np.max(np.abs(yt)))
-    assert np.max(np.abs(yg - yt)) <= bound
+    kinds, classes = set(), set()
+    cases = (("h(3)", True), ("R^3", False), ("Bianchi III + cocycle", False), ("su(3)", False))
+    for name, grav in cases:
+        alg, theta, ups, inertia, pot, x0, pi0 = _model(name)
+        n = alg.f.shape[0]
+        if grav:
+            pot = {"kind": "gravity", "L": np.arange(1.0, n + 1), "gamma": np.ones(n)}
+        model = cached_model(alg, theta, ups, inertia, pot)
+        fs = fs_mod.full_state(model)
+        sp = cg.spec(fs)[0]
+        kinds |= {t[0] for _, terms in sp[4] for t in terms}
+        classes |= {c[3] for c in sp[3]}
+        G0 = np.empty((1, fs.r, fs.r), dtype=fs.mats.dtype)
+        fk.exp_batch(np.ascontiguousarray(x0[None]), fs.mats, G0)
+        s0 = None if fs.abelian is None else fs.abelian.P @ x0[:, None]
+        ga0 = np.array([[0.3], [-0.2], [0.9]]) if grav else None
+        y0 = fs_mod._pack(fs, pi0[:, None], ga0, G0, s0)
+        yg, sg = fs.run(y0, 1.0, 1e-13, generated=True)
+        yt, st = fs.run(y0, 1.0, 1e-13, generated=False)
+        assert abs(int(sg[0]) - int(st[0])) <= 1 and sg[0] > 0, name
+        bound = 10 * 1e2 * EPS * int(st[0]) * max(1.0, np.max(np.abs(yt)))
+        assert np.max(np.abs(yg - yt)) <= bound, name
+        # a non-finite start fails its own row (status -1, NaN state), the next row is unchanged
+        y2 = np.concatenate([y0, y0])
+        y2[0, 0] = np.nan
+        out, st = np.empty_like(y2), np.zeros(2, dtype=np.int64)
+        P = fs_mod.default_order(1e-13)
+        fs.module().adaptive(y2, 1.0, 1e-13, P, 10**7, fs.coef, out, st)
+        assert st[0] == -1 and np.all(np.isnan(out[0])), name
+        np.testing.assert_array_equal(out[1], yg[0])
+        assert st[1] == sg[0]
+    assert kinds == {ir.PLUS, ir.MINUS, ir.SCALED, ir.LIN_CONST, ir.LIN}
+    assert classes == {ir.U_CONST, ir.W_CONST, ir.BOTH_CONST}
 
 
 def _control_alone(model, x0, pi0, T, tol):

@@ -87,11 +87,8 @@ def fs():
 
 
 def _force(monkeypatch, f, form):
-    """Make ``f`` (a small structure) take the lane kernel ``form``: ``written`` (its own), ``packed``
-    (generated, MAX_SIZE = 0) or ``tables`` (refimpl._full_state_batch.adaptive_packed, also
-    MAX_GENERATED_TERMS = 0)."""
-    if form in ("packed", "tables"):
-        monkeypatch.setattr(fsb, "MAX_SIZE", 0)
+    """Make ``f`` (a small structure) take the lane kernel ``form``: ``written`` (its own, generated)
+    or ``tables`` (refimpl._full_state_batch.adaptive_packed: MAX_GENERATED_TERMS = 0)."""
     if form == "tables":
         monkeypatch.setattr(fsb, "MAX_GENERATED_TERMS", 0)
     monkeypatch.delitem(f.__dict__, "_batch_kernel", raising=False)
@@ -133,7 +130,7 @@ def test_batch_kernel_backwards_in_time(fs):
 
 
 @needs_numba
-@pytest.mark.parametrize("form", ["written", "packed", "tables"])
+@pytest.mark.parametrize("form", ["written", "tables"])
 @pytest.mark.parametrize("bad", [np.nan, np.inf])
 def test_a_failing_lane_is_reported_alone(fs, monkeypatch, bad, form):
     """A non-finite row fails in its own lane (negative status, NaN row); every other row is what it
@@ -289,43 +286,55 @@ def test_share_groups_partition_the_products():
     assert len({pu[p] for p in first}) + len({pw[p] for p in first}) == 6
 
 
-def test_lane_kernel_size_rule():
-    """Small structures (Bianchi III: a few dozen statements) get every product written out; the
-    largest (su(3): 140 general products alone, over MAX_SIZE) the packed form, whose source does not
-    grow with the products (one fixed block over the index tables)."""
+def test_lane_kernel_spec_covers_the_field():
+    """The generated lane kernel's spec (:func:`batch_spec`) on su(3) (140 general products, complex
+    representation): every general product in exactly one group of at most ``GROUP``, every product
+    with a constant factor among the constant classes, every term of every derived and state row of
+    the tables once, each with its number's index into ``c`` (:func:`batch_numbers`); the source
+    names the IR version (numba's cache key is the source's text)."""
     from tstarg.refimpl._catalogue import catalogue
+    from tstarg.refimpl.codegen import _full_state_ir as ir
+    from tstarg.refimpl.codegen.full_state_batch import GROUP, batch_numbers, batch_spec
 
-    small = cached_model(*_args())
-    fsmall = fs_mod.FullState(small, small.representation)
-    assert fsb.applies(fsmall) and fsb.size(fsmall) <= fsb.MAX_SIZE
     su3 = catalogue("su(3)")
     z = np.zeros((8, 8))
     big = cached_model(su3.f, z, z, np.diag(np.linspace(1.0, 2.0, 8)), None)
     fbig = fs_mod.FullState(big, big.representation)
-    assert int((fbig.tables()[7] == 0).sum()) > fsb.MAX_SIZE // 2
-    assert fsb.applies(fbig) and fsb.size(fbig) > fsb.MAX_SIZE
     tb = fbig.tables()
-    packed = batch_source(tb, fbig.d, packed=True)
-    assert "UB[g, a, 0, 0]" in packed
-    assert len(packed) < len(batch_source(tb, fbig.d)) / 2
+    c = batch_numbers(tb)
+    ncoef, derived, groups, consts, state = batch_spec(tb)
+    assert ncoef == len(c)
+    general = np.flatnonzero(tb[7] == 0)
+    assert len(general) == 140
+    assert sorted(p for g in groups for p, _, _ in g) == general.tolist()
+    assert all(1 <= len(g) <= GROUP for g in groups)
+    assert all((tb[5][p], tb[6][p]) == (u, w) for g in groups for p, u, w in g)
+    assert sorted(p for p, *_ in consts) == np.flatnonzero(np.isin(tb[7], (1, 2, 3))).tolist()
+    assert [r for r, _ in derived] == tb[1].tolist()
+    assert [c[ci] for _, terms in derived for ci, _ in terms] == tb[4].tolist()
+    assert [r for r, _ in state] == tb[8].tolist()
+    quad = [(c[ci], x) for _, terms in state for kd, ci, x in terms if kd == ir.SCALED]
+    assert quad == list(zip(tb[11].tolist(), tb[10].tolist()))
+    lin = [(c[ci], x) for _, terms in state for kd, ci, x in terms if kd != ir.SCALED]
+    assert lin == list(zip(tb[14].tolist(), tb[13].tolist()))
+    assert f"IR version {ir.IR_VERSION}" in batch_source(tb, fbig.d)
 
 
 @needs_numba
-@pytest.mark.parametrize("form", ["packed", "tables"])
 @pytest.mark.parametrize("N", [1, W + 1, 2 * W + 3])
-def test_packed_batch_kernel_equals_the_single_kernel(fs, monkeypatch, N, form):
-    """Both packed kernels (generated, and the one for every structure; forced on a small structure by
+def test_packed_batch_kernel_equals_the_single_kernel(fs, monkeypatch, N):
+    """The packed kernel compiled for every structure (forced on a small structure by
     :func:`_force`) against the table-driven single kernel: every row, the same step counts, under the rounding model of the written-out form (the same
     sums in the same order, FMAs possibly contracted differently); the blocks' pairs that are no
     product (the zero row into the sink row) change no row."""
     model, f = fs
-    _force(monkeypatch, f, form)
+    _force(monkeypatch, f, "tables")
     y = _states(f, model, N, seed=11)
     keep = y.copy()
     T, tol = 1.1, 1e-12
     P = fs_mod.default_order(tol)
     fn, args = fsb.kernel(f)
-    assert (fn is fsb.adaptive_packed) == (form == "tables")
+    assert fn is fsb.adaptive_packed
     gp, gu, gw = args[-3:]
     tb = f.tables()
     nv, npr = int(tb[0]), len(tb[5])
@@ -340,6 +349,42 @@ def test_packed_batch_kernel_equals_the_single_kernel(fs, monkeypatch, N, form):
     f.__dict__.pop("_batch_kernel")  # the next test gets the written-out form again
     ref, rsteps = _single(f, y, T, tol, P)
     np.testing.assert_array_equal(y, keep)
+    np.testing.assert_array_equal(steps, rsteps)
+    _assert_rounding_close(out, ref, rsteps)
+
+
+@needs_numba
+@pytest.mark.parametrize("name", ["h(3) + gravity", "R^3"])
+def test_packed_kernel_on_constant_factors(name):
+    """:func:`adaptive_packed` (its order body the IR of
+    :func:`refimpl.codegen._full_state_ir.packed_order`) on the branches the Bianchi III fixture does
+    not reach: products with a constant first, second or both factors and linear terms in a constant
+    row (h(3) with gravity, the abelian R^3; seen in the tables), against the table-driven single
+    kernel (same step counts, the rounding model above)."""
+    from tstarg.refimpl._catalogue import catalogue
+
+    alg = catalogue(name.split(" ")[0])
+    n = alg.f.shape[0]
+    rng = np.random.default_rng(17)
+    A = rng.standard_normal((n, n))
+    z = np.zeros((n, n))
+    grav = "gravity" in name
+    pot = {"kind": "gravity", "L": np.arange(1.0, n + 1), "gamma": np.ones(n)} if grav else None
+    f = fs_mod.full_state(cached_model(alg.f, z, z, A @ A.T / n + np.eye(n), pot), _AbelianPart)
+    tb = f.tables()
+    want = {1, 2} if grav else {3}
+    assert want <= set(tb[7].tolist()) and (not grav or np.any(tb[15]))
+    N = W + 3
+    x0 = 0.2 * rng.standard_normal((n, N))
+    G0 = np.empty((N, f.r, f.r), dtype=f.mats.dtype)
+    fk.exp_batch(np.ascontiguousarray(x0.T), f.mats, G0)
+    s0 = None if f.abelian is None else f.abelian.P @ x0
+    ga0 = rng.standard_normal((n, N)) if grav else None
+    y = fs_mod._pack(f, rng.standard_normal((n, N)), ga0, G0, s0)
+    T, tol = 1.0, 1e-12
+    P = fs_mod.default_order(tol)
+    out, steps = fsb.run(f, y, T, tol, P, 10**7, generated=False)
+    ref, rsteps = _single(f, y, T, tol, P)
     np.testing.assert_array_equal(steps, rsteps)
     _assert_rounding_close(out, ref, rsteps)
 
@@ -394,3 +439,49 @@ def test_batch_rows_near_the_float64_floor_are_retried_by_the_control():
                 2 * K * tol * max(1.0, float(np.max(np.abs(want)))) + 1e3 * n * np.finfo(float).eps
             )
             assert np.all(np.isfinite(got)) and np.max(np.abs(got - want)) <= bound, (k, got, want)
+
+
+@needs_numba
+def test_pair_kernel_equals_two_single_runs(fs, monkeypatch):
+    """The first pair on two lanes (:func:`refimpl._full_state_batch.pair_first`): each lane is the
+    generated single kernel's run at its tolerance and order, bitwise (the same operations; the
+    series computed to the larger order for both) -- with A or B finishing first, each lane's step
+    budget and a non-finite start failing both lanes by status; the input row is not written."""
+    model, f = fs
+    y = _states(f, model, 1, seed=21)
+    keep = y.copy()
+    T = 1.7
+    mod = f.module()
+
+    def single(eps, P, budget=10**7, row=y):
+        out, st = np.empty_like(row), np.zeros(1, dtype=np.int64)
+        mod.adaptive(row, T, eps, P, budget, f.coef, out, st)
+        return out, st
+
+    runs = [(1e-6, fs_mod.default_order(1e-6)), (2e-15, fs_mod.default_order(2e-15))]
+    for (ea, pa), (eb, pb) in (runs, runs[::-1]):  # either lane the longer one
+        A, B, sa, sb = fsb.pair_first(f, y, T, ea, eb, pa, pb)
+        (A1, sa1), (B1, sb1) = single(ea, pa), single(eb, pb)
+        assert sa[0] != sb[0] and min(sa[0], sb[0]) > 0
+        np.testing.assert_array_equal(A, A1)
+        np.testing.assert_array_equal(B, B1)
+        np.testing.assert_array_equal(sa, sa1)
+        np.testing.assert_array_equal(sb, sb1)
+    np.testing.assert_array_equal(y, keep)
+    # the step budget between the two runs' step counts: the longer lane fails alone (-3)
+    (ea, pa), (eb, pb) = runs
+    sa1, sb1 = single(ea, pa)[1][0], single(eb, pb)[1][0]
+    lo, hi = sorted((sa1, sb1))
+    monkeypatch.setattr(fs_mod, "MAX_STEPS", int(lo))
+    A, B, sa, sb = fsb.pair_first(f, y, T, ea, eb, pa, pb)
+    monkeypatch.undo()
+    short_a = sa1 <= sb1
+    assert (sa[0] > 0) == short_a and (sb[0] > 0) != short_a
+    assert min(sa[0], sb[0]) == -3 and np.all(np.isnan(A if not short_a else B))
+    assert hi > lo
+    bad = y.copy()
+    bad[0, 0] = np.nan
+    A, B, sa, sb = fsb.pair_first(f, bad, T, ea, eb, pa, pb)
+    assert sa[0] == sb[0] == -1 and np.all(np.isnan(A)) and np.all(np.isnan(B))
+    with pytest.raises(ValueError, match=r"y0 must have shape \(1, "):
+        fsb.pair_first(f, np.concatenate([y, y]), T, ea, eb, pa, pb)

@@ -2,22 +2,36 @@
 
 The source depends only on the structure of the field -- which variables exist, which are constant,
 the nonzero patterns of ``I^-1``, ``f``, ``Theta``, ``G_L`` and of the representation's ``E_b`` --
-and reads every number from one array ``c`` (locals ``c{i}`` loaded once per call). Per order ``k``:
-the derived rows (``Omega_k``, then ``M_k = rho(Omega_k)``), the Cauchy products (independent sums
-side by side, in generated helpers of :data:`HELPER_PRODUCTS` products: compile time), the state rows
-from their terms. Step control and the
-compensated Horner update as :mod:`refimpl._full_state_kernel` (the kernel compiled for every
-structure, same recurrence; this one unrolls the products: about 2.2x faster per step).
+and reads every number from one array ``c`` (a tuple ``C`` loaded once per call). Per order ``k``
+the intrinsic ``_order(V, k, C)`` (:mod:`refimpl.codegen._full_state_ir`, LLVM IR built from the
+literal :func:`spec` in the source): the derived rows (``Omega_k``, then ``M_k = rho(Omega_k)``), the
+Cauchy products (independent sums side by side in loops over ``a``), the state rows from their
+terms. Per step the compensated Horner update of the non-constant rows is the intrinsic
+``_update`` (the rows' chains side by side in one loop; each row's operations in the order of the
+Python loop it replaced: bitwise equal on the four bench structures), the step control numba
+Python around it (with both intrinsics, against the numba Python kernel of 58f381e in one run, at
+2e-15, interleaved, best of 300, load 1.9-2.3: kirchhoff_se3 111.3 -> 99.5 us, manakov_so4 49.3 ->
+43.2, free_su3 72.1 -> 65.9, bianchi_cocycle 32.2 -> 31.6); the recurrence and control as :mod:`refimpl._full_state_kernel` (the kernel compiled for every structure, same recurrence; this one
+unrolls the products: about 2.2x faster per step).
+
+Compile time (issue 25): the order body as IR instead of Python statements, fully cold (empty numba
+and kernel caches, the kernel alone, CPU, load 0.9-1.3; ``/work/scratch_ir/cold_all.sh``, a
+machine-local script): free su(3) 3.59 -> 1.22 s, kirchhoff se(3) 1.81 -> 0.94, manakov so(4) 2.15 ->
+0.99, sl(3) 2.67 -> 1.03, Bianchi VI0 with a cocycle 1.30 -> 0.94, the free so(5) top (adjoint
+representation, 660 products) 10.0 -> 2.15. The same operations in the same order as the Python
+source it replaces (end states bitwise equal on kirchhoff_se3, free_su3, manakov_so4 and
+bianchi_cocycle at 1e-6 and 2e-15), and per call equal or faster (no index wraparound checks; kernel
+alone, interleaved in one process, best of 300, CPU, load 0.9-1.1, at 2e-15: kirchhoff_se3 111.7 ->
+102.0 us, free_su3 71.7 -> 66.5, manakov_so4 50.0 -> 44.2, bianchi_cocycle 32.4 -> 32.9).
 """
 
 from __future__ import annotations
 
-import re
-
+from . import _full_state_ir as ir
 from .rational import adaptive_step_lines
-from .taylor import _JIT, tree_sum
+from .taylor import _JIT
 
-__all__ = ["full_state_source"]
+__all__ = ["full_state_source", "spec"]
 
 
 PRODUCT_CHUNK = 16
@@ -33,45 +47,20 @@ best of 100, CPU, load 2.2-2.6, kernel at ``eps = 2e-15`` (order 22) and the pro
 kirchhoff_se3 163 -> 112 us, flow 262 -> 199 us; free_su3 117 -> 70 us, flow 219 -> 156 us;
 manakov_so4 86 -> 48 us, flow 165 -> 115 us; bianchi_cocycle 34.1 -> 31.9 us, flow 93 -> 90 us;
 compile time unchanged (su(3) 3.9-4.0 s). So ordered, 8, 16 or 32 per loop are alike (su(3): 71, 70,
-69 us). In each loop every distinct factor is read once per ``a`` into a local (numba types and
-lowers one array index per factor instead of two per product: compile time, load 1.3-1.8, numba-warm:
-the free so(5) top's 660 products 13.1 -> 9.9 s, free_su3 4.22 -> 3.57 s, kirchhoff_se3 1.86 ->
-1.83 s; per step equal or better, interleaved, best of 100: free_su3 70.9 -> 63.5 us at ``2e-15``,
-kirchhoff_se3 114.9 -> 113.1, manakov_so4 48.5 -> 48.2; the same multiply-adds in the same order)."""
-
-DERIVED_TABLE_FROM = 64
-"""Derived rows (``Omega_k``, the entries of ``M_k``) above this many are computed by one loop over a
-table (target row, its terms' source rows and coefficient indices) instead of one generated line
-each: the free so(5) top (adjoint representation) has 180, and each generated line costs numba
-about 20 ms of compile time; a table costs a few ns of indirection per term, small beside the
-products (su(2), su(3), se(3), so(4) stay unrolled: 6-30 rows).
-Sums in the order of the terms (``a`` fixed), as the unrolled lines' trees up to rounding."""
-
-HELPER_PRODUCTS = 64  # 0: all products in one helper
-"""Cauchy products per generated helper function ``_prods{i}(V, k)`` (its chunk loops, returning the
-sums as a tuple). numba's compile time grows faster than linearly with one function's size (its SSA
-reconstruction and rewrites walk every variable over every block), so the products leave the kernel
-in helpers of this many: the free so(5) top (adjoint representation, 660 products) compiled in 31 s
-as one function and in 16 s so split (load 7; 4 to 64 products per helper within 1 s of each
-other). Same arithmetic: each sum is accumulated in the order ``a = 0..k`` as before. No per-step
-cost: free su(3) (140 products, three helpers), interleaved in one process, best of 200, CPU, load
-1.6: kernel at ``eps = 2e-15``, order 22, 125.1 us split against 124.1 us as one function (32 per
-helper: 121.4 us); the protocol flow 217.4 us against 223.4 us."""
+69 us). In each loop every distinct factor is read once per ``a`` (free_su3 70.9 -> 63.5 us at
+``2e-15``, kirchhoff_se3 114.9 -> 113.1, manakov_so4 48.5 -> 48.2, when this was numba Python; the
+same multiply-adds in the same order)."""
 
 
-def _sum(terms: list[str]) -> str:
-    return tree_sum(terms) if terms else "0.0"
-
-
-def full_state_source(fs) -> str:
-    """The kernel module ``adaptive(y0, T, tol, P, max_steps, c, out, nsteps)`` for the structure of
-    ``fs`` (a :class:`refimpl._full_state.FullState`)."""
+def spec(fs) -> tuple:
+    """The structure of ``fs``'s recurrence as the literal ``SPEC`` of the order intrinsic
+    (:func:`refimpl.codegen._full_state_ir.order_intrinsic`) and the kernel's rows: ``(SPEC, nv, VR,
+    SR)`` with ``nv`` the rows of ``V``, ``VR`` the non-constant state rows, ``SR`` the step rows."""
     names, const = fs.names, fs.const
     idx = {v: i for i, v in enumerate(names)}
     dnames = [f"om{b}" for b in range(fs.n)] + [f"m{pa}_{k}_{j}" for (pa, k, j) in fs.mv]
     for v in dnames:
         idx[v] = len(idx)
-    nv = len(idx)
     dconst = set()
     for b in range(fs.n):
         if all(p in const for _, p in fs.om[b]):
@@ -80,98 +69,58 @@ def full_state_source(fs) -> str:
         if all(f"om{b}" in dconst for _, b in t):
             dconst.add(f"m{pa}_{k}_{j}")
     allconst = const | dconst
-
-    def V(v, k):
-        return f"V[{idx[v]}, {k}]"
-
-    I1, I2, I3, I4, I5 = ("    " * i for i in range(1, 6))
-    kb = []
     # derived at order k: Omega_k, then M_k (rows in this order: M reads Omega)
-    derived = [(f"om{b}", list(fs.om[b])) for b in range(fs.n)]
+    derived = [(idx[f"om{b}"], tuple((ci, idx[u]) for ci, u in fs.om[b])) for b in range(fs.n)]
     derived += [
-        (f"m{pa}_{k}_{j}", [(ci, f"om{b}") for ci, b in t]) for (pa, k, j), t in fs.mv.items()
+        (idx[f"m{pa}_{k}_{j}"], tuple((ci, idx[f"om{b}"]) for ci, b in t))
+        for (pa, k, j), t in fs.mv.items()
     ]
-    tables = []
-    if len(derived) > DERIVED_TABLE_FROM:  # one loop over a table (compile time), else unrolled
-        dptr, dsrc, dci = [0], [], []
-        for _, terms in derived:
-            dsrc += [idx[u] for _, u in terms]
-            dci += [ci for ci, _ in terms]
-            dptr.append(len(dsrc))
-        for name, vals in (
-            ("DR", [idx[v] for v, _ in derived]),
-            ("DP", dptr),
-            ("DS", dsrc),
-            ("DC", dci),
-        ):
-            tables.append(I1 + f"{name} = np.array([{', '.join(map(str, vals))}], dtype=np.int64)")
-        kb += [
-            "for ri in range(DR.shape[0]):",
-            I1 + "dsum = 0.0",
-            I1 + "for ti in range(DP[ri], DP[ri + 1]):",
-            I2 + "dsum += c[DC[ti]] * V[DS[ti], k]",
-            I1 + "V[DR[ri], k] = dsum",
-        ]
-    else:
-        for v, terms in derived:
-            kb.append(f"{V(v, 'k')} = " + _sum([f"c{ci} * {V(u, 'k')}" for ci, u in terms]))
-    # products: distinct pairs
-    prods: dict[tuple[str, str], str] = {}
+    prods: dict[tuple[str, str], int] = {}  # distinct pairs
     for v in names:
         for _, u, w in fs.quad[v]:
-            key = (u, w)
-            if key not in prods:
-                prods[key] = f"p{len(prods)}"
+            prods.setdefault((u, w), len(prods))
     full = [
         (key, p) for key, p in prods.items() if key[0] not in allconst and key[1] not in allconst
     ]
     # products sharing their second factor side by side (see PRODUCT_CHUNK): same sums, fewer loads
     full.sort(key=lambda kp: (idx[kp[0][1]], idx[kp[0][0]]))
-    helpers = []  # the general products, HELPER_PRODUCTS per generated function (compile time)
-    per = HELPER_PRODUCTS or max(len(full), 1)
-    for h, lo in enumerate(range(0, len(full), per)):
-        part = full[lo : lo + per]
-        hb = [_JIT, f"def _prods{h}(V, k):"] + [I1 + f"{p} = 0.0" for _, p in part]
-        for c0 in range(
-            0, len(part), PRODUCT_CHUNK
-        ):  # independent sums side by side, a chunk per loop
-            hb.append(I1 + "for a in range(k + 1):")
-            # each distinct factor of the chunk read once per a (see PRODUCT_CHUNK)
-            chunk = part[c0 : c0 + PRODUCT_CHUNK]
-            hb.append(I2 + "b = k - a")
-            fu = {u: f"fu{i}" for i, u in enumerate(dict.fromkeys(u for (u, _), _ in chunk))}
-            fw = {w: f"fw{i}" for i, w in enumerate(dict.fromkeys(w for (_, w), _ in chunk))}
-            hb += [I2 + f"{nm} = {V(u, 'a')}" for u, nm in fu.items()]
-            hb += [I2 + f"{nm} = {V(w, 'b')}" for w, nm in fw.items()]
-            hb += [I2 + f"{p} += {fu[u]} * {fw[w]}" for (u, w), p in chunk]
-        names_h = ", ".join(p for _, p in part)
-        hb += [I1 + f"return ({names_h},)", "", ""]
-        helpers += hb
-        kb.append(f"({names_h},) = _prods{h}(V, k)")
+    chunks = tuple(
+        tuple((p, idx[u], idx[w]) for (u, w), p in full[c0 : c0 + PRODUCT_CHUNK])
+        for c0 in range(0, len(full), PRODUCT_CHUNK)
+    )
+    consts = []
     for (u, w), p in prods.items():
-        if u in allconst and w in allconst:
-            kb.append(f"{p} = {V(u, 0)} * {V(w, 0)} if k == 0 else 0.0")
-        elif u in allconst:
-            kb.append(f"{p} = {V(u, 0)} * {V(w, 'k')}")
-        elif w in allconst:
-            kb.append(f"{p} = {V(u, 'k')} * {V(w, 0)}")
-    kb.append("ik = 1.0 / (k + 1)")
+        cu, cw = u in allconst, w in allconst
+        if cu or cw:
+            consts.append(
+                (
+                    p,
+                    idx[u],
+                    idx[w],
+                    ir.BOTH_CONST if cu and cw else ir.U_CONST if cu else ir.W_CONST,
+                )
+            )
+    state = []
     for v in fs.var:
         terms = []
         for c, u, w in fs.quad[v]:
             p = prods[(u, w)]
             if isinstance(c, float):
-                terms.append(p if c > 0 else f"-{p}")
+                terms.append((ir.PLUS if c > 0 else ir.MINUS, 0, p))
             else:
-                terms.append(f"c{c} * {p}")
+                terms.append((ir.SCALED, c, p))
         for ci, u in fs.lin[v]:
-            if u in allconst:
-                terms.append(f"(c{ci} * {V(u, 0)} if k == 0 else 0.0)")
-            else:
-                terms.append(f"c{ci} * {V(u, 'k')}")
-        kb.append(f"{V(v, 'k + 1')} = ({_sum(terms)}) * ik")
+            terms.append((ir.LIN_CONST if u in allconst else ir.LIN, ci, idx[u]))
+        state.append((idx[v], tuple(terms)))
+    sp = (len(fs.coef), tuple(derived), chunks, tuple(consts), tuple(state))
+    return sp, len(idx), [idx[v] for v in fs.var], [idx[v] for v in fs.step_vars]
 
-    rows = fs.step_vars
+
+def full_state_source(fs) -> str:
+    """The kernel module ``adaptive(y0, T, tol, P, max_steps, c, out, nsteps)`` for the structure of
+    ``fs`` (a :class:`refimpl._full_state.FullState`)."""
+    sp, nv, vrows, srows = spec(fs)
+    I1, I2, I3, I4 = ("    " * i for i in range(1, 5))
 
     def amax(k):  # max |V[row, k]| over the step rows: one loop over the table SR
         # order 0 as the run-time K0, not a literal: numba types a literal 0 as Literal[int] and
@@ -179,21 +128,10 @@ def full_state_source(fs) -> str:
         return f"_amax(V, SR, {'K0' if k == 0 else k})"
 
     step = adaptive_step_lines(amax, I1, "h > 0.0")
-    # the compensated Horner update of every non-constant row: one loop over the table VR (a loop per
-    # row would multiply the compile time, ~25 rows on su(3); same arithmetic in the same order)
+    # the compensated Horner update of every non-constant row (the intrinsic _update: the rows'
+    # chains side by side)
     step += [
-        "fin = True",
-        "for ci in range(VR.shape[0]):",
-        I1 + "i = VR[ci]",
-        I1 + "z = V[i, P]",
-        I1 + "for kk in range(P - 1, 0, -1):",
-        I2 + "z = z * hs + V[i, kk]",
-        I1 + "z = z * hs - comp[ci]",
-        I1 + "w = V[i, 0] + z",
-        I1 + "comp[ci] = (w - V[i, 0]) - z",
-        I1 + "V[i, 0] = w",
-        I1 + "if not math.isfinite(w):",
-        I2 + "fin = False",
+        "fin = _update(V, comp, hs, P)",
         "nst += 1",
         "if not fin:",
         I1 + "status = -1",
@@ -202,14 +140,21 @@ def full_state_source(fs) -> str:
         I1 + "status = -3",
         I1 + "break",
     ]
-    vr = ", ".join(str(idx[v]) for v in fs.var)
-    sr = ", ".join(str(idx[v]) for v in rows)
-    ncoef = len(fs.coef)
+    nvar = max(len(vrows), 1)
     src = [
         '"""Generated by tstarg.refimpl._full_state (one structure; numbers are arguments)."""',
         "import math",
         "import numpy as np",
         "from numba import njit",
+        "from tstarg.refimpl.codegen import _full_state_ir",
+        "",
+        f"# the structure (refimpl.codegen.full_state.spec, IR version {ir.IR_VERSION}): ncoef,",
+        "# derived rows, product chunks, products with a constant factor, state rows",
+        f"SPEC = {sp!r}",
+        "_order = _full_state_ir.order_intrinsic(SPEC)",
+        f"_load = _full_state_ir.load_intrinsic({sp[0]})",
+        f"_update = _full_state_ir.update_intrinsic({tuple(vrows)!r})",
+        "_order2 = _full_state_ir.lanes_order_intrinsic(SPEC, 2)",
         "",
         "",
         _JIT,
@@ -220,21 +165,17 @@ def full_state_source(fs) -> str:
         I1 + "return m",
         "",
         "",
-        *helpers,
         _JIT,
         "def adaptive(y0, T, tol, P, max_steps, c, out, nsteps):",
-        I1
-        + (f"VR = np.array([{vr}], dtype=np.int64)" if vr else "VR = np.zeros(0, dtype=np.int64)"),
-        I1
-        + (f"SR = np.array([{sr}], dtype=np.int64)" if sr else "SR = np.zeros(0, dtype=np.int64)"),
-    ]
-    src += tables
-    used = set(re.findall(r"\bc(\d+)\b", "\n".join(kb)))  # the table rows read c[...] directly
-    src += [I1 + f"c{i} = c[{i}]" for i in range(ncoef) if str(i) in used]
-    src += [
+        I1 + f"if c.shape[0] != {sp[0]} or y0.shape[1] != {fs.d} or P < 2:",
+        I2 + "raise ValueError('adaptive: c, y0 or P do not fit the structure')",
+        I1 + f"SR = np.array({srows}, dtype=np.int64)"
+        if srows
+        else I1 + "SR = np.zeros(0, dtype=np.int64)",
+        I1 + "C = _load(c)",
         I1 + "N = y0.shape[0]",
         I1 + f"V = np.zeros(({nv}, P + 1))",
-        I1 + f"comp = np.zeros({max(len(fs.var), 1)})",
+        I1 + f"comp = np.zeros({nvar})",
         I1 + "sgn = 1.0 if T >= 0 else -1.0",
         I1 + "Tabs = abs(T)",
         I1 + "damp = math.exp(-0.7 / (P - 1))",
@@ -244,21 +185,123 @@ def full_state_source(fs) -> str:
         I1 + "for it in range(N):",
         I2 + f"for q in range({fs.d}):",
         I3 + "V[q, 0] = y0[it, q]",
-        I2 + f"for q in range({max(len(fs.var), 1)}):",
+        I2 + f"for q in range({nvar}):",
         I3 + "comp[q] = 0.0",
         I2 + "t = 0.0",
         I2 + "nst = 0",
         I2 + "status = 0",
         I2 + "while t < Tabs:",
         I3 + "for k in range(P):",
+        I4 + "_order(V, k, C)",
     ]
-    src += [I4 + x for x in kb]
     src += [I3 + x for x in step]
     src += [
         I2 + f"for q in range({fs.d}):",
         I3 + "out[it, q] = V[q, 0] if status == 0 else np.nan",
         I2 + "nsteps[it] = nst if status == 0 else status",
     ]
-    del I5
+    src += ["", ""] + pair_lines(fs, sp, nv, vrows, srows)
     # constants (derived) of order 0 are computed in the k = 0 pass; those are all we read of them
     return "\n".join(src) + "\n"
+
+
+def pair_lines(fs, sp, nv: int, vrows: list, srows: list) -> list[str]:
+    """The kernel ``pair(y0, T, tol_a, tol_b, P_a, P_b, max_steps, c, out, nsteps)``: the runs A
+    (``tol_a``, order ``P_a``) and B (``tol_b``, ``P_b``) from the one start ``y0[0]`` side by side,
+    as the two lanes of one vector (the order body
+    :func:`refimpl.codegen._full_state_ir.lanes_order_intrinsic` on this kernel's own spec: each
+    lane's operations those of :func:`order_intrinsic`), the series computed to ``max(P_a, P_b)`` for
+    both; each lane its own step (from its order's last two coefficients), time, step count, carries
+    and status, its Horner update to its own order -- so lane A is the single kernel's run at
+    ``(tol_a, P_a)`` and lane B at ``(tol_b, P_b)``, operation for operation. ``out[0]``, ``out[1]``:
+    A's and B's end states, ``nsteps`` their steps (negative: the status, as :func:`adaptive`)."""
+    I1, I2, I3, I4, I5 = ("    " * i for i in range(1, 6))
+    d = fs.d
+    src = [
+        _JIT,
+        "def pair(y0, T, tol_a, tol_b, P_a, P_b, max_steps, c, out, nsteps):",
+        I1 + f"if c.shape[0] != {sp[0]} or y0.shape[1] != {d} or min(P_a, P_b) < 2:",
+        I2 + "raise ValueError('pair: c, y0 or the orders do not fit the structure')",
+        I1 + f"SR = np.array({srows}, dtype=np.int64)"
+        if srows
+        else I1 + "SR = np.zeros(0, dtype=np.int64)",
+        I1 + f"VR = np.array({vrows}, dtype=np.int64)"
+        if vrows
+        else I1 + "VR = np.zeros(0, dtype=np.int64)",
+        I1 + "C = _load(c)",
+        I1 + "Pm = max(P_a, P_b)",
+        I1 + f"V = np.zeros((Pm + 1, {nv}, 2))",
+        I1 + f"comp = np.zeros(({max(len(vrows), 1)}, 2))",
+        I1 + "PL = np.array([P_a, P_b], dtype=np.int64)",
+        I1 + "tl = np.array([tol_a, tol_b])",
+        I1 + "t = np.zeros(2)",
+        I1 + "nst = np.zeros(2, dtype=np.int64)",
+        I1 + "status = np.zeros(2, dtype=np.int64)",
+        I1 + "live = np.ones(2, dtype=np.bool_)",
+        I1 + "sgn = 1.0 if T >= 0 else -1.0",
+        I1 + "Tabs = abs(T)",
+        I1 + "for l in range(2):",
+        I2 + f"for q in range({d}):",
+        I3 + "V[0, q, l] = y0[0, q]",
+        I2 + "if not (t[l] < Tabs):",
+        I3 + "live[l] = False",
+        I1 + "while live[0] or live[1]:",
+        I2 + "for k in range(Pm):",
+        I3 + "_order2(V, k, C)",
+        I2 + "for l in range(2):",
+        I3 + "if not live[l]:",
+        I4 + "continue",
+        I3 + "P = PL[l]",
+        I3 + "xn = 0.0",
+        I3 + "a1 = 0.0",
+        I3 + "a2 = 0.0",
+        I3 + "for q in range(SR.shape[0]):",
+        I4 + "xn = max(xn, abs(V[0, SR[q], l]))",
+        I3 + "for q in range(SR.shape[0]):",
+        I4 + "a1 = max(a1, abs(V[P - 1, SR[q], l]))",
+        I3 + "for q in range(SR.shape[0]):",
+        I4 + "a2 = max(a2, abs(V[P, SR[q], l]))",
+        I3 + "s = tl[l] * max(1.0, xn)",
+        I3 + "h = np.inf",
+        I3 + "if a1 > 0.0:",
+        I4 + "h = (s / a1) ** (1.0 / (P - 1))",
+        I3 + "if a2 > 0.0:",
+        I4 + "h = min(h, (s / a2) ** (1.0 / P))",
+        I3 + "h *= math.exp(-0.7 / (P - 1))",
+        I3 + "if not (h > 0.0):",
+        I4 + "status[l] = -4",
+        I4 + "live[l] = False",
+        I4 + "continue",
+        I3 + "if t[l] + h >= Tabs:",
+        I4 + "h = Tabs - t[l]",
+        I4 + "t[l] = Tabs",
+        I3 + "else:",
+        I4 + "t[l] += h",
+        I3 + "hs = sgn * h",
+        I3 + "fin = True",
+        I3 + "for ci in range(VR.shape[0]):",
+        I4 + "i = VR[ci]",
+        I4 + "z = V[P, i, l]",
+        I4 + "for kk in range(P - 1, 0, -1):",
+        I5 + "z = z * hs + V[kk, i, l]",
+        I4 + "z = z * hs - comp[ci, l]",
+        I4 + "w = V[0, i, l] + z",
+        I4 + "comp[ci, l] = (w - V[0, i, l]) - z",
+        I4 + "V[0, i, l] = w",
+        I4 + "if not math.isfinite(w):",
+        I5 + "fin = False",
+        I3 + "nst[l] += 1",
+        I3 + "if not fin:",
+        I4 + "status[l] = -1",
+        I4 + "live[l] = False",
+        I3 + "elif nst[l] > max_steps:",
+        I4 + "status[l] = -3",
+        I4 + "live[l] = False",
+        I3 + "elif not (t[l] < Tabs):",
+        I4 + "live[l] = False",
+        I1 + "for l in range(2):",
+        I2 + f"for q in range({d}):",
+        I3 + "out[l, q] = V[0, q, l] if status[l] == 0 else np.nan",
+        I2 + "nsteps[l] = nst[l] if status[l] == 0 else status[l]",
+    ]
+    return src

@@ -1,61 +1,61 @@
 """The lane-batched kernel of the compiled full state (:mod:`refimpl._full_state`), one per structure.
 
 ``W`` trajectories run side by side in lanes (template ``full_state_batch``): the Taylor coefficients
-are laid out ``V[k, row, lane]`` (C order), so the ``W`` lanes of one coefficient are contiguous, and
-every statement of the recurrence sits in a loop ``for l in range(W)`` over the lanes, except the
-Cauchy products -- ``(#products) P^2 / 2`` multiply-adds per step, the bulk of the work -- which are
-summed ``GROUP`` products at a time in one loop over ``a``, with one scalar accumulator per product and
-lane written out (``s{j}_{l}``): the loop body stores nothing, so its sums stay in registers, and LLVM's
-SLP vectoriser packs the ``W`` lanes' adjacent loads and multiply-adds into SIMD instructions; products
-are grouped by shared factors, so a group's shared factor is loaded once. No reassociation flag is needed
-(``fastmath`` is ``contract`` only, as in the single-trajectory kernels): every lane sums its products
-in the order ``a = 0..k``. Measured (1000 trajectories, CPU per trajectory, see :data:`GROUP`):
-kirchhoff_se3 at 3e-14 35.6 us against 50.3 us with the sums kept in rows of ``V``. The groups are
-chosen to share factor rows (:func:`share_groups`): loads per ``a`` for all groups, kirchhoff_se3 40
-against 50 sorted by factor (45 products), manakov_so4 48 against 82 (72 products); one run each, load
-~7.5: kirchhoff_se3 35.4 against 37.6 us, manakov_so4 15.0 against 17.0 us per trajectory.
+are laid out ``V[k, row, lane]`` (C order), so the ``W`` lanes of one coefficient are contiguous. The
+order body of the recurrence is the intrinsic ``_order(V, k, C)``
+(:func:`refimpl.codegen._full_state_ir.lanes_order_intrinsic`, LLVM IR built from the literal
+:func:`batch_spec` in the source) on vectors of ``W`` float64: the derived rows, then the Cauchy
+products -- ``(#products) P^2 / 2`` multiply-adds per step, the bulk of the work -- summed ``GROUP``
+products at a time in one loop over ``a``, one vector accumulator per product (the loop stores nothing,
+so its sums stay in registers), products grouped by shared factors (:func:`share_groups`: a group's
+factor rows are loaded once per ``a``), then the state rows. No reassociation flag is needed
+(``fastmath`` is ``contract`` only, as in the single-trajectory kernels): every lane sums its
+products in the order ``a = 0..k``. Measured before the IR (1000 trajectories, CPU per trajectory,
+see :data:`GROUP`): kirchhoff_se3 at 3e-14 35.6 us against 50.3 us with the sums kept in rows of
+``V``; loads per ``a`` for all groups, kirchhoff_se3 40 against 50 sorted by factor (45 products),
+manakov_so4 48 against 82 (72 products).
 
-The packed form (``packed=True``, for structures too large to write every product out: see
-:data:`refimpl._full_state_batch.MAX_SIZE`) sums the general products in blocks of :data:`BLOCK` through
-index tables (:func:`batch_groups`): a block is two factor rows ``u`` and four rows ``w`` whose pairs
-are (mostly) products -- dG_ij = G_ik M_kj gives such bicliques for each ``k`` -- at each order the
-``k``-th coefficients of its rows are copied into ``UB[g, k, i, lane]``, ``WB[g, k, j, lane]`` and one
-fixed loop over ``a`` sums all eight pairs with scalar accumulators (six loads for eight
-multiply-adds; per trajectory, kernel alone at 3e-14, one run each, load ~7.5: free_su3 40.4 us against
-51.2 us with groups of eight products of their own factors, manakov_so4 forced packed 26.2 against
-36.1); a pair that is no product goes to a sink row. Its source no longer grows with the products, but
-still with the derived and state rows' terms (and their numbers, loaded into locals): beyond
-:data:`refimpl._full_state_batch.MAX_GENERATED_TERMS` the one kernel compiled for every structure,
-:func:`refimpl._full_state_batch.adaptive_packed` (the same blocks, the rows from the tables), runs.
+Compile time (issue 25): as numba Python (every statement in a loop over the lanes) the per-order
+body cost numba's front end 5-9 s per structure, so structures beyond a size had a packed form
+(products in blocks through index tables: slower per trajectory). As IR every structure up to
+:data:`refimpl._full_state_batch.MAX_GENERATED_TERMS` has every product written out: fully cold, the
+kernel alone, CPU, load 1.3-2.0 (``/work/scratch_ir/cold_all.sh batch``, a machine-local script),
+manakov_so4 8.4 -> 1.49 s, sl(3) 8.8 -> 1.57, free_su3 5.3 -> 1.63 (was packed), kirchhoff_se3 1.53,
+Bianchi VI0 with a cocycle 2.2 -> 1.39. Per trajectory (kernel alone, 256 trajectories, interleaved in
+one process, best of 10, CPU, load 1.4-1.8, at 3e-14): kirchhoff_se3 34.6 -> 30.5 us, manakov_so4
+14.3 -> 12.9, bianchi_cocycle 10.7 -> 10.0, sl(3) 3.1 -> 2.6 (these four bitwise equal to the numba
+Python kernel), free_su3 34.4 -> 13.9 (the packed form before; within 2.5e-15 relative).
 
 The source is generated from the sparse tables of :meth:`refimpl._full_state.FullState.tables` (the
 one description of the field, shared with the kernel compiled for every structure): their index
 arrays are the structure and are written into the source; their numbers (``dcoef``, ``qcoef``,
-``lcoef``) are one argument array ``c``, read into locals once per call. So the source, and the cache
-key of its machine code, depends on the nonzero patterns only, never on the values. Written with the
-lane loops (not one statement per lane) the source stays short: a cold compilation of so(4) takes
-about 7 s (22 s with the lanes written out).
+``lcoef``) are one argument array ``c``, read into a tuple once per call. So the source, and the cache
+key of its machine code, depends on the nonzero patterns only, never on the values.
 
 Each lane keeps its own time, step and step count: a trajectory takes the steps it takes in the
 single-trajectory kernel (Jorba-Zou's step from its own coefficients, per lane), and keeps its own
 error estimate and its own failure status.
+
+:func:`batch_groups` gives the 2 x 4 blocks of products of the kernel compiled for every structure,
+:func:`refimpl._full_state_batch.adaptive_packed` (six loads for eight multiply-adds per ``a``).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from . import _full_state_ir as ir
 from ._loader import fill, template
-from .taylor import tree_sum
 
-__all__ = ["GROUP", "LANES", "batch_numbers", "batch_source"]
+__all__ = ["GROUP", "LANES", "batch_numbers", "batch_source", "batch_spec"]
 
 LANES = 4
 """Trajectories per lane block (``W``): four float64 lanes fill one 256-bit SIMD register."""
 
 GROUP = 12
-"""General Cauchy products summed in one loop over ``a``, each lane of each product in a scalar
-accumulator (kirchhoff_se3 at 3e-14, order 21, 1000 trajectories, one run each at load ~4.5, kernel CPU
+"""General Cauchy products summed in one loop over ``a``, one accumulator per product (its ``W`` lanes:
+one vector register; measured when the kernel was numba Python with an accumulator per product and
+lane, kirchhoff_se3 at 3e-14, order 21, 1000 trajectories, one run each at load ~4.5, kernel CPU
 per trajectory): 6 products 40.7 us, 9 36.7, 12 35.6, 15 34.1, 23 33.9, all 45 at once 46.1 (spills);
 the earlier accumulation into rows of ``V`` (stored on every ``a``: LLVM cannot prove the row apart
 from the loads) 50.3 us at 6. Twelve keeps ``12 W`` accumulators within the sixteen 256-bit registers
@@ -63,12 +63,8 @@ plus spare (AVX2; AVX-512 has 32), a margin for machines without AVX-512."""
 
 
 BLOCK = (2, 4)
-"""``(BU, BW)``: the packed form's blocks of products ``u_i w_j`` (two rows ``u``, four rows ``w``):
+"""``(BU, BW)``: :func:`batch_groups`' blocks of products ``u_i w_j`` (two rows ``u``, four rows ``w``):
 per ``a``, six loads for eight multiply-adds."""
-
-
-def _sum(terms: list[str]) -> str:
-    return tree_sum(terms) if terms else "0.0"
 
 
 def share_groups(prods, pu, pw, size: int) -> list[list[int]]:
@@ -102,96 +98,64 @@ def batch_numbers(tables) -> np.ndarray:
     return np.ascontiguousarray(np.concatenate([tables[4], tables[11], tables[14]]), dtype=float)
 
 
-def batch_source(tables, d: int, W: int = LANES, group: int = GROUP, packed: bool = False) -> str:
-    """The kernel module ``adaptive_batch(y0, T, tol, P, max_steps, c, vrow, srow, gp, gu, gw, out,
-    nsteps)`` for the field given by the sparse ``tables`` of :meth:`refimpl._full_state.FullState.tables`
-    (``d`` state variables, ``W`` lanes, the general Cauchy products written out and summed ``group``
-    at a time, or ``packed`` in blocks of :data:`BLOCK` through index tables); ``c`` is
-    :func:`batch_numbers` of the same tables, ``vrow``/``srow`` the tables' rows of the same name,
-    ``gp``/``gu``/``gw`` :func:`batch_groups` (read by the packed form only)."""
-    if not (isinstance(W, int) and 1 <= W <= 16):
-        raise ValueError(f"lanes W must be an int in 1..16, got {W!r}")
-    if not (isinstance(group, int) and group >= 1):
-        raise ValueError(f"group must be a positive int, got {group!r}")
+def batch_spec(tables, group: int = GROUP) -> tuple:
+    """The structure of the sparse ``tables`` as the literal spec of
+    :func:`refimpl.codegen._full_state_ir.lanes_order_intrinsic`: ``(ncoef, derived, groups, consts,
+    state)``, the coefficient indices into :func:`batch_numbers`, the general products in the
+    :func:`share_groups` of ``group``."""
     (nv, drow, dptr, didx, dcoef, pu, pw, pcls, vrow, qptr, qprod, qcoef, lptr, lvar, lcoef, lcon,
      srow) = tables  # fmt: skip
     off_q = len(dcoef)
     off_l = off_q + len(qcoef)
     ncoef = off_l + len(lcoef)
+    derived = tuple(
+        (int(drow[r]), tuple((t, int(didx[t])) for t in range(dptr[r], dptr[r + 1])))
+        for r in range(len(drow))
+    )
+    general = [p for p in range(len(pu)) if pcls[p] == 0]
+    groups = tuple(
+        tuple((p, int(pu[p]), int(pw[p])) for p in grp)
+        for grp in share_groups(general, pu, pw, group)
+    )
+    consts = tuple(
+        (p, int(pu[p]), int(pw[p]), int(pcls[p])) for p in range(len(pu)) if pcls[p] in (1, 2, 3)
+    )  # class 5: the padding of the compiled-for-every-structure kernel, never read
+    state = []
+    for cv in range(len(vrow)):
+        terms = [(ir.SCALED, off_q + t, int(qprod[t])) for t in range(qptr[cv], qptr[cv + 1])]
+        terms += [
+            (ir.LIN_CONST if lcon[t] else ir.LIN, off_l + t, int(lvar[t]))
+            for t in range(lptr[cv], lptr[cv + 1])
+        ]
+        state.append((int(vrow[cv]), tuple(terms)))
+    return (ncoef, derived, groups, consts, tuple(state))
+
+
+def batch_source(tables, d: int, W: int = LANES, group: int = GROUP) -> str:
+    """The kernel module ``adaptive_batch(y0, T, tol, P, max_steps, c, vrow, srow, out, nsteps)`` for
+    the field given by the sparse ``tables`` of :meth:`refimpl._full_state.FullState.tables` (``d``
+    state variables, ``W`` lanes, the general Cauchy products summed ``group`` at a time); ``c`` is
+    :func:`batch_numbers` of the same tables, ``vrow``/``srow`` the tables' rows of the same name."""
+    if not (isinstance(W, int) and 1 <= W <= 16):
+        raise ValueError(f"lanes W must be an int in 1..16, got {W!r}")
+    if not (isinstance(group, int) and group >= 1):
+        raise ValueError(f"group must be a positive int, got {group!r}")
+    sp = batch_spec(tables, group)
     lanes = range(W)
     I1 = "    "
-
-    def at(k, row, lane):  # V[k, row, lane]: the W lanes of one coefficient are contiguous
-        return f"V[{k}, {int(row)}, {lane}]"
-
-    kb: list[str] = [f"for l in range({W}):"]
-    for r in range(len(drow)):  # derived rows: Omega_k = I^-1 pi_k, then M_k = rho(Omega_k)
-        ts = range(dptr[r], dptr[r + 1])
-        kb.append(
-            I1
-            + f"{at('k', drow[r], 'l')} = "
-            + _sum([f"c{t} * {at('k', didx[t], 'l')}" for t in ts])
-        )
-    if packed:
-        BU, BW = BLOCK
-        kb += ["for g in range(ngrp):"]
-        # all loads before the stores: the W lanes then move as one SIMD load and store each (the
-        # blocks are not known apart from V, so a store between two loads would keep them scalar)
-        for blk, idx, nrow in (("UB", "gu", BU), ("WB", "gw", BW)):
-            kb += [I1 + f"for j in range({nrow}):", 2 * I1 + f"u = {idx}[g * {nrow} + j]"]
-            kb += [2 * I1 + f"t{ln} = V[k, u, {ln}]" for ln in lanes]
-            kb += [2 * I1 + f"{blk}[g, k, j, {ln}] = t{ln}" for ln in lanes]
-        pairs = [(i, j) for i in range(BU) for j in range(BW)]
-        kb += [I1 + f"s{i}{j}_{ln} = 0.0" for i, j in pairs for ln in lanes]
-        kb += [I1 + "for a in range(k + 1):", 2 * I1 + "b = k - a"]
-        kb += [
-            2 * I1 + f"s{i}{j}_{ln} += UB[g, a, {i}, {ln}] * WB[g, b, {j}, {ln}]"
-            for i, j in pairs
-            for ln in lanes
-        ]
-        for i, j in pairs:
-            kb.append(I1 + f"q = gp[g * {BU * BW} + {i * BW + j}]")
-            kb += [I1 + f"V[k, q, {ln}] = s{i}{j}_{ln}" for ln in lanes]
-    else:
-        general = [p for p in range(len(pu)) if pcls[p] == 0]
-        for grp in share_groups(general, pu, pw, group):
-            # one scalar accumulator per (product, lane): the loop stores nothing, so nothing it loads
-            # can alias a store and the sums stay in registers; SLP packs each product's W lanes
-            kb += [f"s{j}_{ln} = 0.0" for j in range(len(grp)) for ln in lanes]
-            kb += ["for a in range(k + 1):", I1 + "b = k - a"]
-            kb += [
-                I1 + f"s{j}_{ln} += {at('a', pu[p], ln)} * {at('b', pw[p], ln)}"
-                for j, p in enumerate(grp)
-                for ln in lanes
-            ]
-            kb += [f"{at('k', nv + p, ln)} = s{j}_{ln}" for j, p in enumerate(grp) for ln in lanes]
-    kb += ["ik = 1.0 / (k + 1)", f"for l in range({W}):"]
-    for p in range(len(pu)):
-        u, w, cl = pu[p], pw[p], pcls[p]
-        if cl == 1:
-            kb.append(I1 + f"{at('k', nv + p, 'l')} = {at(0, u, 'l')} * {at('k', w, 'l')}")
-        elif cl == 2:
-            kb.append(I1 + f"{at('k', nv + p, 'l')} = {at('k', u, 'l')} * {at(0, w, 'l')}")
-        elif cl == 3:
-            kb.append(
-                I1
-                + f"{at('k', nv + p, 'l')} = {at(0, u, 'l')} * {at(0, w, 'l')} if k == 0 else 0.0"
-            )
-        # class 5: the padding of the compiled-for-every-structure kernel, never read
-    for cv in range(len(vrow)):
-        terms = [
-            f"c{off_q + t} * {at('k', nv + qprod[t], 'l')}" for t in range(qptr[cv], qptr[cv + 1])
-        ]
-        for t in range(lptr[cv], lptr[cv + 1]):
-            if lcon[t]:
-                terms.append(f"(c{off_l + t} * {at(0, lvar[t], 'l')} if k == 0 else 0.0)")
-            else:
-                terms.append(f"c{off_l + t} * {at('k', lvar[t], 'l')}")
-        kb.append(I1 + f"{at('k + 1', vrow[cv], 'l')} = ({_sum(terms)}) * ik")
+    head = [
+        "from tstarg.refimpl.codegen import _full_state_ir",
+        "",
+        f"# the structure (refimpl.codegen.full_state_batch.batch_spec, IR version {ir.IR_VERSION}):",
+        "# ncoef, derived rows, product groups, products with a constant factor, state rows",
+        f"SPEC = {sp!r}",
+        f"_order = _full_state_ir.lanes_order_intrinsic(SPEC, {W})",
+        f"_load = _full_state_ir.load_intrinsic({sp[0]})",
+    ]
     return fill(
         template("full_state_batch"),
-        LOADS="\n".join(I1 + f"c{i} = c[{i}]" for i in range(ncoef)) or I1 + "pass",
-        COEFF="\n".join(3 * I1 + x for x in kb),
+        HEAD="\n".join(head),
+        NCOEF=str(sp[0]),
         HLOAD="\n".join(2 * I1 + f"h_{ln} = hv[{ln}]" for ln in lanes),
         ZLOAD="\n".join(3 * I1 + f"z_{ln} = V[P, o, {ln}]" for ln in lanes),
         ZSTEP="\n".join(4 * I1 + f"z_{ln} = z_{ln} * h_{ln} + V[kk, o, {ln}]" for ln in lanes),
@@ -206,17 +170,14 @@ def batch_source(tables, d: int, W: int = LANES, group: int = GROUP, packed: boo
                 f"V[0, o, {ln}] = w_{ln}",
             )
         ),
-        NV=str(int(nv) + len(pu) + 2),
-        NGRP=str(len(batch_groups(tables)[1]) // BLOCK[0] if packed else 0),
-        BU=str(BLOCK[0]),
-        BW=str(BLOCK[1]),
+        NV=str(int(tables[0])),
         D=str(int(d)),
         W=str(W),
     )
 
 
 def batch_groups(tables) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(gp, gu, gw)`` of the packed form: the general products covered by blocks of ``BU x BW`` =
+    """``(gp, gu, gw)`` of :func:`refimpl._full_state_batch.adaptive_packed`: the general products covered by blocks of ``BU x BW`` =
     :data:`BLOCK` (``gu``: a block's ``BU`` factor rows ``u``, ``gw``: its ``BW`` rows ``w``, ``gp``: the
     ``V`` row of the product of each pair ``(u_i, w_j)``, row-major), every product in exactly one block;
     a pair that is no product multiplies or is written to rows nobody reads (the zero row ``nv +

@@ -3,13 +3,12 @@ batch_source`): ``W`` trajectories side by side, the Taylor coefficients laid ou
 
 Read as text by :func:`refimpl.codegen._loader.template`: the lines above the body mark only
 define the placeholders for the linters; ``__NAME__`` is replaced by :func:`refimpl.codegen._loader.fill`
-(a placeholder alone on its line replaces the whole line). The generated blocks are the loads of the
-numbers (``__LOADS__``), the coefficient recurrence of one order ``k`` for every lane (``__COEFF__``)
+(a placeholder alone on its line replaces the whole line). The generated blocks are the module's head
+(``__HEAD__``: the structure's ``SPEC`` and its intrinsics ``_order``, the order body of the
+recurrence on every lane, and ``_load``, the numbers as a tuple; :mod:`refimpl.codegen._full_state_ir`)
 and the lanes of the compensated Horner update (``__HLOAD__``, ``__ZLOAD__``, ``__ZSTEP__``,
-``__ZADD__``); ``__NV__`` rows of ``V`` (state, derived, products, then the zero row and the sink row
-of the packed form's padding), ``__D__`` state variables, ``__W__`` lanes; the packed form's blocks
-``UB``, ``WB``: ``__NGRP__`` blocks (0 in the written-out form) of ``__BU__`` x ``__BW__`` products, whose rows
-``gp``, ``gu``, ``gw`` (arguments) are :func:`refimpl.codegen.full_state_batch.batch_groups`.
+``__ZADD__``); ``__NV__`` rows of ``V`` (state, then derived), ``__D__`` state variables, ``__W__``
+lanes, ``__NCOEF__`` numbers.
 
 Lanes: each lane runs one trajectory with its own time, step and step count -- the step sequence of
 the single-trajectory kernel (:mod:`refimpl._full_state_kernel`), so each trajectory keeps its own
@@ -22,24 +21,24 @@ lane holds the zero state (a fixed point) and steps by ``0``.
 # formatter leaves it alone, and the import layout and names used only by generated code are kept.
 # ruff: noqa: E402, I001, F401, F841
 # fmt: off
-__LOADS__ = __COEFF__ = __HLOAD__ = __ZLOAD__ = __ZSTEP__ = __ZADD__ = None
-__NV__ = __D__ = __W__ = __NGRP__ = __BU__ = __BW__ = None
+__HEAD__ = __HLOAD__ = __ZLOAD__ = __ZSTEP__ = __ZADD__ = _order = _load = None
+__NV__ = __D__ = __W__ = __NCOEF__ = None
 # ---- template body ----
 
 import math
 import numpy as np
 from numba import njit
+__HEAD__
 
 
 @njit(cache=True, nogil=True, fastmath={'contract'})
-def adaptive_batch(y0, T, tol, P, max_steps, c, vrow, srow, gp, gu, gw, out, nsteps):
-    __LOADS__
+def adaptive_batch(y0, T, tol, P, max_steps, c, vrow, srow, out, nsteps):
+    if c.shape[0] != __NCOEF__ or y0.shape[1] != __D__ or P < 2:
+        raise ValueError('adaptive_batch: c, y0 or P do not fit the structure')
+    C = _load(c)
     N = y0.shape[0]
     nvar = vrow.shape[0]
     V = np.zeros((P + 1, __NV__, __W__))
-    ngrp = __NGRP__
-    UB = np.zeros((max(ngrp, 1), P + 1, __BU__, __W__))
-    WB = np.zeros((max(ngrp, 1), P + 1, __BW__, __W__))
     comp = np.zeros((max(nvar, 1), __W__))
     tl = np.zeros(__W__)
     hv = np.zeros(__W__)
@@ -62,7 +61,7 @@ def adaptive_batch(y0, T, tol, P, max_steps, c, vrow, srow, gp, gu, gw, out, nst
             live += 1
     while live > 0:
         for k in range(P):
-            __COEFF__
+            _order(V, k, C)
         for l in range(__W__):
             hv[l] = 0.0
             if who[l] < 0:

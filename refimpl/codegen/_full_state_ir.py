@@ -1,0 +1,747 @@
+"""One order of the generated full-state kernel's recurrence as LLVM IR, built by a numba intrinsic.
+
+Why IR (issue 25, the compile time of :func:`refimpl.codegen.full_state.full_state_source`'s kernel):
+numba's front end types and lowers every statement of a function on its own, and the per-order body
+of the full state is hundreds of them (su(3): 26 derived rows, 140 Cauchy products in chunk loops,
+26 state rows): measured on free su(3), empty caches, 3.6 s of CPU, of which type inference 2.0 s
+(1.2 s of it the product helpers'), lowering 1.0 s, LLVM about 0.8 s. The intrinsic ``_order(V, k,
+C)`` is one call for the front end; its ``codegen`` writes the order-``k`` body straight into the
+kernel's LLVM function, the operations of the former Python source in its evaluation order, each
+with the kernels' ``contract`` flag (:class:`refimpl.codegen._taylor_ir._Ops`):
+
+* the derived rows ``V[r, k] = sum_t C[ci_t] V[s_t, k]`` (``Omega_k``, then ``M_k``), sums as the
+  balanced trees of :func:`refimpl.codegen.taylor.tree_sum`;
+* the general Cauchy products ``p = sum_{a=0..k} V[u, a] V[w, k - a]``, side by side in loops over
+  ``a`` of at most :data:`refimpl.codegen.full_state.PRODUCT_CHUNK` products (each accumulated in the
+  order ``a = 0..k``; each distinct factor loaded once per ``a``);
+* the products with a constant factor (``k``-th coefficient times the other's ``0``-th; both
+  constant: their product at ``k = 0``, else 0);
+* the state rows ``V[v, k + 1] = (sum of terms) * (1 / (k + 1))``, terms ``p``, ``-p``, ``C[ci] p``,
+  ``C[ci] V[u, k]`` and, for a constant ``u``, ``C[ci] V[u, 0]`` at ``k = 0`` (else 0).
+
+The field's numbers ``C`` travel as a tuple of float64 read once per call by ``_load(c)``
+(:func:`load_intrinsic`): loaded from the array inside the order, LLVM could not keep them in
+registers across the stores into ``V`` (it cannot tell the two arrays apart).
+
+The generated module names :data:`IR_VERSION` (numba's disk cache keys on the generated file's text,
+not on this module, so a change of the IR built here must change that text).
+"""
+
+from __future__ import annotations
+
+try:  # only the generated kernels use the intrinsics
+    import llvmlite.ir as ir
+    from numba import types
+    from numba.core import cgutils
+    from numba.extending import intrinsic
+except ImportError:  # pragma: no cover - exercised only where numba is missing
+    ir = types = cgutils = intrinsic = None
+
+from ._taylor_ir import _F64, _Ops, _unpack
+
+__all__ = [
+    "IR_VERSION",
+    "lanes_order_intrinsic",
+    "load_intrinsic",
+    "order_intrinsic",
+    "packed_order",
+    "rational_order",
+    "update_intrinsic",
+]
+
+IR_VERSION = "1"
+
+# the kinds of a state row's term (the spec's ``(kind, ci, x)``; ``x`` a product or a row)
+PLUS, MINUS, SCALED, LIN_CONST, LIN = range(5)
+# the classes of a product with a constant factor (the spec's ``(p, u, w, cls)``)
+U_CONST, W_CONST, BOTH_CONST = 1, 2, 3
+
+
+def _check_array(name, V, ndim):
+    if not (
+        isinstance(V, types.Array)
+        and V.ndim == ndim
+        and V.dtype == types.float64
+        and V.layout == "C"
+    ):
+        raise TypeError(f"{name}: expects a C-contiguous {ndim}-d float64 array, got {V}")
+
+
+def load_intrinsic(ncoef: int):
+    """The intrinsic ``C = load(c)``: the first ``ncoef`` floats of the 1-d array ``c`` as a tuple
+    (the caller checks ``c`` has them)."""
+
+    @intrinsic
+    def load(typingctx, c):
+        _check_array("load", c, 1)
+        ret = types.UniTuple(types.float64, ncoef)
+
+        def codegen(context, builder, sig, args):
+            data = context.make_array(sig.args[0])(context, builder, args[0]).data
+            vals = [
+                builder.load(builder.gep(data, [ir.Constant(ir.IntType(64), i)], inbounds=True))
+                for i in range(ncoef)
+            ]
+            return context.make_tuple(builder, ret, vals)
+
+        return ret(c), codegen
+
+    return load
+
+
+def order_intrinsic(sp):
+    """The intrinsic ``order(V, k, C)``: the order-``k`` body of the recurrence (module docstring) on
+    the coefficient rows ``V`` (``(rows, P + 1)``, C order), ``C`` the tuple of :func:`load_intrinsic`.
+
+    ``sp = (ncoef, derived, chunks, consts, state)`` (literal in the generated text):
+    ``derived``: ``(row, ((ci, src), ...))`` in order; ``chunks``: the general products, each chunk
+    ``((p, u, w), ...)`` one loop over ``a``; ``consts``: ``(p, u, w, cls)``; ``state``: ``(row,
+    ((kind, ci, x), ...))`` (kinds :data:`PLUS` ...)."""
+    ncoef, derived, chunks, consts, state = sp
+    nrows = 1 + max(
+        [r for r, t in derived for r in (r, *(x for _, x in t))]
+        + [r for ch in chunks for _, u, w in ch for r in (u, w)]
+        + [r for _, u, w, _ in consts for r in (u, w)]
+        + [r for r, t in state for r in (r, *(x for kd, _, x in t if kd >= LIN_CONST))]
+    )
+
+    @intrinsic
+    def order(typingctx, V, k, C):
+        _check_array("order", V, 2)
+        if not (
+            isinstance(k, types.Integer)
+            and isinstance(C, types.BaseTuple)
+            and len(C) == ncoef
+            and all(t == types.float64 for t in C.types)
+        ):
+            raise TypeError(f"order: expects (V, int, {ncoef} float64), got ({V}, {k}, {C})")
+
+        def codegen(context, builder, sig, args):
+            ops = _Ops(builder)
+            i64 = ir.IntType(64)
+            arr = context.make_array(sig.args[0])(context, builder, args[0])
+            data = arr.data
+            ncol = cgutils.unpack_tuple(builder, arr.shape, 2)[1]
+            kk = context.cast(builder, args[1], sig.args[1], types.int64)
+            c = _unpack(builder, args[2], ncoef)
+            # each row's offset computed once, before the loops (a value made inside a loop body
+            # would not dominate its uses after it)
+            base = {r: builder.mul(ir.Constant(i64, r), ncol) for r in range(nrows)}
+
+            def at(row, col):  # &V[row, col]
+                return builder.gep(data, [builder.add(base[row], col)], inbounds=True)
+
+            def load(row, col):
+                return builder.load(at(row, col))
+
+            zero_col = ir.Constant(i64, 0)
+            # derived rows: Omega_k, then M_k
+            for row, terms in derived:
+                v = ops.tree([lambda ci=ci, s=s: ops.mul(c[ci], load(s, kk)) for ci, s in terms])
+                builder.store(v, at(row, kk))
+            # general products, a loop over a per chunk
+            prod: dict[int, object] = {}
+            kp1 = builder.add(kk, ir.Constant(i64, 1))
+            for chunk in chunks:
+                accs = [cgutils.alloca_once_value(builder, ops.zero) for _ in chunk]
+                with cgutils.for_range(builder, kp1) as loop:
+                    a = loop.index
+                    b = builder.sub(kk, a)
+                    fu = {u: None for _, u, _ in chunk}
+                    fw = {w: None for _, _, w in chunk}
+                    for u in fu:
+                        fu[u] = load(u, a)
+                    for w in fw:
+                        fw[w] = load(w, b)
+                    for (_, u, w), acc in zip(chunk, accs):
+                        builder.store(ops.add(builder.load(acc), ops.mul(fu[u], fw[w])), acc)
+                for (p, _, _), acc in zip(chunk, accs):
+                    prod[p] = builder.load(acc)
+            # products with a constant factor
+            is0 = builder.icmp_signed("==", kk, zero_col)
+            for p, u, w, cls in consts:
+                if cls == BOTH_CONST:
+                    prod[p] = builder.select(
+                        is0, ops.mul(load(u, zero_col), load(w, zero_col)), ops.zero
+                    )
+                elif cls == U_CONST:
+                    prod[p] = ops.mul(load(u, zero_col), load(w, kk))
+                else:
+                    prod[p] = ops.mul(load(u, kk), load(w, zero_col))
+            ik = builder.fdiv(
+                ops.const(1.0), builder.sitofp(kp1, ops.ty), flags=("contract",)
+            )  # 1.0 / (k + 1)
+
+            def term(kind, ci, x):
+                if kind == PLUS:
+                    return lambda: prod[x]
+                if kind == MINUS:
+                    return lambda: ops.sub(ops.const(-0.0), prod[x])
+                if kind == SCALED:
+                    return lambda: ops.mul(c[ci], prod[x])
+                if kind == LIN_CONST:
+                    return lambda: builder.select(is0, ops.mul(c[ci], load(x, zero_col)), ops.zero)
+                return lambda: ops.mul(c[ci], load(x, kk))
+
+            for row, terms in state:
+                s = ops.tree([term(*t) for t in terms]) if terms else ops.zero
+                builder.store(ops.mul(s, ik), at(row, kp1))
+            return context.get_dummy_value()
+
+        return types.none(V, k, C), codegen
+
+    return order
+
+
+def lanes_order_intrinsic(sp, W: int):
+    """The intrinsic ``order(V, k, C)`` of the lane-batched kernel
+    (:func:`refimpl.codegen.full_state_batch.batch_source`): the order-``k`` body of the recurrence
+    on ``W`` trajectories at once, ``V[k, row, lane]`` (``(P + 1, rows, W)``, C order: the ``W`` lanes
+    of one coefficient are contiguous and move as one vector of ``W`` float64), each lane's
+    operations those of the scalar body, element by element.
+
+    ``sp = (ncoef, derived, groups, consts, state)`` as :func:`order_intrinsic`'s ``spec`` (the lane
+    kernel's: the terms of the state rows' products all :data:`SCALED`; the pair kernel of
+    :func:`refimpl.codegen.full_state.full_state_source` passes the single kernel's own spec, its
+    chunks as groups), ``groups`` the general products summed
+    side by side in one loop over ``a`` (each distinct factor row loaded once per ``a``). The products
+    stay values (never stored into ``V``)."""
+    ncoef, derived, groups, consts, state = sp
+
+    @intrinsic
+    def order(typingctx, V, k, C):
+        _check_array("order", V, 3)
+        if not (
+            isinstance(k, types.Integer)
+            and isinstance(C, types.BaseTuple)
+            and len(C) == ncoef
+            and all(t == types.float64 for t in C.types)
+        ):
+            raise TypeError(f"order: expects (V, int, {ncoef} float64), got ({V}, {k}, {C})")
+
+        def codegen(context, builder, sig, args):
+            ops = _Ops(builder, W)
+            i64 = ir.IntType(64)
+            vptr = ir.PointerType(ops.ty)
+            arr = context.make_array(sig.args[0])(context, builder, args[0])
+            data = arr.data
+            nrow = cgutils.unpack_tuple(builder, arr.shape, 3)[1]
+            kk = context.cast(builder, args[1], sig.args[1], types.int64)
+            kp1 = builder.add(kk, ir.Constant(i64, 1))
+            c = [ops.splat(x) for x in _unpack(builder, args[2], ncoef)]
+            stride = builder.mul(nrow, ir.Constant(i64, W))  # one order's floats
+
+            def base(kv):  # offset of V[kv, 0, 0]
+                return builder.mul(kv, stride)
+
+            def at(off, row):  # the W lanes of V[., row, :] (off: base of the order)
+                p = builder.gep(data, [builder.add(off, ir.Constant(i64, row * W))], inbounds=True)
+                return builder.bitcast(p, vptr)
+
+            def load(off, row):
+                return builder.load(at(off, row), align=8)
+
+            o0, ok, ok1 = ir.Constant(i64, 0), base(kk), base(kp1)
+            for row, terms in derived:
+                v = ops.tree([lambda ci=ci, s=s: ops.mul(c[ci], load(ok, s)) for ci, s in terms])
+                builder.store(v, at(ok, row), align=8)
+            prod: dict[int, object] = {}
+            for grp in groups:
+                accs = [cgutils.alloca_once_value(builder, ops.zero) for _ in grp]
+                with cgutils.for_range(builder, kp1) as loop:
+                    oa = base(loop.index)
+                    ob = base(builder.sub(kk, loop.index))
+                    fu, fw = {}, {}
+                    for (_, u, w), acc in zip(grp, accs):
+                        if u not in fu:
+                            fu[u] = load(oa, u)
+                        if w not in fw:
+                            fw[w] = load(ob, w)
+                        builder.store(ops.add(builder.load(acc), ops.mul(fu[u], fw[w])), acc)
+                for (p, _, _), acc in zip(grp, accs):
+                    prod[p] = builder.load(acc)
+            is0 = builder.icmp_signed("==", kk, o0)
+            for p, u, w, cls in consts:
+                if cls == BOTH_CONST:
+                    prod[p] = builder.select(is0, ops.mul(load(o0, u), load(o0, w)), ops.zero)
+                elif cls == U_CONST:
+                    prod[p] = ops.mul(load(o0, u), load(ok, w))
+                else:
+                    prod[p] = ops.mul(load(ok, u), load(o0, w))
+            ik = ops.splat(
+                builder.fdiv(ir.Constant(_F64, 1.0), builder.sitofp(kp1, _F64), flags=("contract",))
+            )
+
+            def term(kind, ci, x):
+                if kind == PLUS:  # the single kernel's spec (the pair kernel's lanes)
+                    return lambda: prod[x]
+                if kind == MINUS:
+                    return lambda: ops.sub(ops.const(-0.0), prod[x])
+                if kind == SCALED:
+                    return lambda: ops.mul(c[ci], prod[x])
+                if kind == LIN_CONST:
+                    return lambda: builder.select(is0, ops.mul(c[ci], load(o0, x)), ops.zero)
+                if kind == LIN:
+                    return lambda: ops.mul(c[ci], load(ok, x))
+                raise ValueError(f"lanes order: term kind {kind}")
+
+            for row, terms in state:
+                s = ops.tree([term(*t) for t in terms]) if terms else ops.zero
+                builder.store(ops.mul(s, ik), at(ok1, row), align=8)
+            return context.get_dummy_value()
+
+        return types.none(V, k, C), codegen
+
+    return order
+
+
+def update_intrinsic(rows):
+    """The intrinsic ``fin = update(V, comp, hs, P)``: the compensated Horner update of the kernel's
+    step on the rows ``rows`` of ``V`` (``(rows, P + 1)``, C order), row ``rows[c]`` with the carry
+    ``comp[c]``: ``z = V[i, P]``, ``z = z hs + V[i, kk]`` for ``kk = P - 1 .. 1``, ``z = z hs -
+    comp[c]``, ``w = V[i, 0] + z``, ``comp[c] = (w - V[i, 0]) - z``, ``V[i, 0] = w``; ``fin``: every
+    ``w`` finite. Each row's operations in that order (as the Python loop it replaces), the rows'
+    Horner chains interleaved in one loop over ``kk``: one row's chain is ``P`` dependent multiply-adds
+    (latency-bound, one row at a time), the rows side by side fill the multiply-add units."""
+    rows = tuple(int(r) for r in rows)
+
+    @intrinsic
+    def update(typingctx, V, comp, hs, P):
+        _check_array("update", V, 2)
+        _check_array("update", comp, 1)
+        if not (isinstance(hs, types.Float) and isinstance(P, types.Integer)):
+            raise TypeError(f"update: expects (V, comp, float, int), got {hs}, {P}")
+
+        def codegen(context, builder, sig, args):
+            ops = _Ops(builder)
+            i64 = ir.IntType(64)
+            arr = context.make_array(sig.args[0])(context, builder, args[0])
+            data = arr.data
+            ncol = cgutils.unpack_tuple(builder, arr.shape, 2)[1]
+            cdata = context.make_array(sig.args[1])(context, builder, args[1]).data
+            h = context.cast(builder, args[2], sig.args[2], types.float64)
+            pp = context.cast(builder, args[3], sig.args[3], types.int64)
+            base = [builder.mul(ir.Constant(i64, r), ncol) for r in rows]
+
+            def at(c, col):
+                return builder.gep(data, [builder.add(base[c], col)], inbounds=True)
+
+            def cat(c):
+                return builder.gep(cdata, [ir.Constant(i64, c)], inbounds=True)
+
+            zs = [
+                cgutils.alloca_once_value(builder, builder.load(at(c, pp)))
+                for c in range(len(rows))
+            ]
+            top = builder.sub(pp, ir.Constant(i64, 1))  # kk = P - 1 - j, j = 0 .. P - 2
+            with cgutils.for_range(builder, top) as loop:
+                kk = builder.sub(top, loop.index)
+                for c, z in enumerate(zs):
+                    builder.store(ops.add(ops.mul(builder.load(z), h), builder.load(at(c, kk))), z)
+            fin = cgutils.true_bit
+            inf = ops.const(float("inf"))
+            zero = ir.Constant(i64, 0)
+            for c, z in enumerate(zs):
+                zz = ops.sub(ops.mul(builder.load(z), h), builder.load(cat(c)))
+                y = builder.load(at(c, zero))
+                w = ops.add(y, zz)
+                builder.store(ops.sub(ops.sub(w, y), zz), cat(c))
+                builder.store(w, at(c, zero))
+                fin = builder.and_(fin, builder.fcmp_ordered("<", ops.abs(w), inf))
+            return fin
+
+        return types.boolean(V, comp, hs, P), codegen
+
+    return update
+
+
+def _aryptr(context, builder, ty, val):
+    """The data pointer of the numba array ``val`` of type ``ty``."""
+    return context.make_array(ty)(context, builder, val).data
+
+
+def _packed_order(context, builder, sig, args):
+    """The codegen of :func:`packed_order` (its docstring)."""
+    W = 4
+    ops = _Ops(builder, W)
+    i64 = ir.IntType(64)
+    c = lambda x: ir.Constant(i64, x)  # noqa: E731
+    vptr = ir.PointerType(ops.ty)
+    tys = sig.args
+    V, UB, WB = (context.make_array(tys[i])(context, builder, args[i]) for i in range(3))
+    kk = context.cast(builder, args[3], tys[3], types.int64)
+    nv = context.cast(builder, args[4], tys[4], types.int64)
+    (drow, dptr, didx, dcoef, gp, gu, gw, pu, pw, pcls, vrow, qptr, qprod, qcoef, lptr, lvar,
+     lcoef, lcon) = (_aryptr(context, builder, tys[i], args[i]) for i in range(5, 23))  # fmt: skip
+    nd = builder.sub(
+        cgutils.unpack_tuple(
+            builder, context.make_array(tys[6])(context, builder, args[6]).shape, 1
+        )[0],
+        ir.Constant(i64, 1),
+    )
+
+    def get(ptr, i):  # ptr[i] of a 1-d table
+        return builder.load(builder.gep(ptr, [i], inbounds=True))
+
+    vshape = cgutils.unpack_tuple(builder, V.shape, 3)
+    vrows = vshape[1]
+    ngu = cgutils.unpack_tuple(
+        builder, context.make_array(tys[10])(context, builder, args[10]).shape, 1
+    )[0]
+    ngrp = builder.sdiv(ngu, c(2))  # the blocks (UB has at least one, used or not)
+    P1 = cgutils.unpack_tuple(builder, UB.shape, 4)[1]
+    npr = cgutils.unpack_tuple(
+        builder, context.make_array(tys[12])(context, builder, args[12]).shape, 1
+    )[0]
+    nvar = cgutils.unpack_tuple(
+        builder, context.make_array(tys[15])(context, builder, args[15]).shape, 1
+    )[0]
+
+    def vat(kv, row):  # &V[kv, row, :] as a vector pointer
+        off = builder.mul(builder.add(builder.mul(kv, vrows), row), c(W))
+        return builder.bitcast(builder.gep(V.data, [off], inbounds=True), vptr)
+
+    def bat(B, nj, g, kv, j):  # &B[g, kv, j, :] (B: (ngrp, P + 1, nj, W))
+        off = builder.add(builder.mul(builder.add(builder.mul(g, P1), kv), c(nj)), j)
+        return builder.bitcast(builder.gep(B.data, [builder.mul(off, c(W))], inbounds=True), vptr)
+
+    def vload(p):
+        return builder.load(p, align=8)
+
+    def vstore(v, p):
+        builder.store(v, p, align=8)
+
+    kp1 = builder.add(kk, c(1))
+    is0 = builder.icmp_signed("==", kk, c(0))
+    acc = cgutils.alloca_once(builder, ops.ty)
+    # derived rows: V[k, drow[r]] = sum_t dcoef[t] V[k, didx[t]] (from 0.0, in the order of t)
+    with cgutils.for_range(builder, nd) as lr:
+        builder.store(ops.zero, acc)
+        t0, t1 = get(dptr, lr.index), get(dptr, builder.add(lr.index, c(1)))
+        with cgutils.for_range(builder, t1, start=t0) as lt:
+            cf = ops.splat(get(dcoef, lt.index))
+            term = ops.mul(cf, vload(vat(kk, get(didx, lt.index))))
+            builder.store(ops.add(builder.load(acc), term), acc)
+        vstore(builder.load(acc), vat(kk, get(drow, lr.index)))
+    # the general products in blocks of 2 x 4 factor rows
+    accs = [cgutils.alloca_once(builder, ops.ty) for _ in range(8)]
+    with cgutils.for_range(builder, ngrp) as lg:
+        g = lg.index
+        for blk, idx, nj in ((UB, gu, 2), (WB, gw, 4)):
+            for j in range(nj):
+                u = get(idx, builder.add(builder.mul(g, c(nj)), c(j)))
+                vstore(vload(vat(kk, u)), bat(blk, nj, g, kk, c(j)))
+        for a_ in accs:
+            builder.store(ops.zero, a_)
+        with cgutils.for_range(builder, kp1) as la:
+            b = builder.sub(kk, la.index)
+            us = [vload(bat(UB, 2, g, la.index, c(i))) for i in range(2)]
+            ws = [vload(bat(WB, 4, g, b, c(j))) for j in range(4)]
+            for i in range(2):
+                for j in range(4):
+                    a_ = accs[i * 4 + j]
+                    builder.store(ops.add(builder.load(a_), ops.mul(us[i], ws[j])), a_)
+        for i in range(2):
+            for j in range(4):
+                q = get(gp, builder.add(builder.mul(g, c(8)), c(i * 4 + j)))
+                vstore(builder.load(accs[i * 4 + j]), vat(kk, q))
+    # the products with a constant factor (classes 1, 2, 3; 0 above, 5 the padding)
+    zero_k = c(0)
+    with cgutils.for_range(builder, npr) as lp:
+        p = lp.index
+        cl = get(pcls, p)
+        isc = builder.and_(builder.icmp_signed(">=", cl, c(1)), builder.icmp_signed("<=", cl, c(3)))
+        with builder.if_then(isc):
+            u, w = get(pu, p), get(pw, p)
+            row = builder.add(nv, p)
+            with builder.if_else(builder.icmp_signed("==", cl, c(1))) as (one, other):
+                with one:
+                    vstore(ops.mul(vload(vat(zero_k, u)), vload(vat(kk, w))), vat(kk, row))
+                with other:
+                    with builder.if_else(builder.icmp_signed("==", cl, c(2))) as (two, three):
+                        with two:
+                            vstore(ops.mul(vload(vat(kk, u)), vload(vat(zero_k, w))), vat(kk, row))
+                        with three:
+                            v3 = ops.mul(vload(vat(zero_k, u)), vload(vat(zero_k, w)))
+                            vstore(builder.select(is0, v3, ops.zero), vat(kk, row))
+    ik = ops.splat(builder.fdiv(ir.Constant(_F64, 1.0), builder.sitofp(kp1, _F64), flags=_IKFLAGS))
+    # the state rows: V[k + 1, vrow[c]] = (sum of qcoef prod + sum of lcoef V[k or 0, lvar]) / (k + 1)
+    with cgutils.for_range(builder, nvar) as lc:
+        builder.store(ops.zero, acc)
+        t0, t1 = get(qptr, lc.index), get(qptr, builder.add(lc.index, c(1)))
+        with cgutils.for_range(builder, t1, start=t0) as lt:
+            cf = ops.splat(get(qcoef, lt.index))
+            term = ops.mul(cf, vload(vat(kk, builder.add(nv, get(qprod, lt.index)))))
+            builder.store(ops.add(builder.load(acc), term), acc)
+        t0, t1 = get(lptr, lc.index), get(lptr, builder.add(lc.index, c(1)))
+        with cgutils.for_range(builder, t1, start=t0) as lt:
+            cf = ops.splat(get(lcoef, lt.index))
+            i = get(lvar, lt.index)
+            con = builder.icmp_unsigned("!=", get(lcon, lt.index), ir.Constant(ir.IntType(8), 0))
+            with builder.if_else(con) as (yes, no):
+                with yes:
+                    with builder.if_then(is0):
+                        term = ops.mul(cf, vload(vat(zero_k, i)))
+                        builder.store(ops.add(builder.load(acc), term), acc)
+                with no:
+                    term = ops.mul(cf, vload(vat(kk, i)))
+                    builder.store(ops.add(builder.load(acc), term), acc)
+        vstore(ops.mul(builder.load(acc), ik), vat(kp1, get(vrow, lc.index)))
+    del vshape
+    return context.get_dummy_value()
+
+
+_IKFLAGS = ("contract",)
+
+
+def packed_order():
+    """The intrinsic ``order(V, UB, WB, k, nv, drow, dptr, didx, dcoef, gp, gu, gw, pu, pw, pcls,
+    vrow, qptr, qprod, qcoef, lptr, lvar, lcoef, lcon)`` of :func:`refimpl._full_state_batch.
+    adaptive_packed` (one machine code for every structure: the field as the tables of
+    :meth:`refimpl._full_state.FullState.tables`, the blocks ``gp, gu, gw`` of
+    :func:`refimpl.codegen.full_state_batch.batch_groups`): the order-``k`` body on four lanes,
+    ``V[k, row, lane]`` with the lanes as one vector of four float64, each lane's operations those of
+    the numba Python it replaced (sums from ``0.0`` in the order of the tables; the blocks' eight sums
+    in the order ``a = 0..k``). ``None`` without numba.
+
+    numba's disk cache keys :func:`refimpl._full_state_batch.adaptive_packed` on that module's file,
+    not on this one: a change of the IR built here must change that file too (its comment naming
+    :data:`IR_VERSION`)."""
+    if intrinsic is None:  # pragma: no cover - exercised only where numba is missing
+        return None
+
+    @intrinsic
+    def order(typingctx, V, UB, WB, k, nv, drow, dptr, didx, dcoef, gp, gu, gw, pu, pw, pcls, vrow, qptr, qprod, qcoef, lptr, lvar, lcoef, lcon):  # fmt: skip
+        _check_array("packed order", V, 3)
+        _check_array("packed order", UB, 4)
+        _check_array("packed order", WB, 4)
+        for name, a, dt in (
+            ("drow", drow, types.int64), ("dptr", dptr, types.int64),
+            ("didx", didx, types.int64), ("dcoef", dcoef, types.float64),
+            ("gp", gp, types.int64), ("gu", gu, types.int64), ("gw", gw, types.int64),
+            ("pu", pu, types.int64), ("pw", pw, types.int64), ("pcls", pcls, types.int64),
+            ("vrow", vrow, types.int64), ("qptr", qptr, types.int64),
+            ("qprod", qprod, types.int64), ("qcoef", qcoef, types.float64),
+            ("lptr", lptr, types.int64), ("lvar", lvar, types.int64),
+            ("lcoef", lcoef, types.float64), ("lcon", lcon, types.boolean),
+        ):  # fmt: skip
+            if not (
+                isinstance(a, types.Array) and a.ndim == 1 and a.dtype == dt and a.layout == "C"
+            ):
+                raise TypeError(f"packed order: {name} must be a 1-d {dt} array, got {a}")
+        sig = types.none(V, UB, WB, k, nv, drow, dptr, didx, dcoef, gp, gu, gw, pu, pw, pcls, vrow, qptr, qprod, qcoef, lptr, lvar, lcoef, lcon)  # fmt: skip
+        return sig, _packed_order
+
+    return order
+
+
+class _Arrays:
+    """Element pointers of numba arrays passed to an intrinsic inside tuples (any layout, no bounds
+    or wraparound checks: the kernels index within their arrays)."""
+
+    def __init__(self, context, builder, tupty, tupval):
+        self.ctx, self.b = context, builder
+        self.arrs = []
+        for i, ty in enumerate(tupty.types):
+            ary = context.make_array(ty)(context, builder, builder.extract_value(tupval, i))
+            shape = cgutils.unpack_tuple(builder, ary.shape, ty.ndim)
+            strides = cgutils.unpack_tuple(builder, ary.strides, ty.ndim)
+            self.arrs.append((ty, ary, shape, strides))
+
+    def ptr(self, i, *idx):
+        ty, ary, shape, strides = self.arrs[i]
+        return cgutils.get_item_pointer2(
+            self.ctx, self.b, ary.data, shape, strides, ty.layout, list(idx)
+        )
+
+    def get(self, i, *idx):
+        v = self.b.load(self.ptr(i, *idx))
+        if self.arrs[i][0].dtype == types.boolean:  # stored as a byte
+            v = self.b.icmp_unsigned("!=", v, ir.Constant(v.type, 0))
+        return v
+
+    def put(self, v, i, *idx):
+        self.b.store(v, self.ptr(i, *idx))
+
+    def len(self, i, axis=0):
+        return self.arrs[i][2][axis]
+
+
+def rational_order():
+    """The intrinsic ``order(k, grav, S, Wk, D, T)`` of :func:`refimpl._full_state_rational_kernel.
+    adaptive` (one machine code for every structure): the order-``k`` body of its recurrence (that
+    module's docstring), each operation as in the numba Python it replaced and in the same order.
+    ``S = (PI, GA, OM, DK, W, GG, MM, SS)`` the series rows, ``Wk = (po, pd, pwv, og, gm, r, q, cs)``
+    work vectors, ``D = (Mi, Ii, U, UGL, th, GL, Pab)`` matrices, ``T = (tm, ta, tb, fv, svm, svb,
+    sv_of, stm, sta, st_of, gpa, gpm, gp_of, mptr, mb, mc, pu, pw, pconst, gvar, gptr, gprod, gsign)``
+    the tables. ``None`` without numba.
+
+    numba's disk cache keys that kernel on its module's file, not on this one: a change of the IR
+    built here must change that file too (its comment naming :data:`IR_VERSION`)."""
+    if intrinsic is None:  # pragma: no cover - exercised only where numba is missing
+        return None
+
+    @intrinsic
+    def order(typingctx, k, grav, S, Wk, D, T):
+        for name, tup, n_ in (("S", S, 8), ("Wk", Wk, 8), ("D", D, 7), ("T", T, 23)):
+            if not (
+                isinstance(tup, types.BaseTuple)
+                and len(tup) == n_
+                and all(isinstance(t, types.Array) for t in tup.types)
+            ):
+                raise TypeError(f"rational order: {name} must be a tuple of {n_} arrays, got {tup}")
+        return types.none(k, grav, S, Wk, D, T), _rational_order
+
+    return order
+
+
+def _rational_order(context, builder, sig, args):
+    """The codegen of :func:`rational_order`."""
+    ops = _Ops(builder)
+    i64 = ir.IntType(64)
+    c = lambda x: ir.Constant(i64, x)  # noqa: E731
+    kk = context.cast(builder, args[0], sig.args[0], types.int64)
+    grav = context.cast(builder, args[1], sig.args[1], types.boolean)
+    S = _Arrays(context, builder, sig.args[2], args[2])
+    Wk = _Arrays(context, builder, sig.args[3], args[3])
+    D = _Arrays(context, builder, sig.args[4], args[4])
+    T = _Arrays(context, builder, sig.args[5], args[5])
+    PI, GA, OM, DK, W_, GG, MM, SS = range(8)
+    po, pd, pwv, og, gm, r, q, cs = range(8)
+    Mi, Ii, U, UGL, th, GL, Pab = range(7)
+    (tm, ta, tb, fv, svm, svb, sv_of, stm, sta, st_of, gpa, gpm, gp_of, mptr, mb, mc, pu, pw, pconst,
+     gvar, gptr, gprod, gsign) = range(23)  # fmt: skip
+    del tm
+    n = S.len(PI)
+    ntr = T.len(ta)
+    kp1 = builder.add(kk, c(1))
+    ik = builder.fdiv(ops.const(1.0), builder.sitofp(kp1, _F64), flags=_IKFLAGS)
+    acc = cgutils.alloca_once(builder, _F64)
+    loop = cgutils.for_range
+
+    def add_to(v):
+        builder.store(ops.add(builder.load(acc), v), acc)
+
+    def pairs(X, xi, Y, yi, j0, out):
+        """out[p] = sum_{j=j0..k} X[xi[p], j] Y[yi[p], k - j], four sums side by side (as _pairs)."""
+        npr = T.len(xi)
+        s4 = [cgutils.alloca_once(builder, _F64) for _ in range(4)]
+        nq = builder.sdiv(npr, c(4))
+        with loop(builder, nq) as lq:
+            p0 = builder.mul(lq.index, c(4))
+            us = [T.get(xi, builder.add(p0, c(i))) for i in range(4)]
+            ws = [T.get(yi, builder.add(p0, c(i))) for i in range(4)]
+            for s in s4:
+                builder.store(ops.zero, s)
+            with loop(builder, kp1, start=c(j0)) as lj:
+                b = builder.sub(kk, lj.index)
+                for i in range(4):
+                    v = ops.mul(S.get(X, us[i], lj.index), S.get(Y, ws[i], b))
+                    builder.store(ops.add(builder.load(s4[i]), v), s4[i])
+            for i in range(4):
+                Wk.put(builder.load(s4[i]), out, builder.add(p0, c(i)))
+        with loop(builder, npr, start=builder.mul(nq, c(4))) as lp:
+            u, w = T.get(xi, lp.index), T.get(yi, lp.index)
+            builder.store(ops.zero, acc)
+            with loop(builder, kp1, start=c(j0)) as lj:
+                add_to(ops.mul(S.get(X, u, lj.index), S.get(Y, w, builder.sub(kk, lj.index))))
+            Wk.put(builder.load(acc), out, lp.index)
+
+    def scatter(dst, idx, src, src_of, sign):  # dst[idx[e]] (+/-)= fv[e] * src[src_of[e]]
+        with loop(builder, ntr) as le:
+            e = le.index
+            i = T.get(idx, e)
+            v = ops.mul(T.get(fv, e), Wk.get(src, T.get(src_of, e)))
+            old = Wk.get(dst, i)
+            Wk.put(ops.add(old, v) if sign > 0 else ops.sub(old, v), dst, i)
+
+    def zero(vec):
+        with loop(builder, n) as la:
+            Wk.put(ops.zero, vec, la.index)
+
+    def matvec(M, vec, transpose, store):  # store(a, sum_b M[a, b] vec[b]) (M[b, a]: transpose)
+        with loop(builder, n) as la:
+            builder.store(ops.zero, acc)
+            with loop(builder, n) as lb:
+                a, b = la.index, lb.index
+                m = D.get(M, b, a) if transpose else D.get(M, a, b)
+                add_to(ops.mul(m, vec(b)))
+            store(a, builder.load(acc))
+
+    # ---- Omega_k
+    pairs(PI, svm, OM, svb, 1, po)
+    zero(cs)
+    scatter(cs, ta, po, sv_of, +1)
+    with loop(builder, n) as la:
+        a = la.index
+        builder.store(ops.zero, acc)
+        with loop(builder, n) as lb:
+            b = lb.index
+            add_to(
+                ops.sub(
+                    ops.mul(D.get(Ii, a, b), S.get(PI, b, kk)),
+                    ops.mul(D.get(U, a, b), Wk.get(cs, b)),
+                )
+            )
+            with builder.if_then(grav):
+                add_to(ops.mul(D.get(UGL, a, b), S.get(GA, b, kk)))
+        Wk.put(builder.load(acc), r, a)
+    matvec(Mi, lambda b: Wk.get(r, b), False, lambda a, v: S.put(v, OM, a, kk))
+    matvec(Ii, lambda b: S.get(PI, b, kk), False, lambda a, v: S.put(v, DK, a, kk))
+    # ---- pidot_k
+    pairs(PI, svm, DK, svb, 0, pd)
+    pairs(PI, stm, W_, sta, 1, pwv)
+    with loop(builder, n) as la:
+        a = la.index
+        builder.store(ops.zero, acc)
+        with loop(builder, n) as lb:
+            b = lb.index
+            add_to(ops.mul(D.get(th, a, b), S.get(DK, b, kk)))
+            with builder.if_then(grav):
+                add_to(ops.mul(D.get(GL, a, b), S.get(GA, b, kk)))
+        Wk.put(builder.load(acc), q, a)
+    with loop(builder, ntr) as le:  # q[ta] -= fv pd[sv_of], then q[tb] -= fv pwv[st_of], per e
+        e = le.index
+        f = T.get(fv, e)
+        i = T.get(ta, e)
+        Wk.put(ops.sub(Wk.get(q, i), ops.mul(f, Wk.get(pd, T.get(sv_of, e)))), q, i)
+        i = T.get(tb, e)
+        Wk.put(ops.sub(Wk.get(q, i), ops.mul(f, Wk.get(pwv, T.get(st_of, e)))), q, i)
+
+    def pidot(a, v):
+        Wk.put(v, r, a)
+        S.put(ops.mul(v, ik), PI, a, kp1)
+
+    matvec(Mi, lambda b: Wk.get(q, b), True, pidot)
+    matvec(U, lambda b: Wk.get(r, b), True, lambda a, v: S.put(v, W_, a, kk))
+    with builder.if_then(grav):
+        pairs(OM, gpa, GA, gpm, 0, og)
+        zero(q)
+        scatter(q, tb, og, gp_of, +1)
+        with loop(builder, n) as la:
+            S.put(ops.mul(Wk.get(q, la.index), ik), GA, la.index, kp1)
+    # ---- G_{k+1} from M_k = rho(Omega_k)
+    with loop(builder, builder.sub(T.len(mptr), c(1))) as le:  # the nm = len(mptr) - 1 entries
+        e = le.index
+        builder.store(ops.zero, acc)
+        with loop(builder, T.get(mptr, builder.add(e, c(1))), start=T.get(mptr, e)) as lz:
+            add_to(ops.mul(T.get(mc, lz.index), S.get(OM, T.get(mb, lz.index), kk)))
+        S.put(builder.load(acc), MM, e, kk)
+    pairs(GG, pu, MM, pw, 0, gm)
+    with loop(builder, T.len(pu)) as lp:
+        p = lp.index
+        with builder.if_then(T.get(pconst, p)):
+            Wk.put(ops.mul(S.get(GG, T.get(pu, p), c(0)), S.get(MM, T.get(pw, p), kk)), gm, p)
+    with loop(builder, T.len(gvar)) as lc:
+        builder.store(ops.zero, acc)
+        with loop(
+            builder, T.get(gptr, builder.add(lc.index, c(1))), start=T.get(gptr, lc.index)
+        ) as lz:
+            add_to(ops.mul(T.get(gsign, lz.index), Wk.get(gm, T.get(gprod, lz.index))))
+        S.put(ops.mul(builder.load(acc), ik), GG, T.get(gvar, lc.index), kp1)
+    with loop(builder, D.len(Pab)) as ll:
+        builder.store(ops.zero, acc)
+        with loop(builder, n) as lb:
+            add_to(ops.mul(D.get(Pab, ll.index, lb.index), S.get(OM, lb.index, kk)))
+        S.put(ops.mul(builder.load(acc), ik), SS, ll.index, kp1)
+    return context.get_dummy_value()
