@@ -729,15 +729,17 @@ def _protocol_pair(fs: FullState, tol: float, t: float = 0.0) -> bool:
 
 def _scratch(fs: FullState):
     """The arrays of one trajectory's first pair (:func:`_pair_of`): ``(y0, A, B, steps of A, steps
-    of B, G, Ad(g), |A - B|, size, x, ok, residual)``, as :func:`refimpl._full_state_kernel.pair_log`
-    fills them."""
+    of B, G, Ad(g), |A - B|, size, x, ok, residual, (A; B), (steps of A; of B))``, as the pair kernel
+    and :func:`refimpl._full_state_kernel.pair_log` fill them (``A``, ``B`` and their steps: the rows
+    of the last two)."""
     n, d, r = fs.n, fs.d, fs.r
+    AB, steps = np.empty((2, d)), np.empty(2, dtype=np.int64)
     return (
         np.empty((1, d)),
-        np.empty((1, d)),
-        np.empty((1, d)),
-        np.empty(1, dtype=np.int64),
-        np.empty(1, dtype=np.int64),
+        AB[:1],
+        AB[1:],
+        steps[:1],
+        steps[1:],
         np.empty((1, r, r), dtype=fs.mats.dtype),
         np.empty((1, n, n)),
         np.empty(1),
@@ -745,20 +747,26 @@ def _scratch(fs: FullState):
         np.empty((1, n)),
         np.empty(1, dtype=np.bool_),
         np.empty(1),
+        AB,
+        steps,
     )
 
 
 def _pair_of(fs: FullState):
-    """``pair(y0, t, s) -> estimate``: one trajectory's first pair on the generated kernel, ``A`` at
-    :data:`A_LOOSE` and ``B`` at :data:`EPS_B_FIRST`, into the arrays ``s`` of :func:`_scratch`,
-    estimated as :func:`_control`'s first pair (:func:`first_estimate` of ``|A - B|`` plus
-    :class:`_Answer`'s floor, :func:`_floor_one`), with ``G``, ``Ad(g)``, ``x`` and the residual of
-    ``B`` in ``s`` (:class:`_Answer`'s ``measure``: one compiled call). The kernel calls of the general
-    route's runner, without its per-call Python (issue 25); built once per structure (kept on ``fs``)."""
+    """``pair(y0, t, s) -> estimate``: one trajectory's first pair, ``A`` at :data:`A_LOOSE` and ``B``
+    at :data:`EPS_B_FIRST` (orders :data:`_FIRST_ORDERS`), on the two lanes of the generated module's
+    pair kernel (:func:`refimpl._full_state_batch.pair_first`: each lane bit for bit the generated
+    single kernel's run at its tolerance and order, for about the cost of the longer one), into the
+    arrays ``s`` of :func:`_scratch`, estimated as :func:`_control`'s first pair
+    (:func:`first_estimate` of ``|A - B|`` plus :class:`_Answer`'s floor, :func:`_floor_one`), with
+    ``G``, ``Ad(g)``, ``x`` and the residual of ``B`` in ``s`` (:class:`_Answer`'s ``measure``: one
+    compiled call). Without the general route's per-call Python (issue 25); built once per structure
+    (kept on ``fs``). Measured (A/B of the protocol call, single kernel twice against the pair, see
+    the commit): Bianchi VI0 + cocycle, se(3), so(4), su(3), se(2)."""
     pair = fs.__dict__.get("_pair")
     if pair is not None:
         return pair
-    kernel, coef, n = fs.module().adaptive, fs.coef, fs.n
+    kernel, coef, n = fs.module().pair, fs.coef, fs.n
     order_a, order_b = _FIRST_ORDERS
     if fs.refine:
         log = _fk.pair_log_refined
@@ -771,9 +779,8 @@ def _pair_of(fs: FullState):
 
     def pair(y0, t, s):
         nonlocal kernel_, log_
-        _, A, B, sA, sB, G, Ad, est, size, xs, ok, resid = s
-        kernel_(y0, t, A_LOOSE, order_a, MAX_STEPS, coef, A, sA)
-        kernel_(y0, t, EPS_B_FIRST, order_b, MAX_STEPS, coef, B, sB)
+        _, A, B, sA, sB, G, Ad, est, size, xs, ok, resid, AB, steps = s
+        kernel_(y0, t, A_LOOSE, EPS_B_FIRST, order_a, order_b, MAX_STEPS, coef, AB, steps)
         if sA[0] < 0:
             _check_steps(sA, t)
         if sB[0] < 0:
@@ -781,7 +788,9 @@ def _pair_of(fs: FullState):
         if not log_(A, B, *args, G, Ad, est, size, xs, ok, resid):
             _log_complete(fs, B, G, Ad, xs, ok, resid)
         if kernel_ is kernel:  # the first call: the entry points of the types it used
-            kernel_ = entry_point(kernel, (y0, t, A_LOOSE, order_a, MAX_STEPS, coef, A, sA))
+            kernel_ = entry_point(
+                kernel, (y0, t, A_LOOSE, EPS_B_FIRST, order_a, order_b, MAX_STEPS, coef, AB, steps)
+            )
             log_ = entry_point(log, (A, B, *args, G, Ad, est, size, xs, ok, resid))
         d = est.item()
         e = first_estimate(d, A_LOOSE, EPS_B_FIRST, PROP_MIN_B, PROP_MAX_D)
