@@ -378,12 +378,13 @@ def test_su2_finish_of_one_pair_checks_steps_and_finiteness():
 def test_full_state_floor_of_one_trajectory_is_inf_for_an_unknown_size():
     """``_full_state._floor_one`` (the rounding floor of one trajectory's answer): inf where the
     answer's size is NaN or inf (Python's ``max(1.0, nan)`` is 1.0, which would let such an answer
-    pass), else ``eps (4 (sqrt(steps) + n) max(1, size) + 10 kappa) + resid``, written out here."""
+    pass), else ``eps (4 (sqrt(steps) + n) max(1, size) + 30 kappa) + resid`` (ROUND_PER_STEP = 4,
+    ROUND_AMPLIFIED = 30), written out here."""
     from tstarg.refimpl._full_state import _floor_one
 
     for size in (np.nan, np.inf):
         assert _floor_one(16, 3, size, 1.0, 0.0) == np.inf
     got = _floor_one(16, 3, 2.5, 7.0, 1e-14)
-    want = EPS * (4.0 * (4.0 + 3) * 2.5 + 10.0 * 7.0) + 1e-14
+    want = EPS * (4.0 * (4.0 + 3) * 2.5 + 30.0 * 7.0) + 1e-14
     assert abs(got - want) <= 4 * EPS * want
     assert _floor_one(9, 3, 0.5, 0.0, 0.0) == EPS * 4.0 * (3.0 + 3)

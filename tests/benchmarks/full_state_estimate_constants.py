@@ -11,8 +11,8 @@ the first pair of one trajectory as the protocol call runs it (:func:`refimpl._f
 1e-19 (``err(B)`` over ``pi`` and ``Ad(exp x)``, the bench's, with ``expm`` at 40 digits:
 :func:`exact_error`). Printed per order: the fraction of starts whose first pair passes ``tol =
 1e-10`` (the others go on through the control) and, over those (their ``B`` is returned), the worst
-coverage ``err(B) / estimate`` (the estimate, with its floor, must bound the error: below 1). Needs
-heyoka (the bench extra). No timing.
+coverage ``err(B) / estimate`` (the estimate, with its floor, must bound the error: below 1). A_ORDERS
+``flow``: the whole answers instead (:func:`flow`). Needs heyoka (the bench extra). No timing.
 """
 
 from __future__ import annotations
@@ -59,7 +59,7 @@ def problems(seed: int, per: int, times: list[float]) -> list:
             inertia = _spd(rng, n)
             x0, pi0 = 0.3 * rng.standard_normal(n), rng.standard_normal(n)
             for T in times if n == 3 else [t for t in times if t <= 10]:
-                label = f"{name} #{k} T={T:g}"
+                label = f"{name} #{k} T={T:g} (seed {seed})"  # heyoka_taylor caches by name
                 out.append(
                     bp.ProtocolProblem(
                         label,
@@ -113,9 +113,57 @@ def exact_error(p, x, pi, ref) -> float:
     return bp.protocol_error(p, pi, R_of(p, x), ref)
 
 
+def flow(probs) -> int:
+    """``A_ORDERS = flow``: the answers of :func:`refimpl._full_state.full_state_flow` (the first pair
+    and, where it fails, the control's retries) at ``tol = 1e-10``: per answer ``err(B) / estimate``
+    and the rounding floor's factor that just covers the error, ``ROUND_AMPLIFIED + (err(B) -
+    estimate) / (eps kappa)`` (``kappa`` of the answer's last floor); the worst of each."""
+    last = {}
+    one = FS._floor_one
+
+    def floor_one(steps, n, size, kappa, resid):  # one trajectory's floor: record its kappa
+        last["kappa"] = kappa
+        return one(steps, n, size, kappa, resid)
+
+    FS._floor_one = floor_one
+    worst_q, worst_r, returned = (0.0, ""), (-np.inf, ""), 0
+    for i, p in enumerate(probs):
+        ref_ta = bp.heyoka_taylor(p, 1e-19, fp="longdouble", compact=True)
+        ref_ta.propagate_until(np.longdouble(p.T))
+        ref = np.array(ref_ta.state, dtype=np.longdouble)
+        model = cached_model(p.f, p.theta, p.upsilon, p.inertia, p.potential)
+        last.clear()
+        try:
+            out = FS.full_state_flow(
+                model, p.x0[:, None].copy(), p.pi0[:, None].copy(), p.T, TOL, abelian=_AbelianPart
+            )
+        except ValueError as exc:  # refused: no answer to cover
+            print(f"[{i + 1}/{len(probs)}] {p.name}: refused ({str(exc)[:60]})", flush=True)
+            continue
+        returned += 1
+        e = float(out["error_estimate"][0])
+        err = exact_error(p, out["x"][:, 0], out["pi"][:, 0], ref)
+        k = last.get("kappa", 0.0)
+        r = FS.ROUND_AMPLIFIED + (err - e) / (FS._EPS * k) if k > 0 else -np.inf
+        worst_q = max(worst_q, (err / e, p.name))
+        worst_r = max(worst_r, (r, p.name))
+        print(
+            f"[{i + 1}/{len(probs)}] {p.name}: err {err:.2e} estimate {e:.2e} err/estimate "
+            f"{err / e:.3f} kappa {k:.2e} factor needed {r:.1f}",
+            flush=True,
+        )
+    FS._floor_one = one
+    print(f"{returned} answers: worst err/estimate {worst_q[0]:.3f} ({worst_q[1]}), worst factor "
+          f"needed {worst_r[0]:.2f} ({worst_r[1]}), ROUND_AMPLIFIED = {FS.ROUND_AMPLIFIED:g}")  # fmt: skip
+    return 0
+
+
 def main(argv: list[str]) -> int:
     seed = int(argv[1]) if len(argv) > 1 else 25
     per = int(argv[2]) if len(argv) > 2 else 2
+    if len(argv) > 3 and argv[3] == "flow":
+        times = [float(v) for v in argv[4].split(",")] if len(argv) > 4 else [1.0, 3.0, 10.0, 30.0]
+        return flow(problems(seed, per, times))
     orders = (
         [int(v) for v in argv[3].split(",")]
         if len(argv) > 3
