@@ -1,4 +1,4 @@
-"""One order of the generated full-state kernel's recurrence as LLVM IR, built by a numba intrinsic.
+"""One order of the full-state kernels' recurrence as LLVM IR, built by numba intrinsics.
 
 Why IR (issue 25, the compile time of :func:`refimpl.codegen.full_state.full_state_source`'s kernel):
 numba's front end types and lowers every statement of a function on its own, and the per-order body
@@ -23,8 +23,16 @@ The field's numbers ``C`` travel as a tuple of float64 read once per call by ``_
 (:func:`load_intrinsic`): loaded from the array inside the order, LLVM could not keep them in
 registers across the stores into ``V`` (it cannot tell the two arrays apart).
 
+The same body on vectors of lanes (:func:`lanes_order_intrinsic`: the generated lane kernel of
+:mod:`refimpl.codegen.full_state_batch`, and the one-trajectory first pair, A and B on two lanes, of
+:func:`refimpl.codegen.full_state.pair_lines`), the single kernel's Horner update
+(:func:`update_intrinsic`), and the order bodies of the two kernels compiled for every structure,
+the tables read at run time: :func:`packed_order` (:func:`refimpl._full_state_batch.adaptive_packed`)
+and :func:`rational_order` (:func:`refimpl._full_state_rational_kernel.adaptive`, ``Upsilon != 0``).
+
 The generated module names :data:`IR_VERSION` (numba's disk cache keys on the generated file's text,
-not on this module, so a change of the IR built here must change that text).
+not on this module, so a change of the IR built here must change that text; the two fixed kernels
+name it in a comment of their own file, which is their cache key).
 """
 
 from __future__ import annotations
