@@ -51,6 +51,7 @@ from ._taylor_ir import _F64, _Ops, _unpack
 
 __all__ = [
     "IR_VERSION",
+    "lane_update_intrinsic",
     "lanes_order_intrinsic",
     "load_intrinsic",
     "order_intrinsic",
@@ -416,6 +417,75 @@ def update_intrinsic(rows):
             return fin
 
         return types.boolean(V, comp, hs, P), codegen
+
+    return update
+
+
+def lane_update_intrinsic(rows, W: int):
+    """The intrinsic ``fin = update(V, comp, hs, P, l)``: :func:`update_intrinsic`'s compensated
+    Horner update on lane ``l`` of the lane kernels' ``V[k, row, lane]`` (``(P' + 1, rows, W)``, C
+    order, ``P <= P'``) with the carries ``comp[c, l]`` (``(len(rows), W)``): each row's operations
+    those of :func:`update_intrinsic` in the same order (so lane ``l`` is updated as the single kernel
+    updates its run), the rows' chains side by side (the pair kernel's lanes: one lane's rows in one
+    loop over ``kk``, not one row's chain after another)."""
+    rows = tuple(int(r) for r in rows)
+
+    @intrinsic
+    def update(typingctx, V, comp, hs, P, l):
+        _check_array("lane update", V, 3)
+        _check_array("lane update", comp, 2)
+        if not (
+            isinstance(hs, types.Float)
+            and isinstance(P, types.Integer)
+            and isinstance(l, types.Integer)
+        ):
+            raise TypeError(f"lane update: expects (V, comp, float, int, int), got {hs}, {P}, {l}")
+
+        def codegen(context, builder, sig, args):
+            ops = _Ops(builder)
+            i64 = ir.IntType(64)
+            arr = context.make_array(sig.args[0])(context, builder, args[0])
+            data = arr.data
+            nrow = cgutils.unpack_tuple(builder, arr.shape, 3)[1]
+            cdata = context.make_array(sig.args[1])(context, builder, args[1]).data
+            h = context.cast(builder, args[2], sig.args[2], types.float64)
+            pp = context.cast(builder, args[3], sig.args[3], types.int64)
+            ln = context.cast(builder, args[4], sig.args[4], types.int64)
+            w_ = ir.Constant(i64, W)
+            stride = builder.mul(nrow, w_)  # one order's floats
+            lane = [builder.add(ir.Constant(i64, r * W), ln) for r in rows]
+
+            def at(c, col):  # &V[col, rows[c], l]
+                return builder.gep(
+                    data, [builder.add(builder.mul(col, stride), lane[c])], inbounds=True
+                )
+
+            def cat(c):  # &comp[c, l]
+                off = builder.add(ir.Constant(i64, c * W), ln)
+                return builder.gep(cdata, [off], inbounds=True)
+
+            zs = [
+                cgutils.alloca_once_value(builder, builder.load(at(c, pp)))
+                for c in range(len(rows))
+            ]
+            top = builder.sub(pp, ir.Constant(i64, 1))  # kk = P - 1 - j, j = 0 .. P - 2
+            with cgutils.for_range(builder, top) as loop:
+                kk = builder.sub(top, loop.index)
+                for c, z in enumerate(zs):
+                    builder.store(ops.add(ops.mul(builder.load(z), h), builder.load(at(c, kk))), z)
+            fin = cgutils.true_bit
+            inf = ops.const(float("inf"))
+            zero = ir.Constant(i64, 0)
+            for c, z in enumerate(zs):
+                zz = ops.sub(ops.mul(builder.load(z), h), builder.load(cat(c)))
+                y = builder.load(at(c, zero))
+                w = ops.add(y, zz)
+                builder.store(ops.sub(ops.sub(w, y), zz), cat(c))
+                builder.store(w, at(c, zero))
+                fin = builder.and_(fin, builder.fcmp_ordered("<", ops.abs(w), inf))
+            return fin
+
+        return types.boolean(V, comp, hs, P, l), codegen
 
     return update
 
