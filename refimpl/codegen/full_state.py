@@ -155,6 +155,7 @@ def full_state_source(fs) -> str:
         f"_load = _full_state_ir.load_intrinsic({sp[0]})",
         f"_update = _full_state_ir.update_intrinsic({tuple(vrows)!r})",
         "_order2 = _full_state_ir.lanes_order_intrinsic(SPEC, 2)",
+        f"_update2 = _full_state_ir.lane_update_intrinsic({tuple(vrows)!r}, 2)",
         "",
         "",
         _JIT,
@@ -212,10 +213,11 @@ def pair_lines(fs, sp, nv: int, vrows: list, srows: list) -> list[str]:
     :func:`refimpl.codegen._full_state_ir.lanes_order_intrinsic` on this kernel's own spec: each
     lane's operations those of :func:`order_intrinsic`), the series computed to ``max(P_a, P_b)`` for
     both; each lane its own step (from its order's last two coefficients), time, step count, carries
-    and status, its Horner update to its own order -- so lane A is the single kernel's run at
+    and status, its Horner update to its own order (:func:`refimpl.codegen._full_state_ir.
+    lane_update_intrinsic`, the single kernel's update on one lane) -- so lane A is the single kernel's run at
     ``(tol_a, P_a)`` and lane B at ``(tol_b, P_b)``, operation for operation. ``out[0]``, ``out[1]``:
     A's and B's end states, ``nsteps`` their steps (negative: the status, as :func:`adaptive`)."""
-    I1, I2, I3, I4, I5 = ("    " * i for i in range(1, 6))
+    I1, I2, I3, I4 = ("    " * i for i in range(1, 5))
     d = fs.d
     src = [
         _JIT,
@@ -225,9 +227,6 @@ def pair_lines(fs, sp, nv: int, vrows: list, srows: list) -> list[str]:
         I1 + f"SR = np.array({srows}, dtype=np.int64)"
         if srows
         else I1 + "SR = np.zeros(0, dtype=np.int64)",
-        I1 + f"VR = np.array({vrows}, dtype=np.int64)"
-        if vrows
-        else I1 + "VR = np.zeros(0, dtype=np.int64)",
         I1 + "C = _load(c)",
         I1 + "Pm = max(P_a, P_b)",
         I1 + f"V = np.zeros((Pm + 1, {nv}, 2))",
@@ -278,18 +277,7 @@ def pair_lines(fs, sp, nv: int, vrows: list, srows: list) -> list[str]:
         I3 + "else:",
         I4 + "t[l] += h",
         I3 + "hs = sgn * h",
-        I3 + "fin = True",
-        I3 + "for ci in range(VR.shape[0]):",
-        I4 + "i = VR[ci]",
-        I4 + "z = V[P, i, l]",
-        I4 + "for kk in range(P - 1, 0, -1):",
-        I5 + "z = z * hs + V[kk, i, l]",
-        I4 + "z = z * hs - comp[ci, l]",
-        I4 + "w = V[0, i, l] + z",
-        I4 + "comp[ci, l] = (w - V[0, i, l]) - z",
-        I4 + "V[0, i, l] = w",
-        I4 + "if not math.isfinite(w):",
-        I5 + "fin = False",
+        I3 + "fin = _update2(V, comp, hs, P, l)",
         I3 + "nst[l] += 1",
         I3 + "if not fin:",
         I4 + "status[l] = -1",
