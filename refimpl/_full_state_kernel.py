@@ -526,6 +526,15 @@ def logm(G, L):
 # representation), never from a value.
 
 
+LOG_GENERAL = 0
+""":func:`log_batch_exp`'s logarithm :func:`logm` (the ``kind`` of the log's compiled entries)."""
+LOG_SMALL = 1
+""":func:`log_small` (a representation of :func:`small_shape` >= -1)."""
+LOG_FROM_ABELIAN = 2
+""":func:`log_from_abelian` (:func:`log_state_refined` on a representation where
+:func:`derived_is_translations`)."""
+
+
 @njit(cache=True, nogil=True)
 def small_shape(mats, cplx):
     """:func:`log_small`'s shape of the representation ``mats`` (n, r, r): -1 real 2 x 2; ``k``
@@ -571,11 +580,24 @@ def _solve_phi1(l0, p, q, c, bx, by):
     ``|l0| + sqrt|delta|`` scaled to 1/2 or less, then ``phi1(2Y) = (e^Y + I) phi1(Y) / 2``,
     ``e^(2Y) = (e^Y)^2``), the inverse ``(alpha I - beta N) / det`` with ``det = alpha^2 - beta^2
     delta = phi1(l0 + t) phi1(l0 - t)`` (``t = sqrt(delta)``: that product when ``delta > 0``, where
-    the difference cancels; a sum of squares when ``delta <= 0``). Returns ``(v0, v1, ok)``."""
+    the difference cancels; a sum of squares when ``delta <= 0``); on the eigenvectors instead when
+    ``t > 1/2`` (below). Returns ``(v0, v1, ok)``."""
     delta = p * p + q * c
     nrm = abs(l0) + math.sqrt(abs(delta))
     if not math.isfinite(nrm):
         return 0.0, 0.0, False
+    nbx = p * bx + q * by
+    nby = c * bx - p * by
+    if delta > 0.25:
+        # real eigenvalues l0 +- t, t > 1/2: on the eigenvectors, v = g(l0 + t) P+ b + g(l0 - t) P- b
+        # (g = 1 / phi1 = z / expm1(z), P+- = (I +- N / t) / 2): each component to a few ulp, where
+        # alpha -+ beta t cancel in the pairs' form (its residual phi1(L) v - b reached ~10 eps |b|)
+        t = math.sqrt(delta)
+        gp = 1.0 / _phi1(l0 + t)
+        gm = 1.0 / _phi1(l0 - t)
+        v0 = 0.5 * (gp * (bx + nbx / t) + gm * (bx - nbx / t))
+        v1 = 0.5 * (gp * (by + nby / t) + gm * (by - nby / t))
+        return v0, v1, math.isfinite(v0) and math.isfinite(v1)
     s = 0
     while nrm > 0.5:
         nrm *= 0.5
@@ -607,9 +629,7 @@ def _solve_phi1(l0, p, q, c, bx, by):
         t = math.sqrt(delta)
         det = _phi1(l0 + t) * _phi1(l0 - t)
     else:
-        det = f0 * f0 - f1 * f1 * delta
-    nbx = p * bx + q * by
-    nby = c * bx - p * by
+        det = f0 * f0 - f1 * f1 * delta  # a sum of squares
     v0 = (f0 * bx - f1 * nbx) / det
     v1 = (f0 * by - f1 * nby) / det
     return v0, v1, math.isfinite(v0) and math.isfinite(v1) and det > 0.0
@@ -679,7 +699,8 @@ def derived_is_translations(Dr, k):
     ``x``'s abelian part alone (:func:`log_from_abelian`)."""
     if Dr.shape[0] != 2 or Dr.shape[1] != 3:
         return False
-    i0, i1 = _block(3, k)
+    i0 = 1 if k == 0 else 0  # _block(3, k), written out: pair_log_for runs this in Python
+    i1 = 1 if k == 2 else 2
     for c in range(2):
         big = 0.0
         for i in range(3):
@@ -800,26 +821,34 @@ def ad_batch(G, mats, proj, cplx, out):
 def log_batch(G, mats, proj, cplx, out, ok):
     """``out[N]``: the coordinates of the principal logarithm of ``G[N]`` on the ``E_a``; ``ok[N]``
     when it exists and ``exp(rho(x)) = G`` to ``1e3 eps cond max(1, |G|) r`` (``cond = exp(||rho(x)||_1)``,
-    the acceptance test of Representation._accept)."""
-    log_batch_exp(G, mats, proj, cplx, out, ok, np.empty_like(G))
+    the acceptance test of Representation._accept). The logarithm :func:`log_small` where
+    :func:`small_shape` applies, else :func:`logm` (chosen at run time: this entry compiles both)."""
+    if small_shape(mats, cplx) >= -1:
+        log_batch_exp(G, mats, proj, cplx, out, ok, np.empty_like(G), LOG_SMALL)
+    else:
+        log_batch_exp(G, mats, proj, cplx, out, ok, np.empty_like(G), LOG_GENERAL)
 
 
 @njit(cache=True, nogil=True, inline="always")
-def log_batch_exp(G, mats, proj, cplx, out, ok, Ex):
-    """:func:`log_batch` (the logarithm :func:`log_small` on the representations of its
-    :func:`small_shape`, else :func:`logm`), keeping ``Ex[N] = exp(rho(x))`` of the acceptance test (what
+def log_batch_exp(G, mats, proj, cplx, out, ok, Ex, kind):
+    """:func:`log_batch` by the logarithm ``kind`` (:data:`LOG_SMALL`: :func:`log_small`, else
+    :func:`logm`; a constant at every call site, so numba prunes the other and never compiles it), keeping ``Ex[N] = exp(rho(x))`` of the acceptance test (what
     :func:`log_residual` computes again from ``x``: the same arithmetic) for the rows reaching it."""
     N, r, _ = G.shape
     n = mats.shape[0]
     L = np.zeros((r, r), dtype=G.dtype)
     X = np.zeros((r, r), dtype=G.dtype)
     x = np.zeros(n)
-    shape = small_shape(mats, cplx)
+    shape = small_shape(mats, cplx) if kind == LOG_SMALL else -2
     for it in range(N):
         ok[it] = False
         Gt = G[it]
         E = Ex[it]
-        if not (log_small(Gt, L, shape) if shape >= -1 else logm(Gt, L)):
+        if kind == LOG_SMALL:
+            found = log_small(Gt, L, shape)
+        else:
+            found = logm(Gt, L)
+        if not found:
             continue
         ok[it] = _accept_log(L, Gt, mats, proj, cplx, x, X, E, out[it])
 
@@ -1128,14 +1157,14 @@ def _residual_final(Ex, mats, proj, cplx, Ad, resid):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def log_state(G, Ad, mats, proj, cplx, ab_mode, xs, ok, resid):
+def log_state(G, Ad, mats, proj, cplx, ab_mode, xs, ok, resid, kind):
     """The answer's logarithm and its residual in one call: :func:`log_batch` of ``G`` (N, r, r) into
     ``xs`` and, when it accepted every row and no abelian part is to be refined (``ab_mode`` 0; 2: a
     complex representation with an abelian part, refined by the caller), ``resid`` by
     :func:`log_residual` against ``Ad``. Returns whether ``xs`` and ``resid`` are final (else the
-    caller completes them, ``refimpl._full_state._log_complete``)."""
+    caller completes them, ``refimpl._full_state._log_complete``). ``kind``: :func:`log_batch_exp`'s."""
     Ex = np.empty_like(G)
-    log_batch_exp(G, mats, proj, cplx, xs, ok, Ex)
+    log_batch_exp(G, mats, proj, cplx, xs, ok, Ex, kind)
     for j in range(xs.shape[0]):
         if not ok[j]:
             return False
@@ -1146,12 +1175,13 @@ def log_state(G, Ad, mats, proj, cplx, ab_mode, xs, ok, resid):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid):
+def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid, kind):
     """:func:`log_state` of a real representation with an abelian part: after :func:`log_batch` (when
     it accepted every row) :func:`abelian_batch` with ``s`` the last ``k = P.shape[0]`` entries of the
-    states ``B`` (N, d), then ``resid``; on a representation where :func:`derived_is_translations`,
-    :func:`log_from_abelian` (the refine's answer in closed form) instead of both. Returns whether
-    ``xs`` and ``resid`` are final (else the caller completes the rows not ``ok``)."""
+    states ``B`` (N, d), then ``resid``; ``kind`` :data:`LOG_FROM_ABELIAN` (a representation where
+    :func:`derived_is_translations`): :func:`log_from_abelian`, the refine's answer in closed form,
+    instead of both (neither compiled); else :func:`log_batch_exp`'s ``kind``. Returns whether ``xs``
+    and ``resid`` are final (else the caller completes the rows not ``ok``)."""
     Ex = np.empty_like(G)
     # False (a real representation: proj has r^2 columns), computed rather than written: a literal
     # False is typed Literal[bool] and compiled ad_batch and _project a second time (0.7 s cold)
@@ -1161,9 +1191,9 @@ def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid
     d = B.shape[1]
     r = G.shape[1]
     sj = np.empty(k)
-    shape = small_shape(mats, cplx)
-    if shape >= 0 and derived_is_translations(Dr, shape):
+    if kind == LOG_FROM_ABELIAN:
         # the refine's answer in closed form (log_from_abelian), accepted as log_batch's
+        shape = small_shape(mats, cplx)
         L = np.empty((r, r))
         X = np.empty((r, r))
         x = np.empty(n)
@@ -1178,7 +1208,7 @@ def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid
         if done:
             _residual_final(Ex, mats, proj, cplx, Ad, resid)
         return done
-    log_batch_exp(G, mats, proj, cplx, xs, ok, Ex)
+    log_batch_exp(G, mats, proj, cplx, xs, ok, Ex, kind)
     for j in range(N):
         if not ok[j]:
             return False
@@ -1222,18 +1252,62 @@ def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid
     return True
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _pair_log(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid, kind):  # fmt: skip
+    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, size)
+    return log_state(GB, AdB, mats, proj, cplx, ab_mode, xs, ok, resid, kind)
+
+
 @njit(cache=True, nogil=True)
 def pair_log(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`estimate` of the pair ``(A, B)`` and :func:`log_state` of ``B`` in one call (one dispatch
-    instead of four on the common protocol call). Returns :func:`log_state`'s flag."""
-    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, size)
-    return log_state(GB, AdB, mats, proj, cplx, ab_mode, xs, ok, resid)
+    instead of four on the common protocol call), by :func:`logm`. Returns :func:`log_state`'s flag."""
+    return _pair_log(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid, LOG_GENERAL)  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def pair_log_small(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+    """:func:`pair_log` by :func:`log_small` (its representations: :func:`pair_log_for`)."""
+    return _pair_log(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid, LOG_SMALL)  # fmt: skip
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _pair_log_refined(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid, kind):  # fmt: skip
+    # False, not a literal (see log_state_refined)
+    cplx = proj.shape[1] != mats.shape[1] * mats.shape[2]
+    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, cplx, GB, AdB, est, size)
+    return log_state_refined(B, GB, AdB, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid, kind)
 
 
 @njit(cache=True, nogil=True)
 def pair_log_refined(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`pair_log` with :func:`log_state_refined` (a real representation with an abelian part)."""
-    # False, not a literal (see log_state_refined)
-    cplx = proj.shape[1] != mats.shape[1] * mats.shape[2]
-    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, cplx, GB, AdB, est, size)
-    return log_state_refined(B, GB, AdB, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid)
+    return _pair_log_refined(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid, LOG_GENERAL)  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def pair_log_refined_small(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+    """:func:`pair_log_refined` by :func:`log_small`."""
+    return _pair_log_refined(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid, LOG_SMALL)  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def pair_log_abelian(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+    """:func:`pair_log_refined` by :func:`log_from_abelian` (neither :func:`logm` nor the refine)."""
+    return _pair_log_refined(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid, LOG_FROM_ABELIAN)  # fmt: skip
+
+
+def pair_log_for(mats, cplx, Dr=None):
+    """The compiled pair and logarithm for the representation ``mats`` (``Dr``: ``rho`` of ``[g, g]``'s
+    basis when the abelian part is refined in the compiled code, :func:`pair_log_refined`'s arguments;
+    else None, :func:`pair_log`'s), decided per representation, never per value:
+    :func:`pair_log_abelian` where :func:`derived_is_translations`, the ``_small`` entries where
+    :func:`small_shape` applies, else the general ones. Each is its own compiled function, so a
+    structure compiles only the logarithm it uses. The tests run the compiled code; this decision
+    runs their Python (``py_func``: the same source, nothing compiled for it)."""
+    shape = small_shape.py_func(mats, cplx)
+    if Dr is None:
+        return pair_log_small if shape >= -1 else pair_log
+    if shape >= 0 and derived_is_translations.py_func(Dr, shape):
+        return pair_log_abelian
+    return pair_log_refined_small if shape >= -1 else pair_log_refined

@@ -209,3 +209,24 @@ def test_log_from_abelian_recovers_x(name, x):
     phi1 = scipy.linalg.expm(np.block([[Lb, np.eye(2)], [np.zeros((2, 4))]]))[:2, 2:]
     cond = np.linalg.cond(phi1)
     assert np.max(np.abs(xl - x)) <= 100 * EPS * cond * max(1.0, np.max(np.abs(x)))
+
+
+@pytest.mark.parametrize("name", sorted(SHAPES))
+def test_pair_log_for_picks_the_representations_logarithm(name):
+    """The compiled pair + logarithm a structure runs: the closed form from ``s`` where ``[g, g]`` is
+    the translations, ``log_small`` on the other small shapes, ``logm`` elsewhere (by hand, from
+    :data:`SHAPES` and :data:`DERIVED_TRANSLATIONS`)."""
+    f, mats = _rep(name)
+    cplx = np.iscomplexobj(mats)
+    ab = _AbelianPart.of(f, 1) if representation_for(catalogue(name)).exponential else None
+    Dr = None
+    if ab is not None and not cplx:
+        Dr = np.ascontiguousarray(np.einsum("ak,aij->kij", ab.D, mats.real))
+    got = fk.pair_log_for(np.ascontiguousarray(mats), cplx, Dr)
+    small = SHAPES[name] >= -1
+    if Dr is None:
+        assert got is (fk.pair_log_small if small else fk.pair_log)
+    elif DERIVED_TRANSLATIONS.get(name):
+        assert got is fk.pair_log_abelian
+    else:
+        assert got is (fk.pair_log_refined_small if small else fk.pair_log_refined)
