@@ -530,9 +530,6 @@ LOG_GENERAL = 0
 """:func:`log_batch_exp`'s logarithm :func:`logm` (the ``kind`` of the log's compiled entries)."""
 LOG_SMALL = 1
 """:func:`log_small` (a representation of :func:`small_shape` >= -1)."""
-LOG_FROM_ABELIAN = 2
-""":func:`log_from_abelian` (:func:`log_state_refined` on a representation where
-:func:`derived_is_translations`)."""
 
 
 @njit(cache=True, nogil=True)
@@ -1175,13 +1172,45 @@ def log_state(G, Ad, mats, proj, cplx, ab_mode, xs, ok, resid, kind):
 
 
 @njit(cache=True, nogil=True, inline="always")
+def log_state_abelian(B, G, Ad, mats, proj, Ppinv, xs, ok, resid):
+    """:func:`log_state_refined` on a representation where :func:`derived_is_translations`: the
+    refine's answer in closed form (:func:`log_from_abelian`, ``s`` the last ``k = Ppinv.shape[1]``
+    entries of the states ``B``), accepted as :func:`log_batch`'s, then ``resid``; neither the
+    logarithm of ``G`` nor the refine (a function of its own: inlining :func:`log_state_refined` and
+    pruning the rest cost ~1 s of numba's inlining pass cold). Returns whether ``xs`` and ``resid`` are
+    final (else the caller completes the rows not ``ok``)."""
+    Ex = np.empty_like(G)
+    cplx = (
+        proj.shape[1] != mats.shape[1] * mats.shape[2]
+    )  # False, not a literal (log_state_refined)
+    N, n = xs.shape
+    k = Ppinv.shape[1]
+    d = B.shape[1]
+    r = G.shape[1]
+    sj = np.empty(k)
+    shape = small_shape(mats, cplx)
+    L = np.empty((r, r))
+    X = np.empty((r, r))
+    x = np.empty(n)
+    done = True
+    for j in range(N):
+        for ell in range(k):
+            sj[ell] = B[j, d - k + ell]
+        ok[j] = log_from_abelian(sj, Ppinv, mats, shape, G[j], L) and _accept_log(
+            L, G[j], mats, proj, cplx, x, X, Ex[j], xs[j]
+        )
+        done = done and ok[j]
+    if done:
+        _residual_final(Ex, mats, proj, cplx, Ad, resid)
+    return done
+
+
+@njit(cache=True, nogil=True, inline="always")
 def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid, kind):
     """:func:`log_state` of a real representation with an abelian part: after :func:`log_batch` (when
     it accepted every row) :func:`abelian_batch` with ``s`` the last ``k = P.shape[0]`` entries of the
-    states ``B`` (N, d), then ``resid``; ``kind`` :data:`LOG_FROM_ABELIAN` (a representation where
-    :func:`derived_is_translations`): :func:`log_from_abelian`, the refine's answer in closed form,
-    instead of both (neither compiled); else :func:`log_batch_exp`'s ``kind``. Returns whether ``xs``
-    and ``resid`` are final (else the caller completes the rows not ``ok``)."""
+    states ``B`` (N, d), then ``resid``. ``kind``: :func:`log_batch_exp`'s. Returns whether ``xs`` and
+    ``resid`` are final (else the caller completes the rows not ``ok``)."""
     Ex = np.empty_like(G)
     # False (a real representation: proj has r^2 columns), computed rather than written: a literal
     # False is typed Literal[bool] and compiled ad_batch and _project a second time (0.7 s cold)
@@ -1191,23 +1220,6 @@ def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid
     d = B.shape[1]
     r = G.shape[1]
     sj = np.empty(k)
-    if kind == LOG_FROM_ABELIAN:
-        # the refine's answer in closed form (log_from_abelian), accepted as log_batch's
-        shape = small_shape(mats, cplx)
-        L = np.empty((r, r))
-        X = np.empty((r, r))
-        x = np.empty(n)
-        done = True
-        for j in range(N):
-            for ell in range(k):
-                sj[ell] = B[j, d - k + ell]
-            ok[j] = log_from_abelian(sj, Ppinv, mats, shape, G[j], L) and _accept_log(
-                L, G[j], mats, proj, cplx, x, X, Ex[j], xs[j]
-            )
-            done = done and ok[j]
-        if done:
-            _residual_final(Ex, mats, proj, cplx, Ad, resid)
-        return done
     log_batch_exp(G, mats, proj, cplx, xs, ok, Ex, kind)
     for j in range(N):
         if not ok[j]:
@@ -1292,7 +1304,7 @@ def pair_log_abelian(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, r
     """:func:`pair_log_refined` by :func:`log_from_abelian` (neither :func:`logm` nor the refine)."""
     cplx = proj.shape[1] != mats.shape[1] * mats.shape[2]
     estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, cplx, GB, AdB, est, size)
-    return log_state_refined(B, GB, AdB, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid, LOG_FROM_ABELIAN)  # fmt: skip
+    return log_state_abelian(B, GB, AdB, mats, proj, Ppinv, xs, ok, resid)
 
 
 def pair_log_for(mats, cplx, Dr=None):

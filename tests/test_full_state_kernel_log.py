@@ -20,7 +20,7 @@ Error models (bounds that hold for any backward-stable route, never fitted to th
   integrated ``s``): the answer's residual as the float64 exponential sees it is at most the refine's
   floor ``LOG_REFINE_FLOOR r max(1, |G|)``, so the true residual ``|exp(rho(x)) - G|`` (mpmath) is at
   most that floor plus the float64 exponential's own error at ``x`` (measured against mpmath, not
-  modelled); its closed form (``LOG_FROM_ABELIAN``, no iteration against the float64 exponential):
+  modelled); its closed form (``log_state_abelian``, no iteration against the float64 exponential):
   ``x`` is the logarithm to its own rounding, ``10 r eps |x|`` (a few ulp per entry, ``r`` terms
   each), which moves ``exp(rho(x))`` by ``|G|`` times that;
 * ``expm_frechet``: the exponential of the block ``Z`` computed by scaling and squaring errs by at
@@ -137,21 +137,21 @@ def _vi0():
     return _VI0
 
 
-@pytest.mark.parametrize("kind", [fk.LOG_GENERAL, fk.LOG_FROM_ABELIAN])
+@pytest.mark.parametrize("closed", [False, True])
 @settings(deadline=None)
 @given(
     st.lists(st.floats(-6.0, 6.0), min_size=2, max_size=2),
     st.floats(-6.5, 6.5),
 )
 @example([5.07794626, -5.40291662], 5.72304174)  # a bench batch row whose log was 500 ulp off
-def test_refined_log_reaches_the_exponentials_rounding(kind, xy, s):
+def test_refined_log_reaches_the_exponentials_rounding(closed, xy, s):
     """Bianchi VI0 at ``|x|`` up to ~10 (``|G|`` up to ``e^6.5``): ``log_state_refined`` of
     ``G = exp(rho(x_true))`` (mpmath, rounded) with ``s = x_true_3``. Its ``x`` keeps ``s`` as the
     abelian part (or the logarithm's, within ``ABELIAN_RTOL`` of it) and reproduces ``G`` to the float64 exponential's rounding (module docstring): the
     logarithm alone was hundreds of ulp off in ``x_3`` while within ``ABELIAN_RTOL`` of ``s``, which
     moved ``Ad(exp x)`` by 1.2e-10 and refused bench batch rows. Both routes: ``logm`` and the
-    Gauss-Newton refine (``LOG_GENERAL``), and the refine's answer in closed form
-    (``LOG_FROM_ABELIAN``, what the flows run on Bianchi VI0)."""
+    Gauss-Newton refine (``log_state_refined``), and the refine's answer in closed form
+    (``log_state_abelian``, what the flows run on Bianchi VI0)."""
     fs = _vi0()
     x_true = np.array([xy[0], xy[1], s])
     X = np.einsum("a,aij->ij", x_true, fs.mats)
@@ -161,9 +161,13 @@ def test_refined_log_reaches_the_exponentials_rounding(kind, xy, s):
     B = np.zeros((1, fs.d))
     B[0, fs.d - 1] = s
     xs, ok, resid = np.empty((1, 3)), np.empty(1, np.bool_), np.empty(1)
-    done = fk.log_state_refined(
-        B, G, Ad, fs.mats, fs.proj, *fs.abelian_tables, fs_mod.ABELIAN_RTOL, xs, ok, resid, kind
-    )
+    if closed:
+        done = fk.log_state_abelian(B, G, Ad, fs.mats, fs.proj, fs.abelian_tables[1], xs, ok, resid)
+    else:
+        done = fk.log_state_refined(
+            B, G, Ad, fs.mats, fs.proj, *fs.abelian_tables, fs_mod.ABELIAN_RTOL, xs, ok, resid,
+            fk.LOG_GENERAL,
+        )  # fmt: skip
     assert done and ok[0]
     x = xs[0]
     assert abs(x[2] - s) <= fs_mod.ABELIAN_RTOL * max(1.0, abs(s))  # s kept, or the log's within
@@ -173,7 +177,7 @@ def test_refined_log_reaches_the_exponentials_rounding(kind, xy, s):
     fk.expm(Xx, seen)
     exp_err = np.max(np.abs(seen - exact))  # the float64 exponential's own error at x
     floor = fk.LOG_REFINE_FLOOR * 3 * max(1.0, np.max(np.abs(G)))
-    if kind == fk.LOG_FROM_ABELIAN:
+    if closed:
         # no iteration against the float64 exponential: x is G's logarithm to its own rounding, a
         # few ulp per entry (r terms each) of |x|, which moves exp(rho(x)) by |G| |dx|
         floor = 10 * 3 * EPS * max(1.0, np.max(np.abs(G))) * max(1.0, np.max(np.abs(x)))
