@@ -183,3 +183,31 @@ def test_refined_log_reaches_the_exponentials_rounding(closed, xy, s):
         floor = 10 * 3 * EPS * max(1.0, np.max(np.abs(G))) * max(1.0, np.max(np.abs(x)))
     res = np.max(np.abs(exact - G[0]))
     assert res <= floor + exp_err, (res, floor, exp_err)
+
+
+def test_closed_form_abelian_log_hands_an_inconsistent_row_to_the_caller():
+    """``s`` 1e-6 off the abelian part of ``G`` (an answer whose ``s`` and ``G`` disagree):
+    ``exp(rho(x))`` misses ``G`` by ~1e-6 |G|, far over the acceptance test's ``1e3 r eps cond |G|``,
+    so ``log_state_abelian`` leaves that row to the caller (``ok`` False, not final), and
+    ``_full_state._log_complete`` then gives ``G``'s own logarithm (the refine keeps the log's ``x``
+    when the fit with ``s`` does not beat it) with a residual ``|Ad(exp x) - Ad(g)|`` that covers what
+    ``x`` misses (mpmath's ``Ad(exp x)``, to its float64 rounding ``100 eps |Ad|``)."""
+    fs = _vi0()
+    x_true = np.array([0.4, -0.7, 1.3])
+    G = np.ascontiguousarray(_mp_expm(np.einsum("a,aij->ij", x_true, fs.mats)).real[None])
+    Ad = np.empty((1, 3, 3))
+    fk.ad_batch(G, fs.mats, fs.proj, False, Ad)
+    B = np.zeros((1, fs.d))
+    B[0, fs.d - 1] = x_true[2] + 1e-6
+    xs, ok, resid = np.empty((1, 3)), np.empty(1, np.bool_), np.empty(1)
+    assert not fk.log_state_abelian(B, G, Ad, fs.mats, fs.proj, fs.abelian_tables[1], xs, ok, resid)
+    assert not ok[0]
+    fs_mod._log_complete(fs, B, G[0:1], Ad, xs, ok, resid)
+    X = np.einsum("a,aij->ij", xs[0], fs.mats)
+    E = _mp_expm(X).real
+    Ax = np.empty((1, 3, 3))
+    fk.ad_batch(np.ascontiguousarray(E[None]), fs.mats, fs.proj, False, Ax)
+    miss = np.max(np.abs(Ax[0] - Ad[0]))
+    assert np.isfinite(resid[0])
+    assert miss <= resid[0] + 100 * EPS * max(1.0, np.max(np.abs(Ad))), (miss, resid[0])
+    assert np.max(np.abs(xs[0] - x_true)) <= 1e-9  # G's logarithm, not the 1e-6-off s
