@@ -475,6 +475,8 @@ def logm(G, L):
                     ny = max(ny, abs(yn))
                     B[i, j] = yn
                     M[i, j] = h * M[i, j] + hi * Mi[i, j]
+            if not ny > 0.0:  # Y = 0 (A = -I: mu Y + Y^-1 / mu vanishes): no principal root
+                return False
             if dd <= 1e-2 * ny:
                 scale = False
             if dd <= 1e-15 * ny or prev <= 1e-7:
@@ -529,18 +531,30 @@ def logm(G, L):
 LOG_GENERAL = 0
 """:func:`log_batch_exp`'s logarithm :func:`logm` (the ``kind`` of the log's compiled entries)."""
 LOG_SMALL = 1
-""":func:`log_small` (a representation of :func:`small_shape` >= -1)."""
+""":func:`log_small` (a representation of :func:`small_shape` other than :data:`SHAPE_GENERAL`)."""
+SHAPE_GENERAL = -2
+""":func:`small_shape` of a representation :func:`log_small` does not cover."""
+SHAPE_SO4 = -3
+""":func:`small_shape` of a real 4 x 4 representation by antisymmetric matrices (``G`` in SO(4))."""
 
 
 @njit(cache=True, nogil=True)
 def small_shape(mats, cplx):
     """:func:`log_small`'s shape of the representation ``mats`` (n, r, r): -1 real 2 x 2; ``k``
-    (0..2) real 3 x 3 with row ``k`` of every ``rho(E_a)`` zero; -2 otherwise (:func:`logm`)."""
+    (0..2) real 3 x 3 with row ``k`` of every ``rho(E_a)`` zero; :data:`SHAPE_SO4` real 4 x 4 with
+    every ``rho(E_a)`` antisymmetric; :data:`SHAPE_GENERAL` otherwise (:func:`logm`)."""
     n, r, _ = mats.shape
     if cplx:
         return -2
     if r == 2:
         return -1
+    if r == 4:
+        for a in range(n):
+            for i in range(4):
+                for j in range(4):
+                    if mats[a, i, j] != -mats[a, j, i]:
+                        return -2
+        return -3
     if r != 3:
         return -2
     for k in range(3):
@@ -632,11 +646,88 @@ def _solve_phi1(l0, p, q, c, bx, by):
     return v0, v1, math.isfinite(v0) and math.isfinite(v1) and det > 0.0
 
 
+# Quaternion multiplication as 4 x 4 matrices on (1, i, j, k): L(p) v = p v and R(q) v = v q, as
+# sign tables: _QL[i, a, b] is the coefficient of p_i in L(p)[a, b], _QR likewise for q_j in R(q).
+_QL = np.array([
+    [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]],
+    [[0, -1, 0, 0], [1, 0, 0, 0], [0, 0, 0, -1], [0, 0, 1, 0]],
+    [[0, 0, -1, 0], [0, 0, 0, 1], [1, 0, 0, 0], [0, -1, 0, 0]],
+    [[0, 0, 0, -1], [0, 0, -1, 0], [0, 1, 0, 0], [1, 0, 0, 0]],
+], dtype=np.float64)  # fmt: skip
+_QR = np.array([
+    [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]],
+    [[0, -1, 0, 0], [1, 0, 0, 0], [0, 0, 0, 1], [0, 0, -1, 0]],
+    [[0, 0, -1, 0], [0, 0, 0, -1], [1, 0, 0, 0], [0, 1, 0, 0]],
+    [[0, 0, 0, -1], [0, 0, 1, 0], [0, -1, 0, 0], [1, 0, 0, 0]],
+], dtype=np.float64)  # fmt: skip
+_QLR = np.ascontiguousarray(np.einsum("iam,jmb->ijab", _QL, _QR))  # L(e_i) R(e_j)
+
+
+@njit(cache=True, nogil=True)
+def _log_so4(G, L):
+    """The principal logarithm of ``G`` in SO(4) (:data:`SHAPE_SO4`) through ``G = L(p) R(q)``, ``p``,
+    ``q`` unit quaternions: ``p_i q_j = <L(e_i) R(e_j), G>_F / 4`` (the 16 products are orthogonal,
+    each of squared norm 4), ``q`` the largest row of that rank-one matrix normalised, ``p`` the matrix
+    times ``q``; angles ``alpha = atan2(|p_vec|, p_0)``, ``beta`` likewise in ``[0, pi]``, the sign of
+    the pair ``(p, q) ~ (-p, -q)`` taken with ``alpha + beta < pi`` (``G``'s rotation angles are
+    ``alpha +- beta``: the principal logarithm), then ``log G = L(alpha u_p) + R(beta u_q)`` (the two
+    commute). False when ``alpha + beta = pi`` after that choice (an eigenvalue -1: no principal
+    logarithm) or ``G`` is not finite."""
+    M = np.empty((4, 4))
+    for i in range(4):
+        for j in range(4):
+            acc = 0.0
+            for a in range(4):
+                for b in range(4):
+                    acc += _QLR[i, j, a, b] * G[a, b].real
+            M[i, j] = 0.25 * acc
+    ib = 0
+    best = -1.0
+    for i in range(4):
+        nr = M[i, 0] ** 2 + M[i, 1] ** 2 + M[i, 2] ** 2 + M[i, 3] ** 2
+        if nr > best:
+            best = nr
+            ib = i
+    if not (best > 0.0 and math.isfinite(best)):
+        return False
+    nq = math.sqrt(best)
+    q = np.empty(4)
+    pq = np.empty(4)
+    for j in range(4):
+        q[j] = M[ib, j] / nq
+    for i in range(4):
+        pq[i] = M[i, 0] * q[0] + M[i, 1] * q[1] + M[i, 2] * q[2] + M[i, 3] * q[3]
+    npq = math.sqrt(pq[0] ** 2 + pq[1] ** 2 + pq[2] ** 2 + pq[3] ** 2)
+    for i in range(4):
+        pq[i] /= npq
+    sp = math.sqrt(pq[1] ** 2 + pq[2] ** 2 + pq[3] ** 2)
+    sq = math.sqrt(q[1] ** 2 + q[2] ** 2 + q[3] ** 2)
+    alpha = math.atan2(sp, pq[0])
+    beta = math.atan2(sq, q[0])
+    if alpha + beta > math.pi:  # the other sign of the pair: angles pi - alpha, pi - beta
+        for i in range(4):
+            pq[i] = -pq[i]
+            q[i] = -q[i]
+        alpha = math.atan2(sp, pq[0])
+        beta = math.atan2(sq, q[0])
+    if not alpha + beta < math.pi:
+        return False
+    fp = alpha / sp if sp > 0.0 else 1.0  # log p = (alpha / |p_vec|) p_vec
+    fq = beta / sq if sq > 0.0 else 1.0
+    for a in range(4):
+        for b in range(4):
+            acc = 0.0
+            for i in range(1, 4):
+                acc += fp * pq[i] * _QL[i, a, b] + fq * q[i] * _QR[i, a, b]
+            L[a, b] = acc
+    return True
+
+
 @njit(cache=True, nogil=True)
 def log_small(G, L, k):
     """The principal logarithm ``L`` of ``G`` in closed form for :func:`small_shape` ``k`` (-1: 2 x 2;
-    0..2: 3 x 3 with row ``k`` of ``G`` equal to ``e_k``). False where :func:`logm` has none either: a
-    block ``A`` with ``det A <= 0`` or a negative eigenvalue.
+    0..2: 3 x 3 with row ``k`` of ``G`` equal to ``e_k``; :data:`SHAPE_SO4`: :func:`_log_so4`). False
+    where :func:`logm` has none either: a block ``A`` with ``det A <= 0`` or a negative eigenvalue.
 
     ``A = e^l0 C``, ``l0 = log(det A) / 2``, ``det C = 1``; ``C = c I + M``, ``c = tr C / 2``, ``M``
     traceless with ``M^2 = -det(M) I``: ``log C = (theta / sinh theta) M``, ``theta = asinh(sqrt(-det
@@ -645,6 +736,8 @@ def log_small(G, L, k):
     (elliptic); ``M`` itself when ``det M = 0`` (parabolic, ``c > 0``). ``theta`` is read from
     ``sqrt|det M|``, never from ``c`` (no cancellation near the parabolic case, where the factor tends
     to 1). The 3 x 3 case then solves ``phi1(log A) v = b`` (:func:`_solve_phi1`)."""
+    if k == SHAPE_SO4:
+        return _log_so4(G, L)
     r = G.shape[0]
     i0, i1 = _block(r, k)
     a = G[i0, i0].real
@@ -820,7 +913,7 @@ def log_batch(G, mats, proj, cplx, out, ok):
     when it exists and ``exp(rho(x)) = G`` to ``1e3 eps cond max(1, |G|) r`` (``cond = exp(||rho(x)||_1)``,
     the acceptance test of Representation._accept). The logarithm :func:`log_small` where
     :func:`small_shape` applies, else :func:`logm` (chosen at run time: this entry compiles both)."""
-    if small_shape(mats, cplx) >= -1:
+    if small_shape(mats, cplx) != SHAPE_GENERAL:
         log_batch_exp(G, mats, proj, cplx, out, ok, np.empty_like(G), LOG_SMALL)
     else:
         log_batch_exp(G, mats, proj, cplx, out, ok, np.empty_like(G), LOG_GENERAL)
@@ -1317,7 +1410,7 @@ def pair_log_for(mats, cplx, Dr=None):
     runs their Python (``py_func``: the same source, nothing compiled for it)."""
     shape = small_shape.py_func(mats, cplx)
     if Dr is None:
-        return pair_log_small if shape >= -1 else pair_log
+        return pair_log_small if shape != SHAPE_GENERAL else pair_log
     if shape >= 0 and derived_is_translations.py_func(Dr, shape):
         return pair_log_abelian
-    return pair_log_refined_small if shape >= -1 else pair_log_refined
+    return pair_log_refined_small if shape != SHAPE_GENERAL else pair_log_refined

@@ -1,8 +1,9 @@
 """The closed-form logarithm of small real representations (refimpl._full_state_kernel.log_small,
 log_from_abelian, small_shape, derived_is_translations).
 
-Checked: on real 2 x 2 matrices (sl(2, R), gl(2, R)) and on 3 x 3 matrices with one row ``e_k`` (the
-affine representations of se(2) and Bianchi II-VII), ``log_small`` returns the principal logarithm
+Checked: on real 2 x 2 matrices (sl(2, R), gl(2, R)), on 3 x 3 matrices with one row ``e_k`` (the
+affine representations of se(2) and Bianchi II-VII) and on SO(4) (so(4)'s antisymmetric 4 x 4
+representation, through the quaternion pair ``G = L(p) R(q)``), ``log_small`` returns the principal logarithm
 (mpmath's ``logm``), including near the identity, near the parabolic case (a repeated eigenvalue),
 elliptic near ``theta = pi`` and at large ``|x|``; it refuses exactly where there is no real principal
 logarithm (an eigenvalue on the closed negative real axis), as ``logm`` does. ``log_from_abelian``
@@ -45,17 +46,20 @@ def _mp_expm(X):
 
 def _mp_logm(G):
     """The principal logarithm at 60 digits: ``V diag(log mu) V^-1`` from mpmath's eigenvectors with
-    the principal scalar ``log`` when the eigenvalues differ (by 1e-20 or more: 60 digits then leave
-    40 or more through ``V^-1``) (``mpmath.logm`` takes a wrong branch
-    on rotations near ``pi``), else ``mpmath.logm`` (eigenvalues together: near the identity, or
-    parabolic, where its square roots converge to the principal ones)."""
+    the principal scalar ``log`` when ``V`` is well conditioned (below 1e20: 60 digits then leave 40
+    or more through ``V^-1``), else ``mpmath.logm`` (eigenvalues together and ``V`` nearly singular:
+    near the identity or parabolic, where its square roots converge to the principal ones; it takes
+    a wrong branch on rotations near ``pi``, which are normal: ``V`` well conditioned there)."""
     with mpmath.workdps(60):
         M = mpmath.matrix(np.asarray(G, float).tolist())
         mu, V = mpmath.eig(M)
-        big = max(abs(m) for m in mu)
-        apart = min(abs(a - b) for i, a in enumerate(mu) for b in mu[i + 1 :]) > 1e-20 * big
-        if apart:
-            L = V * mpmath.diag([mpmath.log(m) for m in mu]) * mpmath.inverse(V)
+        try:
+            Vi = mpmath.inverse(V)
+            well = mpmath.mnorm(V, 1) * mpmath.mnorm(Vi, 1) < 1e20
+        except ZeroDivisionError:
+            well = False
+        if well:
+            L = V * mpmath.diag([mpmath.log(m) for m in mu]) * Vi
         else:
             L = mpmath.logm(M)
         return np.array([[complex(v) for v in row] for row in L.tolist()])
@@ -128,12 +132,39 @@ def test_log_small_is_the_principal_log(k, scale, entries):
         np.array([[-1.0, 1.0], [0.0, -1.0]]),  # parabolic at -1
         np.diag([2.0, -1.0]),  # det < 0
         np.array([[-2.0, 0.0, 1.0], [0.0, -0.5, 2.0], [0.0, 0.0, 1.0]]),  # affine, A negative
+        np.diag([-1.0, -1.0, 1.0, 1.0]),  # SO(4), a half turn in one plane
+        -np.eye(4),  # SO(4), alpha + beta = pi either way
     ],
 )
 def test_log_small_refuses_where_no_real_principal_log_exists(G):
-    k = -1 if G.shape[0] == 2 else 2
+    k = {2: -1, 3: 2, 4: fk.SHAPE_SO4}[G.shape[0]]
     assert not fk.log_small(G, np.zeros_like(G), k)
     assert not fk.logm(G, np.zeros_like(G))
+
+
+SO4 = None
+
+
+def _so4_mats():
+    global SO4
+    if SO4 is None:
+        SO4 = np.ascontiguousarray(np.asarray(representation_for(catalogue("so(4)")).mats))
+    return SO4
+
+
+@settings(deadline=None)
+@given(
+    scale=st.sampled_from([1e-9, 1e-3, 0.5, 1.5, 3.0]),
+    x=st.lists(st.floats(-1.0, 1.0), min_size=6, max_size=6),
+)
+@example(scale=1.0, x=[3.1, 0.0, 0.0, 0.0, 0.0, 0.0])  # one plane turned by 3.1 (alpha + beta ~ pi)
+@example(scale=1.0, x=[1.5, 0.0, 0.0, 0.0, 0.0, 1.5])  # isoclinic, both angles 1.5
+@example(scale=1.0, x=[2.0, 0.0, 0.0, 0.0, 0.0, -2.0])  # the other isoclinic factor
+def test_log_small_so4_is_the_principal_log(scale, x):
+    """``G = exp(rho(x))`` (mpmath) in SO(4) (so(4)'s antisymmetric 4 x 4 basis; ``|x|`` up to 3 per
+    coordinate: rotation angles past ``pi``, where the principal logarithm is another ``x``)."""
+    mats = _so4_mats()
+    _check(_mp_expm(np.einsum("a,aij->ij", scale * np.array(x), mats)), fk.SHAPE_SO4)
 
 
 # the shapes by hand: r = 2 real; the affine ones with the index of their row e_k; the rest -2
@@ -149,7 +180,7 @@ SHAPES = {
     "su(2)": -2,
     "su(3)": -2,
     "se(3)": -2,
-    "so(4)": -2,
+    "so(4)": fk.SHAPE_SO4,
 }
 # exponential algebras with [g, g] the two translations (log_from_abelian applies)
 DERIVED_TRANSLATIONS = {"Bianchi IV": True, "Bianchi V": True, "Bianchi VI0": True}
@@ -223,7 +254,7 @@ def test_pair_log_for_picks_the_representations_logarithm(name):
     if ab is not None and not cplx:
         Dr = np.ascontiguousarray(np.einsum("ak,aij->kij", ab.D, mats.real))
     got = fk.pair_log_for(np.ascontiguousarray(mats), cplx, Dr)
-    small = SHAPES[name] >= -1
+    small = SHAPES[name] != fk.SHAPE_GENERAL
     if Dr is None:
         assert got is (fk.pair_log_small if small else fk.pair_log)
     elif DERIVED_TRANSLATIONS.get(name):
