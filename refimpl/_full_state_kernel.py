@@ -532,6 +532,9 @@ LOG_GENERAL = 0
 """:func:`log_batch_exp`'s logarithm :func:`logm` (the ``kind`` of the log's compiled entries)."""
 LOG_SMALL = 1
 """:func:`log_small` (a representation of :func:`small_shape` other than :data:`SHAPE_GENERAL`)."""
+LOG_SO4 = 2
+""":func:`_log_so4` alone (a representation of :func:`small_shape` :data:`SHAPE_SO4`: neither the
+2 x 2 nor the affine forms of :func:`log_small` compiled)."""
 SHAPE_GENERAL = -2
 """:func:`small_shape` of a representation :func:`log_small` does not cover."""
 SHAPE_SO4 = -3
@@ -921,8 +924,8 @@ def log_batch(G, mats, proj, cplx, out, ok):
 
 @njit(cache=True, nogil=True, inline="always")
 def log_batch_exp(G, mats, proj, cplx, out, ok, Ex, kind):
-    """:func:`log_batch` by the logarithm ``kind`` (:data:`LOG_SMALL`: :func:`log_small`, else
-    :func:`logm`; a constant at every call site, so numba prunes the other and never compiles it), keeping ``Ex[N] = exp(rho(x))`` of the acceptance test (what
+    """:func:`log_batch` by the logarithm ``kind`` (:data:`LOG_SMALL`: :func:`log_small`,
+    :data:`LOG_SO4`: :func:`_log_so4`, else :func:`logm`; a constant at every call site, so numba prunes the other and never compiles it), keeping ``Ex[N] = exp(rho(x))`` of the acceptance test (what
     :func:`log_residual` computes again from ``x``: the same arithmetic) for the rows reaching it."""
     N, r, _ = G.shape
     n = mats.shape[0]
@@ -934,7 +937,9 @@ def log_batch_exp(G, mats, proj, cplx, out, ok, Ex, kind):
         ok[it] = False
         Gt = G[it]
         E = Ex[it]
-        if kind == LOG_SMALL:
+        if kind == LOG_SO4:
+            found = _log_so4(Gt, L)
+        elif kind == LOG_SMALL:
             found = log_small(Gt, L, shape)
         else:
             found = logm(Gt, L)
@@ -1376,6 +1381,13 @@ def pair_log_small(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode,
 
 
 @njit(cache=True, nogil=True)
+def pair_log_so4(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+    """:func:`pair_log` by :func:`_log_so4` (:data:`SHAPE_SO4`: :func:`pair_log_for`)."""
+    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, size)
+    return log_state(GB, AdB, mats, proj, cplx, ab_mode, xs, ok, resid, LOG_SO4)
+
+
+@njit(cache=True, nogil=True)
 def pair_log_refined(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`pair_log` with :func:`log_state_refined` (a real representation with an abelian part)."""
     # False, not a literal (see log_state_refined)
@@ -1410,6 +1422,8 @@ def pair_log_for(mats, cplx, Dr=None):
     runs their Python (``py_func``: the same source, nothing compiled for it)."""
     shape = small_shape.py_func(mats, cplx)
     if Dr is None:
+        if shape == SHAPE_SO4:
+            return pair_log_so4
         return pair_log_small if shape != SHAPE_GENERAL else pair_log
     if shape >= 0 and derived_is_translations.py_func(Dr, shape):
         return pair_log_abelian
