@@ -587,31 +587,11 @@ def _phi1(z):
 
 
 @njit(cache=True, nogil=True)
-def _solve_phi1(l0, p, q, c, bx, by):
-    """``v`` with ``phi1(L) v = b`` for ``L = l0 I + N``, ``N = [[p, q], [c, -p]]`` (traceless, so
-    ``N^2 = delta I``, ``delta = p^2 + q c``): every function of ``L`` is ``alpha I + beta N``.
-    ``phi1(L)`` by scaling and squaring on those pairs (Taylor series of ``L / 2^s`` with
-    ``|l0| + sqrt|delta|`` scaled to 1/2 or less, then ``phi1(2Y) = (e^Y + I) phi1(Y) / 2``,
-    ``e^(2Y) = (e^Y)^2``), the inverse ``(alpha I - beta N) / det`` with ``det = alpha^2 - beta^2
-    delta = phi1(l0 + t) phi1(l0 - t)`` (``t = sqrt(delta)``: that product when ``delta > 0``, where
-    the difference cancels; a sum of squares when ``delta <= 0``); on the eigenvectors instead when
-    ``t > 1/2`` (below). Returns ``(v0, v1, ok)``."""
-    delta = p * p + q * c
+def _phi1_pair(l0, delta):
+    """``phi1(L) = f0 I + f1 N`` for ``L = l0 I + N``, ``N`` traceless with ``N^2 = delta I``: the
+    Taylor series of ``L / 2^s`` (``|l0| + sqrt|delta|`` scaled to 1/2 or less) on the pairs, then
+    ``phi1(2Y) = (e^Y + I) phi1(Y) / 2``, ``e^(2Y) = (e^Y)^2``. Returns ``(f0, f1)``."""
     nrm = abs(l0) + math.sqrt(abs(delta))
-    if not math.isfinite(nrm):
-        return 0.0, 0.0, False
-    nbx = p * bx + q * by
-    nby = c * bx - p * by
-    if delta > 0.25:
-        # real eigenvalues l0 +- t, t > 1/2: on the eigenvectors, v = g(l0 + t) P+ b + g(l0 - t) P- b
-        # (g = 1 / phi1 = z / expm1(z), P+- = (I +- N / t) / 2): each component to a few ulp, where
-        # alpha -+ beta t cancel in the pairs' form (its residual phi1(L) v - b reached ~10 eps |b|)
-        t = math.sqrt(delta)
-        gp = 1.0 / _phi1(l0 + t)
-        gm = 1.0 / _phi1(l0 - t)
-        v0 = 0.5 * (gp * (bx + nbx / t) + gm * (bx - nbx / t))
-        v1 = 0.5 * (gp * (by + nby / t) + gm * (by - nby / t))
-        return v0, v1, math.isfinite(v0) and math.isfinite(v1)
     s = 0
     while nrm > 0.5:
         nrm *= 0.5
@@ -639,6 +619,36 @@ def _solve_phi1(l0, p, q, c, bx, by):
         a0 = e0 * e0 + e1 * e1 * delta
         a1 = 2.0 * e0 * e1
         e0, e1 = a0, a1
+    return f0, f1
+
+
+@njit(cache=True, nogil=True)
+def _solve_phi1(l0, p, q, c, bx, by):
+    """``v`` with ``phi1(L) v = b`` for ``L = l0 I + N``, ``N = [[p, q], [c, -p]]`` (traceless, so
+    ``N^2 = delta I``, ``delta = p^2 + q c``): every function of ``L`` is ``alpha I + beta N``.
+    ``phi1(L)`` by scaling and squaring on those pairs (Taylor series of ``L / 2^s`` with
+    ``|l0| + sqrt|delta|`` scaled to 1/2 or less, then ``phi1(2Y) = (e^Y + I) phi1(Y) / 2``,
+    ``e^(2Y) = (e^Y)^2``), the inverse ``(alpha I - beta N) / det`` with ``det = alpha^2 - beta^2
+    delta = phi1(l0 + t) phi1(l0 - t)`` (``t = sqrt(delta)``: that product when ``delta > 0``, where
+    the difference cancels; a sum of squares when ``delta <= 0``); on the eigenvectors instead when
+    ``t > 1/2`` (below). Returns ``(v0, v1, ok)``."""
+    delta = p * p + q * c
+    nrm = abs(l0) + math.sqrt(abs(delta))
+    if not math.isfinite(nrm):
+        return 0.0, 0.0, False
+    nbx = p * bx + q * by
+    nby = c * bx - p * by
+    if delta > 0.25:
+        # real eigenvalues l0 +- t, t > 1/2: on the eigenvectors, v = g(l0 + t) P+ b + g(l0 - t) P- b
+        # (g = 1 / phi1 = z / expm1(z), P+- = (I +- N / t) / 2): each component to a few ulp, where
+        # alpha -+ beta t cancel in the pairs' form (its residual phi1(L) v - b reached ~10 eps |b|)
+        t = math.sqrt(delta)
+        gp = 1.0 / _phi1(l0 + t)
+        gm = 1.0 / _phi1(l0 - t)
+        v0 = 0.5 * (gp * (bx + nbx / t) + gm * (bx - nbx / t))
+        v1 = 0.5 * (gp * (by + nby / t) + gm * (by - nby / t))
+        return v0, v1, math.isfinite(v0) and math.isfinite(v1)
+    f0, f1 = _phi1_pair(l0, delta)
     if delta > 0.0:
         t = math.sqrt(delta)
         det = _phi1(l0 + t) * _phi1(l0 - t)
@@ -785,16 +795,16 @@ def log_small(G, L, k):
 
 
 @njit(cache=True, nogil=True)
-def derived_is_translations(Dr, k):
-    """Whether ``[g, g]`` (``Dr``, (m, 3, 3): ``rho`` of its basis) is the whole translation part of the
-    :func:`small_shape` ``k >= 0`` representation: ``m = 2`` and no ``rho(D_c)`` has a 2 x 2 block
+def derived_in_translations(Dr, k):
+    """Whether ``rho([g, g])`` (``Dr``, (m, 3, 3): ``rho`` of its basis) lies in the translations of
+    the :func:`small_shape` ``k >= 0`` representation: ``m <= 2`` and no ``rho(D_c)`` has a 2 x 2 block
     (to ``1e-12`` of its size: ``D`` comes from an SVD). Then the block of ``rho(x)`` depends on
     ``x``'s abelian part alone (:func:`log_from_abelian`)."""
-    if Dr.shape[0] != 2 or Dr.shape[1] != 3:
+    if Dr.shape[0] > 2 or Dr.shape[1] != 3:
         return False
     i0 = 1 if k == 0 else 0  # _block(3, k), written out: pair_log_for runs this in Python
     i1 = 1 if k == 2 else 2
-    for c in range(2):
+    for c in range(Dr.shape[0]):
         big = 0.0
         for i in range(3):
             for j in range(3):
@@ -807,18 +817,25 @@ def derived_is_translations(Dr, k):
 
 
 @njit(cache=True, nogil=True)
-def log_from_abelian(s, Ppinv, mats, k, G, L):
+def log_from_abelian(s, Ppinv, Dr, mats, k, G, L):
     """The logarithm ``L`` of ``G`` with the abelian part ``s`` (``P x = s``) on a representation where
-    :func:`derived_is_translations`: ``x = pinv(P) s + D w``, the block ``log A`` of ``rho(x)`` is that
-    of ``rho(pinv(P) s)`` (``rho(D w)`` has none), and ``w`` solves ``phi1(log A) v = b``
-    (:func:`_solve_phi1`) -- the exact minimiser of ``|exp(rho(x)) - G|`` over ``w`` that
-    :func:`refine_abelian` approaches by Gauss-Newton, in closed form. False when ``v`` is not finite."""
+    :func:`derived_in_translations`: ``x = pinv(P) s + D w``, the block ``log A`` of ``rho(x)`` is that
+    of ``rho(pinv(P) s)`` (``rho(D w)`` has none) and its translation is ``u = u0 + T w`` (``u0``
+    that of ``rho(pinv(P) s)``, ``T`` those of ``rho(D)``); ``w`` minimises ``|phi1(log A) u - b|``,
+    which is all of ``|exp(rho(x)) - G|`` that ``w`` moves -- the minimiser :func:`refine_abelian`
+    approaches by Gauss-Newton, in closed form: ``u = phi1(log A)^-1 b`` (:func:`_solve_phi1`) when
+    ``[g, g]`` is both translations (``m = 2``), the one-dimensional least squares
+    ``w = <Phi t, b - Phi u0> / |Phi t|^2`` when ``m = 1`` (Bianchi II, III, h(3)). False when ``u`` is
+    not finite."""
     n = mats.shape[0]
+    m = Dr.shape[0]
     i0, i1 = _block(3, k)
     t00 = 0.0
     t01 = 0.0
     t10 = 0.0
     t11 = 0.0
+    u0 = 0.0
+    u1 = 0.0
     for a in range(n):
         xa = 0.0
         for ell in range(s.shape[0]):
@@ -827,9 +844,32 @@ def log_from_abelian(s, Ppinv, mats, k, G, L):
         t01 += xa * mats[a, i0, i1]
         t10 += xa * mats[a, i1, i0]
         t11 += xa * mats[a, i1, i1]
+        u0 += xa * mats[a, i0, k]
+        u1 += xa * mats[a, i1, k]
     l0 = 0.5 * (t00 + t11)
     p = 0.5 * (t00 - t11)
-    v0, v1, good = _solve_phi1(l0, p, t01, t10, G[i0, k], G[i1, k])
+    bx = G[i0, k].real
+    by = G[i1, k].real
+    if m == 2:
+        v0, v1, good = _solve_phi1(l0, p, t01, t10, bx, by)
+    else:
+        f0, f1 = _phi1_pair(l0, p * p + t01 * t10)
+        # Phi y = f0 y + f1 N y, N = [[p, t01], [t10, -p]]
+        pu0 = f0 * u0 + f1 * (p * u0 + t01 * u1)
+        pu1 = f0 * u1 + f1 * (t10 * u0 - p * u1)
+        v0, v1 = u0, u1
+        if m == 1:
+            c0 = Dr[0, i0, k]
+            c1 = Dr[0, i1, k]
+            pt0 = f0 * c0 + f1 * (p * c0 + t01 * c1)
+            pt1 = f0 * c1 + f1 * (t10 * c0 - p * c1)
+            den = pt0 * pt0 + pt1 * pt1
+            if not den > 0.0:  # (numba raises on a division by zero)
+                return False
+            w = (pt0 * (bx - pu0) + pt1 * (by - pu1)) / den
+            v0 = u0 + w * c0
+            v1 = u1 + w * c1
+        good = math.isfinite(v0) and math.isfinite(v1)
     for i in range(3):
         for j in range(3):
             L[i, j] = 0.0
@@ -1270,8 +1310,8 @@ def log_state(G, Ad, mats, proj, cplx, ab_mode, xs, ok, resid, kind):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def log_state_abelian(B, G, Ad, mats, proj, Ppinv, xs, ok, resid):
-    """:func:`log_state_refined` on a representation where :func:`derived_is_translations`: the
+def log_state_abelian(B, G, Ad, mats, proj, Ppinv, Dr, xs, ok, resid):
+    """:func:`log_state_refined` on a representation where :func:`derived_in_translations`: the
     refine's answer in closed form (:func:`log_from_abelian`, ``s`` the last ``k = Ppinv.shape[1]``
     entries of the states ``B``), accepted as :func:`log_batch`'s, then ``resid``; neither the
     logarithm of ``G`` nor the refine (a function of its own: inlining :func:`log_state_refined` and
@@ -1294,7 +1334,7 @@ def log_state_abelian(B, G, Ad, mats, proj, Ppinv, xs, ok, resid):
     for j in range(N):
         for ell in range(k):
             sj[ell] = B[j, d - k + ell]
-        ok[j] = log_from_abelian(sj, Ppinv, mats, shape, G[j], L) and _accept_log(
+        ok[j] = log_from_abelian(sj, Ppinv, Dr, mats, shape, G[j], L) and _accept_log(
             L, G[j], mats, proj, cplx, x, X, Ex[j], xs[j]
         )
         done = done and ok[j]
@@ -1409,14 +1449,14 @@ def pair_log_abelian(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, r
     """:func:`pair_log_refined` by :func:`log_from_abelian` (neither :func:`logm` nor the refine)."""
     cplx = proj.shape[1] != mats.shape[1] * mats.shape[2]
     estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, cplx, GB, AdB, est, size)
-    return log_state_abelian(B, GB, AdB, mats, proj, Ppinv, xs, ok, resid)
+    return log_state_abelian(B, GB, AdB, mats, proj, Ppinv, Dr, xs, ok, resid)
 
 
 def pair_log_for(mats, cplx, Dr=None):
     """The compiled pair and logarithm for the representation ``mats`` (``Dr``: ``rho`` of ``[g, g]``'s
     basis when the abelian part is refined in the compiled code, :func:`pair_log_refined`'s arguments;
     else None, :func:`pair_log`'s), decided per representation, never per value:
-    :func:`pair_log_abelian` where :func:`derived_is_translations`, the ``_small`` entries where
+    :func:`pair_log_abelian` where :func:`derived_in_translations`, the ``_small`` entries where
     :func:`small_shape` applies, else the general ones. Each is its own compiled function, so a
     structure compiles only the logarithm it uses. The tests run the compiled code; this decision
     runs their Python (``py_func``: the same source, nothing compiled for it)."""
@@ -1425,6 +1465,6 @@ def pair_log_for(mats, cplx, Dr=None):
         if shape == SHAPE_SO4:
             return pair_log_so4
         return pair_log_small if shape != SHAPE_GENERAL else pair_log
-    if shape >= 0 and derived_is_translations.py_func(Dr, shape):
+    if shape >= 0 and derived_in_translations.py_func(Dr, shape):
         return pair_log_abelian
     return pair_log_refined_small if shape != SHAPE_GENERAL else pair_log_refined

@@ -162,7 +162,9 @@ def test_refined_log_reaches_the_exponentials_rounding(closed, xy, s):
     B[0, fs.d - 1] = s
     xs, ok, resid = np.empty((1, 3)), np.empty(1, np.bool_), np.empty(1)
     if closed:
-        done = fk.log_state_abelian(B, G, Ad, fs.mats, fs.proj, fs.abelian_tables[1], xs, ok, resid)
+        done = fk.log_state_abelian(
+            B, G, Ad, fs.mats, fs.proj, *fs.abelian_tables[1::2], xs, ok, resid
+        )
     else:
         done = fk.log_state_refined(
             B, G, Ad, fs.mats, fs.proj, *fs.abelian_tables, fs_mod.ABELIAN_RTOL, xs, ok, resid,
@@ -200,7 +202,9 @@ def test_closed_form_abelian_log_hands_an_inconsistent_row_to_the_caller():
     B = np.zeros((1, fs.d))
     B[0, fs.d - 1] = x_true[2] + 1e-6
     xs, ok, resid = np.empty((1, 3)), np.empty(1, np.bool_), np.empty(1)
-    assert not fk.log_state_abelian(B, G, Ad, fs.mats, fs.proj, fs.abelian_tables[1], xs, ok, resid)
+    assert not fk.log_state_abelian(
+        B, G, Ad, fs.mats, fs.proj, *fs.abelian_tables[1::2], xs, ok, resid
+    )
     assert not ok[0]
     fs_mod._log_complete(fs, B, G[0:1], Ad, xs, ok, resid)
     X = np.einsum("a,aij->ij", xs[0], fs.mats)
