@@ -535,17 +535,22 @@ LOG_SMALL = 1
 LOG_SO4 = 2
 """:func:`_log_so4` alone (a representation of :func:`small_shape` :data:`SHAPE_SO4`: neither the
 2 x 2 nor the affine forms of :func:`log_small` compiled)."""
+LOG_SO3 = 3
+""":func:`_log_so3` alone (:func:`small_shape` :data:`SHAPE_SO3`)."""
 SHAPE_GENERAL = -2
 """:func:`small_shape` of a representation :func:`log_small` does not cover."""
 SHAPE_SO4 = -3
 """:func:`small_shape` of a real 4 x 4 representation by antisymmetric matrices (``G`` in SO(4))."""
+SHAPE_SO3 = -4
+""":func:`small_shape` of a real 3 x 3 representation by antisymmetric matrices (``G`` in SO(3))."""
 
 
 @njit(cache=True, nogil=True)
 def small_shape(mats, cplx):
     """:func:`log_small`'s shape of the representation ``mats`` (n, r, r): -1 real 2 x 2; ``k``
     (0..2) real 3 x 3 with row ``k`` of every ``rho(E_a)`` zero; :data:`SHAPE_SO4` real 4 x 4 with
-    every ``rho(E_a)`` antisymmetric; :data:`SHAPE_GENERAL` otherwise (:func:`logm`)."""
+    every ``rho(E_a)`` antisymmetric; :data:`SHAPE_SO3` the same 3 x 3 (without a zero row);
+    :data:`SHAPE_GENERAL` otherwise (:func:`logm`)."""
     n, r, _ = mats.shape
     if cplx:
         return -2
@@ -568,7 +573,12 @@ def small_shape(mats, cplx):
                     zero = False
         if zero:
             return k
-    return -2
+    for a in range(n):
+        for i in range(3):
+            for j in range(3):
+                if mats[a, i, j] != -mats[a, j, i]:
+                    return -2
+    return -4
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -737,9 +747,36 @@ def _log_so4(G, L):
 
 
 @njit(cache=True, nogil=True)
+def _log_so3(G, L):
+    """The principal logarithm of ``G`` in SO(3) (:data:`SHAPE_SO3`) by Rodrigues' formula:
+    ``A = (G - G^T) / 2 = sin(theta) K``, ``theta = atan2(|a|, (tr G - 1) / 2)`` in ``[0, pi)`` (``a``
+    the axial vector of ``A``), ``log G = (theta / sin theta) A`` (the factor 1 at ``theta = 0``).
+    False at ``theta = pi`` (``A = 0`` with ``tr G < 1``: an eigenvalue -1, no principal logarithm)
+    or when ``G`` is not finite."""
+    a0 = 0.5 * (G[2, 1].real - G[1, 2].real)
+    a1 = 0.5 * (G[0, 2].real - G[2, 0].real)
+    a2 = 0.5 * (G[1, 0].real - G[0, 1].real)
+    sn = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+    cs = 0.5 * (G[0, 0].real + G[1, 1].real + G[2, 2].real - 1.0)
+    if not (math.isfinite(sn) and math.isfinite(cs)):
+        return False
+    if sn > 0.0:
+        f = math.atan2(sn, cs) / sn
+    elif cs > 0.0:
+        f = 1.0
+    else:
+        return False
+    for i in range(3):
+        for j in range(3):
+            L[i, j] = f * 0.5 * (G[i, j].real - G[j, i].real)
+    return True
+
+
+@njit(cache=True, nogil=True)
 def log_small(G, L, k):
     """The principal logarithm ``L`` of ``G`` in closed form for :func:`small_shape` ``k`` (-1: 2 x 2;
-    0..2: 3 x 3 with row ``k`` of ``G`` equal to ``e_k``; :data:`SHAPE_SO4`: :func:`_log_so4`). False
+    0..2: 3 x 3 with row ``k`` of ``G`` equal to ``e_k``; :data:`SHAPE_SO4`: :func:`_log_so4`;
+    :data:`SHAPE_SO3`: :func:`_log_so3`). False
     where :func:`logm` has none either: a block ``A`` with ``det A <= 0`` or a negative eigenvalue.
 
     ``A = e^l0 C``, ``l0 = log(det A) / 2``, ``det C = 1``; ``C = c I + M``, ``c = tr C / 2``, ``M``
@@ -751,6 +788,8 @@ def log_small(G, L, k):
     to 1). The 3 x 3 case then solves ``phi1(log A) v = b`` (:func:`_solve_phi1`)."""
     if k == SHAPE_SO4:
         return _log_so4(G, L)
+    if k == SHAPE_SO3:
+        return _log_so3(G, L)
     r = G.shape[0]
     i0, i1 = _block(r, k)
     a = G[i0, i0].real
@@ -965,7 +1004,7 @@ def log_batch(G, mats, proj, cplx, out, ok):
 @njit(cache=True, nogil=True, inline="always")
 def log_batch_exp(G, mats, proj, cplx, out, ok, Ex, kind):
     """:func:`log_batch` by the logarithm ``kind`` (:data:`LOG_SMALL`: :func:`log_small`,
-    :data:`LOG_SO4`: :func:`_log_so4`, else :func:`logm`; a constant at every call site, so numba prunes the other and never compiles it), keeping ``Ex[N] = exp(rho(x))`` of the acceptance test (what
+    :data:`LOG_SO4`: :func:`_log_so4`, :data:`LOG_SO3`: :func:`_log_so3`, else :func:`logm`; a constant at every call site, so numba prunes the other and never compiles it), keeping ``Ex[N] = exp(rho(x))`` of the acceptance test (what
     :func:`log_residual` computes again from ``x``: the same arithmetic) for the rows reaching it."""
     N, r, _ = G.shape
     n = mats.shape[0]
@@ -979,6 +1018,8 @@ def log_batch_exp(G, mats, proj, cplx, out, ok, Ex, kind):
         E = Ex[it]
         if kind == LOG_SO4:
             found = _log_so4(Gt, L)
+        elif kind == LOG_SO3:
+            found = _log_so3(Gt, L)
         elif kind == LOG_SMALL:
             found = log_small(Gt, L, shape)
         else:
@@ -1428,6 +1469,13 @@ def pair_log_so4(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, G
 
 
 @njit(cache=True, nogil=True)
+def pair_log_so3(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+    """:func:`pair_log` by :func:`_log_so3` (:data:`SHAPE_SO3`: :func:`pair_log_for`)."""
+    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, size)
+    return log_state(GB, AdB, mats, proj, cplx, ab_mode, xs, ok, resid, LOG_SO3)
+
+
+@njit(cache=True, nogil=True)
 def pair_log_refined(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`pair_log` with :func:`log_state_refined` (a real representation with an abelian part)."""
     # False, not a literal (see log_state_refined)
@@ -1464,6 +1512,8 @@ def pair_log_for(mats, cplx, Dr=None):
     if Dr is None:
         if shape == SHAPE_SO4:
             return pair_log_so4
+        if shape == SHAPE_SO3:
+            return pair_log_so3
         return pair_log_small if shape != SHAPE_GENERAL else pair_log
     if shape >= 0 and derived_in_translations.py_func(Dr, shape):
         return pair_log_abelian

@@ -2,8 +2,9 @@
 log_from_abelian, small_shape, derived_in_translations).
 
 Checked: on real 2 x 2 matrices (sl(2, R), gl(2, R)), on 3 x 3 matrices with one row ``e_k`` (the
-affine representations of se(2) and Bianchi II-VII) and on SO(4) (so(4)'s antisymmetric 4 x 4
-representation, through the quaternion pair ``G = L(p) R(q)``), ``log_small`` returns the principal logarithm
+affine representations of se(2) and Bianchi II-VII), on SO(4) (so(4)'s antisymmetric 4 x 4
+representation, through the quaternion pair ``G = L(p) R(q)``) and on SO(3) (Rodrigues),
+``log_small`` returns the principal logarithm
 (mpmath's ``logm``), including near the identity, near the parabolic case (a repeated eigenvalue),
 elliptic near ``theta = pi`` and at large ``|x|``; it refuses exactly where there is no real principal
 logarithm (an eigenvalue on the closed negative real axis), as ``logm`` does. ``log_from_abelian``
@@ -142,6 +143,13 @@ def test_log_small_refuses_where_no_real_principal_log_exists(G):
     assert not fk.logm(G, np.zeros_like(G))
 
 
+def test_log_small_so3_refuses_a_half_turn():
+    """``diag(-1, -1, 1)``: the half turn about ``e_3`` (eigenvalues -1, -1: no principal log)."""
+    G = np.diag([-1.0, -1.0, 1.0])
+    assert not fk.log_small(G, np.zeros_like(G), fk.SHAPE_SO3)
+    assert not fk.logm(G, np.zeros_like(G))
+
+
 SO4 = None
 
 
@@ -167,6 +175,19 @@ def test_log_small_so4_is_the_principal_log(scale, x):
     _check(_mp_expm(np.einsum("a,aij->ij", scale * np.array(x), mats)), fk.SHAPE_SO4)
 
 
+@settings(deadline=None)
+@given(
+    scale=st.sampled_from([1e-9, 1e-3, 0.5, 1.5, 3.0]),
+    x=st.lists(st.floats(-1.0, 1.0), min_size=3, max_size=3),
+)
+@example(scale=1.0, x=[3.1, 0.0, 0.0])  # theta = 3.1
+@example(scale=1.0, x=[0.0, 2.0, 2.5])  # |x| = 3.2 > pi: the principal log is another x
+def test_log_small_so3_is_the_principal_log(scale, x):
+    """``G = exp(rho(x))`` (mpmath) in SO(3) (Bianchi IX's antisymmetric 3 x 3 representation)."""
+    mats = np.ascontiguousarray(np.asarray(representation_for(catalogue("Bianchi IX")).mats))
+    _check(_mp_expm(np.einsum("a,aij->ij", scale * np.array(x), mats)), fk.SHAPE_SO3)
+
+
 # the shapes by hand: r = 2 real; the affine ones with the index of their row e_k; the rest -2
 SHAPES = {
     "sl(2,R)": -1,
@@ -181,6 +202,7 @@ SHAPES = {
     "su(3)": -2,
     "se(3)": -2,
     "so(4)": fk.SHAPE_SO4,
+    "Bianchi IX": fk.SHAPE_SO3,
 }
 # exponential algebras with rho([g, g]) in the translations (log_from_abelian applies): all of the
 # affine ones ([g, g] is R^2 on IV, V, VI0; a line on II, III, h(3)); none of the others has an
@@ -262,6 +284,8 @@ def test_pair_log_for_picks_the_representations_logarithm(name):
     small = SHAPES[name] != fk.SHAPE_GENERAL
     if Dr is None and SHAPES[name] == fk.SHAPE_SO4:
         assert got is fk.pair_log_so4
+    elif Dr is None and SHAPES[name] == fk.SHAPE_SO3:
+        assert got is fk.pair_log_so3
     elif Dr is None:
         assert got is (fk.pair_log_small if small else fk.pair_log)
     elif DERIVED_TRANSLATIONS.get(name):
