@@ -548,13 +548,23 @@ SHAPE_SO3 = -4
 @njit(cache=True, nogil=True)
 def small_shape(mats, cplx):
     """:func:`log_small`'s shape of the representation ``mats`` (n, r, r): -1 real 2 x 2; ``k``
-    (0..2) real 3 x 3 with row ``k`` of every ``rho(E_a)`` zero; :data:`SHAPE_SO4` real 4 x 4 with
+    (0..r-1) real 2 x 2 or 3 x 3 with row ``k`` of every ``rho(E_a)`` zero (affine); :data:`SHAPE_SO4` real 4 x 4 with
     every ``rho(E_a)`` antisymmetric; :data:`SHAPE_SO3` the same 3 x 3 (without a zero row);
     :data:`SHAPE_GENERAL` otherwise (:func:`logm`)."""
     n, r, _ = mats.shape
     if cplx:
         return -2
     if r == 2:
+        for k in range(
+            2
+        ):  # affine 2 x 2 (aff(1)): the whole 2 x 2 form applies, k for the abelian one
+            zero = True
+            for a in range(n):
+                for j in range(2):
+                    if mats[a, k, j] != 0.0:
+                        zero = False
+            if zero:
+                return k
         return -1
     if r == 4:
         for a in range(n):
@@ -835,18 +845,22 @@ def log_small(G, L, k):
 
 @njit(cache=True, nogil=True)
 def derived_in_translations(Dr, k):
-    """Whether ``rho([g, g])`` (``Dr``, (m, 3, 3): ``rho`` of its basis) lies in the translations of
-    the :func:`small_shape` ``k >= 0`` representation: ``m <= 2`` and no ``rho(D_c)`` has a 2 x 2 block
+    """Whether ``rho([g, g])`` (``Dr``, (m, r, r): ``rho`` of its basis) lies in the translations of
+    the :func:`small_shape` ``k >= 0`` representation: ``m < r`` and no ``rho(D_c)`` has a block
     (to ``1e-12`` of its size: ``D`` comes from an SVD). Then the block of ``rho(x)`` depends on
     ``x``'s abelian part alone (:func:`log_from_abelian`)."""
-    if Dr.shape[0] > 2 or Dr.shape[1] != 3:
+    r = Dr.shape[1]
+    if Dr.shape[0] > r - 1 or r not in (2, 3):
         return False
-    i0 = 1 if k == 0 else 0  # _block(3, k), written out: pair_log_for runs this in Python
-    i1 = 1 if k == 2 else 2
+    if r == 2:  # the 1 x 1 block
+        i0 = i1 = 1 - k
+    else:
+        i0 = 1 if k == 0 else 0  # _block(3, k), written out: pair_log_for runs this in Python
+        i1 = 1 if k == 2 else 2
     for c in range(Dr.shape[0]):
         big = 0.0
-        for i in range(3):
-            for j in range(3):
+        for i in range(r):
+            for j in range(r):
                 big = max(big, abs(Dr[c, i, j]))
         for i in (i0, i1):
             for j in (i0, i1):
@@ -868,6 +882,23 @@ def log_from_abelian(s, Ppinv, Dr, mats, k, G, L):
     not finite."""
     n = mats.shape[0]
     m = Dr.shape[0]
+    if mats.shape[1] == 2:  # aff(1): G = [[e^l, phi1(l) u], [0, 1]] (k = 1; k = 0 transposed)
+        j0 = 1 - k
+        lb = 0.0
+        u = 0.0
+        for a in range(n):
+            xa = 0.0
+            for ell in range(s.shape[0]):
+                xa += Ppinv[a, ell] * s[ell]
+            lb += xa * mats[a, j0, j0]
+            u += xa * mats[a, j0, k]
+        if m == 1:  # the translation free: u = b / phi1(l), the exact fit
+            u = G[j0, k].real / _phi1(lb)
+        L[k, 0] = 0.0
+        L[k, 1] = 0.0
+        L[j0, j0] = lb
+        L[j0, k] = u
+        return math.isfinite(u)
     i0, i1 = _block(3, k)
     t00 = 0.0
     t01 = 0.0

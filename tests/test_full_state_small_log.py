@@ -191,6 +191,7 @@ def test_log_small_so3_is_the_principal_log(scale, x):
 # the shapes by hand: r = 2 real; the affine ones with the index of their row e_k; the rest -2
 SHAPES = {
     "sl(2,R)": -1,
+    "aff(1)": 1,
     "se(2)": 2,
     "Bianchi II": 2,
     "Bianchi III": 2,
@@ -208,7 +209,7 @@ SHAPES = {
 # affine ones ([g, g] is R^2 on IV, V, VI0; a line on II, III, h(3)); none of the others has an
 # abelian part refined in the compiled code
 DERIVED_TRANSLATIONS = dict.fromkeys(["Bianchi IV", "Bianchi V", "Bianchi VI0"], True)
-DERIVED_TRANSLATIONS |= dict.fromkeys(["Bianchi II", "Bianchi III", "h(3)"], True)
+DERIVED_TRANSLATIONS |= dict.fromkeys(["Bianchi II", "Bianchi III", "h(3)", "aff(1)"], True)
 
 
 def _rep(name):
@@ -253,18 +254,20 @@ def test_log_from_abelian_recovers_x(name, x):
     along the one direction of ``[g, g]``)."""
     _, mats, ab, Dr = _abelian(name)
     k = SHAPES[name]
-    x = np.array(x)
+    n, r = mats.shape[:2]
+    x = np.array(x[:n])
     G = _mp_expm(np.einsum("a,aij->ij", x, mats))
     s = ab.P @ x
-    L = np.zeros((3, 3))
+    L = np.zeros((r, r))
     Ppinv = np.ascontiguousarray(np.linalg.pinv(ab.P))
     assert fk.log_from_abelian(s, Ppinv, Dr, mats, k, G, L)
-    proj = np.linalg.pinv(mats.reshape(3, -1).T)
+    proj = np.linalg.pinv(mats.reshape(n, -1).T)
     xl = proj @ L.ravel()
     assert np.max(np.abs(ab.P @ xl - s)) <= 10 * EPS * max(1.0, np.max(np.abs(s)))
-    keep = [i for i in range(3) if i != k]
+    keep = [i for i in range(r) if i != k]
     Lb = np.einsum("a,aij->ij", x, mats)[np.ix_(keep, keep)]
-    phi1 = scipy.linalg.expm(np.block([[Lb, np.eye(2)], [np.zeros((2, 4))]]))[:2, 2:]
+    b = r - 1
+    phi1 = scipy.linalg.expm(np.block([[Lb, np.eye(b)], [np.zeros((b, 2 * b))]]))[:b, b:]
     cond = np.linalg.cond(phi1)
     assert np.max(np.abs(xl - x)) <= 100 * EPS * cond * max(1.0, np.max(np.abs(x)))
 
