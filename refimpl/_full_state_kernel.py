@@ -1415,6 +1415,92 @@ def log_state_abelian(B, G, Ad, mats, proj, Ppinv, Dr, xs, ok, resid):
     return done
 
 
+def derived_annihilates(mats, Dr):
+    """Whether ``rho([g, g])`` annihilates ``rho(g)`` on both sides: ``rho(D_c) rho(E_a) = rho(E_a)
+    rho(D_c) = 0`` for every ``a``, ``c`` (to ``1e-12`` of the sizes: ``D`` comes from an SVD), as on
+    the Heisenberg algebras' matrices (their centre is a corner). Then ``exp(X + rho(D w)) = exp(X) +
+    rho(D w)`` exactly (every product with ``rho(D w)`` vanishes), and the refine's least squares is
+    linear (:func:`log_state_central`). Numpy, run once per representation."""
+    mats = np.asarray(mats)
+    Dr = np.asarray(Dr)
+    if mats.ndim != 3 or Dr.ndim != 3 or Dr.shape[0] == 0 or np.iscomplexobj(mats):
+        return False
+    scale = max(1.0, float(np.max(np.abs(mats)))) * max(1.0, float(np.max(np.abs(Dr))))
+    left = np.einsum("cij,ajk->caik", Dr, mats)
+    right = np.einsum("aij,cjk->caik", mats, Dr)
+    return bool(np.max(np.abs(left)) <= 1e-12 * scale and np.max(np.abs(right)) <= 1e-12 * scale)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def log_state_central(B, G, Ad, mats, proj, Ppinv, D, Dr, xs, ok, resid):
+    """:func:`log_state_refined` on a representation where :func:`derived_annihilates`: the refine's
+    answer in closed form. ``x = x0 + D w`` with ``x0 = pinv(P) s`` (``s`` the last ``k`` entries of
+    the states ``B``); ``exp(rho(x)) = exp(rho(x0)) + rho(D w)``, so ``w`` minimising
+    ``|exp(rho(x)) - G|`` is the linear least squares ``(Dr^T Dr) w = Dr^T vec(G - exp(rho(x0)))``
+    (the small ``m x m`` system by :func:`_inverse_det`). Accepted as :func:`log_batch`'s, then
+    ``resid``; neither :func:`logm` nor the Gauss-Newton refine. Returns whether ``xs`` and ``resid``
+    are final (else the caller completes the rows not ``ok``)."""
+    Ex = np.empty_like(G)
+    cplx = (
+        proj.shape[1] != mats.shape[1] * mats.shape[2]
+    )  # False, not a literal (log_state_refined)
+    N, n = xs.shape
+    k = Ppinv.shape[1]
+    m = Dr.shape[0]
+    d = B.shape[1]
+    r = G.shape[1]
+    ws = np.zeros((4, r, r))
+    X, E0, L, Xa = ws[0], ws[1], ws[2], ws[3]
+    x0 = np.empty(n)
+    x = np.empty(n)
+    wm = np.zeros((2, m, m))
+    DtD, DtDi = wm[0], wm[1]
+    inv_ws = np.zeros((m, 2 * m))
+    rhs = np.empty(m)
+    for a in range(m):
+        for c in range(m):
+            acc = 0.0
+            for i in range(r):
+                for j in range(r):
+                    acc += Dr[a, i, j] * Dr[c, i, j]
+            DtD[a, c] = acc
+    if not _inverse_det(DtD, DtDi, inv_ws) > 0.0:
+        return False
+    done = True
+    for jr in range(N):
+        for a in range(n):
+            acc = 0.0
+            for ell in range(k):
+                acc += Ppinv[a, ell] * B[jr, d - k + ell]
+            x0[a] = acc
+        _exp_rho(x0, mats, X, E0)
+        for a in range(m):
+            acc = 0.0
+            for i in range(r):
+                for j in range(r):
+                    acc += Dr[a, i, j] * (G[jr, i, j] - E0[i, j])
+            rhs[a] = acc
+        for a in range(n):
+            acc = x0[a]
+            for c in range(m):
+                w = 0.0
+                for e in range(m):
+                    w += DtDi[c, e] * rhs[e]
+                acc += D[a, c] * w
+            x[a] = acc
+        for i in range(r):  # L = rho(x): _accept_log projects it back to x
+            for j in range(r):
+                acc = 0.0
+                for a in range(n):
+                    acc += x[a] * mats[a, i, j]
+                L[i, j] = acc
+        ok[jr] = _accept_log(L, G[jr], mats, proj, cplx, x0, Xa, Ex[jr], xs[jr])
+        done = done and ok[jr]
+    if done:
+        _residual_final(Ex, mats, proj, cplx, Ad, resid)
+    return done
+
+
 @njit(cache=True, nogil=True, inline="always")
 def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid, kind):
     """:func:`log_state` of a real representation with an abelian part: after :func:`log_batch` (when
@@ -1500,6 +1586,14 @@ def pair_log_so4(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, G
 
 
 @njit(cache=True, nogil=True)
+def pair_log_central(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+    """:func:`pair_log_refined` by :func:`log_state_central` (neither :func:`logm` nor the refine)."""
+    cplx = proj.shape[1] != mats.shape[1] * mats.shape[2]
+    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, cplx, GB, AdB, est, size)
+    return log_state_central(B, GB, AdB, mats, proj, Ppinv, D, Dr, xs, ok, resid)
+
+
+@njit(cache=True, nogil=True)
 def pair_log_so3(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`pair_log` by :func:`_log_so3` (:data:`SHAPE_SO3`: :func:`pair_log_for`)."""
     estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, size)
@@ -1535,7 +1629,8 @@ def pair_log_for(mats, cplx, Dr=None):
     """The compiled pair and logarithm for the representation ``mats`` (``Dr``: ``rho`` of ``[g, g]``'s
     basis when the abelian part is refined in the compiled code, :func:`pair_log_refined`'s arguments;
     else None, :func:`pair_log`'s), decided per representation, never per value:
-    :func:`pair_log_abelian` where :func:`derived_in_translations`, the ``_small`` entries where
+    :func:`pair_log_abelian` where :func:`derived_in_translations`, :func:`pair_log_central` where
+    :func:`derived_annihilates`, the ``_small`` entries where
     :func:`small_shape` applies, else the general ones. Each is its own compiled function, so a
     structure compiles only the logarithm it uses. The tests run the compiled code; this decision
     runs their Python (``py_func``: the same source, nothing compiled for it)."""
@@ -1548,4 +1643,6 @@ def pair_log_for(mats, cplx, Dr=None):
         return pair_log_small if shape != SHAPE_GENERAL else pair_log
     if shape >= 0 and derived_in_translations.py_func(Dr, shape):
         return pair_log_abelian
+    if derived_annihilates(mats, Dr):
+        return pair_log_central
     return pair_log_refined_small if shape != SHAPE_GENERAL else pair_log_refined

@@ -202,6 +202,7 @@ SHAPES = {
     "su(2)": -2,
     "su(3)": -2,
     "se(3)": -2,
+    "h(5)": -2,
     "so(4)": fk.SHAPE_SO4,
     "Bianchi IX": fk.SHAPE_SO3,
 }
@@ -293,5 +294,46 @@ def test_pair_log_for_picks_the_representations_logarithm(name):
         assert got is (fk.pair_log_small if small else fk.pair_log)
     elif DERIVED_TRANSLATIONS.get(name):
         assert got is fk.pair_log_abelian
+    elif name == "h(5)":
+        assert got is fk.pair_log_central
     else:
         assert got is (fk.pair_log_refined_small if small else fk.pair_log_refined)
+
+
+@pytest.mark.parametrize(
+    "name,expected", [("h(5)", True), ("Bianchi VI0", False), ("Bianchi III", False)]
+)
+def test_derived_annihilates(name, expected):
+    """By hand: h(5)'s centre is the corner of its 4 x 4 matrices (every product with it vanishes);
+    on Bianchi VI0 and III ``rho(E_3)`` moves the translations."""
+    _, mats, _, Dr = _abelian(name)
+    assert fk.derived_annihilates(mats, Dr) == expected
+
+
+@settings(deadline=None)
+@given(x=st.lists(st.floats(-3.0, 3.0), min_size=5, max_size=5))
+@example(x=[2.9, -2.7, 2.5, -2.8, 3.0])
+def test_log_state_central_recovers_x(x):
+    """h(5): ``G = exp(rho(x))`` (mpmath, a polynomial: ``rho(x)^3 = 0``), ``s = P x``: the logarithm
+    keeps ``P x = s`` (``10 eps |s|``) and equals ``x`` to ``100 eps max(1, |G|) max(1, |x|)`` (the
+    float64 ``exp(rho(pinv(P) s))``, a few ulp of ``|G|`` per entry, each moving ``w`` by as much,
+    times the entries of ``x`` it carries); its residual covers ``Ad(exp x)``'s miss."""
+    f, mats, ab, Dr = _abelian("h(5)")
+    x = np.array(x)
+    G = _mp_expm(np.einsum("a,aij->ij", x, mats))[None]
+    Ad = np.empty((1, 5, 5))
+    proj = np.ascontiguousarray(np.linalg.pinv(mats.reshape(5, -1).T))
+    fk.ad_batch(np.ascontiguousarray(G), mats, proj, False, Ad)
+    B = np.zeros((1, 4))
+    B[0] = ab.P @ x
+    xs, ok, resid = np.empty((1, 5)), np.empty(1, np.bool_), np.empty(1)
+    Ppinv = np.ascontiguousarray(np.linalg.pinv(ab.P))
+    D = np.ascontiguousarray(ab.D)
+    assert fk.log_state_central(
+        B, np.ascontiguousarray(G), Ad, mats, proj, Ppinv, D, Dr, xs, ok, resid
+    )
+    assert ok[0]
+    assert np.max(np.abs(ab.P @ xs[0] - B[0])) <= 10 * EPS * max(1.0, np.max(np.abs(B)))
+    bound = 100 * EPS * max(1.0, np.max(np.abs(G))) * max(1.0, np.max(np.abs(x)))
+    assert np.max(np.abs(xs[0] - x)) <= bound
+    assert np.isfinite(resid[0])
