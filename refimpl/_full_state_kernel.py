@@ -1072,12 +1072,15 @@ def _accept_log(L, Gt, mats, proj, cplx, x, X, E, out):
     _exp_rho(x, mats, X, E)
     err = 0.0
     gmax = 0.0
+    chk = 0.0  # 0.0 * v is NaN iff v is not finite: max() would drop a NaN
     for i in range(r):
         for j in range(r):
-            err = max(err, abs(E[i, j] - Gt[i, j]))
+            v = abs(E[i, j] - Gt[i, j])
+            err = max(err, v)
             gmax = max(gmax, abs(Gt[i, j]))
+            chk += 0.0 * v
     cond = math.exp(min(50.0, _norm1(X)))
-    good = err <= 1e3 * eps * cond * max(1.0, gmax) * r
+    good = chk == 0.0 and err <= 1e3 * eps * cond * max(1.0, gmax) * r
     for a in range(n):
         out[a] = x[a]
         if not math.isfinite(x[a]):
@@ -1124,16 +1127,23 @@ def estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, 
     ad_batch(GB, mats, proj, cplx, AdB)
     for it in range(N):
         m = 0.0
+        chk = 0.0  # 0.0 * v is NaN iff v is not finite: max() would drop a NaN
         for a in range(n):
-            m = max(m, abs(A[it, a] - B[it, a]))
+            v = abs(A[it, a] - B[it, a])
+            m = max(m, v)
+            chk += 0.0 * v
         z = 0.0
         for a in range(n):
             z = max(z, abs(B[it, a]))
+            chk += 0.0 * B[it, a]
             for b in range(n):
-                m = max(m, abs(AdA[it, a, b] - AdB[it, a, b]))
+                v = abs(AdA[it, a, b] - AdB[it, a, b])
+                m = max(m, v)
                 z = max(z, abs(AdB[it, a, b]))
-        est[it] = m if math.isfinite(m) else np.inf
-        size[it] = z
+                chk += 0.0 * v + 0.0 * AdB[it, a, b]
+        fin = chk == 0.0 and math.isfinite(m)
+        est[it] = m if fin else np.inf
+        size[it] = z if fin else np.inf
 
 
 # ---------------------------------------------------------------------- the abelian part of the log
@@ -1149,11 +1159,13 @@ def _resid(v, mats, G, X, E, R):
     r = mats.shape[1]
     _exp_rho(v, mats, X, E)
     m = 0.0
+    chk = 0.0
     for i in range(r):
         for j in range(r):
             R[i, j] = E[i, j] - G[i, j]
             m = max(m, abs(R[i, j]))
-    return m if math.isfinite(m) else np.inf
+            chk += 0.0 * R[i, j]
+    return m if chk == 0.0 and math.isfinite(m) else np.inf
 
 
 @njit(cache=True, nogil=True)
@@ -1341,26 +1353,33 @@ def log_residual(xs, mats, proj, cplx, Ad, out):
     ad_batch(G, mats, proj, cplx, Adx)
     for it in range(N):
         m = 0.0
+        chk = 0.0  # 0.0 * v is NaN iff v is not finite: max() would drop a NaN
         for a in range(n):
             for b in range(n):
-                m = max(m, abs(Adx[it, a, b] - Ad[it, a, b]))
-        out[it] = m if math.isfinite(m) else np.inf
+                v = abs(Adx[it, a, b] - Ad[it, a, b])
+                m = max(m, v)
+                chk += 0.0 * v
+        out[it] = m if chk == 0.0 and math.isfinite(m) else np.inf
 
 
 @njit(cache=True, nogil=True, inline="always")
 def _residual_final(Ex, mats, proj, cplx, Ad, resid):
-    """:func:`log_residual` from ``Ex[N] = exp(rho(x))`` already computed, 0 where not finite (no
-    logarithm found there: the caller names those rows)."""
+    """:func:`log_residual` from ``Ex[N] = exp(rho(x))`` already computed (every row has its
+    logarithm here): inf where ``Ad(exp x)`` or ``Ad(g_B)`` is not finite, so that the estimate refuses
+    the row (a NaN ``Ad(g_B)`` of an overflowing ``G`` had become 0 and passed, issue 25)."""
     N = Ex.shape[0]
     n = mats.shape[0]
     Adx = np.empty((N, n, n))
     ad_batch(Ex, mats, proj, cplx, Adx)
     for it in range(N):
         m = 0.0
+        chk = 0.0  # 0.0 * v is NaN iff v is not finite: max() would drop a NaN
         for a in range(n):
             for b in range(n):
-                m = max(m, abs(Adx[it, a, b] - Ad[it, a, b]))
-        resid[it] = m if math.isfinite(m) else 0.0
+                v = abs(Adx[it, a, b] - Ad[it, a, b])
+                m = max(m, v)
+                chk += 0.0 * v
+        resid[it] = m if chk == 0.0 and math.isfinite(m) else np.inf
 
 
 @njit(cache=True, nogil=True, inline="always")
