@@ -471,6 +471,10 @@ def full_state(model, abelian=None) -> FullState:
         # the abelian step of the compiled logarithm (_fk.log_state): 0 none, 1 compiled
         # (_fk.log_state_refined), 2 by the caller (_log_complete)
         fs.ab_mode = 0 if ab is None else (1 if fs.refine else 2)
+        # the compiled pair and logarithm of this representation (_fk.pair_log_for; _Answer.measure)
+        fs.log_pair = _fk.pair_log_for(
+            fs.mats, fs.cplx, fs.abelian_tables[3] if fs.refine else None
+        )
         # _fk.start's arguments after (x0, pi0) and before its output
         fs.start_consts = (fs.mats, fs.proj, fs.cplx, *fs.gidx, fs.gamma, fs.gravity, fs.Pab)
         model.__dict__["_full_state"] = fs
@@ -589,12 +593,12 @@ class _Answer:
         Ad = np.empty((M, fs.n, fs.n))
         size, xs, ok, resid = np.empty(M), np.empty((M, fs.n)), np.empty(M, np.bool_), np.empty(M)
         if fs.refine:
-            done = _fk.pair_log_refined(
+            done = fs.log_pair(
                 A, B, fs.n, *fs.gidx, fs.mats, fs.proj, *fs.abelian_tables, ABELIAN_RTOL,
                 G, Ad, est, size, xs, ok, resid,
             )  # fmt: skip
         else:
-            done = _fk.pair_log(
+            done = fs.log_pair(
                 A, B, fs.n, *fs.gidx, fs.unit, fs.mats, fs.proj, fs.cplx, fs.ab_mode,
                 G, Ad, est, size, xs, ok, resid,
             )  # fmt: skip
