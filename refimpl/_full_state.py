@@ -785,11 +785,10 @@ def _pair_of(fs: FullState):
         return pair
     kernel, coef, n = fs.module().pair, fs.coef, fs.n
     order_a, order_b = _FIRST_ORDERS
+    log = fs.log_pair  # this representation's pair and logarithm (as _Answer.measure calls it)
     if fs.refine:
-        log = _fk.pair_log_refined
         args = (n, *fs.gidx, fs.mats, fs.proj, *fs.abelian_tables, ABELIAN_RTOL)
     else:
-        log = _fk.pair_log
         args = (n, *fs.gidx, fs.unit, fs.mats, fs.proj, fs.cplx, fs.ab_mode)
 
     kernel_, log_ = kernel, log

@@ -332,20 +332,15 @@ def test_generated_kernel_every_term_kind_against_the_generic_one():
 
 
 def _control_alone(model, x0, pi0, T, tol):
-    """The general route's two-run control on one trajectory, from its start, its first pair given by
-    the pair kernel's entry (``_full_state_batch.pair_first``, at ``A_LOOSE`` and ``EPS_B_FIRST``
-    and the orders ``_FIRST_ORDERS``: the runs the protocol call's first pair makes) and the rest its
-    own: ``(B, estimate, x)``."""
-    from tstarg.refimpl import _full_state_batch as fsb
+    """The general route's two-run control on one trajectory, from its start, with no first pair run
+    beforehand (its runs on the single kernel: the pair kernel's lanes are bitwise those runs):
+    ``(B, estimate, x)``."""
     from tstarg.refimpl._flow_compiled import _control
     from tstarg.refimpl.flows._common import _AbelianPart
 
     fs = fs_mod.full_state(model, _AbelianPart)
     y0 = np.empty((1, fs.d))
     fk.start(x0[:, None].copy(), pi0[:, None].copy(), *fs.start_consts, y0)
-    A, B0, _, sB = fsb.pair_first(
-        fs, y0, T, fs_mod.A_LOOSE, fs_mod.EPS_B_FIRST, *fs_mod._FIRST_ORDERS
-    )
     ans = fs_mod._Answer(fs, 1)
     B, est, _ = _control(
         model,
@@ -361,7 +356,6 @@ def _control_alone(model, x0, pi0, T, tol):
         reuse_b=0.0,
         floor=ans.floor,
         reuse_last=True,
-        first=(A, B0, sB),
     )
     return B, est, ans.all[2]
 
@@ -374,8 +368,8 @@ def _control_alone(model, x0, pi0, T, tol):
 def test_one_trajectory_route_is_the_controls(name, scale, T, tol):
     """The protocol call of one trajectory (1-D points: ``_fast._flow_one`` -> the runner of
     ``_full_state.one_trajectory``, its first pair run by ``_pair_of`` on the pair kernel) returns
-    exactly what the two-run control returns run alone from the same start and the same first pair
-    (the same kernels, tolerances and estimate rule), the same as the (1, n) batch route; the caller's arrays are neither written nor aliased by
+    exactly what the two-run control returns run alone from the same start (the same runs,
+    tolerances and estimate rule), the same as the (1, n) batch route; the caller's arrays are neither written nor aliased by
     the result, and a second call (the runner kept on the model) returns the same values in fresh arrays. h(3), T = 2: the first
     pair passes (|A - B| 5e-15); Bianchi III with pi0 scaled by 10, T = 40: it does not (4e-3, the
     control goes on from it to 2.3e-11)."""
