@@ -48,6 +48,8 @@ import numpy as np
 from . import _compiled_rational as _cr
 from . import _compiled_taylor as _ct
 from . import _fast_kernels as _fast
+from ._flow_checks import finite_one, point_max
+from ._validate import MAX_MAGNITUDE
 
 __all__ = [
     "PATH",
@@ -283,7 +285,7 @@ def _estimate_py(A, B, n, est):
 
 
 def _log_py(B, x):
-    x[:] = quat_to_x(B[:, -4:].T).T
+    x[:] = quat_to_x(B[:, -4:].T)  # (3, N), as _log writes it
 
 
 def _finish_py(A, B, n, est, x):
@@ -291,39 +293,53 @@ def _finish_py(A, B, n, est, x):
     _log_py(B, x)
 
 
+def _finish_one_py(A, B, n, est, x, sA, sB):
+    if sA[0] < 0 or sB[0] < 0:
+        return 1
+    _finish_py(A, B, n, est, x)
+    return 0 if np.all(np.isfinite(B[0, :n])) and np.all(np.isfinite(x[:, 0])) else 2
+
+
 if _ct.HAVE_NUMBA:
     import math
 
     from numba import njit
 
+    @njit(cache=True, nogil=True, inline="always")
+    def _start_row(x0, x1, x2, p0, p1, p2, gamma, grav, y0, j):  # pragma: no cover - compiled
+        t = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+        s = math.sin(t / 2) / t if t > 0 else 0.5
+        w, a, b, c = math.cos(t / 2), s * x0, s * x1, s * x2
+        y0[j, 0], y0[j, 1], y0[j, 2] = p0, p1, p2
+        if grav:  # Gamma_b = sum_m R_mb gamma_m, R = (w^2 - |v|^2) 1 + 2 v v^T + 2 w [v]_x (quat_rotation)
+            r = w * w - a * a - b * b - c * c
+            g0, g1, g2 = gamma[0], gamma[1], gamma[2]
+            y0[j, 3] = (
+                g0 * (r + 2 * a * a) + g1 * (2 * b * a + 2 * w * c) + g2 * (2 * c * a - 2 * w * b)
+            )
+            y0[j, 4] = (
+                g0 * (2 * a * b - 2 * w * c) + g1 * (r + 2 * b * b) + g2 * (2 * c * b + 2 * w * a)
+            )
+            y0[j, 5] = (
+                g0 * (2 * a * c + 2 * w * b) + g1 * (2 * b * c - 2 * w * a) + g2 * (r + 2 * c * c)
+            )
+        k = y0.shape[1] - 4
+        y0[j, k], y0[j, k + 1], y0[j, k + 2], y0[j, k + 3] = w, a, b, c
+
     @njit(cache=True, nogil=True)
     def _start(X, P, gamma, grav, y0):  # pragma: no cover - compiled; same as _start_py
         for j in range(X.shape[1]):
-            x0, x1, x2 = X[0, j], X[1, j], X[2, j]
-            t = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
-            s = math.sin(t / 2) / t if t > 0 else 0.5
-            w, a, b, c = math.cos(t / 2), s * x0, s * x1, s * x2
-            y0[j, 0], y0[j, 1], y0[j, 2] = P[0, j], P[1, j], P[2, j]
-            if grav:  # Gamma_b = sum_m R_mb gamma_m, R = (w^2 - |v|^2) 1 + 2 v v^T + 2 w [v]_x (quat_rotation)
-                r = w * w - a * a - b * b - c * c
-                g0, g1, g2 = gamma[0], gamma[1], gamma[2]
-                y0[j, 3] = (
-                    g0 * (r + 2 * a * a)
-                    + g1 * (2 * b * a + 2 * w * c)
-                    + g2 * (2 * c * a - 2 * w * b)
-                )
-                y0[j, 4] = (
-                    g0 * (2 * a * b - 2 * w * c)
-                    + g1 * (r + 2 * b * b)
-                    + g2 * (2 * c * b + 2 * w * a)
-                )
-                y0[j, 5] = (
-                    g0 * (2 * a * c + 2 * w * b)
-                    + g1 * (2 * b * c - 2 * w * a)
-                    + g2 * (r + 2 * c * c)
-                )
-            k = y0.shape[1] - 4
-            y0[j, k], y0[j, k + 1], y0[j, k + 2], y0[j, k + 3] = w, a, b, c
+            _start_row(X[0, j], X[1, j], X[2, j], P[0, j], P[1, j], P[2, j], gamma, grav, y0, j)
+
+    @njit(cache=True, nogil=True)
+    def _load_start(x0, pi0, gamma, grav, y0, bound):  # pragma: no cover - compiled
+        """One trajectory's start from the 1-D ``x0``, ``pi0``: :func:`refimpl._flow_checks.point_max`
+        (``max |pi0|``, or -1.0 where an entry is not finite with ``|v| <= bound``) and, where that
+        holds, the row of :func:`_start` in ``y0[0]``: one compiled call for both."""
+        pmax = point_max(x0, pi0, bound)
+        if pmax >= 0.0:
+            _start_row(x0[0], x0[1], x0[2], pi0[0], pi0[1], pi0[2], gamma, grav, y0, 0)
+        return pmax
 
     # _estimate and _log are inline="always": _finish, the one-trajectory path's single compiled call
     # after the pair, inlines their IR rather than compiling each as a library of its own on a cold
@@ -355,12 +371,34 @@ if _ct.HAVE_NUMBA:
         _estimate(A, B, n, est)
         _log(B, x)
 
+    @njit(cache=True, nogil=True)
+    def _finish_one(A, B, n, est, x, sA, sB):  # pragma: no cover - compiled; as _finish_one_py
+        """:func:`_finish` of one trajectory's pair with the checks around it: 1 where a run
+        diverged (steps < 0; nothing computed), 2 where ``B``'s ``pi`` or ``x`` is not finite, else 0."""
+        if sA[0] < 0 or sB[0] < 0:
+            return 1
+        _estimate(A, B, n, est)
+        _log(B, x)
+        for c in range(n):
+            if not (math.isfinite(B[0, c]) and math.isfinite(x[c, 0])):
+                return 2
+        return 0
+
 else:  # pragma: no cover - exercised only where numba is missing
     _start, _estimate, _log = _start_py, _estimate_py, _log_py
+
+    def _load_start(x0, pi0, gamma, grav, y0, bound):
+        pmax = point_max(x0, pi0, bound)
+        if pmax >= 0.0:
+            _start_py(x0.reshape(3, 1), pi0.reshape(3, 1), gamma, grav, y0)
+        return pmax
 
     def _finish(A, B, n, est, x):
         _estimate(A, B, n, est)
         _log(B, x)
+
+    def _finish_one(A, B, n, est, x, sA, sB):
+        return _finish_one_py(A, B, n, est, x, sA, sB)
 
 
 def _full_field(model) -> _ct.CompiledField:
@@ -492,39 +530,97 @@ def _pair_run(pair, qcoef, lcoef, y0, t, eps_a, eps_b, n, tol):
     return A, B, sB
 
 
-def one_trajectory(model, tol: float):
+def one_trajectory(model, tol: float, limits=(math.inf, None)):
     """``run(x0, pi0, t) -> (x, pi)`` (each of shape (n,), fresh arrays) for one su(2) trajectory
-    (``x0``, ``pi0`` C-contiguous float64 of shape (n, 1), ``t`` a float), ``Upsilon = 0``, at ``tol``:
+    (``x0``, ``pi0`` 1-D float64 of shape (n,), ``t`` a float), ``Upsilon = 0``, at ``tol``:
     :func:`compiled_taylor_flow` of that trajectory, the same computation (:func:`_first_pair`'s pair,
     estimate and logarithm; :func:`_control` from that pair when it does not pass), with the constants
     of the call (tolerances, kernel, field arrays) looked up once, when the runner is built (issue 25:
     the Python around the protocol call; :func:`refimpl.flows._fast._flow_one` keeps it per model and
-    ``tol``). None where the pair kernel is not unrolled or the state is not this one (the caller then
-    calls :func:`compiled_taylor_flow`)."""
+    ``tol``). The start is checked as it is read (:func:`_load_start`): ``run`` returns None where an
+    entry is not finite with ``|v| <= MAX_MAGNITUDE``, and calls ``rates(pi0, t, max |pi0|)`` of
+    ``limits = (free, rates)`` where ``max |pi0| > free`` (the caller's rates check; default never).
+    None where the pair kernel is not unrolled or the state is not this one (the caller then calls
+    :func:`compiled_taylor_flow`)."""
     if not (model.upsilon_zero and supports_full(model)):  # e.g. the rational state
         return None
     cf = model.compiled_full_field
     eps_a, eps_b = local_tolerances(tol, A_LOOSE_FULL)
     pair = _pair_kernel(cf, eps_b)
-    return None if pair is None else _one_runner(model, tol, eps_a, eps_b, pair, cf.qcoef, cf.lcoef)
+    if pair is None:
+        return None
+    return _one_runner(model, tol, eps_a, eps_b, pair, cf.qcoef, cf.lcoef, limits)
 
 
-def _one_runner(model, tol, eps_a, eps_b, pair, qcoef, lcoef):
+def _one_runner(model, tol, eps_a, eps_b, pair, qcoef, lcoef, limits):
+    """:func:`one_trajectory`'s runner: :func:`_pair_run`'s computation into work arrays kept between
+    calls (``y0``, ``A``, ``B``, their steps and the estimate; taken from a pool, so concurrent calls
+    never share them, and never returned: ``pi`` is a copy, ``x`` fresh); after the first call, the
+    compiled functions whose argument types it fixes through their entry points
+    (:func:`entry_point`; not :func:`_load_start`, which reads the caller's arrays)."""
     n = model.n
     grav = model.gravity
     gamma = model.gamma if grav else _NO_GAMMA
     d = n + (n if grav else 0) + 4
+    free, rates = limits
+    pool = []
+    empty, i64 = np.empty, np.int64
+    pair_, finish = pair, _finish_one
 
     def run(x0, pi0, t):
-        y0 = np.empty((1, d))
-        _start(x0, pi0, gamma, grav, y0)
-        first = _pair_run(pair, qcoef, lcoef, y0, t, eps_a, eps_b, n, tol)
-        if len(first) == 4:  # the pair passed: (B, steps, x, estimate)
-            return first[2][:, 0], first[0][0, :n]
-        out = _go_on(model, y0, t, eps_a, n, tol, first, True)
-        return out["x"][:, 0], out["pi"][:, 0]
+        nonlocal pair_, finish
+        t = float(t)  # the entry points take the types of the first call
+        try:
+            s = pool.pop()
+        except IndexError:  # none free (the first call, or one running in another thread)
+            s = (
+                empty((1, d)),
+                empty((1, d)),
+                empty((1, d)),
+                empty(1, i64),
+                empty(1, i64),
+                empty(1),
+            )
+        y0, A, B, sA, sB, est = s
+        pmax = _load_start(x0, pi0, gamma, grav, y0, MAX_MAGNITUDE)
+        if pmax < 0.0:  # issue 30: not finite, or |v| > MAX_MAGNITUDE
+            pool.append(s)
+            return None
+        if not pmax <= free:
+            rates(pi0, t, pmax)
+        pair_(y0, t, eps_a, eps_b, MAX_STEPS, qcoef, lcoef, A, B, sA, sB)
+        x = empty((n, 1))
+        status = finish(A, B, n, est, x, sA, sB)
+        if finish is _finish_one:  # the first call: the entry points of the types it used
+            pair_ = entry_point(pair, (y0, t, eps_a, eps_b, MAX_STEPS, qcoef, lcoef, A, B, sA, sB))
+            finish = entry_point(_finish_one, (A, B, n, est, x, sA, sB))
+        if status == 1:  # a run diverged: named
+            _diverged(sA if sA[0] < 0 else sB, t)
+        if status == 2:  # B's pi or x not finite: refused by name
+            finite_one(x[:, 0], B[0, :n], t)
+        if first_estimate(est.item(), eps_a, eps_b, PROP_MIN_B, PROP_MAX_D) <= tol:  # as _pair_run
+            pi = B[0, :n].copy()
+            pool.append(s)
+            return x[:, 0], pi  # finite (_finish_one)
+        out = _go_on(model, y0, t, eps_a, n, tol, (A, B, sB), True)  # s stays with this call
+        return finite_one(out["x"][:, 0], out["pi"][:, 0], t)
 
     return run
+
+
+def entry_point(fn, args):
+    """The compiled entry point of the numba dispatcher ``fn`` for exactly the types of ``args`` (a
+    call just made with them): the same call without numba's dispatch, which types every argument and
+    looks the overload up on each call (0.1-0.35 us per call of one trajectory, issue 25). ``fn``
+    itself where there is none (no numba, or no overload of exactly those types). The entry point does
+    not check the types it is given: only for calls whose argument types are fixed by their caller
+    (arrays it allocates, Python floats, ints and bools)."""
+    try:
+        from numba import typeof
+
+        return fn.overloads[tuple(typeof(a) for a in args)].entry_point
+    except (ImportError, AttributeError, KeyError, TypeError, ValueError):
+        return fn
 
 
 GRID = (
@@ -547,7 +643,7 @@ def first_estimate(d: float, eps_a: float, eps_b: float, prop_min_b: float, prop
     :data:`PROP_MIN_A` or looser, ``B`` at ``prop_min_b`` or looser, ``d <= prop_max_d``; None: no
     limit), else ``d``. The one rule of the two-run estimate: :func:`prop_estimates` is the same on
     arrays; the callers that run the first pair themselves (:func:`_first_pair`,
-    :func:`refimpl._full_state._first_pair`) and :func:`_control`'s first pair take this form."""
+    :func:`refimpl._full_state._pair_of`) and :func:`_control`'s first pair take this form."""
     if eps_a >= PROP_MIN_A and eps_b >= prop_min_b and (prop_max_d is None or d <= prop_max_d):
         return min(d, PROP * (eps_b / eps_a) * d)
     return d

@@ -77,15 +77,18 @@ import numpy as np
 from . import _compiled_taylor as _ct
 from . import _full_state_batch as _fsb
 from . import _full_state_kernel as _fk
+from ._flow_checks import finite_one, load_point
 from ._flow_compiled import (
     A_LOOSE_FROM,
     PROP_MAX_D,
     REUSE_B,
     _control,
     _eps_b,
+    entry_point,
     first_estimate,
     local_tolerances,
 )
+from ._validate import MAX_MAGNITUDE
 from .codegen import import_source
 from .codegen.full_state import full_state_source
 
@@ -144,13 +147,26 @@ vs 15). Measured ratios ``kappa = error / eps`` of ``A`` at 1e-6 and ``B`` at 2e
 ``ORDER_BIAS`` = 4 then; at 2: ``A`` se(3) 20, Bianchi VI0 450, ``B`` 37 and 270): se(3) 18 and 39, Bianchi VI0 770 and 910; so(4) and su(3) 0.05 and 1 with ``B`` at the
 rounding floor (covered by :data:`ROUND_PER_STEP`): within the safety factor 30."""
 
-ROUND_AMPLIFIED = 10.0
+ROUND_AMPLIFIED = 30.0
 """The rounding floor's amplified part: ``ROUND_AMPLIFIED eps kappa`` with ``kappa`` the largest
 ``|A - B| / eps_A`` seen (how much the flow amplifies local errors, per unit of local tolerance). Each
 step's rounding is a local error of a few ``eps |y|`` while the Jorba-Zou step leaves a truncation of
-0.05-1 ``eps_A |y|``: the shared rounding grows ``kappa eps`` times that ratio, 4-20. Measured: se(3),
-random inertia, T = 30: ``kappa`` 6600, error of ``B`` 5.5e-12 = 3.7 ``eps kappa`` (both runs near the
-floor differed by 1.75e-12 only: the rounding of the start and of the steps is shared)."""
+0.05-1 ``eps_A |y|``: the shared rounding grows ``kappa eps`` times that ratio (1-80; 4-20 seen).
+Measured: se(3), random inertia, T = 30: ``kappa`` 6600, error of ``B`` 5.5e-12 = 3.7 ``eps kappa``
+(both runs near the floor differed by 1.75e-12 only: the rounding of the start and of the steps is
+shared). Was 10, the middle of that range, which did not bound every error (issue 25, session 7):
+over 748 answers of ``full_state_flow`` at ``tol = 1e-10`` (random SPD inertias with eigenvalues in
+[0.5, 3], ``x0 = 0.3 N``, ``pi0 = N``, T = 1/3/10/30 on h(3), Bianchi III with a cocycle, V, VI0,
+se(2), sl(2, R), se(3), so(4), su(3), seeds 25-30, 4 models each:
+``tests/benchmarks/full_state_estimate_constants.py SEED 4 flow``), against heyoka in long double with
+``Ad(exp x)`` at 40 digits, the factor that just covers the error, ``ROUND_AMPLIFIED + (err - estimate)
+/ (eps kappa)``, was at most 17.3 (Bianchi III + cocycle, T = 30: the control's retry with ``A`` at
+:data:`refimpl._flow_compiled.EPS_FLOOR` = 1e-14 next to ``B`` at 2e-15, where ``|A - B|`` is itself
+mostly rounding; err/estimate 1.13 at 10), every other answer at most 10.5 once the logarithm's own
+error is measured right (wt7/log's closed-form logarithms; on 58f381e's logarithm Bianchi VI0 answers
+needed more through the logarithm's ``x``, not the runs). 30 covers 17.3 with a margin of 1.7. At the
+default ``tol`` no first pair changes its verdict: with ``|A - B| <= PROP_MAX_D = 1e-3`` the
+estimate ``(PROP eps_B + ROUND_AMPLIFIED eps) |A - B| / eps_A`` stays below 6.7e-11."""
 
 B_MAX_RATIONAL, PROP_MIN_B_RATIONAL = 3e-14, 1e-14
 """The same two for the ``Upsilon != 0`` kernel (:mod:`refimpl._full_state_rational`, its ``run``): its
@@ -455,6 +471,10 @@ def full_state(model, abelian=None) -> FullState:
         # the abelian step of the compiled logarithm (_fk.log_state): 0 none, 1 compiled
         # (_fk.log_state_refined), 2 by the caller (_log_complete)
         fs.ab_mode = 0 if ab is None else (1 if fs.refine else 2)
+        # the compiled pair and logarithm of this representation (_fk.pair_log_for; _Answer.measure)
+        fs.log_pair = _fk.pair_log_for(
+            fs.mats, fs.cplx, fs.abelian_tables[3] if fs.refine else None
+        )
         # _fk.start's arguments after (x0, pi0) and before its output
         fs.start_consts = (fs.mats, fs.proj, fs.cplx, *fs.gidx, fs.gamma, fs.gravity, fs.Pab)
         model.__dict__["_full_state"] = fs
@@ -544,6 +564,17 @@ def _log_complete(fs: FullState, B, G, Ad, xs, ok, resid) -> None:
     resid[~np.isfinite(resid)] = 0.0
 
 
+def _floor_one(steps: int, n: int, size: float, kappa: float, resid: float) -> float:
+    """The floor of :meth:`_Answer.floor` for one trajectory, in Python floats: the rounding floor
+    (:data:`ROUND_PER_STEP` per step, :data:`ROUND_AMPLIFIED` times ``kappa``) of an answer of ``steps``
+    steps and size ``max(1, |pi|, |Ad|) <= max(1, size)``, plus its logarithm's residual ``resid``;
+    inf where ``size`` is not finite (Python's ``max(1.0, nan)`` is 1.0: no such size may pass)."""
+    if not size < math.inf:
+        return math.inf
+    per_step = ROUND_PER_STEP * (math.sqrt(steps) + n) * max(1.0, size)
+    return _EPS * (per_step + ROUND_AMPLIFIED * kappa) + resid
+
+
 class _Answer:
     """What the control's ``estimate`` hook measured of the ``B`` it was given, and what its ``floor``
     hook keeps of it per row: one compiled call per estimate (:func:`refimpl._full_state_kernel.pair_log`:
@@ -562,12 +593,12 @@ class _Answer:
         Ad = np.empty((M, fs.n, fs.n))
         size, xs, ok, resid = np.empty(M), np.empty((M, fs.n)), np.empty(M, np.bool_), np.empty(M)
         if fs.refine:
-            done = _fk.pair_log_refined(
+            done = fs.log_pair(
                 A, B, fs.n, *fs.gidx, fs.mats, fs.proj, *fs.abelian_tables, ABELIAN_RTOL,
                 G, Ad, est, size, xs, ok, resid,
             )  # fmt: skip
         else:
-            done = _fk.pair_log(
+            done = fs.log_pair(
                 A, B, fs.n, *fs.gidx, fs.unit, fs.mats, fs.proj, fs.cplx, fs.ab_mode,
                 G, Ad, est, size, xs, ok, resid,
             )  # fmt: skip
@@ -585,10 +616,15 @@ class _Answer:
             self.measure(B, B, np.empty(B.shape[0]))
         if self.N == 1:  # Python floats (numpy scalar arithmetic costs more)
             self.all = (self.G, self.Ad, self.xs, self.resid)
-            per_step = (
-                ROUND_PER_STEP * (math.sqrt(int(steps[0])) + self.n) * max(1.0, float(self.size[0]))
+            return (
+                _floor_one(
+                    int(steps[0]),
+                    self.n,
+                    float(self.size[0]),
+                    float(kappa[0]),
+                    float(self.resid[0]),
+                ),
             )
-            return (_EPS * (per_step + ROUND_AMPLIFIED * float(kappa[0])) + float(self.resid[0]),)
         if self.all is None:
             fs, N = self.fs, self.N
             self.all = (
@@ -634,20 +670,64 @@ def full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=None, run=N
     }
 
 
-def one_trajectory(model, tol: float, abelian=None):
+def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None)):
     """``run(x0, pi0, t) -> (x, pi)`` at ``tol`` on ``model``: :func:`full_state_flow` of one trajectory
-    (``x0``, ``pi0`` C-contiguous float64 of shape (n, 1), ``t`` a float; ``x``, ``pi`` fresh arrays of
-    shape (n,)), the same computation, without its dictionary and with the start's constants looked
-    up once, when the runner is built (issue 25: the Python around one trajectory;
-    :func:`refimpl.flows._fast._flow_one` keeps it per model and ``tol``)."""
+    (``x0``, ``pi0`` 1-D float64 of shape (n,), ``t`` a float; ``x``, ``pi`` fresh arrays of shape
+    (n,), finite: else refused by name, :func:`refimpl._flow_checks.finite_one`), the same computation,
+    without its dictionary and with the constants of the call looked up once, when the runner is built (issue 25: the Python around one trajectory;
+    :func:`refimpl.flows._fast._flow_one` keeps it per model and ``tol``). The start is checked as it
+    is read (:func:`refimpl._flow_checks.load_point`): ``run`` returns None where an entry is not
+    finite with ``|v| <= MAX_MAGNITUDE``, and calls ``rates(pi0, t, max |pi0|)`` of ``limits = (free,
+    rates)`` where ``max |pi0| > free`` (the caller's rates check; default never). Where :func:`_solve`
+    runs a first pair (:func:`_protocol_pair`), the runner runs it into work arrays it keeps between
+    calls (:func:`_scratch`; taken from a pool, so concurrent calls never share them, and never
+    returned: ``x`` and ``pi`` are copies) and enters the control only when that pair does not pass;
+    elsewhere it calls :func:`_solve`."""
     fs = full_state(model, abelian)
     n, d, consts, start = fs.n, fs.d, fs.start_consts, _fk.start
+    free, rates = limits
+
+    if not _protocol_pair(fs, tol):
+
+        def run(x0, pi0, t):
+            X, P = np.empty((n, 1)), np.empty((n, 1))
+            pmax = load_point(x0, pi0, X, P, MAX_MAGNITUDE)
+            if pmax < 0.0:  # issue 30: not finite, or |v| > MAX_MAGNITUDE
+                return None
+            if not pmax <= free:
+                rates(pi0, t, pmax)
+            y0 = np.empty((1, d))
+            start(X, P, *consts, y0)
+            B, _, _, ans = _solve(fs, model, y0, t, tol, None)
+            return finite_one(ans.all[2][0], B[0, :n].copy(), t)
+
+        return run
+
+    pair, pool = _pair_of(fs), []
 
     def run(x0, pi0, t):
-        y0 = np.empty((1, d))
-        start(x0, pi0, *consts, y0)
-        B, _, _, ans = _solve(fs, model, y0, t, tol, None)
-        return ans.all[2][0], B[0, :n].copy()
+        nonlocal start
+        t = float(t)  # the entry points take the types of the first call
+        try:
+            s, X, P = pool.pop()
+        except IndexError:  # none free (the first call, or one running in another thread)
+            s, X, P = _scratch(fs), np.empty((n, 1)), np.empty((n, 1))
+        pmax = load_point(x0, pi0, X, P, MAX_MAGNITUDE)
+        if pmax < 0.0:  # issue 30: not finite, or |v| > MAX_MAGNITUDE
+            pool.append((s, X, P))
+            return None
+        if not pmax <= free:
+            rates(pi0, t, pmax)
+        y0 = s[0]
+        start(X, P, *consts, y0)
+        if start is _fk.start:  # the first call: the entry point of the types it used
+            start = entry_point(_fk.start, (X, P, *consts, y0))
+        if pair(y0, t, s) <= tol:
+            x, pi = s[9][0].copy(), s[2][0, :n].copy()
+            pool.append((s, X, P))
+            return finite_one(x, pi, t)
+        B, _, _, ans = _go_on(fs, model, y0, t, tol, s)  # s stays with this call's results
+        return finite_one(ans.all[2][0], B[0, :n].copy(), t)
 
     return run
 
@@ -657,28 +737,92 @@ EPS_B_FIRST = _eps_b(A_LOOSE, B_MAX)
 _FIRST_ORDERS = (default_order(A_LOOSE), default_order(EPS_B_FIRST))  # the runner's orders for them
 
 
-def _first_pair(fs: FullState, ans, y0, t: float):
-    """One trajectory's first pair on the generated kernel, ``A`` at :data:`A_LOOSE` and ``B`` at
-    :data:`EPS_B_FIRST`, estimated as :func:`_control`'s first pair (:func:`first_estimate` of the
-    ``|A - B|`` that ``ans`` measures, plus ``ans``'s floor): ``(A, B, steps of B, estimate (1,))``. The
-    kernel calls of the general route's runner, without its per-call Python (the protocol call of one
-    trajectory: issue 25)."""
-    kernel = fs.module().adaptive
-    A, B = np.empty_like(y0), np.empty_like(y0)
-    sA, sB = np.empty(1, dtype=np.int64), np.empty(1, dtype=np.int64)
+def _protocol_pair(fs: FullState, tol: float, t: float = 0.0) -> bool:
+    """Whether :func:`_solve` runs one trajectory's first pair itself (:func:`_pair_of`) for a call
+    at ``tol`` to ``t``: ``A`` at :data:`A_LOOSE` (``tol >= A_LOOSE_FROM``) on the generated kernel
+    (``|t| >= _generated_min_work(fs)``; ``t = 0``: at every ``t``)."""
+    return tol >= A_LOOSE_FROM and abs(t) >= _generated_min_work(fs)
+
+
+def _scratch(fs: FullState):
+    """The arrays of one trajectory's first pair (:func:`_pair_of`): ``(y0, A, B, steps of A, steps
+    of B, G, Ad(g), |A - B|, size, x, ok, residual, (A; B), (steps of A; of B))``, as the pair kernel
+    and :func:`refimpl._full_state_kernel.pair_log` fill them (``A``, ``B`` and their steps: the rows
+    of the last two)."""
+    n, d, r = fs.n, fs.d, fs.r
+    AB, steps = np.empty((2, d)), np.empty(2, dtype=np.int64)
+    return (
+        np.empty((1, d)),
+        AB[:1],
+        AB[1:],
+        steps[:1],
+        steps[1:],
+        np.empty((1, r, r), dtype=fs.mats.dtype),
+        np.empty((1, n, n)),
+        np.empty(1),
+        np.empty(1),
+        np.empty((1, n)),
+        np.empty(1, dtype=np.bool_),
+        np.empty(1),
+        AB,
+        steps,
+    )
+
+
+def _pair_of(fs: FullState):
+    """``pair(y0, t, s) -> estimate``: one trajectory's first pair, ``A`` at :data:`A_LOOSE` and ``B``
+    at :data:`EPS_B_FIRST` (orders :data:`_FIRST_ORDERS`), on the two lanes of the generated module's
+    pair kernel (:func:`refimpl._full_state_batch.pair_first`: each lane bit for bit the generated
+    single kernel's run at its tolerance and order, for about the cost of the longer one), into the
+    arrays ``s`` of :func:`_scratch`, estimated as :func:`_control`'s first pair
+    (:func:`first_estimate` of ``|A - B|`` plus :class:`_Answer`'s floor, :func:`_floor_one`), with
+    ``G``, ``Ad(g)``, ``x`` and the residual of ``B`` in ``s`` (:class:`_Answer`'s ``measure``: one
+    compiled call). Without the general route's per-call Python (issue 25); built once per structure
+    (kept on ``fs``). Measured (A/B of the protocol call, single kernel twice against the pair, see
+    the commit): Bianchi VI0 + cocycle, se(3), so(4), su(3), se(2)."""
+    pair = fs.__dict__.get("_pair")
+    if pair is not None:
+        return pair
+    kernel, coef, n = fs.module().pair, fs.coef, fs.n
     order_a, order_b = _FIRST_ORDERS
-    kernel(y0, t, A_LOOSE, order_a, MAX_STEPS, fs.coef, A, sA)
-    kernel(y0, t, EPS_B_FIRST, order_b, MAX_STEPS, fs.coef, B, sB)
-    if sA[0] < 0:
-        _check_steps(sA, t)
-    if sB[0] < 0:
-        _check_steps(sB, t)
-    d1 = np.empty(1)
-    ans.measure(A, B, d1)
-    d = float(d1[0])
-    e = first_estimate(d, A_LOOSE, EPS_B_FIRST, PROP_MIN_B, PROP_MAX_D)
-    d1[0] = e + ans.floor(B, sB, (d / A_LOOSE,), None)[0]
-    return A, B, sB, d1
+    log = fs.log_pair  # this representation's pair and logarithm (as _Answer.measure calls it)
+    if fs.refine:
+        args = (n, *fs.gidx, fs.mats, fs.proj, *fs.abelian_tables, ABELIAN_RTOL)
+    else:
+        args = (n, *fs.gidx, fs.unit, fs.mats, fs.proj, fs.cplx, fs.ab_mode)
+
+    kernel_, log_ = kernel, log
+
+    def pair(y0, t, s):
+        nonlocal kernel_, log_
+        _, A, B, sA, sB, G, Ad, est, size, xs, ok, resid, AB, steps = s
+        kernel_(y0, t, A_LOOSE, EPS_B_FIRST, order_a, order_b, MAX_STEPS, coef, AB, steps)
+        if sA[0] < 0:
+            _check_steps(sA, t)
+        if sB[0] < 0:
+            _check_steps(sB, t)
+        if not log_(A, B, *args, G, Ad, est, size, xs, ok, resid):
+            _log_complete(fs, B, G, Ad, xs, ok, resid)
+        if kernel_ is kernel:  # the first call: the entry points of the types it used
+            kernel_ = entry_point(
+                kernel, (y0, t, A_LOOSE, EPS_B_FIRST, order_a, order_b, MAX_STEPS, coef, AB, steps)
+            )
+            log_ = entry_point(log, (A, B, *args, G, Ad, est, size, xs, ok, resid))
+        d = est.item()
+        e = first_estimate(d, A_LOOSE, EPS_B_FIRST, PROP_MIN_B, PROP_MAX_D)
+        return e + _floor_one(sB.item(), n, size.item(), d / A_LOOSE, resid.item())
+
+    fs._pair = pair
+    return pair
+
+
+def _measured(fs: FullState, s) -> _Answer:
+    """The :class:`_Answer` of one trajectory whose first pair ran into ``s`` (:func:`_pair_of`): its
+    ``B``, ``G``, ``Ad(g)``, size, ``x`` and residual, as its ``measure`` and ``floor`` leave them."""
+    ans = _Answer(fs, 1)
+    ans.B, ans.G, ans.Ad, ans.size, ans.xs, ans.resid = s[2], s[5], s[6], s[8], s[9], s[11]
+    ans.all = (s[5], s[6], s[9], s[11])
+    return ans
 
 
 def _runner(fs: FullState, run, gen: bool, N: int):
@@ -727,19 +871,29 @@ def _generated_min_work(fs: FullState) -> float:
 def _solve(fs: FullState, model, y0, t, tol: float, run):
     """The two-run control and the refusal of :func:`full_state_flow` from the rows ``y0``: ``(B,
     estimate, steps of B, the _Answer holding G, Ad(g), x of the final B)``. One trajectory on the
-    generated kernel runs its first pair through :func:`_first_pair` and enters the control only when
-    that pair does not pass (the control then goes on from it)."""
+    generated kernel runs its first pair through :func:`_pair_of` and enters the control only when
+    that pair does not pass (:func:`_go_on`: the control then goes on from it)."""
+    N = y0.shape[0]
+    if N == 1 and run is None and _protocol_pair(fs, tol, t):
+        t = float(t)
+        s = (y0, *_scratch(fs)[1:])
+        e = _pair_of(fs)(y0, t, s)
+        if e <= tol:
+            return s[2], np.array([e]), s[4], _measured(fs, s)
+        return _go_on(fs, model, y0, t, tol, s)
+    return _go_on(fs, model, y0, t, tol, None, run)
+
+
+def _go_on(fs: FullState, model, y0, t, tol: float, s, run=None):
+    """:func:`_solve` from the start, or, one trajectory, from the first pair in ``s`` (the arrays of
+    :func:`_pair_of`, whose estimate is over ``tol``): the two-run control and its refusal."""
     N, n = y0.shape[0], fs.n
     eps_a = local_tolerances(tol)[0] if run is not None or tol < A_LOOSE_FROM else A_LOOSE
     gen = N * abs(t) >= _generated_min_work(fs)
-    ans = _Answer(fs, N)
-    first = None
-    if N == 1 and run is None and gen and eps_a == A_LOOSE:  # the protocol call
-        t = float(t)
-        A, B, sB, e = _first_pair(fs, ans, y0, t)
-        if e[0] <= tol:
-            return B, e, sB, ans
-        first = (A, B, sB)  # the control goes on from this pair
+    if s is None:
+        ans, first = _Answer(fs, N), None
+    else:
+        ans, first = _measured(fs, s), (s[1], s[2], s[4])
     res, est, steps = _control(
         model,
         y0,

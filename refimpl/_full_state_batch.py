@@ -46,6 +46,7 @@ __all__ = [
     "adaptive_packed",
     "applies",
     "kernel",
+    "pair_first",
     "run",
 ]
 
@@ -143,6 +144,29 @@ def run(fs, y0, T: float, tol: float, P: int, max_steps: int, *, generated: bool
     steps = np.zeros(y.shape[0], dtype=np.int64)
     fn(y, float(T), float(tol), int(P), int(max_steps), *args, out, steps)
     return out, steps
+
+
+def pair_first(fs, y0, t: float, eps_a: float, eps_b: float, order_a: int, order_b: int):
+    """``(A, B, steps_a, steps_b)``: the runs A (local tolerance ``eps_a``, order ``order_a``) and B
+    (``eps_b``, ``order_b``) of one trajectory from its row ``y0`` (1, d) over ``t``, side by side on
+    the two lanes of one vector (the generated module's ``pair``,
+    :func:`refimpl.codegen.full_state.pair_lines`): each the single kernel's run
+    (:meth:`refimpl._full_state.FullState.run` with ``generated=True``) at its tolerance and order,
+    operation for operation, for about the cost of the longer one. ``A``, ``B``: fresh (1, d) rows
+    (NaN on failure); ``steps_a``, ``steps_b``: (1,) step counts (negative: the status). ``y0`` is
+    only read."""
+    from ._full_state import MAX_STEPS  # the full state's step budget (imported here: no cycle)
+
+    y = np.ascontiguousarray(y0, dtype=float)
+    if y.ndim != 2 or y.shape != (1, fs.d):
+        raise ValueError(f"pair_first: y0 must have shape (1, {fs.d}), got {y.shape}")
+    out = np.empty((2, fs.d))
+    steps = np.zeros(2, dtype=np.int64)
+    fs.module().pair(
+        y, float(t), float(eps_a), float(eps_b), int(order_a), int(order_b),
+        MAX_STEPS, fs.coef, out, steps,
+    )  # fmt: skip
+    return out[:1], out[1:], steps[:1], steps[1:]
 
 
 # ---------------------------------------------------------------------- the packed lane kernel

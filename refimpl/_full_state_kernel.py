@@ -475,6 +475,8 @@ def logm(G, L):
                     ny = max(ny, abs(yn))
                     B[i, j] = yn
                     M[i, j] = h * M[i, j] + hi * Mi[i, j]
+            if not ny > 0.0:  # Y = 0 (A = -I: mu Y + Y^-1 / mu vanishes): no principal root
+                return False
             if dd <= 1e-2 * ny:
                 scale = False
             if dd <= 1e-15 * ny or prev <= 1e-7:
@@ -526,15 +528,51 @@ def logm(G, L):
 # representation), never from a value.
 
 
+LOG_GENERAL = 0
+""":func:`log_batch_exp`'s logarithm :func:`logm` (the ``kind`` of the log's compiled entries)."""
+LOG_SMALL = 1
+""":func:`log_small` (a representation of :func:`small_shape` other than :data:`SHAPE_GENERAL`)."""
+LOG_SO4 = 2
+""":func:`_log_so4` alone (a representation of :func:`small_shape` :data:`SHAPE_SO4`: neither the
+2 x 2 nor the affine forms of :func:`log_small` compiled)."""
+LOG_SO3 = 3
+""":func:`_log_so3` alone (:func:`small_shape` :data:`SHAPE_SO3`)."""
+SHAPE_GENERAL = -2
+""":func:`small_shape` of a representation :func:`log_small` does not cover."""
+SHAPE_SO4 = -3
+""":func:`small_shape` of a real 4 x 4 representation by antisymmetric matrices (``G`` in SO(4))."""
+SHAPE_SO3 = -4
+""":func:`small_shape` of a real 3 x 3 representation by antisymmetric matrices (``G`` in SO(3))."""
+
+
 @njit(cache=True, nogil=True)
 def small_shape(mats, cplx):
     """:func:`log_small`'s shape of the representation ``mats`` (n, r, r): -1 real 2 x 2; ``k``
-    (0..2) real 3 x 3 with row ``k`` of every ``rho(E_a)`` zero; -2 otherwise (:func:`logm`)."""
+    (0..r-1) real 2 x 2 or 3 x 3 with row ``k`` of every ``rho(E_a)`` zero (affine); :data:`SHAPE_SO4` real 4 x 4 with
+    every ``rho(E_a)`` antisymmetric; :data:`SHAPE_SO3` the same 3 x 3 (without a zero row);
+    :data:`SHAPE_GENERAL` otherwise (:func:`logm`)."""
     n, r, _ = mats.shape
     if cplx:
         return -2
     if r == 2:
+        for k in range(
+            2
+        ):  # affine 2 x 2 (aff(1)): the whole 2 x 2 form applies, k for the abelian one
+            zero = True
+            for a in range(n):
+                for j in range(2):
+                    if mats[a, k, j] != 0.0:
+                        zero = False
+            if zero:
+                return k
         return -1
+    if r == 4:
+        for a in range(n):
+            for i in range(4):
+                for j in range(4):
+                    if mats[a, i, j] != -mats[a, j, i]:
+                        return -2
+        return -3
     if r != 3:
         return -2
     for k in range(3):
@@ -545,7 +583,12 @@ def small_shape(mats, cplx):
                     zero = False
         if zero:
             return k
-    return -2
+    for a in range(n):
+        for i in range(3):
+            for j in range(3):
+                if mats[a, i, j] != -mats[a, j, i]:
+                    return -2
+    return -4
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -564,18 +607,11 @@ def _phi1(z):
 
 
 @njit(cache=True, nogil=True)
-def _solve_phi1(l0, p, q, c, bx, by):
-    """``v`` with ``phi1(L) v = b`` for ``L = l0 I + N``, ``N = [[p, q], [c, -p]]`` (traceless, so
-    ``N^2 = delta I``, ``delta = p^2 + q c``): every function of ``L`` is ``alpha I + beta N``.
-    ``phi1(L)`` by scaling and squaring on those pairs (Taylor series of ``L / 2^s`` with
-    ``|l0| + sqrt|delta|`` scaled to 1/2 or less, then ``phi1(2Y) = (e^Y + I) phi1(Y) / 2``,
-    ``e^(2Y) = (e^Y)^2``), the inverse ``(alpha I - beta N) / det`` with ``det = alpha^2 - beta^2
-    delta = phi1(l0 + t) phi1(l0 - t)`` (``t = sqrt(delta)``: that product when ``delta > 0``, where
-    the difference cancels; a sum of squares when ``delta <= 0``). Returns ``(v0, v1, ok)``."""
-    delta = p * p + q * c
+def _phi1_pair(l0, delta):
+    """``phi1(L) = f0 I + f1 N`` for ``L = l0 I + N``, ``N`` traceless with ``N^2 = delta I``: the
+    Taylor series of ``L / 2^s`` (``|l0| + sqrt|delta|`` scaled to 1/2 or less) on the pairs, then
+    ``phi1(2Y) = (e^Y + I) phi1(Y) / 2``, ``e^(2Y) = (e^Y)^2``. Returns ``(f0, f1)``."""
     nrm = abs(l0) + math.sqrt(abs(delta))
-    if not math.isfinite(nrm):
-        return 0.0, 0.0, False
     s = 0
     while nrm > 0.5:
         nrm *= 0.5
@@ -603,23 +639,155 @@ def _solve_phi1(l0, p, q, c, bx, by):
         a0 = e0 * e0 + e1 * e1 * delta
         a1 = 2.0 * e0 * e1
         e0, e1 = a0, a1
+    return f0, f1
+
+
+@njit(cache=True, nogil=True)
+def _solve_phi1(l0, p, q, c, bx, by):
+    """``v`` with ``phi1(L) v = b`` for ``L = l0 I + N``, ``N = [[p, q], [c, -p]]`` (traceless, so
+    ``N^2 = delta I``, ``delta = p^2 + q c``): every function of ``L`` is ``alpha I + beta N``.
+    ``phi1(L)`` by scaling and squaring on those pairs (Taylor series of ``L / 2^s`` with
+    ``|l0| + sqrt|delta|`` scaled to 1/2 or less, then ``phi1(2Y) = (e^Y + I) phi1(Y) / 2``,
+    ``e^(2Y) = (e^Y)^2``), the inverse ``(alpha I - beta N) / det`` with ``det = alpha^2 - beta^2
+    delta = phi1(l0 + t) phi1(l0 - t)`` (``t = sqrt(delta)``: that product when ``delta > 0``, where
+    the difference cancels; a sum of squares when ``delta <= 0``); on the eigenvectors instead when
+    ``t > 1/2`` (below). Returns ``(v0, v1, ok)``."""
+    delta = p * p + q * c
+    nrm = abs(l0) + math.sqrt(abs(delta))
+    if not math.isfinite(nrm):
+        return 0.0, 0.0, False
+    nbx = p * bx + q * by
+    nby = c * bx - p * by
+    if delta > 0.25:
+        # real eigenvalues l0 +- t, t > 1/2: on the eigenvectors, v = g(l0 + t) P+ b + g(l0 - t) P- b
+        # (g = 1 / phi1 = z / expm1(z), P+- = (I +- N / t) / 2): each component to a few ulp, where
+        # alpha -+ beta t cancel in the pairs' form (its residual phi1(L) v - b reached ~10 eps |b|)
+        t = math.sqrt(delta)
+        gp = 1.0 / _phi1(l0 + t)
+        gm = 1.0 / _phi1(l0 - t)
+        v0 = 0.5 * (gp * (bx + nbx / t) + gm * (bx - nbx / t))
+        v1 = 0.5 * (gp * (by + nby / t) + gm * (by - nby / t))
+        return v0, v1, math.isfinite(v0) and math.isfinite(v1)
+    f0, f1 = _phi1_pair(l0, delta)
     if delta > 0.0:
         t = math.sqrt(delta)
         det = _phi1(l0 + t) * _phi1(l0 - t)
     else:
-        det = f0 * f0 - f1 * f1 * delta
-    nbx = p * bx + q * by
-    nby = c * bx - p * by
+        det = f0 * f0 - f1 * f1 * delta  # a sum of squares
     v0 = (f0 * bx - f1 * nbx) / det
     v1 = (f0 * by - f1 * nby) / det
     return v0, v1, math.isfinite(v0) and math.isfinite(v1) and det > 0.0
 
 
+# Quaternion multiplication as 4 x 4 matrices on (1, i, j, k): L(p) v = p v and R(q) v = v q, as
+# sign tables: _QL[i, a, b] is the coefficient of p_i in L(p)[a, b], _QR likewise for q_j in R(q).
+_QL = np.array([
+    [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]],
+    [[0, -1, 0, 0], [1, 0, 0, 0], [0, 0, 0, -1], [0, 0, 1, 0]],
+    [[0, 0, -1, 0], [0, 0, 0, 1], [1, 0, 0, 0], [0, -1, 0, 0]],
+    [[0, 0, 0, -1], [0, 0, -1, 0], [0, 1, 0, 0], [1, 0, 0, 0]],
+], dtype=np.float64)  # fmt: skip
+_QR = np.array([
+    [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]],
+    [[0, -1, 0, 0], [1, 0, 0, 0], [0, 0, 0, 1], [0, 0, -1, 0]],
+    [[0, 0, -1, 0], [0, 0, 0, -1], [1, 0, 0, 0], [0, 1, 0, 0]],
+    [[0, 0, 0, -1], [0, 0, 1, 0], [0, -1, 0, 0], [1, 0, 0, 0]],
+], dtype=np.float64)  # fmt: skip
+_QLR = np.ascontiguousarray(np.einsum("iam,jmb->ijab", _QL, _QR))  # L(e_i) R(e_j)
+
+
+@njit(cache=True, nogil=True)
+def _log_so4(G, L):
+    """The principal logarithm of ``G`` in SO(4) (:data:`SHAPE_SO4`) through ``G = L(p) R(q)``, ``p``,
+    ``q`` unit quaternions: ``p_i q_j = <L(e_i) R(e_j), G>_F / 4`` (the 16 products are orthogonal,
+    each of squared norm 4), ``q`` the largest row of that rank-one matrix normalised, ``p`` the matrix
+    times ``q``; angles ``alpha = atan2(|p_vec|, p_0)``, ``beta`` likewise in ``[0, pi]``, the sign of
+    the pair ``(p, q) ~ (-p, -q)`` taken with ``alpha + beta < pi`` (``G``'s rotation angles are
+    ``alpha +- beta``: the principal logarithm), then ``log G = L(alpha u_p) + R(beta u_q)`` (the two
+    commute). False when ``alpha + beta = pi`` after that choice (an eigenvalue -1: no principal
+    logarithm) or ``G`` is not finite."""
+    M = np.empty((4, 4))
+    for i in range(4):
+        for j in range(4):
+            acc = 0.0
+            for a in range(4):
+                for b in range(4):
+                    acc += _QLR[i, j, a, b] * G[a, b].real
+            M[i, j] = 0.25 * acc
+    ib = 0
+    best = -1.0
+    for i in range(4):
+        nr = M[i, 0] ** 2 + M[i, 1] ** 2 + M[i, 2] ** 2 + M[i, 3] ** 2
+        if nr > best:
+            best = nr
+            ib = i
+    if not (best > 0.0 and math.isfinite(best)):
+        return False
+    nq = math.sqrt(best)
+    q = np.empty(4)
+    pq = np.empty(4)
+    for j in range(4):
+        q[j] = M[ib, j] / nq
+    for i in range(4):
+        pq[i] = M[i, 0] * q[0] + M[i, 1] * q[1] + M[i, 2] * q[2] + M[i, 3] * q[3]
+    npq = math.sqrt(pq[0] ** 2 + pq[1] ** 2 + pq[2] ** 2 + pq[3] ** 2)
+    for i in range(4):
+        pq[i] /= npq
+    sp = math.sqrt(pq[1] ** 2 + pq[2] ** 2 + pq[3] ** 2)
+    sq = math.sqrt(q[1] ** 2 + q[2] ** 2 + q[3] ** 2)
+    alpha = math.atan2(sp, pq[0])
+    beta = math.atan2(sq, q[0])
+    if alpha + beta > math.pi:  # the other sign of the pair: angles pi - alpha, pi - beta
+        for i in range(4):
+            pq[i] = -pq[i]
+            q[i] = -q[i]
+        alpha = math.atan2(sp, pq[0])
+        beta = math.atan2(sq, q[0])
+    if not alpha + beta < math.pi:
+        return False
+    fp = alpha / sp if sp > 0.0 else 1.0  # log p = (alpha / |p_vec|) p_vec
+    fq = beta / sq if sq > 0.0 else 1.0
+    for a in range(4):
+        for b in range(4):
+            acc = 0.0
+            for i in range(1, 4):
+                acc += fp * pq[i] * _QL[i, a, b] + fq * q[i] * _QR[i, a, b]
+            L[a, b] = acc
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _log_so3(G, L):
+    """The principal logarithm of ``G`` in SO(3) (:data:`SHAPE_SO3`) by Rodrigues' formula:
+    ``A = (G - G^T) / 2 = sin(theta) K``, ``theta = atan2(|a|, (tr G - 1) / 2)`` in ``[0, pi)`` (``a``
+    the axial vector of ``A``), ``log G = (theta / sin theta) A`` (the factor 1 at ``theta = 0``).
+    False at ``theta = pi`` (``A = 0`` with ``tr G < 1``: an eigenvalue -1, no principal logarithm)
+    or when ``G`` is not finite."""
+    a0 = 0.5 * (G[2, 1].real - G[1, 2].real)
+    a1 = 0.5 * (G[0, 2].real - G[2, 0].real)
+    a2 = 0.5 * (G[1, 0].real - G[0, 1].real)
+    sn = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+    cs = 0.5 * (G[0, 0].real + G[1, 1].real + G[2, 2].real - 1.0)
+    if not (math.isfinite(sn) and math.isfinite(cs)):
+        return False
+    if sn > 0.0:
+        f = math.atan2(sn, cs) / sn
+    elif cs > 0.0:
+        f = 1.0
+    else:
+        return False
+    for i in range(3):
+        for j in range(3):
+            L[i, j] = f * 0.5 * (G[i, j].real - G[j, i].real)
+    return True
+
+
 @njit(cache=True, nogil=True)
 def log_small(G, L, k):
     """The principal logarithm ``L`` of ``G`` in closed form for :func:`small_shape` ``k`` (-1: 2 x 2;
-    0..2: 3 x 3 with row ``k`` of ``G`` equal to ``e_k``). False where :func:`logm` has none either: a
-    block ``A`` with ``det A <= 0`` or a negative eigenvalue.
+    0..2: 3 x 3 with row ``k`` of ``G`` equal to ``e_k``; :data:`SHAPE_SO4`: :func:`_log_so4`;
+    :data:`SHAPE_SO3`: :func:`_log_so3`). False
+    where :func:`logm` has none either: a block ``A`` with ``det A <= 0`` or a negative eigenvalue.
 
     ``A = e^l0 C``, ``l0 = log(det A) / 2``, ``det C = 1``; ``C = c I + M``, ``c = tr C / 2``, ``M``
     traceless with ``M^2 = -det(M) I``: ``log C = (theta / sinh theta) M``, ``theta = asinh(sqrt(-det
@@ -628,6 +796,10 @@ def log_small(G, L, k):
     (elliptic); ``M`` itself when ``det M = 0`` (parabolic, ``c > 0``). ``theta`` is read from
     ``sqrt|det M|``, never from ``c`` (no cancellation near the parabolic case, where the factor tends
     to 1). The 3 x 3 case then solves ``phi1(log A) v = b`` (:func:`_solve_phi1`)."""
+    if k == SHAPE_SO4:
+        return _log_so4(G, L)
+    if k == SHAPE_SO3:
+        return _log_so3(G, L)
     r = G.shape[0]
     i0, i1 = _block(r, k)
     a = G[i0, i0].real
@@ -672,18 +844,23 @@ def log_small(G, L, k):
 
 
 @njit(cache=True, nogil=True)
-def derived_is_translations(Dr, k):
-    """Whether ``[g, g]`` (``Dr``, (m, 3, 3): ``rho`` of its basis) is the whole translation part of the
-    :func:`small_shape` ``k >= 0`` representation: ``m = 2`` and no ``rho(D_c)`` has a 2 x 2 block
+def derived_in_translations(Dr, k):
+    """Whether ``rho([g, g])`` (``Dr``, (m, r, r): ``rho`` of its basis) lies in the translations of
+    the :func:`small_shape` ``k >= 0`` representation: ``m < r`` and no ``rho(D_c)`` has a block
     (to ``1e-12`` of its size: ``D`` comes from an SVD). Then the block of ``rho(x)`` depends on
     ``x``'s abelian part alone (:func:`log_from_abelian`)."""
-    if Dr.shape[0] != 2 or Dr.shape[1] != 3:
+    r = Dr.shape[1]
+    if Dr.shape[0] > r - 1 or r not in (2, 3):
         return False
-    i0, i1 = _block(3, k)
-    for c in range(2):
+    if r == 2:  # the 1 x 1 block
+        i0 = i1 = 1 - k
+    else:
+        i0 = 1 if k == 0 else 0  # _block(3, k), written out: pair_log_for runs this in Python
+        i1 = 1 if k == 2 else 2
+    for c in range(Dr.shape[0]):
         big = 0.0
-        for i in range(3):
-            for j in range(3):
+        for i in range(r):
+            for j in range(r):
                 big = max(big, abs(Dr[c, i, j]))
         for i in (i0, i1):
             for j in (i0, i1):
@@ -693,18 +870,42 @@ def derived_is_translations(Dr, k):
 
 
 @njit(cache=True, nogil=True)
-def log_from_abelian(s, Ppinv, mats, k, G, L):
+def log_from_abelian(s, Ppinv, Dr, mats, k, G, L):
     """The logarithm ``L`` of ``G`` with the abelian part ``s`` (``P x = s``) on a representation where
-    :func:`derived_is_translations`: ``x = pinv(P) s + D w``, the block ``log A`` of ``rho(x)`` is that
-    of ``rho(pinv(P) s)`` (``rho(D w)`` has none), and ``w`` solves ``phi1(log A) v = b``
-    (:func:`_solve_phi1`) -- the exact minimiser of ``|exp(rho(x)) - G|`` over ``w`` that
-    :func:`refine_abelian` approaches by Gauss-Newton, in closed form. False when ``v`` is not finite."""
+    :func:`derived_in_translations`: ``x = pinv(P) s + D w``, the block ``log A`` of ``rho(x)`` is that
+    of ``rho(pinv(P) s)`` (``rho(D w)`` has none) and its translation is ``u = u0 + T w`` (``u0``
+    that of ``rho(pinv(P) s)``, ``T`` those of ``rho(D)``); ``w`` minimises ``|phi1(log A) u - b|``,
+    which is all of ``|exp(rho(x)) - G|`` that ``w`` moves -- the minimiser :func:`refine_abelian`
+    approaches by Gauss-Newton, in closed form: ``u = phi1(log A)^-1 b`` (:func:`_solve_phi1`) when
+    ``[g, g]`` is both translations (``m = 2``), the one-dimensional least squares
+    ``w = <Phi t, b - Phi u0> / |Phi t|^2`` when ``m = 1`` (Bianchi II, III, h(3)). False when ``u`` is
+    not finite."""
     n = mats.shape[0]
+    m = Dr.shape[0]
+    if mats.shape[1] == 2:  # aff(1): G = [[e^l, phi1(l) u], [0, 1]] (k = 1; k = 0 transposed)
+        j0 = 1 - k
+        lb = 0.0
+        u = 0.0
+        for a in range(n):
+            xa = 0.0
+            for ell in range(s.shape[0]):
+                xa += Ppinv[a, ell] * s[ell]
+            lb += xa * mats[a, j0, j0]
+            u += xa * mats[a, j0, k]
+        if m == 1:  # the translation free: u = b / phi1(l), the exact fit
+            u = G[j0, k].real / _phi1(lb)
+        L[k, 0] = 0.0
+        L[k, 1] = 0.0
+        L[j0, j0] = lb
+        L[j0, k] = u
+        return math.isfinite(u)
     i0, i1 = _block(3, k)
     t00 = 0.0
     t01 = 0.0
     t10 = 0.0
     t11 = 0.0
+    u0 = 0.0
+    u1 = 0.0
     for a in range(n):
         xa = 0.0
         for ell in range(s.shape[0]):
@@ -713,9 +914,32 @@ def log_from_abelian(s, Ppinv, mats, k, G, L):
         t01 += xa * mats[a, i0, i1]
         t10 += xa * mats[a, i1, i0]
         t11 += xa * mats[a, i1, i1]
+        u0 += xa * mats[a, i0, k]
+        u1 += xa * mats[a, i1, k]
     l0 = 0.5 * (t00 + t11)
     p = 0.5 * (t00 - t11)
-    v0, v1, good = _solve_phi1(l0, p, t01, t10, G[i0, k], G[i1, k])
+    bx = G[i0, k].real
+    by = G[i1, k].real
+    if m == 2:
+        v0, v1, good = _solve_phi1(l0, p, t01, t10, bx, by)
+    else:
+        f0, f1 = _phi1_pair(l0, p * p + t01 * t10)
+        # Phi y = f0 y + f1 N y, N = [[p, t01], [t10, -p]]
+        pu0 = f0 * u0 + f1 * (p * u0 + t01 * u1)
+        pu1 = f0 * u1 + f1 * (t10 * u0 - p * u1)
+        v0, v1 = u0, u1
+        if m == 1:
+            c0 = Dr[0, i0, k]
+            c1 = Dr[0, i1, k]
+            pt0 = f0 * c0 + f1 * (p * c0 + t01 * c1)
+            pt1 = f0 * c1 + f1 * (t10 * c0 - p * c1)
+            den = pt0 * pt0 + pt1 * pt1
+            if not den > 0.0:  # (numba raises on a division by zero)
+                return False
+            w = (pt0 * (bx - pu0) + pt1 * (by - pu1)) / den
+            v0 = u0 + w * c0
+            v1 = u1 + w * c1
+        good = math.isfinite(v0) and math.isfinite(v1)
     for i in range(3):
         for j in range(3):
             L[i, j] = 0.0
@@ -800,26 +1024,38 @@ def ad_batch(G, mats, proj, cplx, out):
 def log_batch(G, mats, proj, cplx, out, ok):
     """``out[N]``: the coordinates of the principal logarithm of ``G[N]`` on the ``E_a``; ``ok[N]``
     when it exists and ``exp(rho(x)) = G`` to ``1e3 eps cond max(1, |G|) r`` (``cond = exp(||rho(x)||_1)``,
-    the acceptance test of Representation._accept)."""
-    log_batch_exp(G, mats, proj, cplx, out, ok, np.empty_like(G))
+    the acceptance test of Representation._accept). The logarithm :func:`log_small` where
+    :func:`small_shape` applies, else :func:`logm` (chosen at run time: this entry compiles both)."""
+    if small_shape(mats, cplx) != SHAPE_GENERAL:
+        log_batch_exp(G, mats, proj, cplx, out, ok, np.empty_like(G), LOG_SMALL)
+    else:
+        log_batch_exp(G, mats, proj, cplx, out, ok, np.empty_like(G), LOG_GENERAL)
 
 
 @njit(cache=True, nogil=True, inline="always")
-def log_batch_exp(G, mats, proj, cplx, out, ok, Ex):
-    """:func:`log_batch` (the logarithm :func:`log_small` on the representations of its
-    :func:`small_shape`, else :func:`logm`), keeping ``Ex[N] = exp(rho(x))`` of the acceptance test (what
+def log_batch_exp(G, mats, proj, cplx, out, ok, Ex, kind):
+    """:func:`log_batch` by the logarithm ``kind`` (:data:`LOG_SMALL`: :func:`log_small`,
+    :data:`LOG_SO4`: :func:`_log_so4`, :data:`LOG_SO3`: :func:`_log_so3`, else :func:`logm`; a constant at every call site, so numba prunes the other and never compiles it), keeping ``Ex[N] = exp(rho(x))`` of the acceptance test (what
     :func:`log_residual` computes again from ``x``: the same arithmetic) for the rows reaching it."""
     N, r, _ = G.shape
     n = mats.shape[0]
     L = np.zeros((r, r), dtype=G.dtype)
     X = np.zeros((r, r), dtype=G.dtype)
     x = np.zeros(n)
-    shape = small_shape(mats, cplx)
+    shape = small_shape(mats, cplx) if kind == LOG_SMALL else -2
     for it in range(N):
         ok[it] = False
         Gt = G[it]
         E = Ex[it]
-        if not (log_small(Gt, L, shape) if shape >= -1 else logm(Gt, L)):
+        if kind == LOG_SO4:
+            found = _log_so4(Gt, L)
+        elif kind == LOG_SO3:
+            found = _log_so3(Gt, L)
+        elif kind == LOG_SMALL:
+            found = log_small(Gt, L, shape)
+        else:
+            found = logm(Gt, L)
+        if not found:
             continue
         ok[it] = _accept_log(L, Gt, mats, proj, cplx, x, X, E, out[it])
 
@@ -836,12 +1072,15 @@ def _accept_log(L, Gt, mats, proj, cplx, x, X, E, out):
     _exp_rho(x, mats, X, E)
     err = 0.0
     gmax = 0.0
+    chk = 0.0  # 0.0 * v is NaN iff v is not finite: max() would drop a NaN
     for i in range(r):
         for j in range(r):
-            err = max(err, abs(E[i, j] - Gt[i, j]))
+            v = abs(E[i, j] - Gt[i, j])
+            err = max(err, v)
             gmax = max(gmax, abs(Gt[i, j]))
+            chk += 0.0 * v
     cond = math.exp(min(50.0, _norm1(X)))
-    good = err <= 1e3 * eps * cond * max(1.0, gmax) * r
+    good = chk == 0.0 and err <= 1e3 * eps * cond * max(1.0, gmax) * r
     for a in range(n):
         out[a] = x[a]
         if not math.isfinite(x[a]):
@@ -888,16 +1127,23 @@ def estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, 
     ad_batch(GB, mats, proj, cplx, AdB)
     for it in range(N):
         m = 0.0
+        chk = 0.0  # 0.0 * v is NaN iff v is not finite: max() would drop a NaN
         for a in range(n):
-            m = max(m, abs(A[it, a] - B[it, a]))
+            v = abs(A[it, a] - B[it, a])
+            m = max(m, v)
+            chk += 0.0 * v
         z = 0.0
         for a in range(n):
             z = max(z, abs(B[it, a]))
+            chk += 0.0 * B[it, a]
             for b in range(n):
-                m = max(m, abs(AdA[it, a, b] - AdB[it, a, b]))
+                v = abs(AdA[it, a, b] - AdB[it, a, b])
+                m = max(m, v)
                 z = max(z, abs(AdB[it, a, b]))
-        est[it] = m if math.isfinite(m) else np.inf
-        size[it] = z
+                chk += 0.0 * v + 0.0 * AdB[it, a, b]
+        fin = chk == 0.0 and math.isfinite(m)
+        est[it] = m if fin else np.inf
+        size[it] = z if fin else np.inf
 
 
 # ---------------------------------------------------------------------- the abelian part of the log
@@ -913,11 +1159,13 @@ def _resid(v, mats, G, X, E, R):
     r = mats.shape[1]
     _exp_rho(v, mats, X, E)
     m = 0.0
+    chk = 0.0
     for i in range(r):
         for j in range(r):
             R[i, j] = E[i, j] - G[i, j]
             m = max(m, abs(R[i, j]))
-    return m if math.isfinite(m) else np.inf
+            chk += 0.0 * R[i, j]
+    return m if chk == 0.0 and math.isfinite(m) else np.inf
 
 
 @njit(cache=True, nogil=True)
@@ -1105,37 +1353,44 @@ def log_residual(xs, mats, proj, cplx, Ad, out):
     ad_batch(G, mats, proj, cplx, Adx)
     for it in range(N):
         m = 0.0
+        chk = 0.0  # 0.0 * v is NaN iff v is not finite: max() would drop a NaN
         for a in range(n):
             for b in range(n):
-                m = max(m, abs(Adx[it, a, b] - Ad[it, a, b]))
-        out[it] = m if math.isfinite(m) else np.inf
+                v = abs(Adx[it, a, b] - Ad[it, a, b])
+                m = max(m, v)
+                chk += 0.0 * v
+        out[it] = m if chk == 0.0 and math.isfinite(m) else np.inf
 
 
 @njit(cache=True, nogil=True, inline="always")
 def _residual_final(Ex, mats, proj, cplx, Ad, resid):
-    """:func:`log_residual` from ``Ex[N] = exp(rho(x))`` already computed, 0 where not finite (no
-    logarithm found there: the caller names those rows)."""
+    """:func:`log_residual` from ``Ex[N] = exp(rho(x))`` already computed (every row has its
+    logarithm here): inf where ``Ad(exp x)`` or ``Ad(g_B)`` is not finite, so that the estimate refuses
+    the row (a NaN ``Ad(g_B)`` of an overflowing ``G`` had become 0 and passed, issue 25)."""
     N = Ex.shape[0]
     n = mats.shape[0]
     Adx = np.empty((N, n, n))
     ad_batch(Ex, mats, proj, cplx, Adx)
     for it in range(N):
         m = 0.0
+        chk = 0.0  # 0.0 * v is NaN iff v is not finite: max() would drop a NaN
         for a in range(n):
             for b in range(n):
-                m = max(m, abs(Adx[it, a, b] - Ad[it, a, b]))
-        resid[it] = m if math.isfinite(m) else 0.0
+                v = abs(Adx[it, a, b] - Ad[it, a, b])
+                m = max(m, v)
+                chk += 0.0 * v
+        resid[it] = m if chk == 0.0 and math.isfinite(m) else np.inf
 
 
 @njit(cache=True, nogil=True, inline="always")
-def log_state(G, Ad, mats, proj, cplx, ab_mode, xs, ok, resid):
+def log_state(G, Ad, mats, proj, cplx, ab_mode, xs, ok, resid, kind):
     """The answer's logarithm and its residual in one call: :func:`log_batch` of ``G`` (N, r, r) into
     ``xs`` and, when it accepted every row and no abelian part is to be refined (``ab_mode`` 0; 2: a
     complex representation with an abelian part, refined by the caller), ``resid`` by
     :func:`log_residual` against ``Ad``. Returns whether ``xs`` and ``resid`` are final (else the
-    caller completes them, ``refimpl._full_state._log_complete``)."""
+    caller completes them, ``refimpl._full_state._log_complete``). ``kind``: :func:`log_batch_exp`'s."""
     Ex = np.empty_like(G)
-    log_batch_exp(G, mats, proj, cplx, xs, ok, Ex)
+    log_batch_exp(G, mats, proj, cplx, xs, ok, Ex, kind)
     for j in range(xs.shape[0]):
         if not ok[j]:
             return False
@@ -1146,12 +1401,131 @@ def log_state(G, Ad, mats, proj, cplx, ab_mode, xs, ok, resid):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid):
+def log_state_abelian(B, G, Ad, mats, proj, Ppinv, Dr, xs, ok, resid):
+    """:func:`log_state_refined` on a representation where :func:`derived_in_translations`: the
+    refine's answer in closed form (:func:`log_from_abelian`, ``s`` the last ``k = Ppinv.shape[1]``
+    entries of the states ``B``), accepted as :func:`log_batch`'s, then ``resid``; neither the
+    logarithm of ``G`` nor the refine (a function of its own: inlining :func:`log_state_refined` and
+    pruning the rest cost ~1 s of numba's inlining pass cold). Returns whether ``xs`` and ``resid`` are
+    final (else the caller completes the rows not ``ok``)."""
+    Ex = np.empty_like(G)
+    cplx = (
+        proj.shape[1] != mats.shape[1] * mats.shape[2]
+    )  # False, not a literal (log_state_refined)
+    N, n = xs.shape
+    k = Ppinv.shape[1]
+    d = B.shape[1]
+    r = G.shape[1]
+    sj = np.empty(k)
+    shape = small_shape(mats, cplx)
+    L = np.empty((r, r))
+    X = np.empty((r, r))
+    x = np.empty(n)
+    done = True
+    for j in range(N):
+        for ell in range(k):
+            sj[ell] = B[j, d - k + ell]
+        ok[j] = log_from_abelian(sj, Ppinv, Dr, mats, shape, G[j], L) and _accept_log(
+            L, G[j], mats, proj, cplx, x, X, Ex[j], xs[j]
+        )
+        done = done and ok[j]
+    if done:
+        _residual_final(Ex, mats, proj, cplx, Ad, resid)
+    return done
+
+
+def derived_annihilates(mats, Dr):
+    """Whether ``rho([g, g])`` annihilates ``rho(g)`` on both sides: ``rho(D_c) rho(E_a) = rho(E_a)
+    rho(D_c) = 0`` for every ``a``, ``c`` (to ``1e-12`` of the sizes: ``D`` comes from an SVD), as on
+    the Heisenberg algebras' matrices (their centre is a corner). Then ``exp(X + rho(D w)) = exp(X) +
+    rho(D w)`` exactly (every product with ``rho(D w)`` vanishes), and the refine's least squares is
+    linear (:func:`log_state_central`). Numpy, run once per representation."""
+    mats = np.asarray(mats)
+    Dr = np.asarray(Dr)
+    if mats.ndim != 3 or Dr.ndim != 3 or Dr.shape[0] == 0 or np.iscomplexobj(mats):
+        return False
+    scale = max(1.0, float(np.max(np.abs(mats)))) * max(1.0, float(np.max(np.abs(Dr))))
+    left = np.einsum("cij,ajk->caik", Dr, mats)
+    right = np.einsum("aij,cjk->caik", mats, Dr)
+    return bool(np.max(np.abs(left)) <= 1e-12 * scale and np.max(np.abs(right)) <= 1e-12 * scale)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def log_state_central(B, G, Ad, mats, proj, Ppinv, D, Dr, xs, ok, resid):
+    """:func:`log_state_refined` on a representation where :func:`derived_annihilates`: the refine's
+    answer in closed form. ``x = x0 + D w`` with ``x0 = pinv(P) s`` (``s`` the last ``k`` entries of
+    the states ``B``); ``exp(rho(x)) = exp(rho(x0)) + rho(D w)``, so ``w`` minimising
+    ``|exp(rho(x)) - G|`` is the linear least squares ``(Dr^T Dr) w = Dr^T vec(G - exp(rho(x0)))``
+    (the small ``m x m`` system by :func:`_inverse_det`). Accepted as :func:`log_batch`'s, then
+    ``resid``; neither :func:`logm` nor the Gauss-Newton refine. Returns whether ``xs`` and ``resid``
+    are final (else the caller completes the rows not ``ok``)."""
+    Ex = np.empty_like(G)
+    cplx = (
+        proj.shape[1] != mats.shape[1] * mats.shape[2]
+    )  # False, not a literal (log_state_refined)
+    N, n = xs.shape
+    k = Ppinv.shape[1]
+    m = Dr.shape[0]
+    d = B.shape[1]
+    r = G.shape[1]
+    ws = np.zeros((4, r, r))
+    X, E0, L, Xa = ws[0], ws[1], ws[2], ws[3]
+    x0 = np.empty(n)
+    x = np.empty(n)
+    wm = np.zeros((2, m, m))
+    DtD, DtDi = wm[0], wm[1]
+    inv_ws = np.zeros((m, 2 * m))
+    rhs = np.empty(m)
+    for a in range(m):
+        for c in range(m):
+            acc = 0.0
+            for i in range(r):
+                for j in range(r):
+                    acc += Dr[a, i, j] * Dr[c, i, j]
+            DtD[a, c] = acc
+    if not _inverse_det(DtD, DtDi, inv_ws) > 0.0:
+        return False
+    done = True
+    for jr in range(N):
+        for a in range(n):
+            acc = 0.0
+            for ell in range(k):
+                acc += Ppinv[a, ell] * B[jr, d - k + ell]
+            x0[a] = acc
+        _exp_rho(x0, mats, X, E0)
+        for a in range(m):
+            acc = 0.0
+            for i in range(r):
+                for j in range(r):
+                    acc += Dr[a, i, j] * (G[jr, i, j] - E0[i, j])
+            rhs[a] = acc
+        for a in range(n):
+            acc = x0[a]
+            for c in range(m):
+                w = 0.0
+                for e in range(m):
+                    w += DtDi[c, e] * rhs[e]
+                acc += D[a, c] * w
+            x[a] = acc
+        for i in range(r):  # L = rho(x): _accept_log projects it back to x
+            for j in range(r):
+                acc = 0.0
+                for a in range(n):
+                    acc += x[a] * mats[a, i, j]
+                L[i, j] = acc
+        ok[jr] = _accept_log(L, G[jr], mats, proj, cplx, x0, Xa, Ex[jr], xs[jr])
+        done = done and ok[jr]
+    if done:
+        _residual_final(Ex, mats, proj, cplx, Ad, resid)
+    return done
+
+
+@njit(cache=True, nogil=True, inline="always")
+def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid, kind):
     """:func:`log_state` of a real representation with an abelian part: after :func:`log_batch` (when
     it accepted every row) :func:`abelian_batch` with ``s`` the last ``k = P.shape[0]`` entries of the
-    states ``B`` (N, d), then ``resid``; on a representation where :func:`derived_is_translations`,
-    :func:`log_from_abelian` (the refine's answer in closed form) instead of both. Returns whether
-    ``xs`` and ``resid`` are final (else the caller completes the rows not ``ok``)."""
+    states ``B`` (N, d), then ``resid``. ``kind``: :func:`log_batch_exp`'s. Returns whether ``xs`` and
+    ``resid`` are final (else the caller completes the rows not ``ok``)."""
     Ex = np.empty_like(G)
     # False (a real representation: proj has r^2 columns), computed rather than written: a literal
     # False is typed Literal[bool] and compiled ad_batch and _project a second time (0.7 s cold)
@@ -1161,24 +1535,7 @@ def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid
     d = B.shape[1]
     r = G.shape[1]
     sj = np.empty(k)
-    shape = small_shape(mats, cplx)
-    if shape >= 0 and derived_is_translations(Dr, shape):
-        # the refine's answer in closed form (log_from_abelian), accepted as log_batch's
-        L = np.empty((r, r))
-        X = np.empty((r, r))
-        x = np.empty(n)
-        done = True
-        for j in range(N):
-            for ell in range(k):
-                sj[ell] = B[j, d - k + ell]
-            ok[j] = log_from_abelian(sj, Ppinv, mats, shape, G[j], L) and _accept_log(
-                L, G[j], mats, proj, cplx, x, X, Ex[j], xs[j]
-            )
-            done = done and ok[j]
-        if done:
-            _residual_final(Ex, mats, proj, cplx, Ad, resid)
-        return done
-    log_batch_exp(G, mats, proj, cplx, xs, ok, Ex)
+    log_batch_exp(G, mats, proj, cplx, xs, ok, Ex, kind)
     for j in range(N):
         if not ok[j]:
             return False
@@ -1222,12 +1579,44 @@ def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid
     return True
 
 
+# The entries below are written out (two calls each) rather than calling one inlined body: an
+# inlined level of its own cost se(3)'s fully cold pair_log 2.95 -> 3.40 s (one run each, load 2.3;
+# written out: 3.03).
 @njit(cache=True, nogil=True)
 def pair_log(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`estimate` of the pair ``(A, B)`` and :func:`log_state` of ``B`` in one call (one dispatch
-    instead of four on the common protocol call). Returns :func:`log_state`'s flag."""
+    instead of four on the common protocol call), by :func:`logm`. Returns :func:`log_state`'s flag."""
     estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, size)
-    return log_state(GB, AdB, mats, proj, cplx, ab_mode, xs, ok, resid)
+    return log_state(GB, AdB, mats, proj, cplx, ab_mode, xs, ok, resid, LOG_GENERAL)
+
+
+@njit(cache=True, nogil=True)
+def pair_log_small(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+    """:func:`pair_log` by :func:`log_small` (its representations: :func:`pair_log_for`)."""
+    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, size)
+    return log_state(GB, AdB, mats, proj, cplx, ab_mode, xs, ok, resid, LOG_SMALL)
+
+
+@njit(cache=True, nogil=True)
+def pair_log_so4(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+    """:func:`pair_log` by :func:`_log_so4` (:data:`SHAPE_SO4`: :func:`pair_log_for`)."""
+    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, size)
+    return log_state(GB, AdB, mats, proj, cplx, ab_mode, xs, ok, resid, LOG_SO4)
+
+
+@njit(cache=True, nogil=True)
+def pair_log_central(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+    """:func:`pair_log_refined` by :func:`log_state_central` (neither :func:`logm` nor the refine)."""
+    cplx = proj.shape[1] != mats.shape[1] * mats.shape[2]
+    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, cplx, GB, AdB, est, size)
+    return log_state_central(B, GB, AdB, mats, proj, Ppinv, D, Dr, xs, ok, resid)
+
+
+@njit(cache=True, nogil=True)
+def pair_log_so3(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+    """:func:`pair_log` by :func:`_log_so3` (:data:`SHAPE_SO3`: :func:`pair_log_for`)."""
+    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, size)
+    return log_state(GB, AdB, mats, proj, cplx, ab_mode, xs, ok, resid, LOG_SO3)
 
 
 @njit(cache=True, nogil=True)
@@ -1236,4 +1625,43 @@ def pair_log_refined(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, r
     # False, not a literal (see log_state_refined)
     cplx = proj.shape[1] != mats.shape[1] * mats.shape[2]
     estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, cplx, GB, AdB, est, size)
-    return log_state_refined(B, GB, AdB, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid)
+    return log_state_refined(B, GB, AdB, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid, LOG_GENERAL)  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def pair_log_refined_small(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+    """:func:`pair_log_refined` by :func:`log_small`."""
+    cplx = proj.shape[1] != mats.shape[1] * mats.shape[2]
+    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, cplx, GB, AdB, est, size)
+    return log_state_refined(B, GB, AdB, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid, LOG_SMALL)  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def pair_log_abelian(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+    """:func:`pair_log_refined` by :func:`log_from_abelian` (neither :func:`logm` nor the refine)."""
+    cplx = proj.shape[1] != mats.shape[1] * mats.shape[2]
+    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, cplx, GB, AdB, est, size)
+    return log_state_abelian(B, GB, AdB, mats, proj, Ppinv, Dr, xs, ok, resid)
+
+
+def pair_log_for(mats, cplx, Dr=None):
+    """The compiled pair and logarithm for the representation ``mats`` (``Dr``: ``rho`` of ``[g, g]``'s
+    basis when the abelian part is refined in the compiled code, :func:`pair_log_refined`'s arguments;
+    else None, :func:`pair_log`'s), decided per representation, never per value:
+    :func:`pair_log_abelian` where :func:`derived_in_translations`, :func:`pair_log_central` where
+    :func:`derived_annihilates`, the ``_small`` entries where
+    :func:`small_shape` applies, else the general ones. Each is its own compiled function, so a
+    structure compiles only the logarithm it uses. The tests run the compiled code; this decision
+    runs their Python (``py_func``: the same source, nothing compiled for it)."""
+    shape = small_shape.py_func(mats, cplx)
+    if Dr is None:
+        if shape == SHAPE_SO4:
+            return pair_log_so4
+        if shape == SHAPE_SO3:
+            return pair_log_so3
+        return pair_log_small if shape != SHAPE_GENERAL else pair_log
+    if shape >= 0 and derived_in_translations.py_func(Dr, shape):
+        return pair_log_abelian
+    if derived_annihilates(mats, Dr):
+        return pair_log_central
+    return pair_log_refined_small if shape != SHAPE_GENERAL else pair_log_refined

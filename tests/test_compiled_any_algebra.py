@@ -333,7 +333,8 @@ def test_generated_kernel_every_term_kind_against_the_generic_one():
 
 def _control_alone(model, x0, pi0, T, tol):
     """The general route's two-run control on one trajectory, from its start, with no first pair run
-    beforehand: ``(B, estimate, x)``."""
+    beforehand (its runs on the single kernel: the pair kernel's lanes are bitwise those runs):
+    ``(B, estimate, x)``."""
     from tstarg.refimpl._flow_compiled import _control
     from tstarg.refimpl.flows._common import _AbelianPart
 
@@ -366,9 +367,9 @@ def _control_alone(model, x0, pi0, T, tol):
 @pytest.mark.parametrize("tol", [1e-10, 1e-9])
 def test_one_trajectory_route_is_the_controls(name, scale, T, tol):
     """The protocol call of one trajectory (1-D points: ``_fast._flow_one`` -> the runner of
-    ``_full_state.one_trajectory``, its first pair run by ``_first_pair``) returns exactly what the
-    two-run control returns run alone from the same start (the same kernels, tolerances and estimate
-    rule), the same as the (1, n) batch route; the caller's arrays are neither written nor aliased by
+    ``_full_state.one_trajectory``, its first pair run by ``_pair_of`` on the pair kernel) returns
+    exactly what the two-run control returns run alone from the same start (the same runs,
+    tolerances and estimate rule), the same as the (1, n) batch route; the caller's arrays are neither written nor aliased by
     the result, and a second call (the runner kept on the model) returns the same values in fresh arrays. h(3), T = 2: the first
     pair passes (|A - B| 5e-15); Bianchi III with pi0 scaled by 10, T = 40: it does not (4e-3, the
     control goes on from it to 2.3e-11)."""

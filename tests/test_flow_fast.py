@@ -224,3 +224,167 @@ def test_one_trajectory_call_refuses_too_fast_points_as_the_batch(t):
             fast_flow(F.f, np.zeros((3, 3)), np.zeros((3, 3)), I, POT, a, b, t)
     x, pi = fast_flow(F.f, np.zeros((3, 3)), np.zeros((3, 3)), I, POT, x0, fast * 1e-7, t)
     assert np.all(np.isfinite(x)) and np.all(np.isfinite(pi))
+
+
+def test_load_point_copies_the_start_and_refuses_unbounded_entries():
+    """``_flow_checks.load_point`` (compiled) and its plain-Python twin: ``max |pi0|`` with ``x0``,
+    ``pi0`` copied into the columns of ``X``, ``P`` when every entry is finite with ``|v| <= bound``
+    (the bound itself included, -0.0 read as 0), else -1.0, for NaN, +-inf and ``|v|`` past the bound
+    in either array; a strided and a read-only ``x0`` are read as their values."""
+    from tstarg.refimpl._flow_checks import _load_point_py, load_point
+
+    x0 = np.array([0.5, -2.0, 1e300])
+    pi0 = np.array([-3.0, 0.25, -0.0])
+    strided = np.repeat(x0, 2)[::2]
+    frozen = x0.copy()
+    frozen.flags.writeable = False
+    for fn in (load_point, _load_point_py):
+        for xa in (x0, strided, frozen):
+            X, P = np.full((3, 1), 7.0), np.full((3, 1), 7.0)
+            assert fn(xa, pi0, X, P, 1e300) == 3.0
+            assert np.array_equal(X[:, 0], x0) and np.array_equal(P[:, 0], pi0)
+        for bad in (np.nan, np.inf, -np.inf, -1.0000000000000001e301):
+            for k in range(3):
+                xb, pb = x0.copy(), pi0.copy()
+                xb[k] = bad
+                assert fn(xb, pi0, np.empty((3, 1)), np.empty((3, 1)), 1e300) == -1.0
+                pb[k] = bad
+                assert fn(x0, pb, np.empty((3, 1)), np.empty((3, 1)), 1e300) == -1.0
+
+
+@pytest.mark.parametrize("name", ["h(3)", "su(2)"])
+def test_one_trajectory_call_reads_any_1d_layout_and_refuses_bad_points_by_name(name):
+    """The protocol call of one trajectory (1-D points, ``_fast._flow_one``: the start copied into
+    work arrays kept per model) gives bit for bit the same answer for a contiguous, a strided and a
+    read-only start, leaves them unchanged, and refuses NaN, inf and |v| > 1e300 in ``x0`` or ``pi0``
+    with the batch's messages (``refimpl._validate.check_points``)."""
+    alg = catalogue(name)
+    z = np.zeros((3, 3))
+    args = (alg.f, z, z, np.diag([1.0, 1.7, 2.3]), None)
+    x0, pi0 = np.array([0.1, -0.2, 0.3]), np.array([0.4, 0.5, -0.6])
+    x, pi = fast_flow(*args, x0, pi0, 1.5)
+    frozen = x0.copy()
+    frozen.flags.writeable = False
+    for xa, pa in ((np.repeat(x0, 3)[::3], np.repeat(pi0, 2)[::2]), (frozen, pi0), (x0, pi0)):
+        keep = (xa.copy(), pa.copy())
+        xo, po = fast_flow(*args, xa, pa, 1.5)
+        assert np.array_equal(xo, x) and np.array_equal(po, pi)
+        assert np.array_equal(xa, keep[0]) and np.array_equal(pa, keep[1])
+        assert not (np.shares_memory(xo, x) or np.shares_memory(po, pi))
+    for bad, msg in ((np.nan, "NaN or infinity"), (-np.inf, "NaN or infinity"), (2e300, "beyond")):
+        for which in ("x", "pi"):
+            xb, pb = x0.copy(), pi0.copy()
+            (xb if which == "x" else pb)[1] = bad
+            with pytest.raises(ValueError, match=rf"^{which} .*{msg}"):
+                fast_flow(*args, xb, pb, 1.5)
+
+
+@pytest.mark.parametrize("name", ["h(3)", "su(2)"])
+def test_one_trajectory_calls_from_threads_return_the_same_fresh_answers(name):
+    """Calls of one trajectory from four threads at once (the compiled kernels release the GIL; each
+    call takes its own work arrays from the runner's pool, or new ones when none is free) return bit
+    for bit the single call's answer, in arrays no other call returns."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    alg = catalogue(name)
+    z = np.zeros((3, 3))
+    args = (alg.f, z, z, np.diag([1.0, 1.7, 2.3]), None)
+    rng = np.random.default_rng(5)
+    starts = [(0.3 * rng.standard_normal(3), rng.standard_normal(3)) for _ in range(4)]
+    want = [fast_flow(*args, x0, pi0, 2.0) for x0, pi0 in starts]
+
+    def calls(k):
+        x0, pi0 = starts[k]
+        return [fast_flow(*args, x0, pi0, 2.0) for _ in range(40)]
+
+    with ThreadPoolExecutor(4) as ex:
+        got = list(ex.map(calls, range(4)))
+    seen = []
+    for k, outs in enumerate(got):
+        for x, pi in outs:
+            assert np.array_equal(x, want[k][0]) and np.array_equal(pi, want[k][1])
+            seen += [x, pi]
+    assert len({id(a.base if a.base is not None else a) for a in seen}) == len(seen)
+
+
+def test_su2_start_read_from_1d_points_is_the_batch_start():
+    """``_flow_compiled._load_start`` (the su(2) runner's start, read from the caller's 1-D points in
+    one compiled call) writes bit for bit the row of ``_start`` (the batch's, from (3, 1) columns), with
+    and without gravity, for a strided start too, and returns ``max |pi0|``; -1.0 and nothing used
+    where an entry is NaN, infinite or past the bound."""
+    from tstarg.refimpl._flow_compiled import _load_start, _start
+
+    rng = np.random.default_rng(3)
+    gamma = np.array([0.1, -0.4, 0.9])
+    for grav, d in ((True, 10), (False, 7)):
+        for _ in range(5):
+            x0, pi0 = 2.0 * rng.standard_normal(3), rng.standard_normal(3)
+            want = np.empty((1, d))
+            _start(x0[:, None].copy(), pi0[:, None].copy(), gamma, grav, want)
+            for xa in (x0, np.repeat(x0, 2)[::2]):
+                got = np.full((1, d), np.nan)
+                assert _load_start(xa, pi0, gamma, grav, got, 1e300) == np.max(np.abs(pi0))
+                assert np.array_equal(got, want)
+        for bad in (np.nan, np.inf, 2e300):
+            xb = np.array([0.1, bad, 0.2])
+            assert _load_start(xb, np.ones(3), gamma, grav, np.empty((1, d)), 1e300) == -1.0
+            assert _load_start(np.ones(3), xb, gamma, grav, np.empty((1, d)), 1e300) == -1.0
+
+
+@pytest.mark.parametrize("t", [100.0, -3.0])
+def test_one_trajectory_call_off_su2_refuses_too_fast_points_as_the_batch(t):
+    """As the su(2) test above on h(3) (the generic runner, ``_full_state.one_trajectory``, whose rates
+    check runs inside the runner above the per-model bound): the batch's message for a point rotating
+    too fast (``||I^-1|| = 2``, ``|pi| = 1e7``), and the same point scaled below the bound flows."""
+    alg = catalogue("h(3)")
+    z = np.zeros((3, 3))
+    x0 = np.array([0.1, 0.2, 0.0])
+    fast = np.array([0.0, 0.0, 1e7])
+    for a, b in ((x0, fast), (x0[None], fast[None])):
+        with pytest.raises(ValueError, match="rotates too fast for the flow budget"):
+            fast_flow(alg.f, z, z, I, None, a, b, t)
+    x, pi = fast_flow(alg.f, z, z, I, None, x0, fast * 1e-7, t)
+    assert np.all(np.isfinite(x)) and np.all(np.isfinite(pi))
+
+
+def test_su2_finish_of_one_pair_checks_steps_and_finiteness():
+    """``_flow_compiled._finish_one`` (the su(2) runner's one compiled call after the pair) and its
+    plain-Python twin: 0 with ``_finish``'s estimate and logarithm (bit for bit compiled; the twin's
+    numpy sqrt/arctan2 within 8 eps of |x| <= 2 pi, 4 eps of the estimate); 1 where either run's step
+    count is negative (a diverged run); 2 where ``B``'s ``pi`` or the logarithm ``x`` is not finite."""
+    from tstarg.refimpl._flow_compiled import _finish, _finish_one, _finish_one_py
+
+    rng = np.random.default_rng(4)
+    q = rng.standard_normal(4)
+    B = np.concatenate([rng.standard_normal(3), q / np.linalg.norm(q)])[None]
+    A = B + 1e-9 * rng.standard_normal(B.shape)
+    est0, x0 = np.empty(1), np.empty((3, 1))
+    _finish(A, B, 3, est0, x0)
+    ok, bad = np.array([5]), np.array([-1])
+    for fn in (_finish_one, _finish_one_py):
+        est, x = np.empty(1), np.empty((3, 1))
+        assert fn(A, B, 3, est, x, ok, ok) == 0
+        if fn is _finish_one:
+            assert np.array_equal(est, est0) and np.array_equal(x, x0)
+        np.testing.assert_allclose(x, x0, rtol=0, atol=8 * EPS * 2 * np.pi)
+        np.testing.assert_allclose(est, est0, rtol=4 * EPS, atol=0)
+        assert fn(A, B, 3, est, x, bad, ok) == 1 and fn(A, B, 3, est, x, ok, bad) == 1
+        for k, v in ((1, np.nan), (2, np.inf), (4, np.nan)):  # pi entries, then the quaternion
+            Bb = B.copy()
+            Bb[0, k] = v
+            assert fn(A, Bb, 3, np.empty(1), np.empty((3, 1)), ok, ok) == 2
+
+
+def test_full_state_floor_of_one_trajectory_is_inf_for_an_unknown_size():
+    """``_full_state._floor_one`` (the rounding floor of one trajectory's answer): inf where the
+    answer's size is NaN or inf (Python's ``max(1.0, nan)`` is 1.0, which would let such an answer
+    pass), else ``eps (4 (sqrt(steps) + n) max(1, size) + 30 kappa) + resid`` (ROUND_PER_STEP = 4,
+    ROUND_AMPLIFIED = 30), written out here."""
+    from tstarg.refimpl._full_state import _floor_one
+
+    for size in (np.nan, np.inf):
+        assert _floor_one(16, 3, size, 1.0, 0.0) == np.inf
+    got = _floor_one(16, 3, 2.5, 7.0, 1e-14)
+    want = EPS * (4.0 * (4.0 + 3) * 2.5 + 30.0 * 7.0) + 1e-14
+    assert abs(got - want) <= 4 * EPS * want
+    assert _floor_one(9, 3, 0.5, 0.0, 0.0) == EPS * 4.0 * (3.0 + 3)

@@ -61,11 +61,11 @@ def _ad(f, x):
     return scipy.linalg.expm(np.einsum("a,mab->mb", np.asarray(x, float), np.asarray(f, float)))
 
 
-def _states(fs, model, N, seed=7):
-    """Packed starting rows (N, d) of the full state for N random points."""
+def _states(fs, model, N, seed=7, scale=1.0):
+    """Packed starting rows (N, d) of the full state for N random points (momenta times ``scale``)."""
     rng = np.random.default_rng(seed)
     x0 = 0.3 * rng.standard_normal((3, N))
-    pi0 = rng.standard_normal((3, N))
+    pi0 = scale * rng.standard_normal((3, N))
     G0 = np.empty((N, fs.r, fs.r), dtype=fs.mats.dtype)
     fk.exp_batch(np.ascontiguousarray(x0.T), fs.mats, G0)
     s0 = None if fs.abelian is None else fs.abelian.P @ x0
@@ -439,3 +439,78 @@ def test_batch_rows_near_the_float64_floor_are_retried_by_the_control():
                 2 * K * tol * max(1.0, float(np.max(np.abs(want)))) + 1e3 * n * np.finfo(float).eps
             )
             assert np.all(np.isfinite(got)) and np.max(np.abs(got - want)) <= bound, (k, got, want)
+
+
+@needs_numba
+def test_pair_kernel_equals_two_single_runs(fs, monkeypatch):
+    """The first pair on two lanes (:func:`refimpl._full_state_batch.pair_first`): each lane is the
+    generated single kernel's run at its tolerance and order, bitwise (the same operations; the
+    series computed to the larger order for both) -- with A or B finishing first, each lane's step
+    budget and a non-finite start failing both lanes by status; the input row is not written."""
+    model, f = fs
+    y = _states(f, model, 1, seed=21)
+    keep = y.copy()
+    T = 1.7
+    mod = f.module()
+
+    def single(eps, P, budget=10**7, row=y):
+        out, st = np.empty_like(row), np.zeros(1, dtype=np.int64)
+        mod.adaptive(row, T, eps, P, budget, f.coef, out, st)
+        return out, st
+
+    runs = [(1e-6, fs_mod.default_order(1e-6)), (2e-15, fs_mod.default_order(2e-15))]
+    for (ea, pa), (eb, pb) in (runs, runs[::-1]):  # either lane the longer one
+        A, B, sa, sb = fsb.pair_first(f, y, T, ea, eb, pa, pb)
+        (A1, sa1), (B1, sb1) = single(ea, pa), single(eb, pb)
+        assert sa[0] != sb[0] and min(sa[0], sb[0]) > 0
+        np.testing.assert_array_equal(A, A1)
+        np.testing.assert_array_equal(B, B1)
+        np.testing.assert_array_equal(sa, sa1)
+        np.testing.assert_array_equal(sb, sb1)
+    np.testing.assert_array_equal(y, keep)
+    # the step budget between the two runs' step counts: the longer lane fails alone (-3)
+    (ea, pa), (eb, pb) = runs
+    sa1, sb1 = single(ea, pa)[1][0], single(eb, pb)[1][0]
+    lo, hi = sorted((sa1, sb1))
+    monkeypatch.setattr(fs_mod, "MAX_STEPS", int(lo))
+    A, B, sa, sb = fsb.pair_first(f, y, T, ea, eb, pa, pb)
+    monkeypatch.undo()
+    short_a = sa1 <= sb1
+    assert (sa[0] > 0) == short_a and (sb[0] > 0) != short_a
+    assert min(sa[0], sb[0]) == -3 and np.all(np.isnan(A if not short_a else B))
+    assert hi > lo
+    bad = y.copy()
+    bad[0, 0] = np.nan
+    A, B, sa, sb = fsb.pair_first(f, bad, T, ea, eb, pa, pb)
+    assert sa[0] == sb[0] == -1 and np.all(np.isnan(A)) and np.all(np.isnan(B))
+    with pytest.raises(ValueError, match=r"y0 must have shape \(1, "):
+        fsb.pair_first(f, np.concatenate([y, y]), T, ea, eb, pa, pb)
+
+
+@needs_numba
+def test_pair_lanes_bitwise_on_long_runs(fs):
+    """Lane by lane the pair kernel is the single kernel bitwise also over hundreds of steps, where a
+    one-ulp difference of any order's coefficient would grow to many ulps: the order bodies fix every
+    multiply-add's fusion in the IR (:class:`refimpl.codegen._full_state_ir._FOps`), the same on one
+    lane and on two. (Left to the back end's contraction, the two bodies fused different products of
+    a sum: on these starts the lanes ended up to 1e-12 from the single runs.)"""
+    model, f = fs
+    mod = f.module()
+    T = 40.0
+    (ea, pa), (eb, pb) = (
+        (fs_mod.A_LOOSE, fs_mod._FIRST_ORDERS[0]),
+        (
+            fs_mod.EPS_B_FIRST,
+            fs_mod._FIRST_ORDERS[1],
+        ),
+    )
+    y3 = _states(f, model, 3, seed=5, scale=10.0)
+    for i in range(3):
+        y = y3[i : i + 1].copy()
+        A, B, sa, sb = fsb.pair_first(f, y, T, ea, eb, pa, pb)
+        for eps, P, got, st in ((ea, pa, A, sa), (eb, pb, B, sb)):
+            out, s1 = np.empty_like(y), np.zeros(1, dtype=np.int64)
+            mod.adaptive(y, T, eps, P, 10**7, f.coef, out, s1)
+            assert s1[0] > 100 and st[0] == s1[0], (i, st, s1)
+            assert np.all(np.isfinite(out))
+            np.testing.assert_array_equal(got, out)

@@ -20,7 +20,9 @@ Error models (bounds that hold for any backward-stable route, never fitted to th
   integrated ``s``): the answer's residual as the float64 exponential sees it is at most the refine's
   floor ``LOG_REFINE_FLOOR r max(1, |G|)``, so the true residual ``|exp(rho(x)) - G|`` (mpmath) is at
   most that floor plus the float64 exponential's own error at ``x`` (measured against mpmath, not
-  modelled);
+  modelled); its closed form (``log_state_abelian``, no iteration against the float64 exponential):
+  ``x`` is the logarithm to its own rounding, ``10 r eps |x|`` (a few ulp per entry, ``r`` terms
+  each), which moves ``exp(rho(x))`` by ``|G|`` times that;
 * ``expm_frechet``: the exponential of the block ``Z`` computed by scaling and squaring errs by at
   most ``100 eps exp(|Z|_1) max(1, |exp Z|)`` (the model of tests/test_compiled_any_algebra.py's
   helper check), and ``exp(X)``, ``L(X, E)`` are blocks of it.
@@ -135,18 +137,21 @@ def _vi0():
     return _VI0
 
 
+@pytest.mark.parametrize("closed", [False, True])
 @settings(deadline=None)
 @given(
     st.lists(st.floats(-6.0, 6.0), min_size=2, max_size=2),
     st.floats(-6.5, 6.5),
 )
 @example([5.07794626, -5.40291662], 5.72304174)  # a bench batch row whose log was 500 ulp off
-def test_refined_log_reaches_the_exponentials_rounding(xy, s):
+def test_refined_log_reaches_the_exponentials_rounding(closed, xy, s):
     """Bianchi VI0 at ``|x|`` up to ~10 (``|G|`` up to ``e^6.5``): ``log_state_refined`` of
     ``G = exp(rho(x_true))`` (mpmath, rounded) with ``s = x_true_3``. Its ``x`` keeps ``s`` as the
     abelian part (or the logarithm's, within ``ABELIAN_RTOL`` of it) and reproduces ``G`` to the float64 exponential's rounding (module docstring): the
     logarithm alone was hundreds of ulp off in ``x_3`` while within ``ABELIAN_RTOL`` of ``s``, which
-    moved ``Ad(exp x)`` by 1.2e-10 and refused bench batch rows."""
+    moved ``Ad(exp x)`` by 1.2e-10 and refused bench batch rows. Both routes: ``logm`` and the
+    Gauss-Newton refine (``log_state_refined``), and the refine's answer in closed form
+    (``log_state_abelian``, what the flows run on Bianchi VI0)."""
     fs = _vi0()
     x_true = np.array([xy[0], xy[1], s])
     X = np.einsum("a,aij->ij", x_true, fs.mats)
@@ -156,9 +161,15 @@ def test_refined_log_reaches_the_exponentials_rounding(xy, s):
     B = np.zeros((1, fs.d))
     B[0, fs.d - 1] = s
     xs, ok, resid = np.empty((1, 3)), np.empty(1, np.bool_), np.empty(1)
-    done = fk.log_state_refined(
-        B, G, Ad, fs.mats, fs.proj, *fs.abelian_tables, fs_mod.ABELIAN_RTOL, xs, ok, resid
-    )
+    if closed:
+        done = fk.log_state_abelian(
+            B, G, Ad, fs.mats, fs.proj, *fs.abelian_tables[1::2], xs, ok, resid
+        )
+    else:
+        done = fk.log_state_refined(
+            B, G, Ad, fs.mats, fs.proj, *fs.abelian_tables, fs_mod.ABELIAN_RTOL, xs, ok, resid,
+            fk.LOG_GENERAL,
+        )  # fmt: skip
     assert done and ok[0]
     x = xs[0]
     assert abs(x[2] - s) <= fs_mod.ABELIAN_RTOL * max(1.0, abs(s))  # s kept, or the log's within
@@ -168,5 +179,39 @@ def test_refined_log_reaches_the_exponentials_rounding(xy, s):
     fk.expm(Xx, seen)
     exp_err = np.max(np.abs(seen - exact))  # the float64 exponential's own error at x
     floor = fk.LOG_REFINE_FLOOR * 3 * max(1.0, np.max(np.abs(G)))
+    if closed:
+        # no iteration against the float64 exponential: x is G's logarithm to its own rounding, a
+        # few ulp per entry (r terms each) of |x|, which moves exp(rho(x)) by |G| |dx|
+        floor = 10 * 3 * EPS * max(1.0, np.max(np.abs(G))) * max(1.0, np.max(np.abs(x)))
     res = np.max(np.abs(exact - G[0]))
     assert res <= floor + exp_err, (res, floor, exp_err)
+
+
+def test_closed_form_abelian_log_hands_an_inconsistent_row_to_the_caller():
+    """``s`` 1e-6 off the abelian part of ``G`` (an answer whose ``s`` and ``G`` disagree):
+    ``exp(rho(x))`` misses ``G`` by ~1e-6 |G|, far over the acceptance test's ``1e3 r eps cond |G|``,
+    so ``log_state_abelian`` leaves that row to the caller (``ok`` False, not final), and
+    ``_full_state._log_complete`` then gives ``G``'s own logarithm (the refine keeps the log's ``x``
+    when the fit with ``s`` does not beat it) with a residual ``|Ad(exp x) - Ad(g)|`` that covers what
+    ``x`` misses (mpmath's ``Ad(exp x)``, to its float64 rounding ``100 eps |Ad|``)."""
+    fs = _vi0()
+    x_true = np.array([0.4, -0.7, 1.3])
+    G = np.ascontiguousarray(_mp_expm(np.einsum("a,aij->ij", x_true, fs.mats)).real[None])
+    Ad = np.empty((1, 3, 3))
+    fk.ad_batch(G, fs.mats, fs.proj, False, Ad)
+    B = np.zeros((1, fs.d))
+    B[0, fs.d - 1] = x_true[2] + 1e-6
+    xs, ok, resid = np.empty((1, 3)), np.empty(1, np.bool_), np.empty(1)
+    assert not fk.log_state_abelian(
+        B, G, Ad, fs.mats, fs.proj, *fs.abelian_tables[1::2], xs, ok, resid
+    )
+    assert not ok[0]
+    fs_mod._log_complete(fs, B, G[0:1], Ad, xs, ok, resid)
+    X = np.einsum("a,aij->ij", xs[0], fs.mats)
+    E = _mp_expm(X).real
+    Ax = np.empty((1, 3, 3))
+    fk.ad_batch(np.ascontiguousarray(E[None]), fs.mats, fs.proj, False, Ax)
+    miss = np.max(np.abs(Ax[0] - Ad[0]))
+    assert np.isfinite(resid[0])
+    assert miss <= resid[0] + 100 * EPS * max(1.0, np.max(np.abs(Ad))), (miss, resid[0])
+    assert np.max(np.abs(xs[0] - x_true)) <= 1e-9  # G's logarithm, not the 1e-6-off s

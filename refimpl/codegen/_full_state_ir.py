@@ -1,4 +1,4 @@
-"""One order of the generated full-state kernel's recurrence as LLVM IR, built by a numba intrinsic.
+"""One order of the full-state kernels' recurrence as LLVM IR, built by numba intrinsics.
 
 Why IR (issue 25, the compile time of :func:`refimpl.codegen.full_state.full_state_source`'s kernel):
 numba's front end types and lowers every statement of a function on its own, and the per-order body
@@ -7,7 +7,9 @@ of the full state is hundreds of them (su(3): 26 derived rows, 140 Cauchy produc
 (1.2 s of it the product helpers'), lowering 1.0 s, LLVM about 0.8 s. The intrinsic ``_order(V, k,
 C)`` is one call for the front end; its ``codegen`` writes the order-``k`` body straight into the
 kernel's LLVM function, the operations of the former Python source in its evaluation order, each
-with the kernels' ``contract`` flag (:class:`refimpl.codegen._taylor_ir._Ops`):
+multiply-add that the ``contract`` flag let the back end fuse written as an ``llvm.fma``
+(:class:`_FOps`: the same fusions on one lane and on many, so the pair kernel's lanes are the single
+kernel's runs bitwise):
 
 * the derived rows ``V[r, k] = sum_t C[ci_t] V[s_t, k]`` (``Omega_k``, then ``M_k``), sums as the
   balanced trees of :func:`refimpl.codegen.taylor.tree_sum`;
@@ -23,8 +25,16 @@ The field's numbers ``C`` travel as a tuple of float64 read once per call by ``_
 (:func:`load_intrinsic`): loaded from the array inside the order, LLVM could not keep them in
 registers across the stores into ``V`` (it cannot tell the two arrays apart).
 
+The same body on vectors of lanes (:func:`lanes_order_intrinsic`: the generated lane kernel of
+:mod:`refimpl.codegen.full_state_batch`, and the one-trajectory first pair, A and B on two lanes, of
+:func:`refimpl.codegen.full_state.pair_lines`), the single kernel's Horner update
+(:func:`update_intrinsic`), and the order bodies of the two kernels compiled for every structure,
+the tables read at run time: :func:`packed_order` (:func:`refimpl._full_state_batch.adaptive_packed`)
+and :func:`rational_order` (:func:`refimpl._full_state_rational_kernel.adaptive`, ``Upsilon != 0``).
+
 The generated module names :data:`IR_VERSION` (numba's disk cache keys on the generated file's text,
-not on this module, so a change of the IR built here must change that text).
+not on this module, so a change of the IR built here must change that text; the two fixed kernels
+name it in a comment of their own file, which is their cache key).
 """
 
 from __future__ import annotations
@@ -41,6 +51,7 @@ from ._taylor_ir import _F64, _Ops, _unpack
 
 __all__ = [
     "IR_VERSION",
+    "lane_update_intrinsic",
     "lanes_order_intrinsic",
     "load_intrinsic",
     "order_intrinsic",
@@ -49,12 +60,67 @@ __all__ = [
     "update_intrinsic",
 ]
 
-IR_VERSION = "1"
+IR_VERSION = "2"
 
 # the kinds of a state row's term (the spec's ``(kind, ci, x)``; ``x`` a product or a row)
 PLUS, MINUS, SCALED, LIN_CONST, LIN = range(5)
 # the classes of a product with a constant factor (the spec's ``(p, u, w, cls)``)
 U_CONST, W_CONST, BOTH_CONST = 1, 2, 3
+
+
+class _Mul:
+    """A product ``a b`` not yet built: the sum that takes it as a term fuses it (:class:`_FOps`)."""
+
+    __slots__ = ("a", "b")
+
+    def __init__(self, a, b):
+        self.a, self.b = a, b
+
+
+class _FOps(_Ops):
+    """:class:`_Ops` with the multiply-adds of the order bodies written as ``llvm.fma`` calls.
+
+    Why: with only the ``contract`` flag the back end chooses which ``fmul`` of a sum it fuses into
+    the ``fadd`` (of ``a b + c d``: either ``fma(a, b, c d)`` or ``fma(c, d, a b)``), and it chose
+    differently on the scalar body and on the vector body of the same sum (measured: the two-lane
+    first pair's lanes and the single kernel apart by 1 ulp at some order on 125 of 2000 random
+    Bianchi III + cocycle states; lane B of the pair 3.5e-13 from the single run at ``T = 40``). Here
+    the IR fixes each fusion, the same for one lane or many: a sum's term that is a product (a
+    :class:`_Mul`) is fused into the addition that takes it, the left one when both are; no ``fmul``
+    is left as an operand of an ``fadd`` or ``fsub`` for the back end to fuse."""
+
+    def fma(self, a, b, c):
+        name = "llvm.fma." + ("f64" if self.lanes == 1 else f"v{self.lanes}f64")
+        fn = cgutils.get_or_insert_function(
+            self.b.module, ir.FunctionType(self.ty, [self.ty] * 3), name
+        )
+        return self.b.call(fn, [a, b, c])
+
+    def val(self, x):
+        """The value of a term (a :class:`_Mul` built as its product)."""
+        return self.mul(x.a, x.b) if isinstance(x, _Mul) else x
+
+    def add2(self, x, y):
+        """``x + y`` of two terms, a product among them fused (the left one when both are)."""
+        if isinstance(x, _Mul):
+            return self.fma(x.a, x.b, self.val(y))
+        if isinstance(y, _Mul):
+            return self.fma(y.a, y.b, x)
+        return self.add(x, y)
+
+    def ftree(self, v):
+        """:meth:`_Ops.tree`'s sum (the same balanced tree) of terms that may be :class:`_Mul`; a
+        single term is returned as it is (a :class:`_Mul` stays one)."""
+        if len(v) == 1:
+            return v[0]()
+        half = (len(v) + 1) // 2
+        return self.add2(self.ftree(v[:half]), self.ftree(v[half:]))
+
+    def neg(self, x):
+        """``-x`` (exact; of a product, the product of ``-a`` and ``b``)."""
+        if isinstance(x, _Mul):
+            return _Mul(self.sub(self.const(-0.0), x.a), x.b)
+        return self.sub(self.const(-0.0), x)
 
 
 def _check_array(name, V, ndim):
@@ -117,7 +183,7 @@ def order_intrinsic(sp):
             raise TypeError(f"order: expects (V, int, {ncoef} float64), got ({V}, {k}, {C})")
 
         def codegen(context, builder, sig, args):
-            ops = _Ops(builder)
+            ops = _FOps(builder)
             i64 = ir.IntType(64)
             arr = context.make_array(sig.args[0])(context, builder, args[0])
             data = arr.data
@@ -137,8 +203,8 @@ def order_intrinsic(sp):
             zero_col = ir.Constant(i64, 0)
             # derived rows: Omega_k, then M_k
             for row, terms in derived:
-                v = ops.tree([lambda ci=ci, s=s: ops.mul(c[ci], load(s, kk)) for ci, s in terms])
-                builder.store(v, at(row, kk))
+                v = ops.ftree([lambda ci=ci, s=s: _Mul(c[ci], load(s, kk)) for ci, s in terms])
+                builder.store(ops.val(v), at(row, kk))
             # general products, a loop over a per chunk
             prod: dict[int, object] = {}
             kp1 = builder.add(kk, ir.Constant(i64, 1))
@@ -154,7 +220,7 @@ def order_intrinsic(sp):
                     for w in fw:
                         fw[w] = load(w, b)
                     for (_, u, w), acc in zip(chunk, accs):
-                        builder.store(ops.add(builder.load(acc), ops.mul(fu[u], fw[w])), acc)
+                        builder.store(ops.fma(fu[u], fw[w], builder.load(acc)), acc)
                 for (p, _, _), acc in zip(chunk, accs):
                     prod[p] = builder.load(acc)
             # products with a constant factor
@@ -165,9 +231,9 @@ def order_intrinsic(sp):
                         is0, ops.mul(load(u, zero_col), load(w, zero_col)), ops.zero
                     )
                 elif cls == U_CONST:
-                    prod[p] = ops.mul(load(u, zero_col), load(w, kk))
+                    prod[p] = _Mul(load(u, zero_col), load(w, kk))
                 else:
-                    prod[p] = ops.mul(load(u, kk), load(w, zero_col))
+                    prod[p] = _Mul(load(u, kk), load(w, zero_col))
             ik = builder.fdiv(
                 ops.const(1.0), builder.sitofp(kp1, ops.ty), flags=("contract",)
             )  # 1.0 / (k + 1)
@@ -176,15 +242,15 @@ def order_intrinsic(sp):
                 if kind == PLUS:
                     return lambda: prod[x]
                 if kind == MINUS:
-                    return lambda: ops.sub(ops.const(-0.0), prod[x])
+                    return lambda: ops.neg(prod[x])
                 if kind == SCALED:
-                    return lambda: ops.mul(c[ci], prod[x])
+                    return lambda: _Mul(c[ci], ops.val(prod[x]))
                 if kind == LIN_CONST:
                     return lambda: builder.select(is0, ops.mul(c[ci], load(x, zero_col)), ops.zero)
-                return lambda: ops.mul(c[ci], load(x, kk))
+                return lambda: _Mul(c[ci], load(x, kk))
 
             for row, terms in state:
-                s = ops.tree([term(*t) for t in terms]) if terms else ops.zero
+                s = ops.val(ops.ftree([term(*t) for t in terms])) if terms else ops.zero
                 builder.store(ops.mul(s, ik), at(row, kp1))
             return context.get_dummy_value()
 
@@ -200,8 +266,10 @@ def lanes_order_intrinsic(sp, W: int):
     of one coefficient are contiguous and move as one vector of ``W`` float64), each lane's
     operations those of the scalar body, element by element.
 
-    ``sp = (ncoef, derived, groups, consts, state)`` as :func:`order_intrinsic`'s ``spec`` (the
-    terms of the state rows' products all :data:`SCALED`), ``groups`` the general products summed
+    ``sp = (ncoef, derived, groups, consts, state)`` as :func:`order_intrinsic`'s ``spec`` (the lane
+    kernel's: the terms of the state rows' products all :data:`SCALED`; the pair kernel of
+    :func:`refimpl.codegen.full_state.full_state_source` passes the single kernel's own spec, its
+    chunks as groups), ``groups`` the general products summed
     side by side in one loop over ``a`` (each distinct factor row loaded once per ``a``). The products
     stay values (never stored into ``V``)."""
     ncoef, derived, groups, consts, state = sp
@@ -218,7 +286,7 @@ def lanes_order_intrinsic(sp, W: int):
             raise TypeError(f"order: expects (V, int, {ncoef} float64), got ({V}, {k}, {C})")
 
         def codegen(context, builder, sig, args):
-            ops = _Ops(builder, W)
+            ops = _FOps(builder, W)
             i64 = ir.IntType(64)
             vptr = ir.PointerType(ops.ty)
             arr = context.make_array(sig.args[0])(context, builder, args[0])
@@ -241,8 +309,8 @@ def lanes_order_intrinsic(sp, W: int):
 
             o0, ok, ok1 = ir.Constant(i64, 0), base(kk), base(kp1)
             for row, terms in derived:
-                v = ops.tree([lambda ci=ci, s=s: ops.mul(c[ci], load(ok, s)) for ci, s in terms])
-                builder.store(v, at(ok, row), align=8)
+                v = ops.ftree([lambda ci=ci, s=s: _Mul(c[ci], load(ok, s)) for ci, s in terms])
+                builder.store(ops.val(v), at(ok, row), align=8)
             prod: dict[int, object] = {}
             for grp in groups:
                 accs = [cgutils.alloca_once_value(builder, ops.zero) for _ in grp]
@@ -255,7 +323,7 @@ def lanes_order_intrinsic(sp, W: int):
                             fu[u] = load(oa, u)
                         if w not in fw:
                             fw[w] = load(ob, w)
-                        builder.store(ops.add(builder.load(acc), ops.mul(fu[u], fw[w])), acc)
+                        builder.store(ops.fma(fu[u], fw[w], builder.load(acc)), acc)
                 for (p, _, _), acc in zip(grp, accs):
                     prod[p] = builder.load(acc)
             is0 = builder.icmp_signed("==", kk, o0)
@@ -263,24 +331,28 @@ def lanes_order_intrinsic(sp, W: int):
                 if cls == BOTH_CONST:
                     prod[p] = builder.select(is0, ops.mul(load(o0, u), load(o0, w)), ops.zero)
                 elif cls == U_CONST:
-                    prod[p] = ops.mul(load(o0, u), load(ok, w))
+                    prod[p] = _Mul(load(o0, u), load(ok, w))
                 else:
-                    prod[p] = ops.mul(load(ok, u), load(o0, w))
+                    prod[p] = _Mul(load(ok, u), load(o0, w))
             ik = ops.splat(
                 builder.fdiv(ir.Constant(_F64, 1.0), builder.sitofp(kp1, _F64), flags=("contract",))
             )
 
             def term(kind, ci, x):
+                if kind == PLUS:  # the single kernel's spec (the pair kernel's lanes)
+                    return lambda: prod[x]
+                if kind == MINUS:
+                    return lambda: ops.neg(prod[x])
                 if kind == SCALED:
-                    return lambda: ops.mul(c[ci], prod[x])
+                    return lambda: _Mul(c[ci], ops.val(prod[x]))
                 if kind == LIN_CONST:
                     return lambda: builder.select(is0, ops.mul(c[ci], load(o0, x)), ops.zero)
                 if kind == LIN:
-                    return lambda: ops.mul(c[ci], load(ok, x))
+                    return lambda: _Mul(c[ci], load(ok, x))
                 raise ValueError(f"lanes order: term kind {kind}")
 
             for row, terms in state:
-                s = ops.tree([term(*t) for t in terms]) if terms else ops.zero
+                s = ops.val(ops.ftree([term(*t) for t in terms])) if terms else ops.zero
                 builder.store(ops.mul(s, ik), at(ok1, row), align=8)
             return context.get_dummy_value()
 
@@ -345,6 +417,75 @@ def update_intrinsic(rows):
             return fin
 
         return types.boolean(V, comp, hs, P), codegen
+
+    return update
+
+
+def lane_update_intrinsic(rows, W: int):
+    """The intrinsic ``fin = update(V, comp, hs, P, l)``: :func:`update_intrinsic`'s compensated
+    Horner update on lane ``l`` of the lane kernels' ``V[k, row, lane]`` (``(P' + 1, rows, W)``, C
+    order, ``P <= P'``) with the carries ``comp[c, l]`` (``(len(rows), W)``): each row's operations
+    those of :func:`update_intrinsic` in the same order (so lane ``l`` is updated as the single kernel
+    updates its run), the rows' chains side by side (the pair kernel's lanes: one lane's rows in one
+    loop over ``kk``, not one row's chain after another)."""
+    rows = tuple(int(r) for r in rows)
+
+    @intrinsic
+    def update(typingctx, V, comp, hs, P, l):
+        _check_array("lane update", V, 3)
+        _check_array("lane update", comp, 2)
+        if not (
+            isinstance(hs, types.Float)
+            and isinstance(P, types.Integer)
+            and isinstance(l, types.Integer)
+        ):
+            raise TypeError(f"lane update: expects (V, comp, float, int, int), got {hs}, {P}, {l}")
+
+        def codegen(context, builder, sig, args):
+            ops = _Ops(builder)
+            i64 = ir.IntType(64)
+            arr = context.make_array(sig.args[0])(context, builder, args[0])
+            data = arr.data
+            nrow = cgutils.unpack_tuple(builder, arr.shape, 3)[1]
+            cdata = context.make_array(sig.args[1])(context, builder, args[1]).data
+            h = context.cast(builder, args[2], sig.args[2], types.float64)
+            pp = context.cast(builder, args[3], sig.args[3], types.int64)
+            ln = context.cast(builder, args[4], sig.args[4], types.int64)
+            w_ = ir.Constant(i64, W)
+            stride = builder.mul(nrow, w_)  # one order's floats
+            lane = [builder.add(ir.Constant(i64, r * W), ln) for r in rows]
+
+            def at(c, col):  # &V[col, rows[c], l]
+                return builder.gep(
+                    data, [builder.add(builder.mul(col, stride), lane[c])], inbounds=True
+                )
+
+            def cat(c):  # &comp[c, l]
+                off = builder.add(ir.Constant(i64, c * W), ln)
+                return builder.gep(cdata, [off], inbounds=True)
+
+            zs = [
+                cgutils.alloca_once_value(builder, builder.load(at(c, pp)))
+                for c in range(len(rows))
+            ]
+            top = builder.sub(pp, ir.Constant(i64, 1))  # kk = P - 1 - j, j = 0 .. P - 2
+            with cgutils.for_range(builder, top) as loop:
+                kk = builder.sub(top, loop.index)
+                for c, z in enumerate(zs):
+                    builder.store(ops.add(ops.mul(builder.load(z), h), builder.load(at(c, kk))), z)
+            fin = cgutils.true_bit
+            inf = ops.const(float("inf"))
+            zero = ir.Constant(i64, 0)
+            for c, z in enumerate(zs):
+                zz = ops.sub(ops.mul(builder.load(z), h), builder.load(cat(c)))
+                y = builder.load(at(c, zero))
+                w = ops.add(y, zz)
+                builder.store(ops.sub(ops.sub(w, y), zz), cat(c))
+                builder.store(w, at(c, zero))
+                fin = builder.and_(fin, builder.fcmp_ordered("<", ops.abs(w), inf))
+            return fin
+
+        return types.boolean(V, comp, hs, P, l), codegen
 
     return update
 

@@ -154,6 +154,8 @@ def full_state_source(fs) -> str:
         "_order = _full_state_ir.order_intrinsic(SPEC)",
         f"_load = _full_state_ir.load_intrinsic({sp[0]})",
         f"_update = _full_state_ir.update_intrinsic({tuple(vrows)!r})",
+        "_order2 = _full_state_ir.lanes_order_intrinsic(SPEC, 2)",
+        f"_update2 = _full_state_ir.lane_update_intrinsic({tuple(vrows)!r}, 2)",
         "",
         "",
         _JIT,
@@ -199,5 +201,95 @@ def full_state_source(fs) -> str:
         I3 + "out[it, q] = V[q, 0] if status == 0 else np.nan",
         I2 + "nsteps[it] = nst if status == 0 else status",
     ]
+    src += ["", ""] + pair_lines(fs, sp, nv, vrows, srows)
     # constants (derived) of order 0 are computed in the k = 0 pass; those are all we read of them
     return "\n".join(src) + "\n"
+
+
+def pair_lines(fs, sp, nv: int, vrows: list, srows: list) -> list[str]:
+    """The kernel ``pair(y0, T, tol_a, tol_b, P_a, P_b, max_steps, c, out, nsteps)``: the runs A
+    (``tol_a``, order ``P_a``) and B (``tol_b``, ``P_b``) from the one start ``y0[0]`` side by side,
+    as the two lanes of one vector (the order body
+    :func:`refimpl.codegen._full_state_ir.lanes_order_intrinsic` on this kernel's own spec: each
+    lane's operations those of :func:`order_intrinsic`), the series computed to ``max(P_a, P_b)`` for
+    both; each lane its own step (from its order's last two coefficients), time, step count, carries
+    and status, its Horner update to its own order (:func:`refimpl.codegen._full_state_ir.
+    lane_update_intrinsic`, the single kernel's update on one lane) -- so lane A is the single kernel's run at
+    ``(tol_a, P_a)`` and lane B at ``(tol_b, P_b)``, operation for operation. ``out[0]``, ``out[1]``:
+    A's and B's end states, ``nsteps`` their steps (negative: the status, as :func:`adaptive`)."""
+    I1, I2, I3, I4 = ("    " * i for i in range(1, 5))
+    d = fs.d
+    src = [
+        _JIT,
+        "def pair(y0, T, tol_a, tol_b, P_a, P_b, max_steps, c, out, nsteps):",
+        I1 + f"if c.shape[0] != {sp[0]} or y0.shape[1] != {d} or min(P_a, P_b) < 2:",
+        I2 + "raise ValueError('pair: c, y0 or the orders do not fit the structure')",
+        I1 + f"SR = np.array({srows}, dtype=np.int64)"
+        if srows
+        else I1 + "SR = np.zeros(0, dtype=np.int64)",
+        I1 + "C = _load(c)",
+        I1 + "Pm = max(P_a, P_b)",
+        I1 + f"V = np.zeros((Pm + 1, {nv}, 2))",
+        I1 + f"comp = np.zeros(({max(len(vrows), 1)}, 2))",
+        I1 + "PL = np.array([P_a, P_b], dtype=np.int64)",
+        I1 + "tl = np.array([tol_a, tol_b])",
+        I1 + "t = np.zeros(2)",
+        I1 + "nst = np.zeros(2, dtype=np.int64)",
+        I1 + "status = np.zeros(2, dtype=np.int64)",
+        I1 + "live = np.ones(2, dtype=np.bool_)",
+        I1 + "sgn = 1.0 if T >= 0 else -1.0",
+        I1 + "Tabs = abs(T)",
+        I1 + "for l in range(2):",
+        I2 + f"for q in range({d}):",
+        I3 + "V[0, q, l] = y0[0, q]",
+        I2 + "if not (t[l] < Tabs):",
+        I3 + "live[l] = False",
+        I1 + "while live[0] or live[1]:",
+        I2 + "for k in range(Pm):",
+        I3 + "_order2(V, k, C)",
+        I2 + "for l in range(2):",
+        I3 + "if not live[l]:",
+        I4 + "continue",
+        I3 + "P = PL[l]",
+        I3 + "xn = 0.0",
+        I3 + "a1 = 0.0",
+        I3 + "a2 = 0.0",
+        I3 + "for q in range(SR.shape[0]):",
+        I4 + "xn = max(xn, abs(V[0, SR[q], l]))",
+        I3 + "for q in range(SR.shape[0]):",
+        I4 + "a1 = max(a1, abs(V[P - 1, SR[q], l]))",
+        I3 + "for q in range(SR.shape[0]):",
+        I4 + "a2 = max(a2, abs(V[P, SR[q], l]))",
+        I3 + "s = tl[l] * max(1.0, xn)",
+        I3 + "h = np.inf",
+        I3 + "if a1 > 0.0:",
+        I4 + "h = (s / a1) ** (1.0 / (P - 1))",
+        I3 + "if a2 > 0.0:",
+        I4 + "h = min(h, (s / a2) ** (1.0 / P))",
+        I3 + "h *= math.exp(-0.7 / (P - 1))",
+        I3 + "if not (h > 0.0):",
+        I4 + "status[l] = -4",
+        I4 + "live[l] = False",
+        I4 + "continue",
+        I3 + "if t[l] + h >= Tabs:",
+        I4 + "h = Tabs - t[l]",
+        I4 + "t[l] = Tabs",
+        I3 + "else:",
+        I4 + "t[l] += h",
+        I3 + "hs = sgn * h",
+        I3 + "fin = _update2(V, comp, hs, P, l)",
+        I3 + "nst[l] += 1",
+        I3 + "if not fin:",
+        I4 + "status[l] = -1",
+        I4 + "live[l] = False",
+        I3 + "elif nst[l] > max_steps:",
+        I4 + "status[l] = -3",
+        I4 + "live[l] = False",
+        I3 + "elif not (t[l] < Tabs):",
+        I4 + "live[l] = False",
+        I1 + "for l in range(2):",
+        I2 + f"for q in range({d}):",
+        I3 + "out[l, q] = V[0, q, l] if status[l] == 0 else np.nan",
+        I2 + "nsteps[l] = nst[l] if status[l] == 0 else status[l]",
+    ]
+    return src

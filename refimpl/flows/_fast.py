@@ -21,7 +21,7 @@ import numpy as np
 from .. import _fast_kernels as _fast
 from .. import _full_state, _full_state_rational
 from .._algebra import LieAlgebra
-from .._flow_checks import check_time
+from .._flow_checks import check_finite, check_time, finite_one, load_point
 from .._flow_compiled import (
     compiled_taylor_flow,
     compiled_taylor_samples,
@@ -32,6 +32,7 @@ from .._flow_compiled import (
 from .._lru import LRU
 from .._validate import (
     MAX_MAGNITUDE,
+    MIN_FLOW_TOL,
     StepBudget,
     check_flow_rates,
     check_flow_request,
@@ -84,6 +85,7 @@ bytes returns that model without hashing its key (the one :data:`_MODELS` gave f
 
 _F64 = np.dtype(np.float64)
 _F64_STR = _F64.str
+_NP_F64 = np.float64
 
 
 def _numeric_key(a):
@@ -253,22 +255,36 @@ def _one_route(model: NumpyModel) -> int:
 
 
 def _one_runner(model: NumpyModel, tol: float):
-    """``run(X, P, t) -> (x, pi)`` of :func:`_flow_one` on ``model`` at ``tol`` (``X``, ``P`` (n, 1)), by
+    """``run(x0, pi0, t) -> (x, pi)`` of :func:`_flow_one` on ``model`` at ``tol`` (``x0``, ``pi0`` 1-D
+    float64 of shape (n,)), or None from ``run`` where the start is not finite and bounded, by
     :func:`_one_route`: the runners of :func:`refimpl._full_state.one_trajectory` and
     :func:`refimpl._flow_compiled.one_trajectory` (their constants looked up once), else the rational
-    full state's flow or :func:`compiled_taylor_flow` after the start check; None: no such route."""
+    full state's flow or :func:`compiled_taylor_flow` after the start check; each runs the rates'
+    check (:func:`_check_rates`) above :func:`_rates_free_below`. None: no such route."""
     route = _one_route(model)
+
+    def rates(pi0, tv, pmax):  # the rates' check, where it could refuse
+        _check_rates(model, pi0, tv, pmax)
+
+    limits = (_rates_free_below(model), rates)
     run = (
-        _full_state.one_trajectory(model, tol, _AbelianPart)
+        _full_state.one_trajectory(model, tol, _AbelianPart, limits)
         if route == 1
-        else one_trajectory(model, tol)
+        else one_trajectory(model, tol, limits)
         if route == 3
         else None
     )
     if run is not None or not route:
         return run
+    n, free = model.n, limits[0]
 
-    def run(X, P, tv):
+    def run(x0, pi0, tv):
+        X, P = np.empty((n, 1)), np.empty((n, 1))
+        pmax = load_point(x0, pi0, X, P, MAX_MAGNITUDE)
+        if pmax < 0.0:  # issue 30: not finite, or |v| > MAX_MAGNITUDE
+            return None
+        if not pmax <= free:
+            rates(pi0, tv, pmax)
         _check_start(model, P)  # Upsilon != 0: the start off the degenerate set
         out = (
             _full_state_rational.rational_full_state_flow(
@@ -277,7 +293,7 @@ def _one_runner(model: NumpyModel, tol: float):
             if route == 2
             else compiled_taylor_flow(model, X, P, tv, tol)
         )
-        return out["x"][:, 0], out["pi"][:, 0]
+        return finite_one(out["x"][:, 0], out["pi"][:, 0], tv)
 
     return run
 
@@ -291,48 +307,33 @@ def _flow_one(model: NumpyModel, x0, pi0, tv: float, tol: float):
     with the same checks (the points finite and bounded, the rates, the start off the degenerate set,
     the results finite), without its batch bookkeeping (issue 25: the Python around one trajectory).
     None where any of that does not hold: the general route then runs, and refuses by name."""
-    n = model.n
+    one = model.__dict__.get("_one")  # (tol, runner or False: no route, (n,)) of the last tol
+    if one is None or one[0] != tol:
+        shape = (model.n,)
+        if not (  # points refused anyway build no runner (its kernels may compile on first use)
+            type(x0) is np.ndarray
+            and type(pi0) is np.ndarray
+            and x0.dtype is _F64
+            and pi0.dtype is _F64
+            and x0.shape == shape
+            and pi0.shape == shape
+            and load_point(x0, pi0, np.empty(shape + (1,)), np.empty(shape + (1,)), MAX_MAGNITUDE)
+            >= 0.0
+        ):
+            return None
+        one = model.__dict__["_one"] = (tol, _one_runner(model, tol) or False, shape)
+    tol, run, shape = one
     if not (
-        type(x0) is type(pi0) is np.ndarray
-        and x0.dtype is pi0.dtype is _F64
-        and x0.shape == pi0.shape == (n,)
+        run is not False
+        and type(x0) is np.ndarray
+        and type(pi0) is np.ndarray
+        and x0.dtype is _F64
+        and pi0.dtype is _F64
+        and x0.shape == shape
+        and pi0.shape == shape
     ):
         return None
-    xl, pl = x0.tolist(), pi0.tolist()
-    if not all(map(_WITHIN, map(abs, xl + pl))):  # issue 30: finite and |v| <= MAX_MAGNITUDE
-        return None
-    one = model.__dict__.get(
-        "_one"
-    )  # (tol, runner, rates bound) of the last tol, kept on the model
-    if one is None or one[0] != tol:
-        one = model.__dict__["_one"] = (tol, _one_runner(model, tol), _rates_free_below(model))
-    run = one[1]
-    if run is None:
-        return None
-    pmax = max(map(abs, pl))
-    if not pmax <= one[2]:  # the rates' check, where it could refuse
-        _check_rates(model, pi0, tv, pmax)
-    X = np.ascontiguousarray(x0).reshape(n, 1)  # only read (never written, never returned)
-    P = np.ascontiguousarray(pi0).reshape(n, 1)
-    x, pi = run(X, P, tv)
-    if not math.isfinite(sum(x.tolist()) + sum(pi.tolist())):  # finite: every entry is
-        _check_finite(x.reshape(n, 1), pi.reshape(n, 1), tv)
-    return x, pi
-
-
-def _check_finite(x, pi, tv: float) -> None:
-    """Trajectories (columns of ``x``, ``pi`` (n, N)) not finite at ``tv`` are refused, by index."""
-    bad_pi = ~np.all(np.isfinite(pi), axis=0)
-    if np.any(bad_pi):
-        raise ValueError(
-            f"fast_flow: trajectories {np.flatnonzero(bad_pi)[:10].tolist()} became non-finite before t = {tv} "
-            "(they reached the degenerate set Pi_1, vier12, or diverged); no point is dropped"
-        )
-    bad = ~np.all(np.isfinite(x), axis=0)
-    if np.any(bad):
-        raise ValueError(
-            f"fast_flow: no logarithm x(t) of g(t) found for trajectories {np.flatnonzero(bad)[:10].tolist()}"
-        )
+    return run(x0, pi0, tv)  # None: an entry not finite, or beyond MAX_MAGNITUDE (issue 30)
 
 
 def fast_flow(
@@ -368,16 +369,24 @@ def fast_flow(
     degenerate set (naming them), trajectories that reach it, and algebras whose representation
     cannot be built (:class:`refimpl._representation.RepresentationError`).
     """
+    if (  # the protocol call of one trajectory (issue 25): t, tol as _flow_one takes them
+        steps is None
+        and method_name is None
+        and not return_group
+        and (type(t) is float or type(t) is _NP_F64)
+        and type(tol) is float
+        and 0.0 < abs(t) < 256.0
+        and MIN_FLOW_TOL <= tol < math.inf
+    ):
+        one = _flow_one(cached_model(f, theta, upsilon, inertia, potential), x0, pi0, float(t), tol)
+        if one is not None:  # None: not that call (the general route below checks and refuses)
+            return one
     # plain float t: the exact conversion of check_time is the identity (the same checks, no mpmath)
     tv = float(t) if type(t) in (float, np.float64) and math.isfinite(t) else None
     tv = check_time(t, allow_negative=True) if tv is None else tv
     tol = tol if type(tol) is float and 0.0 < tol < math.inf else check_tolerance(tol)
     check_flow_request(tv, tol, steps, method_name, METHODS)  # issue 15 hook: the stated budget
     model = cached_model(f, theta, upsilon, inertia, potential)
-    if steps is None and method_name is None and not return_group and 0.0 < abs(tv) < 256.0:
-        one = _flow_one(model, x0, pi0, tv, tol)  # one trajectory (issue 25); None: not that call
-        if one is not None:
-            return one
     n = model.n
     xa, pa = _points(x0, pi0, n)
     if steps is None:  # issue 15 hook: refuse points too fast for the step-doubling budget
@@ -444,7 +453,7 @@ def fast_flow(
     # one sum when all is finite (a finite sum); the per-trajectory check only otherwise
     x, pi = out.x, out.pi
     if not (_finite_sum(pi) and _finite_sum(x)):
-        _check_finite(x, pi, tv)
+        check_finite(x, pi, tv)
     xs, ps = x.T.reshape(shape + (n,)), pi.T.reshape(shape + (n,))
     if return_group:
         g = out.get("g")
