@@ -107,12 +107,18 @@ update and the step norms are loops over index tables and the products run in ch
 A function of the call's inputs, so a call's result never depends on what ran before it."""
 
 
-GENERATED_MAX_PRODUCTS = 400
-"""Structures with more distinct Cauchy products than this (the free so(5) and sp(4, R) tops in the
-adjoint representation: 660; su(3): 140, se(3), so(4) fewer) run the generated kernel only from
-``N |t| >= GENERATED_MIN_WORK_LARGE``: its first compilation costs them 17 s of CPU (load 6), over
-issue 25's 10 s per structure, while the kernel compiled for every structure costs nothing per
-structure and about 2x per step. A function of the call's inputs and the structure."""
+GENERATED_MAX_PRODUCTS = 1000
+"""Structures with more distinct Cauchy products than this run the generated kernel only from
+``N |t| >= GENERATED_MIN_WORK_LARGE``; below it (the free so(5) and sp(4, R) tops in the adjoint
+representation: 660 products; su(3): 140, se(3), so(4) fewer) always. Was 400, when the generated
+kernel's first compilation cost so(5) 17 s of CPU (load 6); written as LLVM IR
+(:mod:`refimpl.codegen._full_state_ir`, issue 25, session 7) it costs 2.15 s, and the one-trajectory
+call of so(5) (the sweep's ``so5_free``, T = 1) runs 2.5x faster on it: 494 -> 197 us (one process
+each, CPU, best of 7 x 20, load 3.7), its fully cold first call (empty TSTARG_CACHE_DIR and
+NUMBA_CACHE_DIR) 7.80 -> 8.47 s, under issue 25's 10 s. 1000: the lane kernel's
+:data:`refimpl._full_state_batch.MAX_GENERATED_TERMS` (every product written out up to it); larger
+structures (none in the catalogue measured) keep the kernel compiled for every structure, about 2x
+slower per step and nothing to compile. A function of the call's inputs and the structure."""
 
 GENERATED_MIN_WORK_LARGE = 1024.0
 """``N |t|`` from which a structure above :data:`GENERATED_MAX_PRODUCTS` runs its generated kernel
