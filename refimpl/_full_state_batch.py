@@ -61,16 +61,21 @@ structure, :func:`adaptive_packed` (1.8 s once, then numba's disk cache), runs: 
 tables, slower per trajectory."""
 
 
-GENERATED_MIN_WORK = 1024.0
+GENERATED_MIN_WORK = 0.0
 """``N |T|`` (rows of one :func:`run` times the time span) from which a batch runs the lane kernel
-generated for its structure; below it, :func:`adaptive_packed` (compiled once for every structure),
-as the rational path's ``GENERATED_MIN_WORK``. The generated lane kernel's cold compilation is a cost
-per structure, repaid only by a long batch: with its order body in LLVM IR it is 1.4-1.7 s fully cold
-(the kernel alone, :data:`MAX_GENERATED_TERMS`; it was 5.8-9.1 s as numba Python), against 1.8 s
-once per installation for :func:`adaptive_packed`; a short batch (64 trajectories of the bench
-problems over ``T = 10``: 640) costs no compilation per structure once that is cached, and about 2x
-per trajectory. A function of the call's inputs, so a row's result never depends on what ran before
-it."""
+generated for its structure (up to :data:`MAX_GENERATED_TERMS`); below it, :func:`adaptive_packed`
+(compiled once for every structure). 0: every batch runs the generated one. Measured (warm, wall
+best, per trajectory at 3e-14, load 2.4-2.7; /work/scratch_ir2/minwork.py, machine-local): the
+generated kernel is 2.0-2.5x faster at every size, N = 4 at T = 1 to N = 64 at T = 10 (bianchi_cocycle
+3.2 -> 1.6 us and 22.5 -> 10.0 us, free_su3 8.7 -> 3.5 and 40.0 -> 15.8, kirchhoff_se3 7.4 -> 3.2 and
+77.8 -> 31.0); its cold compilation (0.9-1.4 s, the order body in LLVM IR) is now below
+:func:`adaptive_packed`'s (1.3-1.5 s). With the former 1024, a batch of 128 over ``T = 10`` compiled
+both (the control's short retry subsets took :func:`adaptive_packed`): fully cold batch first calls
+(tests/benchmarks/cold_first_call.py --mode cold, load 2.2-2.8) of 128 bianchi_cocycle 2.38 -> 1.18 s,
+free_su3 2.61 -> 1.35 s; of 64 1.42 -> 1.20 s, 1.37 -> 1.38 s. The cost: once numba's cache holds the
+package's functions, a short batch compiles its structure's lane kernel (about 1 s, then cached),
+where :func:`adaptive_packed` needed none. A function of the call's inputs, so a row's result never
+depends on what ran before it."""
 
 
 def applies(fs) -> bool:

@@ -164,8 +164,9 @@ def test_step_budget_is_reported_per_lane(fs):
 
 @needs_numba
 def test_short_batches_run_the_kernel_compiled_for_every_structure(fs, monkeypatch):
-    """Below ``N |T| = GENERATED_MIN_WORK`` a batch runs :func:`adaptive_packed` (no compilation per
-    structure), from it on the structure's generated lane kernel: the choice is seen, and the short
+    """By default (``GENERATED_MIN_WORK = 0``) every batch runs the structure's generated lane kernel;
+    with a threshold, below ``N |T| = GENERATED_MIN_WORK`` a batch runs :func:`adaptive_packed` (no
+    compilation per structure), from it on the generated one: the choice is seen, and the short
     batch's rows are the table-driven single kernel's (same step counts, rounding model above)."""
     model, f = fs
     seen = []
@@ -179,6 +180,10 @@ def test_short_batches_run_the_kernel_compiled_for_every_structure(fs, monkeypat
     monkeypatch.setattr(fsb, "kernel", spy)
     y = _states(f, model, W + 1, seed=13)
     T, tol = 1.2, 1e-12
+    fsb.run(f, y, T, tol, fs_mod.default_order(tol), 1)  # the default: the generated one
+    assert seen == [False]
+    seen.clear()
+    monkeypatch.setattr(fsb, "GENERATED_MIN_WORK", 1024.0)
     assert y.shape[0] * T < fsb.GENERATED_MIN_WORK <= 1000 * y.shape[0] * T
     P = fs_mod.default_order(tol)
     out, steps = fsb.run(f, y, T, tol, P, 10**7)

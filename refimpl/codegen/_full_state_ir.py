@@ -7,7 +7,7 @@ of the full state is hundreds of them (su(3): 26 derived rows, 140 Cauchy produc
 (1.2 s of it the product helpers'), lowering 1.0 s, LLVM about 0.8 s. The intrinsic ``_order(V, k,
 C)`` is one call for the front end; its ``codegen`` writes the order-``k`` body straight into the
 kernel's LLVM function, the operations of the former Python source in its evaluation order, each
-multiply-add that the ``contract`` flag let the back end fuse written as an ``llvm.fma``
+multiply-add that the ``contract`` flag let the back end fuse written as an ``llvm.fmuladd``
 (:class:`_FOps`: the same fusions on one lane and on many, so the pair kernel's lanes are the single
 kernel's runs bitwise):
 
@@ -60,7 +60,7 @@ __all__ = [
     "update_intrinsic",
 ]
 
-IR_VERSION = "2"
+IR_VERSION = "3"
 
 # the kinds of a state row's term (the spec's ``(kind, ci, x)``; ``x`` a product or a row)
 PLUS, MINUS, SCALED, LIN_CONST, LIN = range(5)
@@ -78,7 +78,7 @@ class _Mul:
 
 
 class _FOps(_Ops):
-    """:class:`_Ops` with the multiply-adds of the order bodies written as ``llvm.fma`` calls.
+    """:class:`_Ops` with the multiply-adds of the order bodies written as ``llvm.fmuladd`` calls.
 
     Why: with only the ``contract`` flag the back end chooses which ``fmul`` of a sum it fuses into
     the ``fadd`` (of ``a b + c d``: either ``fma(a, b, c d)`` or ``fma(c, d, a b)``), and it chose
@@ -90,7 +90,10 @@ class _FOps(_Ops):
     is left as an operand of an ``fadd`` or ``fsub`` for the back end to fuse."""
 
     def fma(self, a, b, c):
-        name = "llvm.fma." + ("f64" if self.lanes == 1 else f"v{self.lanes}f64")
+        """``a b + c`` as ``llvm.fmuladd``: one rounding where the target has fast FMA (x86 with
+        FMA3: every lane count alike), else a multiply and an add -- never a libm ``fma`` call
+        (``llvm.fma`` on a target without FMA would be one)."""
+        name = "llvm.fmuladd." + ("f64" if self.lanes == 1 else f"v{self.lanes}f64")
         fn = cgutils.get_or_insert_function(
             self.b.module, ir.FunctionType(self.ty, [self.ty] * 3), name
         )

@@ -7,10 +7,10 @@ What a new user waits for once per structure (issue 25's target: at most 10 s): 
 imports tstarg, builds the problem (untimed), then times one ``refimpl.fast.implementation.flow``
 call at its default accuracy -- generating, compiling and running that structure's kernels -- in CPU
 time (``time.process_time``) and wall time; then, in the same process, a first call of each batch
-size of ``--batch`` (perturbed starts; default 64, below the batch's work threshold
-:data:`refimpl._full_state_batch.GENERATED_MIN_WORK` over ``T = 10``, so the lane kernel shared by
-every structure runs, and ``auto``, the smallest power of two over it: the structure's generated
-lane kernel, the run included). Each child gets a fresh empty ``TSTARG_CACHE_DIR`` (the generated
+size of ``--batch`` (perturbed starts; default 64 and ``auto``, the smallest power of two (at least
+8) over the batch's work threshold :data:`refimpl._full_state_batch.GENERATED_MIN_WORK` over ``T =
+10``: from it the structure's generated lane kernel runs, below it the lane kernel shared by every
+structure; with the threshold 0 every batch runs the generated one; the run included). Each child gets a fresh empty ``TSTARG_CACHE_DIR`` (the generated
 kernels). Two modes (``--mode``, default both), two children per structure:
 
 * fully cold: a fresh empty ``NUMBA_CACHE_DIR`` too, so the figure includes the package's own
@@ -293,8 +293,8 @@ def main(argv=None) -> int:
         default="64,auto",
         help="first batch calls after the single one, in this order (comma-separated sizes; 0: "
         "none; auto: the smallest power of two over the batch's work threshold, so the structure's "
-        "generated lane kernel runs). 64 over T = 10 stays below it (the lane kernel shared by every "
-        "structure)",
+        "generated lane kernel runs; below the threshold the lane kernel shared by every structure "
+        "runs)",
     )
     ap.add_argument(
         "--mode",
@@ -320,8 +320,9 @@ def main(argv=None) -> int:
         "empty (a user's very first call: the package's own compiled functions, built once per",
         "installation and argument types, included). Numba-warm: the package's functions cached, the",
         "structure's generated kernels not (its cost per structure). Batch first calls: in the same",
-        "process after the single call, perturbed starts; below `N |T| = 1024` the lane kernel shared",
-        "by every structure runs, from it the structure's generated one (the run included).",
+        "process after the single call, perturbed starts; from `N |T| = GENERATED_MIN_WORK` on (of",
+        "refimpl._full_state_batch) the structure's generated lane kernel runs, below it the one",
+        "shared by every structure (the run included).",
     ]
     table = _table(rows, modes)
     table += [
