@@ -551,7 +551,7 @@ def _log_complete(fs: FullState, B, G, Ad, xs, ok, resid) -> None:
     (:class:`refimpl.flows._common._AbelianPart`; compiled for a real representation,
     :func:`refimpl._full_state_kernel.abelian_batch`); then ``resid = max |Ad(exp(x)) - Ad(g_B)|``
     (0 where no logarithm was found, ``x`` not finite: :func:`refimpl.flows._fast.fast_flow` names
-    those rows)."""
+    those rows; inf where ``x`` is finite but the residual is not, e.g. ``Ad(g_B)`` not finite)."""
     s = None if fs.abelian is None else B[:, fs.d - fs.n_ab :].T
     for j in np.flatnonzero(~ok):
         xs[j] = fs.rep.log(G[j], Ad[j])
@@ -567,7 +567,11 @@ def _log_complete(fs: FullState, B, G, Ad, xs, ok, resid) -> None:
                 if dev > ABELIAN_RTOL * max(1.0, float(np.max(np.abs(sj)))):
                     xs[j] = fs.abelian.refine(fs.rep, G[j], xs[j], sj)
     _fk.log_residual(xs, fs.mats, fs.proj, fs.cplx, Ad, resid)
-    resid[~np.isfinite(resid)] = 0.0
+    bad = ~np.isfinite(resid)
+    if bad.any():
+        xbad = ~np.all(np.isfinite(xs), axis=1)
+        resid[bad & xbad] = 0.0  # no logarithm (x not finite): refused by name after the control
+        resid[bad & ~xbad] = np.inf  # a finite x whose residual is unknown: no estimate passes
 
 
 def _floor_one(steps: int, n: int, size: float, kappa: float, resid: float) -> float:

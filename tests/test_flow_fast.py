@@ -431,3 +431,55 @@ def test_so5_one_trajectory_on_its_generated_kernel_agrees_with_the_shared_kerne
     assert np.isfinite(bound) and bound <= 2e-10
     assert np.max(np.abs(gen["pi"] - shared["pi"])) <= bound
     assert np.max(np.abs(gen["Ad"] - shared["Ad"])) <= bound
+
+
+def test_log_complete_keeps_an_unknown_residual_of_a_finite_x_infinite(monkeypatch):
+    """``_full_state._log_complete``: where the logarithm's residual comes out NaN or inf, a row whose
+    ``x`` is finite gets residual inf (its estimate can never pass) and only a row without a logarithm
+    (``x`` not finite, refused by name after the control) gets 0; finite residuals are kept."""
+    from tstarg.refimpl import _full_state as fs_mod
+    from tstarg.refimpl.flows import cached_model
+    from tstarg.refimpl.flows._common import _AbelianPart
+
+    alg = catalogue("so(4)")  # not exponential: no abelian step
+    z = np.zeros((6, 6))
+    fs = fs_mod.full_state(
+        cached_model(alg.f, z, z, np.diag(np.arange(1.0, 7.0)), None), _AbelianPart
+    )
+    assert fs.abelian is None
+
+    def residual(xs, mats, proj, cplx, Ad, resid):
+        resid[:] = [np.nan, np.inf, 3e-15, np.nan]
+
+    monkeypatch.setattr(fs_mod._fk, "log_residual", residual)
+    xs = np.zeros((4, 6))
+    xs[3, 2] = np.nan
+    resid = np.empty(4)
+    B = np.zeros((4, fs.d))
+    G = np.zeros((4, fs.r, fs.r), dtype=fs.mats.dtype)
+    fs_mod._log_complete(fs, B, G, np.zeros((4, 6, 6)), xs, np.ones(4, np.bool_), resid)
+    assert resid.tolist() == [np.inf, np.inf, 3e-15, 0.0]
+
+
+@pytest.mark.parametrize("N", [1, 2])
+def test_control_with_an_infinite_estimate_ends_without_floating_point_errors(N):
+    """``_flow_compiled._control`` whose runs measure ``|A - B| = inf`` and a floor of inf (a row that
+    can never pass) tightens to its floor and returns the estimate inf -- under
+    ``np.errstate(all="raise")`` too (no ``inf - inf`` on the way)."""
+    from tstarg.refimpl import _flow_compiled as fc
+
+    def run(y, t, eps, order=None):
+        return y.copy(), np.full(y.shape[0], 3, dtype=np.int64)
+
+    def estimate(A, B, n, out):
+        out[:] = np.inf
+
+    def floor(B, steps, kappa, rows):
+        return np.full(B.shape[0], np.inf)
+
+    with np.errstate(all="raise"):
+        _, est, _ = fc._control(
+            None, np.zeros((N, 7)), 1.0, 1e-6, 3, 1e-10, runner=(run, lambda e: 16),
+            estimate=estimate, floor=floor, reuse_last=True,
+        )  # fmt: skip
+    assert est.shape == (N,) and np.all(est == np.inf)
