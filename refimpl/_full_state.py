@@ -124,8 +124,8 @@ GENERATED_MIN_WORK_LARGE = 1024.0
 """``N |t|`` from which a structure above :data:`GENERATED_MAX_PRODUCTS` runs its generated kernel
 (as the rational path's ``GENERATED_MIN_WORK``)."""
 
-MAX_STEPS = 10_000_000
-"""The kernels' step budget per trajectory (status -3 beyond it)."""
+MAX_STEPS = _fsb.MAX_STEPS
+"""The kernels' step budget per trajectory (status -3 beyond it): :data:`refimpl._full_state_batch.MAX_STEPS`."""
 
 B_MAX = 2e-15
 """``B``'s largest local tolerance on the full state (the su(2) quaternion state's is
