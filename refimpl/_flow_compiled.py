@@ -777,7 +777,14 @@ def _control(
         # is kept: one run), else a tighter A (and B with it) by the observed excess, times 10
         moved = False
         for k in over.tolist():
-            eb_req = _grid_down((tol - fl[k]) * eps_a[k] / (PROP * max(d[k], 1e-300)) / 2)
+            # Python floats: no numpy floating-point error state (an inf floor or |A - B| takes no
+            # B-only retry: eb_req 0)
+            fk_, dk = float(fl[k]), float(d[k])
+            eb_req = (
+                _grid_down((tol - fk_) * float(eps_a[k]) / (PROP * max(dk, 1e-300)) / 2)
+                if fk_ < tol and dk < math.inf
+                else 0.0
+            )
             if (
                 eps_a[k] >= PROP_MIN_A
                 and prop_min_b <= eb_req < eps_b[k]

@@ -107,19 +107,25 @@ update and the step norms are loops over index tables and the products run in ch
 A function of the call's inputs, so a call's result never depends on what ran before it."""
 
 
-GENERATED_MAX_PRODUCTS = 400
-"""Structures with more distinct Cauchy products than this (the free so(5) and sp(4, R) tops in the
-adjoint representation: 660; su(3): 140, se(3), so(4) fewer) run the generated kernel only from
-``N |t| >= GENERATED_MIN_WORK_LARGE``: its first compilation costs them 17 s of CPU (load 6), over
-issue 25's 10 s per structure, while the kernel compiled for every structure costs nothing per
-structure and about 2x per step. A function of the call's inputs and the structure."""
+GENERATED_MAX_PRODUCTS = 1000
+"""Structures with more distinct Cauchy products than this run the generated kernel only from
+``N |t| >= GENERATED_MIN_WORK_LARGE``; below it (the free so(5) and sp(4, R) tops in the adjoint
+representation: 660 products; su(3): 140, se(3), so(4) fewer) always. Was 400, when the generated
+kernel's first compilation cost so(5) 17 s of CPU (load 6); written as LLVM IR
+(:mod:`refimpl.codegen._full_state_ir`, issue 25, session 7) it costs 2.15 s, and the one-trajectory
+call of so(5) (the sweep's ``so5_free``, T = 1) runs 2.5x faster on it: 494 -> 197 us (one process
+each, CPU, best of 7 x 20, load 3.7), its fully cold first call (empty TSTARG_CACHE_DIR and
+NUMBA_CACHE_DIR) 7.80 -> 8.47 s, under issue 25's 10 s. 1000: the lane kernel's
+:data:`refimpl._full_state_batch.MAX_GENERATED_TERMS` (every product written out up to it); larger
+structures (none in the catalogue measured) keep the kernel compiled for every structure, about 2x
+slower per step and nothing to compile. A function of the call's inputs and the structure."""
 
 GENERATED_MIN_WORK_LARGE = 1024.0
 """``N |t|`` from which a structure above :data:`GENERATED_MAX_PRODUCTS` runs its generated kernel
 (as the rational path's ``GENERATED_MIN_WORK``)."""
 
-MAX_STEPS = 10_000_000
-"""The kernels' step budget per trajectory (status -3 beyond it)."""
+MAX_STEPS = _fsb.MAX_STEPS
+"""The kernels' step budget per trajectory (status -3 beyond it): :data:`refimpl._full_state_batch.MAX_STEPS`."""
 
 B_MAX = 2e-15
 """``B``'s largest local tolerance on the full state (the su(2) quaternion state's is
@@ -545,7 +551,7 @@ def _log_complete(fs: FullState, B, G, Ad, xs, ok, resid) -> None:
     (:class:`refimpl.flows._common._AbelianPart`; compiled for a real representation,
     :func:`refimpl._full_state_kernel.abelian_batch`); then ``resid = max |Ad(exp(x)) - Ad(g_B)|``
     (0 where no logarithm was found, ``x`` not finite: :func:`refimpl.flows._fast.fast_flow` names
-    those rows)."""
+    those rows; inf where ``x`` is finite but the residual is not, e.g. ``Ad(g_B)`` not finite)."""
     s = None if fs.abelian is None else B[:, fs.d - fs.n_ab :].T
     for j in np.flatnonzero(~ok):
         xs[j] = fs.rep.log(G[j], Ad[j])
@@ -561,7 +567,11 @@ def _log_complete(fs: FullState, B, G, Ad, xs, ok, resid) -> None:
                 if dev > ABELIAN_RTOL * max(1.0, float(np.max(np.abs(sj)))):
                     xs[j] = fs.abelian.refine(fs.rep, G[j], xs[j], sj)
     _fk.log_residual(xs, fs.mats, fs.proj, fs.cplx, Ad, resid)
-    resid[~np.isfinite(resid)] = 0.0
+    bad = ~np.isfinite(resid)
+    if bad.any():
+        xbad = ~np.all(np.isfinite(xs), axis=1)
+        resid[bad & xbad] = 0.0  # no logarithm (x not finite): refused by name after the control
+        resid[bad & ~xbad] = np.inf  # a finite x whose residual is unknown: no estimate passes
 
 
 def _floor_one(steps: int, n: int, size: float, kappa: float, resid: float) -> float:

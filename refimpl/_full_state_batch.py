@@ -50,6 +50,11 @@ __all__ = [
     "run",
 ]
 
+MAX_STEPS = 10_000_000
+"""The full state's step budget per trajectory (status -3 beyond it): defined here, where the lane and
+pair kernels run, and :data:`refimpl._full_state.MAX_STEPS` is this (that module imports this one, so
+this one imports nothing of it)."""
+
 MAX_GENERATED_TERMS = 1000
 """The most terms (numbers) of the derived and state rows for which the lane kernel is generated per
 structure (:func:`refimpl.codegen.full_state_batch.batch_source`, every product written out in the
@@ -160,8 +165,6 @@ def pair_first(fs, y0, t: float, eps_a: float, eps_b: float, order_a: int, order
     operation for operation, for about the cost of the longer one. ``A``, ``B``: fresh (1, d) rows
     (NaN on failure); ``steps_a``, ``steps_b``: (1,) step counts (negative: the status). ``y0`` is
     only read."""
-    from ._full_state import MAX_STEPS  # the full state's step budget (imported here: no cycle)
-
     y = np.ascontiguousarray(y0, dtype=float)
     if y.ndim != 2 or y.shape != (1, fs.d):
         raise ValueError(f"pair_first: y0 must have shape (1, {fs.d}), got {y.shape}")

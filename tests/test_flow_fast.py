@@ -388,3 +388,98 @@ def test_full_state_floor_of_one_trajectory_is_inf_for_an_unknown_size():
     want = EPS * (4.0 * (4.0 + 3) * 2.5 + 30.0 * 7.0) + 1e-14
     assert abs(got - want) <= 4 * EPS * want
     assert _floor_one(9, 3, 0.5, 0.0, 0.0) == EPS * 4.0 * (3.0 + 3)
+
+
+def test_so5_one_trajectory_on_its_generated_kernel_agrees_with_the_shared_kernel(monkeypatch):
+    """so(5) (660 Cauchy products, under ``_full_state.GENERATED_MAX_PRODUCTS``): the protocol call of
+    one trajectory runs the structure's generated kernels (the pair, ``_pair_of``) and returns bit for
+    bit ``full_state_flow``'s answer; the kernel compiled for every structure (tables, another
+    implementation: ``GENERATED_MAX_PRODUCTS = 0``) gives ``pi`` and ``Ad(g)`` within the sum of the two
+    answers' error estimates (each bounds its own error)."""
+    from tstarg.refimpl import _full_state as fs_mod
+    from tstarg.refimpl.flows import cached_model
+    from tstarg.refimpl.flows._common import _AbelianPart
+
+    basis = []  # so(5): E_ij = e_i e_j^T - e_j e_i^T (i < j); f[k, a, b]: [E_a, E_b] = f^k_ab E_k
+    for i in range(5):
+        for j in range(i + 1, 5):
+            E = np.zeros((5, 5))
+            E[i, j], E[j, i] = 1.0, -1.0
+            basis.append(E)
+    n = len(basis)
+    M = np.array([E.ravel() for E in basis]).T
+    f = np.zeros((n, n, n))
+    for a in range(n):
+        for b in range(n):
+            f[:, a, b] = np.linalg.lstsq(M, (basis[a] @ basis[b] - basis[b] @ basis[a]).ravel())[0]
+    f = np.round(f)  # the constants are 0, +-1: exact
+    rng = np.random.default_rng(12)
+    Q, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    inertia = Q @ np.diag(rng.uniform(1.0, 3.0, n)) @ Q.T
+    x0, pi0 = 0.3 * rng.standard_normal(n), rng.standard_normal(n)
+    z = np.zeros((n, n))
+    model = cached_model(f, z, z, inertia, None)
+    assert 400 < fs_mod.full_state(model, _AbelianPart).n_products <= fs_mod.GENERATED_MAX_PRODUCTS
+    x, pi = fast_flow(f, z, z, inertia, None, x0, pi0, 0.5)
+    gen = fs_mod.full_state_flow(model, x0[:, None], pi0[:, None], 0.5, 1e-10, abelian=_AbelianPart)
+    assert np.array_equal(x, gen["x"][:, 0]) and np.array_equal(pi, gen["pi"][:, 0])
+    monkeypatch.setattr(fs_mod, "GENERATED_MAX_PRODUCTS", 0)
+    shared = fs_mod.full_state_flow(
+        model, x0[:, None], pi0[:, None], 0.5, 1e-10, abelian=_AbelianPart
+    )
+    bound = gen["error_estimate"][0] + shared["error_estimate"][0]
+    assert np.isfinite(bound) and bound <= 2e-10
+    assert np.max(np.abs(gen["pi"] - shared["pi"])) <= bound
+    assert np.max(np.abs(gen["Ad"] - shared["Ad"])) <= bound
+
+
+def test_log_complete_keeps_an_unknown_residual_of_a_finite_x_infinite(monkeypatch):
+    """``_full_state._log_complete``: where the logarithm's residual comes out NaN or inf, a row whose
+    ``x`` is finite gets residual inf (its estimate can never pass) and only a row without a logarithm
+    (``x`` not finite, refused by name after the control) gets 0; finite residuals are kept."""
+    from tstarg.refimpl import _full_state as fs_mod
+    from tstarg.refimpl.flows import cached_model
+    from tstarg.refimpl.flows._common import _AbelianPart
+
+    alg = catalogue("so(4)")  # not exponential: no abelian step
+    z = np.zeros((6, 6))
+    fs = fs_mod.full_state(
+        cached_model(alg.f, z, z, np.diag(np.arange(1.0, 7.0)), None), _AbelianPart
+    )
+    assert fs.abelian is None
+
+    def residual(xs, mats, proj, cplx, Ad, resid):
+        resid[:] = [np.nan, np.inf, 3e-15, np.nan]
+
+    monkeypatch.setattr(fs_mod._fk, "log_residual", residual)
+    xs = np.zeros((4, 6))
+    xs[3, 2] = np.nan
+    resid = np.empty(4)
+    B = np.zeros((4, fs.d))
+    G = np.zeros((4, fs.r, fs.r), dtype=fs.mats.dtype)
+    fs_mod._log_complete(fs, B, G, np.zeros((4, 6, 6)), xs, np.ones(4, np.bool_), resid)
+    assert resid.tolist() == [np.inf, np.inf, 3e-15, 0.0]
+
+
+@pytest.mark.parametrize("N", [1, 2])
+def test_control_with_an_infinite_estimate_ends_without_floating_point_errors(N):
+    """``_flow_compiled._control`` whose runs measure ``|A - B| = inf`` and a floor of inf (a row that
+    can never pass) tightens to its floor and returns the estimate inf -- under
+    ``np.errstate(all="raise")`` too (no ``inf - inf`` on the way)."""
+    from tstarg.refimpl import _flow_compiled as fc
+
+    def run(y, t, eps, order=None):
+        return y.copy(), np.full(y.shape[0], 3, dtype=np.int64)
+
+    def estimate(A, B, n, out):
+        out[:] = np.inf
+
+    def floor(B, steps, kappa, rows):
+        return np.full(B.shape[0], np.inf)
+
+    with np.errstate(all="raise"):
+        _, est, _ = fc._control(
+            None, np.zeros((N, 7)), 1.0, 1e-6, 3, 1e-10, runner=(run, lambda e: 16),
+            estimate=estimate, floor=floor, reuse_last=True,
+        )  # fmt: skip
+    assert est.shape == (N,) and np.all(est == np.inf)

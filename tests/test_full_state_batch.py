@@ -477,7 +477,9 @@ def test_pair_kernel_equals_two_single_runs(fs, monkeypatch):
     (ea, pa), (eb, pb) = runs
     sa1, sb1 = single(ea, pa)[1][0], single(eb, pb)[1][0]
     lo, hi = sorted((sa1, sb1))
-    monkeypatch.setattr(fs_mod, "MAX_STEPS", int(lo))
+    monkeypatch.setattr(
+        fsb, "MAX_STEPS", int(lo)
+    )  # pair_first's budget: _full_state_batch.MAX_STEPS
     A, B, sa, sb = fsb.pair_first(f, y, T, ea, eb, pa, pb)
     monkeypatch.undo()
     short_a = sa1 <= sb1

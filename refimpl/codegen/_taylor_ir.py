@@ -18,7 +18,8 @@ kernel's LLVM function with llvmlite, in the order and with the flags the Python
 The state and the coefficients travel as tuples of float64 (LLVM aggregates that SROA splits into
 registers), so the kernels' control (step size, time, bookkeeping) stays numba Python around three
 intrinsics built per structure from its spec (:func:`spec`): :func:`coefficients_intrinsic`,
-:func:`update_intrinsic` and, for the batch kernel's lane rows, :func:`rows_intrinsics`.
+:func:`update_intrinsic` and, for the batch kernel's lane rows, :func:`rows_coefficients_intrinsic`
+and :func:`rows_update_intrinsic`.
 
 The generated module text names :data:`IR_VERSION` (so its hash, the kernel's cache key, changes with
 the IR built here: numba's disk cache keys on the generated file, not on this module).
@@ -37,10 +38,10 @@ except ImportError:  # pragma: no cover - exercised only where numba is missing
 __all__ = [
     "IR_VERSION",
     "coefficients_intrinsic",
-    "lane_coefficients_intrinsic",
-    "lane_update_intrinsic",
     "lanes_coefficients_intrinsic",
     "lanes_update_intrinsic",
+    "rows_coefficients_intrinsic",
+    "rows_update_intrinsic",
     "spec",
     "update_intrinsic",
 ]
@@ -389,84 +390,89 @@ def lanes_update_intrinsic(sp, W: int):
     return update
 
 
-def _lane_ptr(context, builder, aryty, ary, wty, w, W: int):
-    """``row -> &B[row * W + w]`` for the flat float64 array ``B`` (no bounds check: the batch kernel
-    allocates ``B`` with every row)."""
-    data = context.make_array(aryty)(context, builder, ary).data
-    w = context.cast(builder, w, wty, types.intp)
-
-    def ptr(row):
-        return builder.gep(data, [builder.add(ir.Constant(w.type, row * W), w)], inbounds=True)
-
-    return ptr
-
-
 def _check_lanes(name, B):
     if not (isinstance(B, types.Array) and B.ndim == 1 and B.dtype == types.float64):
         raise TypeError(f"{name}: expects a 1-d float64 array, got {B}")
 
 
-def lane_update_intrinsic(sp, W: int, RY: int, RE: int, RC: int):
-    """The intrinsic ``lane_update(B, w, hs)``: :func:`_update` on lane ``w`` of the batch kernel's rows
-    (state ``B[(RY + c) W + w]``, carries ``B[(RE + c) W + w]``, coefficients from row ``RC`` in the
-    order of :func:`coefficients_intrinsic`), each component loaded, updated and stored in turn (all
-    loaded first, the lanes' code spilled more: 8 % slower on the heavy top)."""
-    P = sp[1]
-    var = variable_components(sp)
+def _rows_ptr(context, builder, aryty, ary, W: int):
+    """``row -> &B[row * W : (row + 1) * W]`` as a pointer to one vector of ``W`` float64 (the flat
+    float64 array ``B`` of the batch kernel; no bounds check: it is allocated with every row)."""
+    data = context.make_array(aryty)(context, builder, ary).data
+    vptr = ir.PointerType(ir.VectorType(_F64, W))
 
-    @intrinsic
-    def lane_update(typingctx, B, w, hs):
-        _check_lanes("lane_update", B)
+    def ptr(row):
+        p = builder.gep(data, [ir.Constant(ir.IntType(64), row * W)], inbounds=True)
+        return builder.bitcast(p, vptr)
 
-        def codegen(context, builder, sig, args):
-            ops = _Ops(builder)
-            at = _lane_ptr(context, builder, sig.args[0], args[0], sig.args[1], args[1], W)
-            h = context.cast(builder, args[2], sig.args[2], types.float64)
-            for vi, c in enumerate(var):
-                y, e = _update_one(
-                    ops,
-                    lambda c=c: builder.load(at(RY + c)),
-                    lambda c=c: builder.load(at(RE + c)),
-                    lambda k, vi=vi: builder.load(at(RC + vi * P + k - 1)),
-                    P,
-                    h,
-                )
-                builder.store(e, at(RE + c))
-                builder.store(y, at(RY + c))
-            return context.get_dummy_value()
-
-        return types.none(B, w, types.float64), codegen
-
-    return lane_update
+    return ptr
 
 
-def lane_coefficients_intrinsic(sp, W: int, RY: int, RC: int):
-    """The intrinsic ``lane_coefficients(B, w, Q, L)``: :func:`_coefficients` (chain sums) on lane ``w``
-    of the batch kernel's rows, the state read from ``B[(RY + c) W + w]``, the coefficients written
-    from row ``RC`` in the order of :func:`coefficients_intrinsic`, then the three norms after them
-    (computed after the coefficients are stored: computed before, with every coefficient still
-    live, the lanes' code spilled more, 6-9 % slower on the heavy top's batch)."""
+def rows_coefficients_intrinsic(sp, W: int, RY: int, RC: int):
+    """The intrinsic ``rows_coefficients(B, Q, L)``: :func:`_coefficients` (chain sums) on the ``W``
+    lanes of the batch kernel's rows at once, each row of ``B`` one vector of ``W`` float64 (each
+    lane's operations element by element): the state read from ``B[(RY + c) W : (RY + c + 1) W]``,
+    the coefficients written from row ``RC`` in the order of :func:`coefficients_intrinsic`, then
+    the three norms after them (computed after the coefficients are stored: computed before, with
+    every coefficient still live, the lanes' code spilled more, 6-9 % slower on the heavy top's
+    batch, measured on the former per-lane form)."""
     d = sp[0]
     nq, nl = len(sp[5]), len(sp[7])
 
     @intrinsic
-    def lane_coefficients(typingctx, B, w, Q, L):
-        _check_lanes("lane_coefficients", B)
-        _check_floats("lane_coefficients", Q, L)
+    def rows_coefficients(typingctx, B, Q, L):
+        _check_lanes("rows_coefficients", B)
+        _check_floats("rows_coefficients", Q, L)
 
         def codegen(context, builder, sig, args):
-            ops = _Ops(builder)
-            at = _lane_ptr(context, builder, sig.args[0], args[0], sig.args[1], args[1], W)
-            y0 = [builder.load(at(RY + c)) for c in range(d)]
-            C = _coefficients(
-                ops, sp, y0, _unpack(builder, args[2], nq), _unpack(builder, args[3], nl), True
-            )
+            ops = _Ops(builder, W)
+            at = _rows_ptr(context, builder, sig.args[0], args[0], W)
+            y0 = [builder.load(at(RY + c), align=8) for c in range(d)]
+            qv = [ops.splat(v) for v in _unpack(builder, args[1], nq)]
+            lv = [ops.splat(v) for v in _unpack(builder, args[2], nl)]
+            C = _coefficients(ops, sp, y0, qv, lv, True)
             for r, v in enumerate(C):
-                builder.store(v, at(RC + r))
+                builder.store(v, at(RC + r), align=8)
             for r, v in enumerate(_norms(ops, sp, y0, C)):
-                builder.store(v, at(RC + len(C) + r))
+                builder.store(v, at(RC + len(C) + r), align=8)
             return context.get_dummy_value()
 
-        return types.none(B, w, Q, L), codegen
+        return types.none(B, Q, L), codegen
 
-    return lane_coefficients
+    return rows_coefficients
+
+
+def rows_update_intrinsic(sp, W: int, RY: int, RE: int, RC: int, RH: int):
+    """The intrinsic ``rows_update(B)``: :func:`_update` on the ``W`` lanes of the batch kernel's rows
+    at once (state rows from ``RY``, carries from ``RE``, coefficients from ``RC`` in the order of
+    :func:`coefficients_intrinsic`, the lanes' signed steps in row ``RH``: 0 on an idle or failed
+    lane, which keeps its state), each component loaded, updated and stored in turn (all loaded
+    first, the lanes' code spilled more: 8 % slower on the heavy top, measured on the former
+    per-lane form)."""
+    P = sp[1]
+    var = variable_components(sp)
+
+    @intrinsic
+    def rows_update(typingctx, B):
+        _check_lanes("rows_update", B)
+
+        def codegen(context, builder, sig, args):
+            ops = _Ops(builder, W)
+            at = _rows_ptr(context, builder, sig.args[0], args[0], W)
+            h = builder.load(at(RH), align=8)
+            for vi, c in enumerate(var):
+                y, e = _update_one(
+                    ops,
+                    lambda c=c: builder.load(at(RY + c), align=8),
+                    lambda c=c: builder.load(at(RE + c), align=8),
+                    lambda k, vi=vi: builder.load(at(RC + vi * P + k - 1), align=8),
+                    P,
+                    h,
+                )
+                builder.store(e, at(RE + c), align=8)
+                builder.store(y, at(RY + c), align=8)
+            return context.get_dummy_value()
+
+        return types.none(B), codegen
+
+    return rows_update

@@ -332,12 +332,17 @@ def batch_source(cf, P: int, W: int = BATCH_WIDTH) -> str:
     Every lane keeps its own time, step size (its own Jorba-Zou control from its own coefficients),
     step count and compensation carries, exactly as the single-trajectory kernel does; a lane whose
     trajectory reaches ``T`` (or fails) is refilled with the next trajectory, so no trajectory's
-    steps are set by another's and no lane waits for the slowest. The per-lane work is written as
-    loops ``for w in range(W)`` over a flat scratch array ``B[row * W + w]`` (rows: state, carries,
-    coefficients, norms, step; read and written by the intrinsics of
-    :func:`refimpl.codegen._taylor_ir.rows_intrinsics`), which LLVM turns into SIMD instructions
-    across the lanes (the single kernel's recurrence and control on W trajectories at once); the
-    step-size control and the bookkeeping stay scalar.
+    steps are set by another's and no lane waits for the slowest. The lanes live in a flat scratch
+    array ``B[row * W + w]`` (rows: state, carries, coefficients, norms, step); the recurrence and the
+    update are one call each on all lanes, every row one vector of ``W`` float64
+    (:func:`refimpl.codegen._taylor_ir.rows_coefficients_intrinsic`,
+    :func:`refimpl.codegen._taylor_ir.rows_update_intrinsic`: each lane's operations those of the
+    per-lane intrinsics, element by element); the step-size control and the bookkeeping stay scalar
+    loops over the lanes. The former loop ``for w in range(W)`` over the per-lane intrinsics, left
+    to LLVM's loop vectoriser, gave the same results (bitwise, /work/scratch_ir2/abt.py,
+    machine-local) and cost more to compile and to run (fresh cache, wall best, load 2.4-2.6: heavy
+    off-diagonal gyrostat at order 19 compile 3.9 -> 1.2 s, 5.3 -> 4.4 us per trajectory; order 11
+    1.7 -> 0.9 s, 2.0 -> 1.85 us; Lagrange top order 19 0.88 -> 0.75 s, 2.27 -> 1.85 us).
 
     The Cauchy products and component sums are :func:`chain_sum` chains, not the single kernel's
     trees: the lanes already supply the independent work a tree exposes, and a chain is a third
@@ -360,8 +365,8 @@ def batch_source(cf, P: int, W: int = BATCH_WIDTH) -> str:
     RA1, RA2, RH = RX + 1, RX + 2, RX + 3
     R = RX + 4
     head += [
-        f"_lane_coefficients = _taylor_ir.lane_coefficients_intrinsic(SPEC, {W}, {RY}, {RC})",
-        f"_lane_update = _taylor_ir.lane_update_intrinsic(SPEC, {W}, {RY}, {RE}, {RC})",
+        f"_rows_coefficients = _taylor_ir.rows_coefficients_intrinsic(SPEC, {W}, {RY}, {RC})",
+        f"_rows_update = _taylor_ir.rows_update_intrinsic(SPEC, {W}, {RY}, {RE}, {RC}, {RH})",
     ]
 
     def at(row):
@@ -385,7 +390,7 @@ def batch_source(cf, P: int, W: int = BATCH_WIDTH) -> str:
     src += [I3 + f"{at(RY + c)} = y0[nxt, {c}]" for c in range(d)]
     src += [I3 + "nxt += 1", I3 + "active += 1", I1 + "while active > 0:"]
     # 1. coefficients and norms, all lanes (SIMD)
-    src += [I2 + f"for w in range({W}):", I3 + "_lane_coefficients(B, w, Q, L)"]
+    src += [I2 + "_rows_coefficients(B, Q, L)"]
     # 2. step sizes, per lane (scalar: logarithms and branches)
     src += [
         I2 + f"for w in range({W}):",
@@ -405,10 +410,7 @@ def batch_source(cf, P: int, W: int = BATCH_WIDTH) -> str:
         I3 + f"{at(RH)} = sgn * h",
     ]
     # 3. Horner and the compensated update, all lanes (SIMD)
-    src += [
-        I2 + f"for w in range({W}):",
-        I3 + f"_lane_update(B, w, {at(RH)})",
-    ]
+    src += [I2 + "_rows_update(B)"]
     # 4. bookkeeping, per lane: a finished or failed trajectory is written out and its lane refilled
     fin = " and ".join(f"math.isfinite({at(RY + c)})" for c in var) or "True"
     src += [
