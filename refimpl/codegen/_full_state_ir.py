@@ -364,6 +364,33 @@ def lanes_order_intrinsic(sp, W: int):
     return order
 
 
+def _horner_update(builder, ops, nrows, at, cat, h, pp):
+    """The compensated Horner update's IR on ``nrows`` rows, addressed by ``at(c, col)`` (the row's
+    coefficient of order ``col``) and ``cat(c)`` (its carry): ``z = V[P]``, ``z = z h + V[kk]`` for
+    ``kk = P - 1 .. 1`` (the rows' chains side by side in one loop), ``z = z h - comp``, ``w = V[0] +
+    z``, ``comp = (w - V[0]) - z``, ``V[0] = w``; returns the i1 ``every w finite``. One emitter for
+    :func:`update_intrinsic` and the pair kernel's lane update (their addressing differs, not their
+    arithmetic)."""
+    i64 = ir.IntType(64)
+    zs = [cgutils.alloca_once_value(builder, builder.load(at(c, pp))) for c in range(nrows)]
+    top = builder.sub(pp, ir.Constant(i64, 1))  # kk = P - 1 - j, j = 0 .. P - 2
+    with cgutils.for_range(builder, top) as loop:
+        kk = builder.sub(top, loop.index)
+        for c, z in enumerate(zs):
+            builder.store(ops.add(ops.mul(builder.load(z), h), builder.load(at(c, kk))), z)
+    fin = cgutils.true_bit
+    inf = ops.const(float("inf"))
+    zero = ir.Constant(i64, 0)
+    for c, z in enumerate(zs):
+        zz = ops.sub(ops.mul(builder.load(z), h), builder.load(cat(c)))
+        y = builder.load(at(c, zero))
+        w = ops.add(y, zz)
+        builder.store(ops.sub(ops.sub(w, y), zz), cat(c))
+        builder.store(w, at(c, zero))
+        fin = builder.and_(fin, builder.fcmp_ordered("<", ops.abs(w), inf))
+    return fin
+
+
 def update_intrinsic(rows):
     """The intrinsic ``fin = update(V, comp, hs, P)``: the compensated Horner update of the kernel's
     step on the rows ``rows`` of ``V`` (``(rows, P + 1)``, C order), row ``rows[c]`` with the carry
@@ -398,26 +425,7 @@ def update_intrinsic(rows):
             def cat(c):
                 return builder.gep(cdata, [ir.Constant(i64, c)], inbounds=True)
 
-            zs = [
-                cgutils.alloca_once_value(builder, builder.load(at(c, pp)))
-                for c in range(len(rows))
-            ]
-            top = builder.sub(pp, ir.Constant(i64, 1))  # kk = P - 1 - j, j = 0 .. P - 2
-            with cgutils.for_range(builder, top) as loop:
-                kk = builder.sub(top, loop.index)
-                for c, z in enumerate(zs):
-                    builder.store(ops.add(ops.mul(builder.load(z), h), builder.load(at(c, kk))), z)
-            fin = cgutils.true_bit
-            inf = ops.const(float("inf"))
-            zero = ir.Constant(i64, 0)
-            for c, z in enumerate(zs):
-                zz = ops.sub(ops.mul(builder.load(z), h), builder.load(cat(c)))
-                y = builder.load(at(c, zero))
-                w = ops.add(y, zz)
-                builder.store(ops.sub(ops.sub(w, y), zz), cat(c))
-                builder.store(w, at(c, zero))
-                fin = builder.and_(fin, builder.fcmp_ordered("<", ops.abs(w), inf))
-            return fin
+            return _horner_update(builder, ops, len(rows), at, cat, h, pp)
 
         return types.boolean(V, comp, hs, P), codegen
 
@@ -467,26 +475,7 @@ def lane_update_intrinsic(rows, W: int):
                 off = builder.add(ir.Constant(i64, c * W), ln)
                 return builder.gep(cdata, [off], inbounds=True)
 
-            zs = [
-                cgutils.alloca_once_value(builder, builder.load(at(c, pp)))
-                for c in range(len(rows))
-            ]
-            top = builder.sub(pp, ir.Constant(i64, 1))  # kk = P - 1 - j, j = 0 .. P - 2
-            with cgutils.for_range(builder, top) as loop:
-                kk = builder.sub(top, loop.index)
-                for c, z in enumerate(zs):
-                    builder.store(ops.add(ops.mul(builder.load(z), h), builder.load(at(c, kk))), z)
-            fin = cgutils.true_bit
-            inf = ops.const(float("inf"))
-            zero = ir.Constant(i64, 0)
-            for c, z in enumerate(zs):
-                zz = ops.sub(ops.mul(builder.load(z), h), builder.load(cat(c)))
-                y = builder.load(at(c, zero))
-                w = ops.add(y, zz)
-                builder.store(ops.sub(ops.sub(w, y), zz), cat(c))
-                builder.store(w, at(c, zero))
-                fin = builder.and_(fin, builder.fcmp_ordered("<", ops.abs(w), inf))
-            return fin
+            return _horner_update(builder, ops, len(rows), at, cat, h, pp)
 
         return types.boolean(V, comp, hs, P, l), codegen
 
