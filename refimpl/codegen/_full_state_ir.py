@@ -158,6 +158,87 @@ def load_intrinsic(ncoef: int):
     return load
 
 
+def _check_order_args(V, k, C, ncoef: int, ndim: int) -> None:
+    _check_array("order", V, ndim)
+    if not (
+        isinstance(k, types.Integer)
+        and isinstance(C, types.BaseTuple)
+        and len(C) == ncoef
+        and all(t == types.float64 for t in C.types)
+    ):
+        raise TypeError(f"order: expects (V, int, {ncoef} float64), got ({V}, {k}, {C})")
+
+
+def _order_body(builder, ops, c, sp, kk, kp1, handle, load, store, preload: bool) -> None:
+    """The IR of one order ``k`` of the recurrence, the one body of :func:`order_intrinsic` (one
+    trajectory) and :func:`lanes_order_intrinsic` (``W`` lanes): they differ only in addressing and
+    share every operation and its order, which keeps a lane bitwise the single kernel's run.
+    ``handle(kv)``: the address base of order ``kv``; ``load(row, h)`` / ``store(value, row, h)``: a
+    row's value (or vector of lanes) at order base ``h``; ``c``: the coefficients (splat on lanes).
+    ``preload``: a chunk's factors all loaded before its multiply-adds (else each as first needed;
+    the loads' order only, not the arithmetic)."""
+    _, derived, chunks, consts, state = sp
+    zero = ir.Constant(ir.IntType(64), 0)  # order 0: column 0, offset 0
+    hk, hk1 = handle(kk), handle(kp1)
+    # derived rows: Omega_k, then M_k
+    for row, terms in derived:
+        v = ops.ftree([lambda ci=ci, s=s: _Mul(c[ci], load(s, hk)) for ci, s in terms])
+        store(ops.val(v), row, hk)
+    # general products, a loop over a per chunk, each distinct factor loaded once per a
+    prod: dict[int, object] = {}
+    for chunk in chunks:
+        accs = [cgutils.alloca_once_value(builder, ops.zero) for _ in chunk]
+        with cgutils.for_range(builder, kp1) as loop:
+            ha = handle(loop.index)
+            hb = handle(builder.sub(kk, loop.index))
+            fu, fw = {}, {}
+            if preload:
+                for _, u, w in chunk:
+                    fu.setdefault(u, None)
+                    fw.setdefault(w, None)
+                for u in fu:
+                    fu[u] = load(u, ha)
+                for w in fw:
+                    fw[w] = load(w, hb)
+            for (_, u, w), acc in zip(chunk, accs):
+                if fu.get(u) is None:
+                    fu[u] = load(u, ha)
+                if fw.get(w) is None:
+                    fw[w] = load(w, hb)
+                builder.store(ops.fma(fu[u], fw[w], builder.load(acc)), acc)
+        for (p, _, _), acc in zip(chunk, accs):
+            prod[p] = builder.load(acc)
+    # products with a constant factor
+    is0 = builder.icmp_signed("==", kk, zero)
+    for p, u, w, cls in consts:
+        if cls == BOTH_CONST:
+            prod[p] = builder.select(is0, ops.mul(load(u, zero), load(w, zero)), ops.zero)
+        elif cls == U_CONST:
+            prod[p] = _Mul(load(u, zero), load(w, hk))
+        else:
+            prod[p] = _Mul(load(u, hk), load(w, zero))
+    ik = ops.splat(  # 1.0 / (k + 1)
+        builder.fdiv(ir.Constant(_F64, 1.0), builder.sitofp(kp1, _F64), flags=("contract",))
+    )
+
+    def term(kind, ci, x):
+        if kind == PLUS:
+            return lambda: prod[x]
+        if kind == MINUS:
+            return lambda: ops.neg(prod[x])
+        if kind == SCALED:
+            return lambda: _Mul(c[ci], ops.val(prod[x]))
+        if kind == LIN_CONST:
+            return lambda: builder.select(is0, ops.mul(c[ci], load(x, zero)), ops.zero)
+        if kind == LIN:
+            return lambda: _Mul(c[ci], load(x, hk))
+        raise ValueError(f"order: term kind {kind}")
+
+    for row, terms in state:
+        v = ops.val(ops.ftree([term(*t) for t in terms])) if terms else ops.zero
+        store(ops.mul(v, ik), row, hk1)
+
+
 def order_intrinsic(sp):
     """The intrinsic ``order(V, k, C)``: the order-``k`` body of the recurrence (module docstring) on
     the coefficient rows ``V`` (``(rows, P + 1)``, C order), ``C`` the tuple of :func:`load_intrinsic`.
@@ -176,17 +257,9 @@ def order_intrinsic(sp):
 
     @intrinsic
     def order(typingctx, V, k, C):
-        _check_array("order", V, 2)
-        if not (
-            isinstance(k, types.Integer)
-            and isinstance(C, types.BaseTuple)
-            and len(C) == ncoef
-            and all(t == types.float64 for t in C.types)
-        ):
-            raise TypeError(f"order: expects (V, int, {ncoef} float64), got ({V}, {k}, {C})")
+        _check_order_args(V, k, C, ncoef, 2)
 
         def codegen(context, builder, sig, args):
-            ops = _FOps(builder)
             i64 = ir.IntType(64)
             arr = context.make_array(sig.args[0])(context, builder, args[0])
             data = arr.data
@@ -200,61 +273,18 @@ def order_intrinsic(sp):
             def at(row, col):  # &V[row, col]
                 return builder.gep(data, [builder.add(base[row], col)], inbounds=True)
 
-            def load(row, col):
-                return builder.load(at(row, col))
-
-            zero_col = ir.Constant(i64, 0)
-            # derived rows: Omega_k, then M_k
-            for row, terms in derived:
-                v = ops.ftree([lambda ci=ci, s=s: _Mul(c[ci], load(s, kk)) for ci, s in terms])
-                builder.store(ops.val(v), at(row, kk))
-            # general products, a loop over a per chunk
-            prod: dict[int, object] = {}
-            kp1 = builder.add(kk, ir.Constant(i64, 1))
-            for chunk in chunks:
-                accs = [cgutils.alloca_once_value(builder, ops.zero) for _ in chunk]
-                with cgutils.for_range(builder, kp1) as loop:
-                    a = loop.index
-                    b = builder.sub(kk, a)
-                    fu = {u: None for _, u, _ in chunk}
-                    fw = {w: None for _, _, w in chunk}
-                    for u in fu:
-                        fu[u] = load(u, a)
-                    for w in fw:
-                        fw[w] = load(w, b)
-                    for (_, u, w), acc in zip(chunk, accs):
-                        builder.store(ops.fma(fu[u], fw[w], builder.load(acc)), acc)
-                for (p, _, _), acc in zip(chunk, accs):
-                    prod[p] = builder.load(acc)
-            # products with a constant factor
-            is0 = builder.icmp_signed("==", kk, zero_col)
-            for p, u, w, cls in consts:
-                if cls == BOTH_CONST:
-                    prod[p] = builder.select(
-                        is0, ops.mul(load(u, zero_col), load(w, zero_col)), ops.zero
-                    )
-                elif cls == U_CONST:
-                    prod[p] = _Mul(load(u, zero_col), load(w, kk))
-                else:
-                    prod[p] = _Mul(load(u, kk), load(w, zero_col))
-            ik = builder.fdiv(
-                ops.const(1.0), builder.sitofp(kp1, ops.ty), flags=("contract",)
-            )  # 1.0 / (k + 1)
-
-            def term(kind, ci, x):
-                if kind == PLUS:
-                    return lambda: prod[x]
-                if kind == MINUS:
-                    return lambda: ops.neg(prod[x])
-                if kind == SCALED:
-                    return lambda: _Mul(c[ci], ops.val(prod[x]))
-                if kind == LIN_CONST:
-                    return lambda: builder.select(is0, ops.mul(c[ci], load(x, zero_col)), ops.zero)
-                return lambda: _Mul(c[ci], load(x, kk))
-
-            for row, terms in state:
-                s = ops.val(ops.ftree([term(*t) for t in terms])) if terms else ops.zero
-                builder.store(ops.mul(s, ik), at(row, kp1))
+            _order_body(
+                builder,
+                _FOps(builder),
+                c,
+                sp,
+                kk,
+                builder.add(kk, ir.Constant(i64, 1)),
+                handle=lambda kv: kv,  # the column of order kv
+                load=lambda row, col: builder.load(at(row, col)),
+                store=lambda v, row, col: builder.store(v, at(row, col)),
+                preload=True,
+            )
             return context.get_dummy_value()
 
         return types.none(V, k, C), codegen
@@ -275,18 +305,11 @@ def lanes_order_intrinsic(sp, W: int):
     chunks as groups), ``groups`` the general products summed
     side by side in one loop over ``a`` (each distinct factor row loaded once per ``a``). The products
     stay values (never stored into ``V``)."""
-    ncoef, derived, groups, consts, state = sp
+    ncoef = sp[0]
 
     @intrinsic
     def order(typingctx, V, k, C):
-        _check_array("order", V, 3)
-        if not (
-            isinstance(k, types.Integer)
-            and isinstance(C, types.BaseTuple)
-            and len(C) == ncoef
-            and all(t == types.float64 for t in C.types)
-        ):
-            raise TypeError(f"order: expects (V, int, {ncoef} float64), got ({V}, {k}, {C})")
+        _check_order_args(V, k, C, ncoef, 3)
 
         def codegen(context, builder, sig, args):
             ops = _FOps(builder, W)
@@ -300,63 +323,22 @@ def lanes_order_intrinsic(sp, W: int):
             c = [ops.splat(x) for x in _unpack(builder, args[2], ncoef)]
             stride = builder.mul(nrow, ir.Constant(i64, W))  # one order's floats
 
-            def base(kv):  # offset of V[kv, 0, 0]
-                return builder.mul(kv, stride)
-
-            def at(off, row):  # the W lanes of V[., row, :] (off: base of the order)
+            def at(row, off):  # the W lanes of V[., row, :] (off: base of the order)
                 p = builder.gep(data, [builder.add(off, ir.Constant(i64, row * W))], inbounds=True)
                 return builder.bitcast(p, vptr)
 
-            def load(off, row):
-                return builder.load(at(off, row), align=8)
-
-            o0, ok, ok1 = ir.Constant(i64, 0), base(kk), base(kp1)
-            for row, terms in derived:
-                v = ops.ftree([lambda ci=ci, s=s: _Mul(c[ci], load(ok, s)) for ci, s in terms])
-                builder.store(ops.val(v), at(ok, row), align=8)
-            prod: dict[int, object] = {}
-            for grp in groups:
-                accs = [cgutils.alloca_once_value(builder, ops.zero) for _ in grp]
-                with cgutils.for_range(builder, kp1) as loop:
-                    oa = base(loop.index)
-                    ob = base(builder.sub(kk, loop.index))
-                    fu, fw = {}, {}
-                    for (_, u, w), acc in zip(grp, accs):
-                        if u not in fu:
-                            fu[u] = load(oa, u)
-                        if w not in fw:
-                            fw[w] = load(ob, w)
-                        builder.store(ops.fma(fu[u], fw[w], builder.load(acc)), acc)
-                for (p, _, _), acc in zip(grp, accs):
-                    prod[p] = builder.load(acc)
-            is0 = builder.icmp_signed("==", kk, o0)
-            for p, u, w, cls in consts:
-                if cls == BOTH_CONST:
-                    prod[p] = builder.select(is0, ops.mul(load(o0, u), load(o0, w)), ops.zero)
-                elif cls == U_CONST:
-                    prod[p] = _Mul(load(o0, u), load(ok, w))
-                else:
-                    prod[p] = _Mul(load(ok, u), load(o0, w))
-            ik = ops.splat(
-                builder.fdiv(ir.Constant(_F64, 1.0), builder.sitofp(kp1, _F64), flags=("contract",))
+            _order_body(
+                builder,
+                ops,
+                c,
+                sp,
+                kk,
+                kp1,
+                handle=lambda kv: builder.mul(kv, stride),  # offset of V[kv, 0, 0]
+                load=lambda row, off: builder.load(at(row, off), align=8),
+                store=lambda v, row, off: builder.store(v, at(row, off), align=8),
+                preload=False,
             )
-
-            def term(kind, ci, x):
-                if kind == PLUS:  # the single kernel's spec (the pair kernel's lanes)
-                    return lambda: prod[x]
-                if kind == MINUS:
-                    return lambda: ops.neg(prod[x])
-                if kind == SCALED:
-                    return lambda: _Mul(c[ci], ops.val(prod[x]))
-                if kind == LIN_CONST:
-                    return lambda: builder.select(is0, ops.mul(c[ci], load(o0, x)), ops.zero)
-                if kind == LIN:
-                    return lambda: _Mul(c[ci], load(ok, x))
-                raise ValueError(f"lanes order: term kind {kind}")
-
-            for row, terms in state:
-                s = ops.val(ops.ftree([term(*t) for t in terms])) if terms else ops.zero
-                builder.store(ops.mul(s, ik), at(ok1, row), align=8)
             return context.get_dummy_value()
 
         return types.none(V, k, C), codegen
