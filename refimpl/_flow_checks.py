@@ -88,6 +88,19 @@ else:
         return pmax
 
 
+def admitted(pmax: float, pi0, t, limits) -> bool:
+    """Whether one trajectory's start, read by a runner's compiled loader (:func:`load_point`, the
+    su(2) runner's ``_load_start``: ``pmax = max |pi0|``, or -1.0), goes on: False where an entry is
+    not finite or beyond the bound (the general route then refuses it by name, issue 30); else after
+    the caller's rates check ``rates(pi0, t, pmax)`` of ``limits = (free, rates)``, run only where
+    ``pmax > free`` (below ``free`` it passes at every ``t``). One rule for every runner."""
+    if pmax < 0.0:
+        return False
+    if not pmax <= limits[0]:
+        limits[1](pi0, t, pmax)
+    return True
+
+
 def check_finite(x, pi, tv: float) -> None:
     """Trajectories (columns of ``x``, ``pi`` (n, N)) not finite at ``tv`` are refused, by index (the
     flows' last check, :func:`refimpl.flows.fast_flow`)."""

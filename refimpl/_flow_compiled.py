@@ -48,7 +48,7 @@ import numpy as np
 from . import _compiled_rational as _cr
 from . import _compiled_taylor as _ct
 from . import _fast_kernels as _fast
-from ._flow_checks import finite_one, point_max
+from ._flow_checks import admitted, finite_one, point_max
 from ._validate import MAX_MAGNITUDE
 
 __all__ = [
@@ -562,7 +562,6 @@ def _one_runner(model, tol, eps_a, eps_b, pair, qcoef, lcoef, limits):
     grav = model.gravity
     gamma = model.gamma if grav else _NO_GAMMA
     d = n + (n if grav else 0) + 4
-    free, rates = limits
     pool = []
     empty, i64 = np.empty, np.int64
     pair_, finish = pair, _finish_one
@@ -582,12 +581,9 @@ def _one_runner(model, tol, eps_a, eps_b, pair, qcoef, lcoef, limits):
                 empty(1),
             )
         y0, A, B, sA, sB, est = s
-        pmax = _load_start(x0, pi0, gamma, grav, y0, MAX_MAGNITUDE)
-        if pmax < 0.0:  # issue 30: not finite, or |v| > MAX_MAGNITUDE
+        if not admitted(_load_start(x0, pi0, gamma, grav, y0, MAX_MAGNITUDE), pi0, t, limits):
             pool.append(s)
             return None
-        if not pmax <= free:
-            rates(pi0, t, pmax)
         pair_(y0, t, eps_a, eps_b, MAX_STEPS, qcoef, lcoef, A, B, sA, sB)
         x = empty((n, 1))
         status = finish(A, B, n, est, x, sA, sB)

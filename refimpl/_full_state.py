@@ -77,7 +77,7 @@ import numpy as np
 from . import _compiled_taylor as _ct
 from . import _full_state_batch as _fsb
 from . import _full_state_kernel as _fk
-from ._flow_checks import finite_one, load_point
+from ._flow_checks import admitted, finite_one, load_point
 from ._flow_compiled import (
     A_LOOSE_FROM,
     PROP_MAX_D,
@@ -695,17 +695,13 @@ def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None)):
     elsewhere it calls :func:`_solve`."""
     fs = full_state(model, abelian)
     n, d, consts, start = fs.n, fs.d, fs.start_consts, _fk.start
-    free, rates = limits
 
     if not _protocol_pair(fs, tol):
 
         def run(x0, pi0, t):
             X, P = np.empty((n, 1)), np.empty((n, 1))
-            pmax = load_point(x0, pi0, X, P, MAX_MAGNITUDE)
-            if pmax < 0.0:  # issue 30: not finite, or |v| > MAX_MAGNITUDE
+            if not admitted(load_point(x0, pi0, X, P, MAX_MAGNITUDE), pi0, t, limits):
                 return None
-            if not pmax <= free:
-                rates(pi0, t, pmax)
             y0 = np.empty((1, d))
             start(X, P, *consts, y0)
             B, _, _, ans = _solve(fs, model, y0, t, tol, None)
@@ -722,12 +718,9 @@ def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None)):
             s, X, P = pool.pop()
         except IndexError:  # none free (the first call, or one running in another thread)
             s, X, P = _scratch(fs), np.empty((n, 1)), np.empty((n, 1))
-        pmax = load_point(x0, pi0, X, P, MAX_MAGNITUDE)
-        if pmax < 0.0:  # issue 30: not finite, or |v| > MAX_MAGNITUDE
+        if not admitted(load_point(x0, pi0, X, P, MAX_MAGNITUDE), pi0, t, limits):
             pool.append((s, X, P))
             return None
-        if not pmax <= free:
-            rates(pi0, t, pmax)
         y0 = s[0]
         start(X, P, *consts, y0)
         if start is _fk.start:  # the first call: the entry point of the types it used

@@ -21,7 +21,7 @@ import numpy as np
 from .. import _fast_kernels as _fast
 from .. import _full_state, _full_state_rational
 from .._algebra import LieAlgebra
-from .._flow_checks import check_finite, check_time, finite_one, load_point
+from .._flow_checks import admitted, check_finite, check_time, finite_one, load_point
 from .._flow_compiled import (
     compiled_taylor_flow,
     compiled_taylor_samples,
@@ -276,15 +276,12 @@ def _one_runner(model: NumpyModel, tol: float):
     )
     if run is not None or not route:
         return run
-    n, free = model.n, limits[0]
+    n = model.n
 
     def run(x0, pi0, tv):
         X, P = np.empty((n, 1)), np.empty((n, 1))
-        pmax = load_point(x0, pi0, X, P, MAX_MAGNITUDE)
-        if pmax < 0.0:  # issue 30: not finite, or |v| > MAX_MAGNITUDE
+        if not admitted(load_point(x0, pi0, X, P, MAX_MAGNITUDE), pi0, tv, limits):
             return None
-        if not pmax <= free:
-            rates(pi0, tv, pmax)
         _check_start(model, P)  # Upsilon != 0: the start off the degenerate set
         out = (
             _full_state_rational.rational_full_state_flow(
