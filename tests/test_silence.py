@@ -148,3 +148,18 @@ def test_verify_full_run_is_never_silent(tmp_path):
     for name in ("paper_claims", "mutation_kill_rate", "speed.flow[heavy_top]", "qutip_attitude"):
         assert f"] {name}: " in out, name
     assert _worst_gap(times) <= MAX_GAP, (_worst_gap(times), out[-4000:])
+
+
+def test_a_mutants_failure_is_not_printed_as_a_verdict(capfd):
+    """verify's mutation_kill_rate certifies planted mutants, whose FAIL is the expected outcome:
+    under the command line's budgets (a shrinking budget set, where certify announces its verdict)
+    the mutant's run printed "tstarg certify: verdict FAIL: ..." lines, 36 of them in one green
+    ``tstarg verify``, to a reader who then took them for failures."""
+    from tstarg.properties import runner
+    from tstarg.reports.certification.run import _certify_mutant
+
+    with runner.limits(shrink_seconds=5.0):
+        killed = not _certify_mutant(("f_sign", 3, 0))
+    out = capfd.readouterr().out
+    assert killed  # the mutant did fail: there was a verdict to keep quiet
+    assert "verdict FAIL" not in out, out
