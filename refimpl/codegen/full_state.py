@@ -52,6 +52,15 @@ compile time unchanged (su(3) 3.9-4.0 s). So ordered, 8, 16 or 32 per loop are a
 same multiply-adds in the same order)."""
 
 
+PACK_LANES = 4
+"""General products per vector in the single kernel's order body (:func:`refimpl.codegen.
+_full_state_ir.order_intrinsic`, :func:`refimpl.codegen._full_state_ir.pack_plan`); the pair
+kernel's vectors hold ``PACK_LANES // 2`` products on its two runs' lanes."""
+
+PACK_LOOP = 8
+"""Vectors of products summed side by side in one loop over ``a`` (one vector accumulator each)."""
+
+
 def spec(fs) -> tuple:
     """The structure of ``fs``'s recurrence as the literal ``SPEC`` of the order intrinsic
     (:func:`refimpl.codegen._full_state_ir.order_intrinsic`) and the kernel's rows: ``(SPEC, nv, VR,
@@ -121,6 +130,8 @@ def full_state_source(fs) -> str:
     ``fs`` (a :class:`refimpl._full_state.FullState`)."""
     sp, nv, vrows, srows = spec(fs)
     I1, I2, I3, I4 = ("    " * i for i in range(1, 5))
+    W, per_loop = PACK_LANES, PACK_LOOP
+    ns1 = ir.pack_streams(sp, W, per_loop)
 
     def amax(k):  # max |V[row, k]| over the step rows: one loop over the table SR
         # order 0 as the run-time K0, not a literal: numba types a literal 0 as Literal[int] and
@@ -151,10 +162,10 @@ def full_state_source(fs) -> str:
         f"# the structure (refimpl.codegen.full_state.spec, IR version {ir.IR_VERSION}): ncoef,",
         "# derived rows, product chunks, products with a constant factor, state rows",
         f"SPEC = {sp!r}",
-        "_order = _full_state_ir.order_intrinsic(SPEC)",
+        f"_order = _full_state_ir.order_intrinsic(SPEC, {W}, {per_loop})",
         f"_load = _full_state_ir.load_intrinsic({sp[0]})",
         f"_update = _full_state_ir.update_intrinsic({tuple(vrows)!r})",
-        "_order2 = _full_state_ir.lanes_order_intrinsic(SPEC, 2)",
+        f"_order2 = _full_state_ir.lanes_order_intrinsic(SPEC, 2, {W // 2}, {per_loop})",
         f"_update2 = _full_state_ir.lane_update_intrinsic({tuple(vrows)!r}, 2)",
         "",
         "",
@@ -176,6 +187,7 @@ def full_state_source(fs) -> str:
         I1 + "C = _load(c)",
         I1 + "N = y0.shape[0]",
         I1 + f"V = np.zeros(({nv}, P + 1))",
+        I1 + f"B = np.empty(({ns1}, P + 1, {W}))",
         I1 + f"comp = np.zeros({nvar})",
         I1 + "sgn = 1.0 if T >= 0 else -1.0",
         I1 + "Tabs = abs(T)",
@@ -193,7 +205,7 @@ def full_state_source(fs) -> str:
         I2 + "status = 0",
         I2 + "while t < Tabs:",
         I3 + "for k in range(P):",
-        I4 + "_order(V, k, C)",
+        I4 + "_order(V, B, k, C)",
     ]
     src += [I3 + x for x in step]
     src += [
@@ -230,6 +242,8 @@ def pair_lines(fs, sp, nv: int, vrows: list, srows: list) -> list[str]:
         I1 + "C = _load(c)",
         I1 + "Pm = max(P_a, P_b)",
         I1 + f"V = np.zeros((Pm + 1, {nv}, 2))",
+        I1
+        + f"B = np.empty(({ir.pack_streams(sp, PACK_LANES // 2, PACK_LOOP)}, Pm + 1, {PACK_LANES}))",
         I1 + f"comp = np.zeros(({max(len(vrows), 1)}, 2))",
         I1 + "PL = np.array([P_a, P_b], dtype=np.int64)",
         I1 + "tl = np.array([tol_a, tol_b])",
@@ -246,7 +260,7 @@ def pair_lines(fs, sp, nv: int, vrows: list, srows: list) -> list[str]:
         I3 + "live[l] = False",
         I1 + "while live[0] or live[1]:",
         I2 + "for k in range(Pm):",
-        I3 + "_order2(V, k, C)",
+        I3 + "_order2(V, B, k, C)",
         I2 + "for l in range(2):",
         I3 + "if not live[l]:",
         I4 + "continue",
