@@ -203,7 +203,9 @@ def pack_plan(chunks, W: int, per_loop: int):
         ws = tuple(w for _, _, w in grp + pad)
         ps = tuple(p for p, _, _ in grp) + (None,) * len(pad)
         groups.append((ps, operand(us), operand(ws)))
-    loops = [tuple(groups[i : i + per_loop]) for i in range(0, len(groups), per_loop)]
+    nloop = -(-len(groups) // per_loop)  # the fewest loops of at most per_loop, sizes within one
+    cuts = [len(groups) * i // max(nloop, 1) for i in range(nloop + 1)]
+    loops = [tuple(groups[cuts[i] : cuts[i + 1]]) for i in range(nloop)]
     inv = sorted(streams, key=streams.get)
     return tuple(loops), tuple(inv)
 
@@ -215,33 +217,34 @@ class _Pack:
     else a vector of ``L``)."""
 
     def __init__(self, builder, Q: int, L: int):
+        if Q & (Q - 1):
+            raise ValueError(f"pack: Q must be a power of two, got {Q}")
         self.b, self.Q, self.L = builder, Q, L
         self.ops = _FOps(builder, Q * L)
         i32 = ir.IntType(32)
         self.idx = [ir.Constant(i32, i) for i in range(Q * L)]
 
-    def _elems(self, x):
-        if self.L == 1:
-            return [x]
-        return [self.b.extract_element(x, self.idx[i]) for i in range(self.L)]
-
     def pack(self, xs):
-        """The vector of the ``Q`` values ``xs`` (each ``L`` lanes)."""
-        v = ir.Constant(self.ops.ty, None)
-        for j, x in enumerate(xs):
-            for i, e in enumerate(self._elems(x)):
-                v = self.b.insert_element(v, e, self.idx[j * self.L + i])
-        return v
+        """The vector of the ``Q`` values ``xs`` (each ``L`` lanes; ``L > 1``: joined by shuffles)."""
+        if self.L == 1:
+            v = ir.Constant(self.ops.ty, None)
+            for j, x in enumerate(xs):
+                v = self.b.insert_element(v, x, self.idx[j])
+            return v
+        while len(xs) > 1:  # pairwise joins: 2 L lanes, 4 L, ... (Q a power of two)
+            n = 2 * xs[0].type.count
+            mask = ir.Constant(ir.VectorType(ir.IntType(32), n), list(range(n)))
+            xs = [self.b.shuffle_vector(a, c, mask) for a, c in zip(xs[::2], xs[1::2])]
+        return xs[0]
 
     def part(self, v, j):
         """Product ``j``'s ``L`` lanes of the vector ``v``."""
         if self.L == 1:
             return self.b.extract_element(v, self.idx[j])
-        out = ir.Constant(ir.VectorType(_F64, self.L), None)
-        for i in range(self.L):
-            e = self.b.extract_element(v, self.idx[j * self.L + i])
-            out = self.b.insert_element(out, e, self.idx[i])
-        return out
+        mask = ir.Constant(
+            ir.VectorType(ir.IntType(32), self.L), list(range(j * self.L, (j + 1) * self.L))
+        )
+        return self.b.shuffle_vector(v, ir.Constant(v.type, None), mask)
 
 
 def _packed_products(builder, pk, plan, kk, kp1, row_at, fresh, bat, prod) -> None:
