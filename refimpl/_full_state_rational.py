@@ -325,10 +325,12 @@ def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None), ref
     tables, cmax, kernel = rfs.tables(), float(_cr.COND_MAX), _fk.pair
     degenerate = start_check(model)
     log = fs.log_pair  # as _Answer.measure calls it
-    if fs.refine:
-        largs = (n, *fs.gidx, fs.mats, fs.proj, *fs.abelian_tables, _fs.ABELIAN_RTOL)
-    else:
-        largs = (n, *fs.gidx, fs.unit, fs.mats, fs.proj, fs.cplx, fs.ab_mode)
+    largs = getattr(fs, "log_args", None)  # the logarithm's constant arguments, where fs keeps them
+    if largs is None:
+        if fs.refine:
+            largs = (n, *fs.gidx, fs.mats, fs.proj, *fs.abelian_tables, _fs.ABELIAN_RTOL)
+        else:
+            largs = (n, *fs.gidx, fs.unit, fs.mats, fs.proj, fs.cplx, fs.ab_mode)
     pmin, floor_one, max_steps = _fs.PROP_MIN_B_RATIONAL, _fs._floor_one, _fs.MAX_STEPS
     pool = []
     kernel_, log_, start_ = kernel, log, start
