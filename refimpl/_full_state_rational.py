@@ -307,9 +307,10 @@ def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None), ref
     rates)`` where ``max |pi0| > free``), then checked off the degenerate set by :func:`start_check`;
     on that set ``refuse(P)`` (``P`` the start as a column) raises the caller's refusal. The first pair
     of :func:`refimpl._flow_compiled._control` (``A`` at ``local_tolerances(tol)[0]``, ``B`` at
-    :data:`refimpl._full_state.B_MAX_RATIONAL` or tighter, each at its kernel order) runs in one
-    compiled call (:func:`refimpl._full_state_rational_kernel.pair`: each run bit for bit the kernel's
-    run alone), a failed run raises as :func:`_runner`'s, and the pair is estimated as the control's
+    :data:`refimpl._full_state.B_MAX_RATIONAL` or tighter, each at its kernel order) runs as two
+    calls of :func:`refimpl._full_state_rational_kernel.adaptive` through its entry point (one compiled
+    call running both cost 1.5-2.5 s more on modified su(3)'s fully cold first call: numba re-optimises
+    the callee inside it), a failed run raises as :func:`_runner`'s, and the pair is estimated as the control's
     first pair (:func:`first_estimate` with :data:`refimpl._full_state.PROP_MIN_B_RATIONAL`, plus the
     rounding floor and the logarithm's residual of :func:`refimpl._full_state._floor_one`, measured by
     one compiled call as :class:`refimpl._full_state._Answer` does). Only when it does not pass does
@@ -322,7 +323,7 @@ def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None), ref
     eps_a = local_tolerances(tol)[0]
     eps_b = _eps_b(eps_a, _fs.B_MAX_RATIONAL)
     orders = (_ct.adaptive_order(eps_a) + ORDER_BIAS, _ct.adaptive_order(eps_b) + ORDER_BIAS)
-    tables, cmax, kernel = rfs.tables(), float(_cr.COND_MAX), _fk.pair
+    tables, cmax, kernel = rfs.tables(), float(_cr.COND_MAX), _fk.adaptive
     degenerate = start_check(model)
     log = fs.log_pair  # as _Answer.measure calls it
     largs = getattr(fs, "log_args", None)  # the logarithm's constant arguments, where fs keeps them
@@ -356,9 +357,9 @@ def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None), ref
         y0, A, B, sA, sB = s[0], s[1], s[2], s[3], s[4]
         G, Ad, est, size, xs, ok, resid = s[5:12]
         start_(X, P, *consts, y0)
-        kargs = (y0, t, eps_a, eps_b, *orders, max_steps, *tables, cmax)
         tA, cA, tB, cB = ends
-        kernel_(*kargs, A, sA, tA, cA, B, sB, tB, cB)
+        kernel_(y0, t, eps_a, orders[0], max_steps, *tables, cmax, A, sA, tA, cA)
+        kernel_(y0, t, eps_b, orders[1], max_steps, *tables, cmax, B, sB, tB, cB)
         for Y, st, te, co in ((A, sA, tA, cA), (B, sB, tB, cB)):
             if st[0] < 0:
                 _cr._raise_failed(Y, st, te, co, t, _cr.COND_MAX, SENSITIVITY)
@@ -366,7 +367,9 @@ def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None), ref
             _fs._log_complete(fs, B, G, Ad, xs, ok, resid)
         if kernel_ is kernel:  # the first call: the entry points of the types it used
             start_ = entry_point(start, (X, P, *consts, y0))
-            kernel_ = entry_point(kernel, (*kargs, A, sA, tA, cA, B, sB, tB, cB))
+            kernel_ = entry_point(
+                kernel, (y0, t, eps_a, orders[0], max_steps, *tables, cmax, A, sA, tA, cA)
+            )
             log_ = entry_point(log, (A, B, *largs, G, Ad, est, size, xs, ok, resid))
         dv = est.item()
         e = first_estimate(dv, eps_a, eps_b, pmin, PROP_MAX_D)

@@ -59,7 +59,7 @@ except ImportError:  # pragma: no cover - the plain-Python path
         return (lambda fn: fn) if not a else a[0]
 
 
-__all__ = ["adaptive", "invert_cond", "pair", "start_degenerate", "start_degenerate_su2"]
+__all__ = ["adaptive", "invert_cond", "start_degenerate", "start_degenerate_su2"]
 
 
 @njit(cache=True, nogil=True)
@@ -289,17 +289,6 @@ def adaptive(y0, T, tol, P, max_steps, grav, th, U, Ii, GL, UGL, tm, ta, tb, fv,
         nsteps[it] = nst if status == 0 else status
         tend[it] = sgn * t
         conds[it] = cond_seen
-
-
-@njit(cache=True, nogil=True)
-def pair(y0, T, tol_a, tol_b, Pa, Pb, max_steps, grav, th, U, Ii, GL, UGL, tm, ta, tb, fv, svm, svb, sv_of, stm, sta, st_of, gpa, gpm, gp_of, ng, mptr, mb, mc, pu, pw, pconst, gvar, gptr, gprod, gsign, Pab, cond_max, A, sA, tA, cA, B, sB, tB, cB):  # fmt: skip
-    """One trajectory's first pair in one compiled call: :func:`adaptive` of ``y0`` (1, d) at
-    ``tol_a`` (order ``Pa``) into ``A, sA, tA, cA`` and at ``tol_b`` (order ``Pb``) into ``B, sB, tB,
-    cB``, each bit for bit the run :func:`adaptive` makes alone (the same function, argument types and
-    order). Both always run (a failed ``A`` is named by the caller first)."""
-    tabs = (tm, ta, tb, fv, svm, svb, sv_of, stm, sta, st_of, gpa, gpm, gp_of, ng, mptr, mb, mc, pu, pw, pconst, gvar, gptr, gprod, gsign, Pab)  # fmt: skip
-    adaptive(y0, T, tol_a, Pa, max_steps, grav, th, U, Ii, GL, UGL, *tabs, cond_max, A, sA, tA, cA)
-    adaptive(y0, T, tol_b, Pb, max_steps, grav, th, U, Ii, GL, UGL, *tabs, cond_max, B, sB, tB, cB)
 
 
 @njit(cache=True, nogil=True)
