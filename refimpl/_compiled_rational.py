@@ -56,8 +56,6 @@ Compilation: per structure, never per model
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from . import _compiled_taylor as _ct
@@ -66,7 +64,6 @@ from .codegen.rational import STALL, kernel_source
 
 __all__ = [
     "COND_MAX",
-    "one_trajectory",
     "PATH",
     "RationalField",
     "rational_field",
@@ -256,78 +253,3 @@ def _raise_failed(y, steps, tend, conds, t, cond_max, measure="cond_inf(Phi)"):
             f"rational Taylor flow: trajectories {bad[:10].tolist()} became non-finite or exceeded the step "
             f"budget before t = {t} (stopped at t = {tend[bad[:3]].tolist()}); no point is dropped"
         )
-
-
-def one_trajectory(model, tol: float, limits=(math.inf, None), refuse=None):
-    """``run(x0, pi0, t) -> (x, pi)`` at ``tol`` for one su(2)/so(3) trajectory with ``Upsilon != 0``
-    (``x0``, ``pi0`` 1-D float64 of shape (3,), ``t`` a float; ``x``, ``pi`` fresh arrays, finite: else
-    refused by name): :func:`refimpl._flow_compiled.compiled_taylor_flow` of that trajectory, the same
-    computation with the constants of the call looked up once (issue 25: the Python around the
-    protocol call; the ``Upsilon = 0`` runner is :func:`refimpl._flow_compiled.one_trajectory`).
-
-    The start is read and checked as that runner reads it (``_load_start``: None where an entry is not
-    finite with ``|v| <= MAX_MAGNITUDE``; ``rates(pi0, t, max |pi0|)`` of ``limits = (free, rates)``
-    where ``max |pi0| > free``), then off the degenerate set
-    (:func:`refimpl._full_state_rational.start_check`; on it ``refuse(P)``, ``P`` the start as a column,
-    raises the caller's refusal). The first pair of :func:`refimpl._flow_compiled._control` (``A`` at
-    ``local_tolerances(tol)[0]``, ``B`` at its ``eps_B``, each at Jorba-Zou's order, as
-    :func:`rational_run` runs them) on the structure's kernel, failed runs raised as there, then the
-    estimate and logarithm in one compiled call (``_finish_one``) and the control's first estimate
-    (:func:`refimpl._flow_compiled.first_estimate`); only a pair that does not pass enters the control
-    (``_go_on`` from that pair). Work arrays are kept between calls in a pool (never returned)."""
-    from . import _flow_compiled as _fc
-    from ._flow_checks import admitted, finite_one
-    from ._full_state_rational import start_check
-    from ._validate import MAX_MAGNITUDE
-
-    if not (model.su2 and not model.upsilon_zero):
-        raise ValueError("compiled rational one_trajectory: for su(2)/so(3) with Upsilon != 0")
-    rf = _field(model, quat=True)
-    kernel = rational_kernel(rf).adaptive
-    n, d, grav = model.n, rf.d, bool(model.gravity)
-    gamma = model.gamma if grav else _fc._NO_GAMMA
-    eps_a, eps_b = _fc.local_tolerances(tol)
-    pa, pb = _ct.adaptive_order(eps_a), _ct.adaptive_order(eps_b)
-    fargs, cmax, max_steps = rf.args(), float(COND_MAX), 10_000_000  # rational_taylor_adaptive's
-    pmin, pmax_d = _fc.PROP_MIN_B, _fc.PROP_MAX_D  # _control's defaults (compiled_taylor_flow)
-    degenerate = start_check(model)
-    load, finish, first_estimate = _fc._load_start, _fc._finish_one, _fc.first_estimate
-    pool = []
-    empty, i64 = np.empty, np.int64
-    kernel_, finish_ = kernel, finish
-
-    def run(x0, pi0, t):
-        nonlocal kernel_, finish_
-        t = float(t)  # the entry points take the types of the first call
-        try:
-            s = pool.pop()
-        except IndexError:  # none free (the first call, or one running in another thread)
-            s = (empty((1, d)), empty((1, d)), empty((1, d)), empty(1, i64), empty(1, i64))
-            s += tuple(empty(1) for _ in range(5))
-        y0, A, B, sA, sB, tA, cA, tB, cB, est = s
-        if not admitted(load(x0, pi0, gamma, grav, y0, MAX_MAGNITUDE), pi0, t, limits):
-            pool.append(s)
-            return None
-        if degenerate(y0[0, :n]) and refuse is not None:  # y0's pi is pi0 (read by _load_start)
-            refuse(y0[0, :n].reshape(n, 1).copy())  # raises, named as the general route does
-        kernel_(y0, t, eps_a, pa, max_steps, *fargs, cmax, A, sA, tA, cA)
-        kernel_(y0, t, eps_b, pb, max_steps, *fargs, cmax, B, sB, tB, cB)
-        for Y, st, te, co in ((A, sA, tA, cA), (B, sB, tB, cB)):
-            if st[0] < 0:
-                _raise_failed(Y, st, te, co, t, COND_MAX)
-        x = empty((n, 1))
-        status = finish_(A, B, n, est, x, sA, sB)
-        if kernel_ is kernel:  # the first call: the entry points of the types it used
-            kernel_ = entry(kernel, (y0, t, eps_a, pa, max_steps, *fargs, cmax, A, sA, tA, cA))
-            finish_ = entry(finish, (A, B, n, est, x, sA, sB))
-        if status == 2:  # B's pi or x not finite: refused by name
-            finite_one(x[:, 0], B[0, :n], t)
-        if first_estimate(est.item(), eps_a, eps_b, pmin, pmax_d) <= tol:
-            pi = B[0, :n].copy()
-            pool.append(s)
-            return x[:, 0], pi
-        out = _fc._go_on(model, y0, t, eps_a, n, tol, (A, B, sB), False)  # s stays with this call
-        return finite_one(out["x"][:, 0], out["pi"][:, 0], t)
-
-    entry = _fc.entry_point
-    return run

@@ -19,8 +19,8 @@ import time
 
 import numpy as np
 
-from .. import _compiled_rational, _full_state, _full_state_rational
 from .. import _fast_kernels as _fast
+from .. import _full_state, _full_state_rational
 from .._algebra import LieAlgebra
 from .._flow_checks import admitted, check_finite, check_time, finite_one, load_point
 from .._flow_compiled import (
@@ -280,7 +280,7 @@ def _one_runner(model: NumpyModel, tol: float):
         run = (
             _full_state_rational.one_trajectory(model, tol, _AbelianPart, limits, refuse)
             if route == 2
-            else _compiled_rational.one_trajectory(model, tol, limits, refuse)
+            else _full_state_rational.one_trajectory_su2(model, tol, limits, refuse)
         )
     if run is not None or not route:
         return run
