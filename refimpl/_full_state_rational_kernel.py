@@ -59,7 +59,7 @@ except ImportError:  # pragma: no cover - the plain-Python path
         return (lambda fn: fn) if not a else a[0]
 
 
-__all__ = ["adaptive", "invert_cond"]
+__all__ = ["adaptive", "invert_cond", "start_degenerate", "start_degenerate_su2"]
 
 
 @njit(cache=True, nogil=True)
@@ -289,3 +289,67 @@ def adaptive(y0, T, tol, P, max_steps, grav, th, U, Ii, GL, UGL, tm, ta, tb, fv,
         nsteps[it] = nst if status == 0 else status
         tend[it] = sgn * t
         conds[it] = cond_seen
+
+
+@njit(cache=True, nogil=True)
+def start_degenerate(p, f, th, U, n_ups, c):
+    """Whether the start ``pi = p`` (1-D, ``x = 0``) lies on the degenerate set: the rule of
+    :func:`refimpl._fast_kernels._degenerate_at_origin` (the flows' start check) compiled for one
+    point. ``S_aj = p_i f^i_aj - Theta_aj``, ``Psi = 1 + Upsilon S``; with Frobenius norms ``cond =
+    ||Psi|| ||Psi^-1|| / n`` and ``sens = ||Psi^-1|| (1 + ||S|| ||Upsilon||) / sqrt(n)``
+    (:func:`refimpl._fast_kernels._psi_cond_sens`; ``n_ups = ||Upsilon||``), the point is degenerate
+    unless ``cond c < 1`` and ``sens c < 1`` (``c = n C_P eps``); an exactly singular ``Psi`` (a zero
+    pivot) or a NaN is degenerate."""
+    n = th.shape[0]
+    S = np.empty((n, n))
+    Psi = np.empty((n, n))
+    Pi = np.empty((n, n))
+    GJ = np.empty((n, 2 * n))
+    fs = 0.0
+    for a in range(n):
+        for j in range(n):
+            acc = 0.0
+            for i in range(n):
+                acc += p[i] * f[i, a, j]
+            acc -= th[a, j]
+            S[a, j] = acc
+            fs += acc * acc
+    fp = 0.0
+    for a in range(n):
+        for b in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += U[a, k] * S[k, b]
+            if a == b:
+                acc += 1.0
+            Psi[a, b] = acc
+            fp += acc * acc
+    if not invert_cond(Psi, Pi, GJ) < np.inf:  # a zero pivot (or NaN): exactly singular
+        return True
+    fi = 0.0
+    for a in range(n):
+        for b in range(n):
+            fi += Pi[a, b] * Pi[a, b]
+    fi = math.sqrt(fi)
+    cond = math.sqrt(fp) * fi / n
+    sens = fi * (1.0 + math.sqrt(fs) * n_ups) / math.sqrt(n)
+    return not (cond * c < 1.0 and sens * c < 1.0)
+
+
+@njit(cache=True, nogil=True)
+def start_degenerate_su2(p, xi, tau, lim):
+    """The same for su(2) (``f = eps``) by its closed form, the rule of the su(2) Poisson kernel
+    (:func:`refimpl._fast_kernels._su2_poisson_chunk` at ``x = 0``): ``q = p + xi`` (``Theta = -xi.f``),
+    ``Upsilon^mn = tau_l eps_lmn``, ``C1 = 1 - q.tau``, ``sens = sqrt(3 - 2 q.tau + |tau|^2 |q|^2)
+    (1 + 2 |q| |tau|) / (|C1| sqrt(3))``; degenerate unless ``sens < lim`` (``1 / (3 C_P eps)``) and
+    ``C1 != 0``."""
+    q0, q1, q2 = p[0] + xi[0], p[1] + xi[1], p[2] + xi[2]
+    qt = tau[0] * q0 + tau[1] * q1 + tau[2] * q2
+    c1 = 1.0 - qt
+    if c1 == 0.0:
+        return True
+    tn2 = tau[0] * tau[0] + tau[1] * tau[1] + tau[2] * tau[2]
+    qn2 = q0 * q0 + q1 * q1 + q2 * q2
+    ni2 = qn2 * tn2 - 2.0 * qt + 3.0
+    g = (1.0 + math.sqrt(qn2) * (2.0 * math.sqrt(tn2))) * (abs(1.0 / c1) * (1.0 / math.sqrt(3.0)))
+    return not (math.sqrt(ni2) * g < lim)
