@@ -219,8 +219,8 @@ class RationalFullState:
             )  # fmt: skip
         else:
             _fk.adaptive(
-                y, float(T), float(tol), P, int(max_steps), *self.tables(), cmax, out, steps,
-                tend, conds,
+                y, float(T), np.full(N, float(tol)), np.full(N, P, dtype=np.int64),
+                int(max_steps), *self.tables(), cmax, out, steps, tend, conds,
             )  # fmt: skip
         return out, steps, tend, conds
 
@@ -311,10 +311,11 @@ def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None), ref
     rates)`` where ``max |pi0| > free``), then checked off the degenerate set by :func:`start_check`;
     on that set ``refuse(P)`` (``P`` the start as a column) raises the caller's refusal. The first pair
     of :func:`refimpl._flow_compiled._control` (``A`` at ``local_tolerances(tol)[0]``, ``B`` at
-    :data:`refimpl._full_state.B_MAX_RATIONAL` or tighter, each at its kernel order) runs as two
-    calls of :func:`refimpl._full_state_rational_kernel.adaptive` through its entry point (one compiled
-    call running both cost 1.5-2.5 s more on modified su(3)'s fully cold first call: numba re-optimises
-    the callee inside it), a failed run raises as :func:`_runner`'s, and the pair is estimated as the control's
+    :data:`refimpl._full_state.B_MAX_RATIONAL` or tighter, each at its kernel order) runs as the two
+    rows of one call of :func:`refimpl._full_state_rational_kernel.adaptive` (each row's run that of the
+    kernel alone; a separate compiled function calling it twice cost 1.5-2.5 s more on modified
+    su(3)'s fully cold first call: numba re-optimises the callee inside it), a failed run raises as
+    :func:`_runner`'s, and the pair is estimated as the control's
     first pair (:func:`first_estimate` with :data:`refimpl._full_state.PROP_MIN_B_RATIONAL`, plus the
     rounding floor and the logarithm's residual of :func:`refimpl._full_state._floor_one`, measured by
     one compiled call as :class:`refimpl._full_state._Answer` does). Only when it does not pass does
@@ -326,7 +327,8 @@ def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None), ref
     n, consts, start = fs.n, fs.start_consts, _fsk.start
     eps_a = local_tolerances(tol)[0]
     eps_b = _eps_b(eps_a, _fs.B_MAX_RATIONAL)
-    orders = (_ct.adaptive_order(eps_a) + ORDER_BIAS, _ct.adaptive_order(eps_b) + ORDER_BIAS)
+    tols = np.array([eps_a, eps_b])
+    orders = np.array([_ct.adaptive_order(e) + ORDER_BIAS for e in (eps_a, eps_b)], dtype=np.int64)
     tables, cmax, kernel = rfs.tables(), float(_cr.COND_MAX), _fk.adaptive
     degenerate = start_check(model, fixed_types=True)  # P[:, 0] of the pool's (n, 1) arrays
     log = fs.log_pair  # as _Answer.measure calls it
@@ -348,7 +350,7 @@ def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None), ref
             s, X, P, ends = pool.pop()
         except IndexError:  # none free (the first call, or one running in another thread)
             s, X, P = _fs._scratch(fs), np.empty((n, 1)), np.empty((n, 1))
-            ends = tuple(np.empty(1) for _ in range(4))  # t reached and sensitivity, A and B
+            ends = (np.empty(2), np.empty(2))  # the time reached and the sensitivity of A and B
         if not admitted(load_point(x0, pi0, X, P, MAX_MAGNITUDE), pi0, t, limits):
             pool.append((s, X, P, ends))
             return None
@@ -358,22 +360,21 @@ def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None), ref
             out = rational_full_state_flow(model, X, P, t, tol, abelian=abelian)
             pool.append((s, X, P, ends))
             return finite_one(out["x"][:, 0], out["pi"][:, 0], t)
-        y0, A, B, sA, sB = s[0], s[1], s[2], s[3], s[4]
+        y0, A, B, sB = s[0], s[1], s[2], s[4]
         G, Ad, est, size, xs, ok, resid = s[5:12]
         start_(X, P, *consts, y0)
-        tA, cA, tB, cB = ends
-        kernel_(y0, t, eps_a, orders[0], max_steps, *tables, cmax, A, sA, tA, cA)
-        kernel_(y0, t, eps_b, orders[1], max_steps, *tables, cmax, B, sB, tB, cB)
-        for Y, st, te, co in ((A, sA, tA, cA), (B, sB, tB, cB)):
-            if st[0] < 0:
-                _cr._raise_failed(Y, st, te, co, t, _cr.COND_MAX, SENSITIVITY)
+        AB, steps, (te, co) = s[12], s[13], ends
+        kargs = (y0, t, tols, orders, max_steps, *tables, cmax, AB, steps, te, co)
+        kernel_(*kargs)  # A and B, each row as adaptive runs it alone
+        for i in (0, 1):
+            if steps[i] < 0:  # A first, as the control names it
+                j = slice(i, i + 1)
+                _cr._raise_failed(AB[j], steps[j], te[j], co[j], t, _cr.COND_MAX, SENSITIVITY)
         if not log_(A, B, *largs, G, Ad, est, size, xs, ok, resid):
             _fs._log_complete(fs, B, G, Ad, xs, ok, resid)
         if kernel_ is kernel:  # the first call: the entry points of the types it used
             start_ = entry_point(start, (X, P, *consts, y0))
-            kernel_ = entry_point(
-                kernel, (y0, t, eps_a, orders[0], max_steps, *tables, cmax, A, sA, tA, cA)
-            )
+            kernel_ = entry_point(kernel, kargs)
             log_ = entry_point(log, (A, B, *largs, G, Ad, est, size, xs, ok, resid))
         dv = est.item()
         e = first_estimate(dv, eps_a, eps_b, pmin, PROP_MAX_D)
