@@ -2,11 +2,12 @@
 
 The source depends only on the structure of the field -- which variables exist, which are constant,
 the nonzero patterns of ``I^-1``, ``f``, ``Theta``, ``G_L`` and of the representation's ``E_b`` --
-and reads every number from one array ``c`` (a tuple ``C`` loaded once per call). Per order ``k``
-the intrinsic ``_order(V, k, C)`` (:mod:`refimpl.codegen._full_state_ir`, LLVM IR built from the
-literal :func:`spec` in the source): the derived rows (``Omega_k``, then ``M_k = rho(Omega_k)``), the
-Cauchy products (independent sums side by side in loops over ``a``), the state rows from their
-terms. Per step the compensated Horner update of the non-constant rows is the intrinsic
+and reads every number from one array ``c`` (a tuple ``C`` loaded once per call). Per step the
+intrinsic ``_orders(V, B, P, C)`` (:mod:`refimpl.codegen._full_state_ir`, LLVM IR built from the
+literal :func:`spec` in the source) runs the orders ``k = 0 .. P - 1``, each: the derived rows
+(``Omega_k``, then ``M_k = rho(Omega_k)``), the Cauchy products (packed :data:`PACK_LANES` to a
+vector, the vectors side by side in loops over ``a``), the state rows from their terms; the state
+rows' newest coefficients stay in registers from one order to the next. Per step the compensated Horner update of the non-constant rows is the intrinsic
 ``_update`` (the rows' chains side by side in one loop; each row's operations in the order of the
 Python loop it replaced: bitwise equal on the four bench structures), the step control numba
 Python around it (with both intrinsics, against the numba Python kernel of 58f381e in one run, at
