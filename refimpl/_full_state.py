@@ -483,6 +483,13 @@ def full_state(model, abelian=None) -> FullState:
         )
         # _fk.start's arguments after (x0, pi0) and before its output
         fs.start_consts = (fs.mats, fs.proj, fs.cplx, *fs.gidx, fs.gamma, fs.gravity, fs.Pab)
+        # Ad(g) as a sparse sum (_fk.ad_table, _fk.ad_sparse) and fs.log_pair's arguments between
+        # (A, B) and its outputs
+        fs.adt, fs.adc = _fk.ad_table(fs.mats, fs.proj)
+        if fs.refine:
+            fs.log_args = (fs.n, *fs.gidx, fs.mats, fs.proj, fs.adt, fs.adc, *fs.abelian_tables, ABELIAN_RTOL)  # fmt: skip
+        else:
+            fs.log_args = (fs.n, *fs.gidx, fs.unit, fs.mats, fs.proj, fs.adt, fs.adc, fs.cplx, fs.ab_mode)  # fmt: skip
         model.__dict__["_full_state"] = fs
     return fs
 
@@ -602,16 +609,7 @@ class _Answer:
         G = np.empty((M, fs.r, fs.r), dtype=fs.mats.dtype)
         Ad = np.empty((M, fs.n, fs.n))
         size, xs, ok, resid = np.empty(M), np.empty((M, fs.n)), np.empty(M, np.bool_), np.empty(M)
-        if fs.refine:
-            done = fs.log_pair(
-                A, B, fs.n, *fs.gidx, fs.mats, fs.proj, *fs.abelian_tables, ABELIAN_RTOL,
-                G, Ad, est, size, xs, ok, resid,
-            )  # fmt: skip
-        else:
-            done = fs.log_pair(
-                A, B, fs.n, *fs.gidx, fs.unit, fs.mats, fs.proj, fs.cplx, fs.ab_mode,
-                G, Ad, est, size, xs, ok, resid,
-            )  # fmt: skip
+        done = fs.log_pair(A, B, *fs.log_args, G, Ad, est, size, xs, ok, resid)
         if not done:
             _log_complete(fs, B, G, Ad, xs, ok, resid)
         self.B, self.G, self.Ad, self.size, self.xs, self.resid = B, G, Ad, size, xs, resid
@@ -789,10 +787,7 @@ def _pair_of(fs: FullState):
     kernel, coef, n = fs.module().pair, fs.coef, fs.n
     order_a, order_b = _FIRST_ORDERS
     log = fs.log_pair  # this representation's pair and logarithm (as _Answer.measure calls it)
-    if fs.refine:
-        args = (n, *fs.gidx, fs.mats, fs.proj, *fs.abelian_tables, ABELIAN_RTOL)
-    else:
-        args = (n, *fs.gidx, fs.unit, fs.mats, fs.proj, fs.cplx, fs.ab_mode)
+    args = fs.log_args
 
     kernel_, log_ = kernel, log
 

@@ -1020,6 +1020,94 @@ def ad_batch(G, mats, proj, cplx, out):
                 out[it, a, b] = col[a]
 
 
+def ad_table(mats, proj):
+    """``(adt, adc)``: ``Ad(g)`` of :func:`ad_batch` as a sparse sum for :func:`ad_sparse`, built once
+    per representation (numpy). ``Ad_ab = sum proj[a, (i, j)] part(G_ik E_b[k, l] G^-1_lj)`` over the
+    nonzero entries of ``proj`` (real part, then imaginary part) and of ``E_b = mats[b]``: grouped by
+    the product ``z = G_ik G^-1_lj`` (one per distinct ``(i, k, l, j)``), each term ``Re(c z)`` with
+    ``c = p e`` (real part) or ``-1j p e`` (imaginary part), the coefficients of a shared ``(a, b)``
+    summed. ``adt`` (int64): ``[Q, then per product i, k, l, j, count, then count pairs a, b]``,
+    ``adc`` (``mats``' dtype) the ``c`` in that order. ``adt = [-1]`` where the sum has more terms than
+    the dense route's multiply-adds (:func:`ad_batch` then runs; an unusual basis whose ``proj`` is
+    dense)."""
+    mats = np.asarray(mats)
+    proj = np.asarray(proj)
+    n, r, _ = mats.shape
+    rr = r * r
+    cplx = np.iscomplexobj(mats)
+    quads: dict = {}
+    for a, q in zip(*np.nonzero(proj)):
+        part, ij = divmod(int(q), rr)
+        i, j = divmod(ij, r)
+        p = proj[a, q]
+        for b, k, l in zip(*np.nonzero(mats)):
+            c = p * mats[b, k, l] * (-1j if part else 1)
+            d = quads.setdefault((i, int(k), int(l), j), {})
+            d[(int(a), int(b))] = d.get((int(a), int(b)), 0) + c
+    n_terms = len(quads) + sum(len(d) for d in quads.values())
+    dense = n * (2 * r**3 + n * rr * (2 if cplx else 1))
+    if n_terms > dense:
+        return np.array([-1], dtype=np.int64), np.zeros(1, dtype=mats.dtype)
+    adt, adc = [len(quads)], []
+    for (i, k, l, j), d in sorted(quads.items()):
+        adt += [i, k, l, j, len(d)]
+        for (a, b), c in sorted(d.items()):
+            adt += [a, b]
+            adc.append(c)
+    return np.array(adt, dtype=np.int64), np.array(adc, dtype=mats.dtype)
+
+
+@njit(cache=True, nogil=True)
+def ad_sparse(G, adt, adc, out):
+    """:func:`ad_batch` by the sparse sum of :func:`ad_table` (``adt[0] >= 0``): ``out[N] = Ad(g)``,
+    NaN where ``G`` is not finite or singular or ``G^-1`` not finite (one inverse per matrix). Its
+    terms are the dense route's products, summed in another order: they agree to the rounding of
+    sums of at most ``2 r^2`` products of ``|proj| |E| |G| |G^-1|`` (tests/test_full_state_kernel_log.py)."""
+    N, r, _ = G.shape
+    n = out.shape[1]
+    Gi = np.empty((r, r), dtype=G.dtype)
+    ws = np.empty((r, 2 * r), dtype=G.dtype)
+    for it in range(N):
+        Gt = G[it]
+        o = out[it]
+        chk = 0.0  # 0.0 * v is NaN iff v is not finite
+        for i in range(r):
+            for j in range(r):
+                z = Gt[i, j]
+                chk += 0.0 * (z.real + z.imag)
+        good = chk == 0.0 and _inverse_det(Gt, Gi, ws) >= 0.0
+        if good:
+            for i in range(r):
+                for j in range(r):
+                    z = Gi[i, j]
+                    chk += 0.0 * (z.real + z.imag)
+            good = chk == 0.0
+        for a in range(n):
+            for b in range(n):
+                o[a, b] = 0.0 if good else np.nan
+        if not good:
+            continue
+        pos = 1
+        t = 0
+        for _ in range(adt[0]):
+            z = Gt[adt[pos], adt[pos + 1]] * Gi[adt[pos + 2], adt[pos + 3]]
+            cnt = adt[pos + 4]
+            pos += 5
+            for _ in range(cnt):
+                o[adt[pos], adt[pos + 1]] += (adc[t] * z).real
+                pos += 2
+                t += 1
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _ad_any(G, mats, proj, cplx, adt, adc, out):
+    """:func:`ad_sparse` where :func:`ad_table` built the sum, else :func:`ad_batch`."""
+    if adt[0] >= 0:
+        ad_sparse(G, adt, adc, out)
+    else:
+        ad_batch(G, mats, proj, cplx, out)
+
+
 @njit(cache=True, nogil=True)
 def log_batch(G, mats, proj, cplx, out, ok):
     """``out[N]``: the coordinates of the principal logarithm of ``G[N]`` on the ``E_a``; ``ok[N]``
@@ -1114,7 +1202,7 @@ def unpack_G(y, gpart, gi, gj, off, G, unit):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, size):
+def estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, adt, adc, cplx, GB, AdB, est, size):
     """Per row: ``est = max(|pi_A - pi_B|, |Ad(g_A) - Ad(g_B)|)`` (inf when not finite); ``GB``, ``AdB``
     the group element and ``Ad`` of ``B``; ``size = max(|pi_B|, |Ad(g_B)|)``."""
     N = A.shape[0]
@@ -1123,8 +1211,8 @@ def estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, 
     AdA = np.zeros((N, n, n))
     unpack_G(A, gpart, gi, gj, off, GA, unit)
     unpack_G(B, gpart, gi, gj, off, GB, unit)
-    ad_batch(GA, mats, proj, cplx, AdA)
-    ad_batch(GB, mats, proj, cplx, AdB)
+    _ad_any(GA, mats, proj, cplx, adt, adc, AdA)
+    _ad_any(GB, mats, proj, cplx, adt, adc, AdB)
     for it in range(N):
         m = 0.0
         chk = 0.0  # 0.0 * v is NaN iff v is not finite: max() would drop a NaN
@@ -1363,14 +1451,14 @@ def log_residual(xs, mats, proj, cplx, Ad, out):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _residual_final(Ex, mats, proj, cplx, Ad, resid):
+def _residual_final(Ex, mats, proj, adt, adc, cplx, Ad, resid):
     """:func:`log_residual` from ``Ex[N] = exp(rho(x))`` already computed (every row has its
     logarithm here): inf where ``Ad(exp x)`` or ``Ad(g_B)`` is not finite, so that the estimate refuses
     the row (a NaN ``Ad(g_B)`` of an overflowing ``G`` had become 0 and passed, issue 25)."""
     N = Ex.shape[0]
     n = mats.shape[0]
     Adx = np.empty((N, n, n))
-    ad_batch(Ex, mats, proj, cplx, Adx)
+    _ad_any(Ex, mats, proj, cplx, adt, adc, Adx)
     for it in range(N):
         m = 0.0
         chk = 0.0  # 0.0 * v is NaN iff v is not finite: max() would drop a NaN
@@ -1383,7 +1471,7 @@ def _residual_final(Ex, mats, proj, cplx, Ad, resid):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def log_state(G, Ad, mats, proj, cplx, ab_mode, xs, ok, resid, kind):
+def log_state(G, Ad, mats, proj, adt, adc, cplx, ab_mode, xs, ok, resid, kind):
     """The answer's logarithm and its residual in one call: :func:`log_batch` of ``G`` (N, r, r) into
     ``xs`` and, when it accepted every row and no abelian part is to be refined (``ab_mode`` 0; 2: a
     complex representation with an abelian part, refined by the caller), ``resid`` by
@@ -1396,12 +1484,12 @@ def log_state(G, Ad, mats, proj, cplx, ab_mode, xs, ok, resid, kind):
             return False
     if ab_mode != 0:
         return False
-    _residual_final(Ex, mats, proj, cplx, Ad, resid)
+    _residual_final(Ex, mats, proj, adt, adc, cplx, Ad, resid)
     return True
 
 
 @njit(cache=True, nogil=True, inline="always")
-def log_state_abelian(B, G, Ad, mats, proj, Ppinv, Dr, xs, ok, resid):
+def log_state_abelian(B, G, Ad, mats, proj, adt, adc, Ppinv, Dr, xs, ok, resid):
     """:func:`log_state_refined` on a representation where :func:`derived_in_translations`: the
     refine's answer in closed form (:func:`log_from_abelian`, ``s`` the last ``k = Ppinv.shape[1]``
     entries of the states ``B``), accepted as :func:`log_batch`'s, then ``resid``; neither the
@@ -1430,7 +1518,7 @@ def log_state_abelian(B, G, Ad, mats, proj, Ppinv, Dr, xs, ok, resid):
         )
         done = done and ok[j]
     if done:
-        _residual_final(Ex, mats, proj, cplx, Ad, resid)
+        _residual_final(Ex, mats, proj, adt, adc, cplx, Ad, resid)
     return done
 
 
@@ -1451,7 +1539,7 @@ def derived_annihilates(mats, Dr):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def log_state_central(B, G, Ad, mats, proj, Ppinv, D, Dr, xs, ok, resid):
+def log_state_central(B, G, Ad, mats, proj, adt, adc, Ppinv, D, Dr, xs, ok, resid):
     """:func:`log_state_refined` on a representation where :func:`derived_annihilates`: the refine's
     answer in closed form. ``x = x0 + D w`` with ``x0 = pinv(P) s`` (``s`` the last ``k`` entries of
     the states ``B``); ``exp(rho(x)) = exp(rho(x0)) + rho(D w)``, so ``w`` minimising
@@ -1516,12 +1604,12 @@ def log_state_central(B, G, Ad, mats, proj, Ppinv, D, Dr, xs, ok, resid):
         ok[jr] = _accept_log(L, G[jr], mats, proj, cplx, x0, Xa, Ex[jr], xs[jr])
         done = done and ok[jr]
     if done:
-        _residual_final(Ex, mats, proj, cplx, Ad, resid)
+        _residual_final(Ex, mats, proj, adt, adc, cplx, Ad, resid)
     return done
 
 
 @njit(cache=True, nogil=True, inline="always")
-def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid, kind):
+def log_state_refined(B, G, Ad, mats, proj, adt, adc, P, Ppinv, D, Dr, rtol, xs, ok, resid, kind):
     """:func:`log_state` of a real representation with an abelian part: after :func:`log_batch` (when
     it accepted every row) :func:`abelian_batch` with ``s`` the last ``k = P.shape[0]`` entries of the
     states ``B`` (N, d), then ``resid``. ``kind``: :func:`log_batch_exp`'s. Returns whether ``xs`` and
@@ -1575,7 +1663,7 @@ def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid
             xs[j, a] = out[a]
         if moved:  # exp(rho(x)) of the refined row again (exp_batch's arithmetic)
             _exp_rho(out, mats, X, Ex[j])
-    _residual_final(Ex, mats, proj, cplx, Ad, resid)
+    _residual_final(Ex, mats, proj, adt, adc, cplx, Ad, resid)
     return True
 
 
@@ -1583,65 +1671,65 @@ def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid
 # inlined level of its own cost se(3)'s fully cold pair_log 2.95 -> 3.40 s (one run each, load 2.3;
 # written out: 3.03).
 @njit(cache=True, nogil=True)
-def pair_log(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+def pair_log(A, B, n, gpart, gi, gj, off, unit, mats, proj, adt, adc, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`estimate` of the pair ``(A, B)`` and :func:`log_state` of ``B`` in one call (one dispatch
     instead of four on the common protocol call), by :func:`logm`. Returns :func:`log_state`'s flag."""
-    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, size)
-    return log_state(GB, AdB, mats, proj, cplx, ab_mode, xs, ok, resid, LOG_GENERAL)
+    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, adt, adc, cplx, GB, AdB, est, size)
+    return log_state(GB, AdB, mats, proj, adt, adc, cplx, ab_mode, xs, ok, resid, LOG_GENERAL)
 
 
 @njit(cache=True, nogil=True)
-def pair_log_small(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+def pair_log_small(A, B, n, gpart, gi, gj, off, unit, mats, proj, adt, adc, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`pair_log` by :func:`log_small` (its representations: :func:`pair_log_for`)."""
-    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, size)
-    return log_state(GB, AdB, mats, proj, cplx, ab_mode, xs, ok, resid, LOG_SMALL)
+    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, adt, adc, cplx, GB, AdB, est, size)
+    return log_state(GB, AdB, mats, proj, adt, adc, cplx, ab_mode, xs, ok, resid, LOG_SMALL)
 
 
 @njit(cache=True, nogil=True)
-def pair_log_so4(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+def pair_log_so4(A, B, n, gpart, gi, gj, off, unit, mats, proj, adt, adc, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`pair_log` by :func:`_log_so4` (:data:`SHAPE_SO4`: :func:`pair_log_for`)."""
-    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, size)
-    return log_state(GB, AdB, mats, proj, cplx, ab_mode, xs, ok, resid, LOG_SO4)
+    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, adt, adc, cplx, GB, AdB, est, size)
+    return log_state(GB, AdB, mats, proj, adt, adc, cplx, ab_mode, xs, ok, resid, LOG_SO4)
 
 
 @njit(cache=True, nogil=True)
-def pair_log_central(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+def pair_log_central(A, B, n, gpart, gi, gj, off, mats, proj, adt, adc, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`pair_log_refined` by :func:`log_state_central` (neither :func:`logm` nor the refine)."""
     cplx = proj.shape[1] != mats.shape[1] * mats.shape[2]
-    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, cplx, GB, AdB, est, size)
-    return log_state_central(B, GB, AdB, mats, proj, Ppinv, D, Dr, xs, ok, resid)
+    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, adt, adc, cplx, GB, AdB, est, size)
+    return log_state_central(B, GB, AdB, mats, proj, adt, adc, Ppinv, D, Dr, xs, ok, resid)
 
 
 @njit(cache=True, nogil=True)
-def pair_log_so3(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+def pair_log_so3(A, B, n, gpart, gi, gj, off, unit, mats, proj, adt, adc, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`pair_log` by :func:`_log_so3` (:data:`SHAPE_SO3`: :func:`pair_log_for`)."""
-    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, size)
-    return log_state(GB, AdB, mats, proj, cplx, ab_mode, xs, ok, resid, LOG_SO3)
+    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, adt, adc, cplx, GB, AdB, est, size)
+    return log_state(GB, AdB, mats, proj, adt, adc, cplx, ab_mode, xs, ok, resid, LOG_SO3)
 
 
 @njit(cache=True, nogil=True)
-def pair_log_refined(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+def pair_log_refined(A, B, n, gpart, gi, gj, off, mats, proj, adt, adc, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`pair_log` with :func:`log_state_refined` (a real representation with an abelian part)."""
     # False, not a literal (see log_state_refined)
     cplx = proj.shape[1] != mats.shape[1] * mats.shape[2]
-    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, cplx, GB, AdB, est, size)
-    return log_state_refined(B, GB, AdB, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid, LOG_GENERAL)  # fmt: skip
+    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, adt, adc, cplx, GB, AdB, est, size)
+    return log_state_refined(B, GB, AdB, mats, proj, adt, adc, P, Ppinv, D, Dr, rtol, xs, ok, resid, LOG_GENERAL)  # fmt: skip
 
 
 @njit(cache=True, nogil=True)
-def pair_log_refined_small(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+def pair_log_refined_small(A, B, n, gpart, gi, gj, off, mats, proj, adt, adc, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`pair_log_refined` by :func:`log_small`."""
     cplx = proj.shape[1] != mats.shape[1] * mats.shape[2]
-    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, cplx, GB, AdB, est, size)
-    return log_state_refined(B, GB, AdB, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid, LOG_SMALL)  # fmt: skip
+    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, adt, adc, cplx, GB, AdB, est, size)
+    return log_state_refined(B, GB, AdB, mats, proj, adt, adc, P, Ppinv, D, Dr, rtol, xs, ok, resid, LOG_SMALL)  # fmt: skip
 
 
 @njit(cache=True, nogil=True)
-def pair_log_abelian(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+def pair_log_abelian(A, B, n, gpart, gi, gj, off, mats, proj, adt, adc, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`pair_log_refined` by :func:`log_from_abelian` (neither :func:`logm` nor the refine)."""
     cplx = proj.shape[1] != mats.shape[1] * mats.shape[2]
-    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, cplx, GB, AdB, est, size)
-    return log_state_abelian(B, GB, AdB, mats, proj, Ppinv, Dr, xs, ok, resid)
+    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, adt, adc, cplx, GB, AdB, est, size)
+    return log_state_abelian(B, GB, AdB, mats, proj, adt, adc, Ppinv, Dr, xs, ok, resid)
 
 
 def pair_log_for(mats, cplx, Dr=None):

@@ -163,11 +163,12 @@ def test_refined_log_reaches_the_exponentials_rounding(closed, xy, s):
     xs, ok, resid = np.empty((1, 3)), np.empty(1, np.bool_), np.empty(1)
     if closed:
         done = fk.log_state_abelian(
-            B, G, Ad, fs.mats, fs.proj, *fs.abelian_tables[1::2], xs, ok, resid
+            B, G, Ad, fs.mats, fs.proj, fs.adt, fs.adc, *fs.abelian_tables[1::2], xs, ok, resid
         )
     else:
         done = fk.log_state_refined(
-            B, G, Ad, fs.mats, fs.proj, *fs.abelian_tables, fs_mod.ABELIAN_RTOL, xs, ok, resid,
+            B, G, Ad, fs.mats, fs.proj, fs.adt, fs.adc, *fs.abelian_tables, fs_mod.ABELIAN_RTOL,
+            xs, ok, resid,
             fk.LOG_GENERAL,
         )  # fmt: skip
     assert done and ok[0]
@@ -203,7 +204,7 @@ def test_closed_form_abelian_log_hands_an_inconsistent_row_to_the_caller():
     B[0, fs.d - 1] = x_true[2] + 1e-6
     xs, ok, resid = np.empty((1, 3)), np.empty(1, np.bool_), np.empty(1)
     assert not fk.log_state_abelian(
-        B, G, Ad, fs.mats, fs.proj, *fs.abelian_tables[1::2], xs, ok, resid
+        B, G, Ad, fs.mats, fs.proj, fs.adt, fs.adc, *fs.abelian_tables[1::2], xs, ok, resid
     )
     assert not ok[0]
     fs_mod._log_complete(fs, B, G[0:1], Ad, xs, ok, resid)
@@ -215,3 +216,104 @@ def test_closed_form_abelian_log_hands_an_inconsistent_row_to_the_caller():
     assert np.isfinite(resid[0])
     assert miss <= resid[0] + 100 * EPS * max(1.0, np.max(np.abs(Ad))), (miss, resid[0])
     assert np.max(np.abs(xs[0] - x_true)) <= 1e-9  # G's logarithm, not the 1e-6-off s
+
+
+# ---------------------------------------------------------------------- Ad(g) as a sparse sum
+def _mp_ad(G, mats, proj):
+    """``Ad(g)`` at 40 digits: ``G E_b G^-1`` (mpmath's inverse) projected by ``proj`` (real parts,
+    then imaginary parts), rounded to float64 at the end."""
+    n, r, _ = mats.shape
+    cplx = proj.shape[1] == 2 * r * r
+    with mpmath.workdps(40):
+        Gm = mpmath.matrix(G.tolist())
+        Gi = Gm**-1
+        out = np.empty((n, n))
+        for b in range(n):
+            X = Gm * mpmath.matrix(mats[b].tolist()) * Gi
+            v = [X[i, j] for i in range(r) for j in range(r)]
+            vec = [mpmath.re(z) for z in v] + ([mpmath.im(z) for z in v] if cplx else [])
+            for a in range(n):
+                out[a, b] = float(
+                    mpmath.fsum(mpmath.mpf(float(p)) * z for p, z in zip(proj[a], vec))
+                )
+    return out
+
+
+AD_NAMES = ["se(3)", "su(3)", "so(4)", "sl(3,R)", "h(5)", "Bianchi VI0", "se(2)", "su(2)", "aff(1)"]
+
+
+@pytest.mark.parametrize("name", AD_NAMES)
+def test_sparse_ad_against_mpmath(name):
+    """:func:`ad_sparse` (the pair's and the residual's ``Ad``) and the dense :func:`ad_batch` against
+    ``Ad(g)`` at 40 digits. Error model (any backward-stable route): ``G^-1`` is the inverse of a
+    matrix within a few ``r eps |G|`` of ``G`` (Gauss-Jordan with pivoting), which moves it by ``r eps
+    kappa(G) |G^-1|`` (``kappa = |G|_1 |G^-1|_1``); every entry of ``Ad`` is a sum of the products
+    ``|c| |G_ik| |G^-1_lj|`` of :func:`ad_table` (``S``, their magnitudes summed in numpy), each and
+    their sum rounded to ``(terms + 4) eps`` of ``S``: bound ``10 r^2 eps kappa S`` with margin."""
+    alg = catalogue(name)
+    rep = representation_for(alg)
+    mats = np.ascontiguousarray(rep.mats)
+    n, r, _ = mats.shape
+    proj = np.ascontiguousarray(fs_mod._projector(mats))
+    adt, adc = fk.ad_table(mats, proj)
+    assert adt[0] >= 0  # the catalogue's bases are sparse: the sum is the cheaper route
+    rng = np.random.default_rng(7)
+    for scale in (0.3, 1.5):
+        x = scale * rng.standard_normal((3, n))
+        G = np.ascontiguousarray(np.stack([_mp_expm(np.einsum("a,aij->ij", v, mats)) for v in x]))
+        G = G if np.iscomplexobj(mats) else np.ascontiguousarray(G.real)
+        sparse, dense = np.empty((3, n, n)), np.empty((3, n, n))
+        fk.ad_sparse(G, adt, adc, sparse)
+        fk.ad_batch(G, mats, proj, np.iscomplexobj(mats), dense)
+        for k in range(3):
+            exact = _mp_ad(G[k], mats, proj)
+            Gi = np.linalg.inv(G[k])
+            kappa = np.linalg.norm(G[k], 1) * np.linalg.norm(Gi, 1)
+            S = np.zeros((n, n))  # the magnitudes of the sum's terms, read from the table
+            pos, t = 1, 0
+            for _ in range(adt[0]):
+                i, kk, ll, j, cnt = adt[pos : pos + 5]
+                z = abs(G[k, i, kk]) * abs(Gi[ll, j])
+                pos += 5
+                for _ in range(cnt):
+                    S[adt[pos], adt[pos + 1]] += abs(adc[t]) * z
+                    pos, t = pos + 2, t + 1
+            bound = 10 * r * r * EPS * kappa * max(1.0, S.max())
+            for got in (sparse[k], dense[k]):
+                assert np.all(np.isfinite(got))
+                assert np.max(np.abs(got - exact)) <= bound, (
+                    name,
+                    np.max(np.abs(got - exact)),
+                    bound,
+                )
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_sparse_ad_of_a_non_finite_or_singular_g_is_nan(bad):
+    """A ``G`` with one entry NaN or infinite (one the sum never reads among them), or singular: every
+    ``Ad`` entry NaN (so the estimate and the residual refuse the row), as the dense route gives for
+    a failed inverse."""
+    rep = representation_for(catalogue("Bianchi VI0"))
+    mats = np.ascontiguousarray(rep.mats.real)
+    proj = np.ascontiguousarray(fs_mod._projector(mats))
+    adt, adc = fk.ad_table(mats, proj)
+    G = np.stack([np.eye(3)] * 11)
+    for k in range(9):
+        G[k, k // 3, k % 3] = bad
+    G[9] = 0.0  # singular
+    G[10, 2, 2] = 1e-320  # a subnormal pivot
+    out = np.zeros((11, 3, 3))
+    fk.ad_sparse(np.ascontiguousarray(G), adt, adc, out)
+    for k in range(11):  # the subnormal pivot's inverse overflows: G^-1 not finite
+        assert np.all(np.isnan(out[k])), (k, out[k])
+
+
+def test_ad_table_falls_back_to_the_dense_route_on_a_dense_basis():
+    """so(4) in a random basis (every ``E_b`` and every row of ``proj`` dense): the sum would have more
+    terms than the dense products, so :func:`ad_table` says -1 and the pair runs :func:`ad_batch`."""
+    rep = representation_for(catalogue("so(4)"))
+    mats = np.asarray(rep.mats.real)
+    T = np.random.default_rng(5).standard_normal((6, 6))
+    mats = np.ascontiguousarray(np.einsum("ab,bij->aij", T, mats))
+    adt, _ = fk.ad_table(mats, fs_mod._projector(mats))
+    assert adt.tolist() == [-1]
