@@ -713,20 +713,25 @@ def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None)):
         nonlocal start
         t = float(t)  # the entry points take the types of the first call
         try:
-            s, X, P = pool.pop()
+            w = pool.pop()
         except IndexError:  # none free (the first call, or one running in another thread)
-            s, X, P = _scratch(fs), np.empty((n, 1)), np.empty((n, 1))
+            s = _scratch(fs)  # and the views of x and pi of B in it
+            w = (s, np.empty((n, 1)), np.empty((n, 1)), s[9][0], s[2][0, :n])
+        s, X, P, xv, pv = w
         if not admitted(load_point(x0, pi0, X, P, MAX_MAGNITUDE), pi0, t, limits):
-            pool.append((s, X, P))
+            pool.append(w)
             return None
         y0 = s[0]
         start(X, P, *consts, y0)
         if start is _fk.start:  # the first call: the entry point of the types it used
             start = entry_point(_fk.start, (X, P, *consts, y0))
-        if pair(y0, t, s) <= tol:
-            x, pi = s[9][0].copy(), s[2][0, :n].copy()
-            pool.append((s, X, P))
-            return finite_one(x, pi, t)
+        e, final = pair(y0, t, s)
+        if e <= tol:
+            x, pi = xv.copy(), pv.copy()
+            pool.append(w)
+            # final: the compiled log accepted x (finite) and e <= tol says pi is (the estimate is inf
+            # where B is not finite); else _log_complete's x may be NaN, refused by name here
+            return (x, pi) if final else finite_one(x, pi, t)
         B, _, _, ans = _go_on(fs, model, y0, t, tol, s)  # s stays with this call's results
         return finite_one(ans.all[2][0], B[0, :n].copy(), t)
 
@@ -771,14 +776,16 @@ def _scratch(fs: FullState):
 
 
 def _pair_of(fs: FullState):
-    """``pair(y0, t, s) -> estimate``: one trajectory's first pair, ``A`` at :data:`A_LOOSE` and ``B``
+    """``pair(y0, t, s) -> (estimate, final)``: one trajectory's first pair, ``A`` at :data:`A_LOOSE` and ``B``
     at :data:`EPS_B_FIRST` (orders :data:`_FIRST_ORDERS`), on the two lanes of the generated module's
     pair kernel (:func:`refimpl._full_state_batch.pair_first`: each lane bit for bit the generated
     single kernel's run at its tolerance and order, for about the cost of the longer one), into the
     arrays ``s`` of :func:`_scratch`, estimated as :func:`_control`'s first pair
     (:func:`first_estimate` of ``|A - B|`` plus :class:`_Answer`'s floor, :func:`_floor_one`), with
     ``G``, ``Ad(g)``, ``x`` and the residual of ``B`` in ``s`` (:class:`_Answer`'s ``measure``: one
-    compiled call). Without the general route's per-call Python (issue 25); built once per structure
+    compiled call; ``final``: whether that call completed ``x`` and the residual itself, so that ``x``
+    is finite, else :func:`_log_complete` did). Without the general route's per-call Python (issue
+    25); built once per structure
     (kept on ``fs``). Measured (A/B of the protocol call, single kernel twice against the pair, see
     the commit): Bianchi VI0 + cocycle, se(3), so(4), su(3), se(2)."""
     pair = fs.__dict__.get("_pair")
@@ -795,11 +802,13 @@ def _pair_of(fs: FullState):
         nonlocal kernel_, log_
         _, A, B, sA, sB, G, Ad, est, size, xs, ok, resid, AB, steps = s
         kernel_(y0, t, A_LOOSE, EPS_B_FIRST, order_a, order_b, MAX_STEPS, coef, AB, steps)
-        if sA[0] < 0:
+        steps_a, steps_b = steps.tolist()
+        if steps_a < 0:
             _check_steps(sA, t)
-        if sB[0] < 0:
+        if steps_b < 0:
             _check_steps(sB, t)
-        if not log_(A, B, *args, G, Ad, est, size, xs, ok, resid):
+        final = log_(A, B, *args, G, Ad, est, size, xs, ok, resid)
+        if not final:
             _log_complete(fs, B, G, Ad, xs, ok, resid)
         if kernel_ is kernel:  # the first call: the entry points of the types it used
             kernel_ = entry_point(
@@ -808,7 +817,7 @@ def _pair_of(fs: FullState):
             log_ = entry_point(log, (A, B, *args, G, Ad, est, size, xs, ok, resid))
         d = est.item()
         e = first_estimate(d, A_LOOSE, EPS_B_FIRST, PROP_MIN_B, PROP_MAX_D)
-        return e + _floor_one(sB.item(), n, size.item(), d / A_LOOSE, resid.item())
+        return e + _floor_one(steps_b, n, size.item(), d / A_LOOSE, resid.item()), final
 
     fs._pair = pair
     return pair
@@ -875,7 +884,7 @@ def _solve(fs: FullState, model, y0, t, tol: float, run):
     if N == 1 and run is None and _protocol_pair(fs, tol, t):
         t = float(t)
         s = (y0, *_scratch(fs)[1:])
-        e = _pair_of(fs)(y0, t, s)
+        e, _ = _pair_of(fs)(y0, t, s)
         if e <= tol:
             return s[2], np.array([e]), s[4], _measured(fs, s)
         return _go_on(fs, model, y0, t, tol, s)

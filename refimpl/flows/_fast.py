@@ -139,11 +139,19 @@ def cached_model(f, theta, upsilon, inertia, potential) -> NumpyModel:
         and upsilon.dtype is _F64
         and inertia.dtype is _F64
     ):
-        arrays = f.tobytes() + theta.tobytes() + upsilon.tobytes() + inertia.tobytes()
-        shapes = (f.shape, theta.shape, upsilon.shape, inertia.shape)
+        # one flat tuple of the shapes and the bytes (no concatenation: 0.83 -> 0.54 us per call)
         key = None
         if potential is None:
-            key = (shapes, arrays)
+            key = (
+                f.shape,
+                theta.shape,
+                upsilon.shape,
+                inertia.shape,
+                f.tobytes(),
+                theta.tobytes(),
+                upsilon.tobytes(),
+                inertia.tobytes(),
+            )
         elif type(potential) is dict and len(potential) == 3:  # a gravity dict of float64 arrays
             kind, L, gamma = potential.get("kind"), potential.get("L"), potential.get("gamma")
             if (
@@ -153,7 +161,21 @@ def cached_model(f, theta, upsilon, inertia, potential) -> NumpyModel:
                 and L.dtype is _F64
                 and gamma.dtype is _F64
             ):
-                key = (shapes, arrays, kind, L.shape, gamma.shape, L.tobytes() + gamma.tobytes())
+                key = (
+                    f.shape,
+                    theta.shape,
+                    upsilon.shape,
+                    inertia.shape,
+                    f.tobytes(),
+                    theta.tobytes(),
+                    upsilon.tobytes(),
+                    inertia.tobytes(),
+                    kind,
+                    L.shape,
+                    gamma.shape,
+                    L.tobytes(),
+                    gamma.tobytes(),
+                )
         if key is not None:
             last = _LAST[0]  # the same inputs as the last call: compared, not hashed (issue 25)
             if last is not None and last[0] == key:
