@@ -205,10 +205,54 @@ def test_structure_counts_follow_sparsity():
 
 @pytest.mark.slow
 @needs_numba
-@pytest.mark.parametrize("name", ALGEBRAS)
-def test_full_state_against_reference_T10_slow(name):
-    """T = 10 (re-based many times in the reference) at the protocol's default tolerance."""
+@pytest.mark.parametrize("name", [a for a in ALGEBRAS if a != "sl(3,R)"])
+def test_full_state_against_reference_T10_slow(name, monkeypatch):
+    """T = 10 (re-based many times in the reference) at the protocol's default tolerance. The
+    reference's 20 s budget per call is raised here (these calls take 20-70 s of CPU on an idle
+    machine). sl(3,R) is not in the list: at T = 10 its ``g`` has no real logarithm (next test), and
+    it is compared with the reference at T = 0.5 (``test_full_state_against_reference_dim8_slow``)."""
+    from tstarg.refimpl import _validate
+
+    monkeypatch.setattr(_validate, "TIME_BUDGET_S", 1000.0)
     _check_against_reference(_model(name, seed=1), 10.0, 1e-10, dps=20)
+
+
+@pytest.mark.slow
+@needs_numba
+def test_full_state_refused_where_g_has_no_real_logarithm_slow():
+    """sl(3,R), seed 1, T = 10: ``g(10)`` has two simple negative real eigenvalues, so no real
+    logarithm (a real ``log`` needs each negative eigenvalue's Jordan blocks in pairs): the flow
+    refuses by name rather than return an ``x`` with ``exp(x) != g``.
+
+    Independent route for ``g(10)``: scipy's DOP853 (rtol 1e-12, atol 1e-12) on ``dG/dt = G rho(Omega)``
+    with ``(Omega, pidot)`` from the numpy model (``NumpyModel.omega_pidot``, not the generated
+    kernel). Error model: the eigenvalues found there (about -779, -0.017, 0.074) are separated from
+    0 and from each other by more than 1e-2 while the integration's error is below 1e-6 relative, so
+    the signs and simplicity are certain."""
+    from scipy.integrate import solve_ivp
+
+    from tstarg.refimpl._representation import RepresentationError
+
+    args = _model("sl(3,R)", seed=1)
+    alg, theta, ups, inertia, pot, x0, pi0 = args
+    model = cached_model(alg, theta, ups, inertia, pot)
+    mats = np.asarray(representation_for(alg).mats, float)
+    n, r = mats.shape[0], mats.shape[1]
+
+    def rhs(_t, y):
+        pi, G = y[:n, None], y[n:].reshape(r, r)
+        om, pid = model.omega_pidot(pi, None)
+        return np.concatenate([pid[:, 0], (G @ np.einsum("a,aij->ij", om[:, 0], mats)).ravel()])
+
+    G0 = scipy.linalg.expm(np.einsum("a,aij->ij", x0, mats))
+    sol = solve_ivp(rhs, (0.0, 10.0), np.concatenate([pi0, G0.ravel()]), method="DOP853",
+                    rtol=1e-12, atol=1e-12)  # fmt: skip
+    ev = np.linalg.eigvals(sol.y[n:, -1].reshape(r, r))
+    assert np.all(np.abs(ev.imag) < 1e-6), ev
+    neg = np.sort(ev.real[ev.real < 0])
+    assert len(neg) == 2 and neg[1] - neg[0] > 1e-2 and neg[1] < -1e-2, ev
+    with pytest.raises(RepresentationError, match="no logarithm x of g found"):
+        fast_flow(alg, theta, ups, inertia, pot, x0, pi0, 10.0, tol=1e-10)
 
 
 @needs_numba
