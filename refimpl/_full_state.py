@@ -684,7 +684,9 @@ def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None)):
     (n,), finite: else refused by name, :func:`refimpl._flow_checks.finite_one`), the same computation,
     without its dictionary and with the constants of the call looked up once, when the runner is built (issue 25: the Python around one trajectory;
     :func:`refimpl.flows._fast._flow_one` keeps it per model and ``tol``). The start is checked as it
-    is read (:func:`refimpl._flow_checks.load_point`): ``run`` returns None where an entry is not
+    is read (:func:`refimpl._flow_checks.load_point`; on the first pair's route read and started in one
+    compiled call, :func:`refimpl._full_state_kernel.load_start`, whose entry point takes C-contiguous,
+    aligned, writeable arrays: others are copied first): ``run`` returns None where an entry is not
     finite with ``|v| <= MAX_MAGNITUDE``, and calls ``rates(pi0, t, max |pi0|)`` of ``limits = (free,
     rates)`` where ``max |pi0| > free`` (the caller's rates check; default never). Where :func:`_solve`
     runs a first pair (:func:`_protocol_pair`), the runner runs it into work arrays it keeps between
@@ -707,24 +709,26 @@ def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None)):
 
         return run
 
-    pair, pool = _pair_of(fs), []
+    pair, pool, load = _pair_of(fs), [], None
 
     def run(x0, pi0, t):
-        nonlocal start
+        nonlocal load
         t = float(t)  # the entry points take the types of the first call
         try:
             w = pool.pop()
         except IndexError:  # none free (the first call, or one running in another thread)
             s = _scratch(fs)  # and the views of x and pi of B in it
-            w = (s, np.empty((n, 1)), np.empty((n, 1)), s[9][0], s[2][0, :n])
-        s, X, P, xv, pv = w
-        if not admitted(load_point(x0, pi0, X, P, MAX_MAGNITUDE), pi0, t, limits):
+            w = (s, s[9][0], s[2][0, :n])
+        s, xv, pv = w
+        y0 = s[0]
+        if not (x0.flags.carray and pi0.flags.carray):  # the entry point's types (C, aligned,
+            x0, pi0 = np.array(x0), np.array(pi0)  # writeable); a view or a read-only array: copies
+        if load is None:  # the first call: the entry point of the types it used
+            _fk.load_start(x0, pi0, MAX_MAGNITUDE, *consts, y0)
+            load = entry_point(_fk.load_start, (x0, pi0, MAX_MAGNITUDE, *consts, y0))
+        if not admitted(load(x0, pi0, MAX_MAGNITUDE, *consts, y0), pi0, t, limits):
             pool.append(w)
             return None
-        y0 = s[0]
-        start(X, P, *consts, y0)
-        if start is _fk.start:  # the first call: the entry point of the types it used
-            start = entry_point(_fk.start, (X, P, *consts, y0))
         e, final = pair(y0, t, s)
         if e <= tol:
             x, pi = xv.copy(), pv.copy()

@@ -30,6 +30,8 @@ import math
 
 import numpy as np
 
+from ._flow_checks import point_max
+
 try:
     from numba import njit
 except ImportError:  # pragma: no cover - the plain-Python path
@@ -1427,6 +1429,25 @@ def start(X, Pi, mats, proj, cplx, gpart, gi, gj, off, gamma, grav, Pab, y0):
                     acc += Ad[j, m, b] * gamma[m]
                 y0[j, n + b] = acc
     pack_G(G, gpart, gi, gj, off, y0)
+
+
+@njit(cache=True, nogil=True)
+def load_start(x0, pi0, bound, mats, proj, cplx, gpart, gi, gj, off, gamma, grav, Pab, y0):
+    """One trajectory's start read from the caller's 1-D ``x0``, ``pi0`` in one call:
+    :func:`refimpl._flow_checks.point_max` (``max |pi0|``, or -1.0 where an entry is not finite or
+    beyond ``bound``: ``y0`` then not written), else :func:`start` of that point into ``y0`` (1, d).
+    Returns that ``pmax`` (issue 25: one compiled call where :func:`refimpl._flow_checks.load_point`
+    and :func:`start` were two)."""
+    pmax = point_max(x0, pi0, bound)
+    if pmax >= 0.0:
+        n = x0.shape[0]
+        X = np.empty((n, 1))
+        P = np.empty((n, 1))
+        for i in range(n):
+            X[i, 0] = x0[i]
+            P[i, 0] = pi0[i]
+        start(X, P, mats, proj, cplx, gpart, gi, gj, off, gamma, grav, Pab, y0)
+    return pmax
 
 
 @njit(cache=True, nogil=True)
