@@ -355,6 +355,24 @@ def _flow_one(model: NumpyModel, x0, pi0, tv: float, tol: float):
     return run(x0, pi0, tv)  # None: an entry not finite, or beyond MAX_MAGNITUDE (issue 30)
 
 
+def flow_one(f, theta, upsilon, inertia, potential, x0, pi0, t, tol):
+    """:func:`fast_flow`'s protocol call of one trajectory (issue 25), default method and steps:
+    :func:`_flow_one` where ``t`` is a float (or numpy float64) with ``0 < |t| < 256`` and ``tol`` a
+    float in ``[MIN_FLOW_TOL, inf)``, else None (as where :func:`_flow_one` says None: the general
+    route then checks and refuses). Positional, so that :meth:`refimpl.fast.Fast.flow` calls it
+    without :func:`fast_flow`'s keyword binding first."""
+    if (
+        (type(t) is float or type(t) is _NP_F64)
+        and type(tol) is float
+        and 0.0 < abs(t) < 256.0
+        and MIN_FLOW_TOL <= tol < math.inf
+    ):
+        return _flow_one(
+            cached_model(f, theta, upsilon, inertia, potential), x0, pi0, float(t), tol
+        )
+    return None
+
+
 def fast_flow(
     f,
     theta,
@@ -388,16 +406,8 @@ def fast_flow(
     degenerate set (naming them), trajectories that reach it, and algebras whose representation
     cannot be built (:class:`refimpl._representation.RepresentationError`).
     """
-    if (  # the protocol call of one trajectory (issue 25): t, tol as _flow_one takes them
-        steps is None
-        and method_name is None
-        and not return_group
-        and (type(t) is float or type(t) is _NP_F64)
-        and type(tol) is float
-        and 0.0 < abs(t) < 256.0
-        and MIN_FLOW_TOL <= tol < math.inf
-    ):
-        one = _flow_one(cached_model(f, theta, upsilon, inertia, potential), x0, pi0, float(t), tol)
+    if steps is None and method_name is None and not return_group:
+        one = flow_one(f, theta, upsilon, inertia, potential, x0, pi0, t, tol)
         if one is not None:  # None: not that call (the general route below checks and refuses)
             return one
     # plain float t: the exact conversion of check_time is the identity (the same checks, no mpmath)
