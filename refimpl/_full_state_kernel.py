@@ -202,10 +202,18 @@ def _norm1(A):
     return m
 
 
+_INV_FACT = np.array([1.0 / math.factorial(k) for k in range(17)])
+"""``1 / k!`` for ``k <= 16``, the Taylor coefficients of :func:`expm` (correctly rounded)."""
+
+
 @njit(cache=True, nogil=True)
 def expm(X, E):
-    """``E = exp(X)``: Taylor series of ``X / 2^s`` (``||X / 2^s||_1 <= 1/2``, summed until the terms
-    fall below ``1e-18`` of the sum), squared ``s`` times."""
+    """``E = exp(X)``: the Taylor polynomial of degree 16 of ``Y = X / 2^s`` (``||Y||_1 <= 1/2``:
+    truncation ``<= 0.5^17 / 17! e^0.5 < 4e-20`` of ``|exp Y| >= e^-0.5``), by Paterson and
+    Stockmeyer's scheme (``Y^2, Y^3, Y^4``, then Horner in ``Y^4`` over blocks of four terms: six
+    products of ``r x r`` matrices, where summing the series term by term to ``1e-18`` took up to
+    sixteen), squared ``s`` times. Error model: tests/test_compiled_any_algebra.py's helper check
+    (``100 eps exp(|X|_1) max(1, |exp X|)`` against mpmath)."""
     r = X.shape[0]
     nrm = _norm1(X)
     s = 0
@@ -213,24 +221,26 @@ def expm(X, E):
         nrm *= 0.5
         s += 1
     sc = 0.5**s
-    T = np.zeros_like(X)
-    W = np.zeros_like(X)
+    ws = np.empty((5,) + X.shape, dtype=X.dtype)
+    Y, Y2, Y3, Y4, W = ws[0], ws[1], ws[2], ws[3], ws[4]
     for i in range(r):
         for j in range(r):
-            E[i, j] = 0.0
-            T[i, j] = 0.0
-        E[i, i] = 1.0
-        T[i, i] = 1.0
-    for k in range(1, 40):
-        _matmul(T, X, W)
-        tmax = 0.0
+            Y[i, j] = X[i, j] * sc
+    _matmul(Y, Y, Y2)
+    _matmul(Y2, Y, Y3)
+    _matmul(Y2, Y2, Y4)
+    c = _INV_FACT
+    for i in range(r):  # E = B_3 + c_16 Y^4, B_j = c_4j I + c_4j+1 Y + c_4j+2 Y^2 + c_4j+3 Y^3
+        for j in range(r):
+            E[i, j] = c[13] * Y[i, j] + c[14] * Y2[i, j] + c[15] * Y3[i, j] + c[16] * Y4[i, j]
+        E[i, i] += c[12]
+    for blk in range(2, -1, -1):  # E = B_blk + Y^4 E
+        _matmul(Y4, E, W)
+        k = 4 * blk
         for i in range(r):
             for j in range(r):
-                T[i, j] = W[i, j] * (sc / k)
-                E[i, j] += T[i, j]
-                tmax = max(tmax, abs(T[i, j]))
-        if tmax <= 1e-18:
-            break
+                E[i, j] = W[i, j] + c[k + 1] * Y[i, j] + c[k + 2] * Y2[i, j] + c[k + 3] * Y3[i, j]
+            E[i, i] += c[k]
     for _ in range(s):
         _matmul(E, E, W)
         for i in range(r):
@@ -242,7 +252,7 @@ def expm(X, E):
 def expm_frechet(X, Es, E, L):
     """``E = exp(X)`` and ``L[c] = L(X, Es[c])``, the Frechet derivatives of ``exp`` at ``X`` in the
     directions ``Es[c]`` (m, r, r): the blocks of ``exp([[X, Es[c]], [0, X]]) = [[E, L[c]], [0, E]]``
-    (Higham, Functions of Matrices, 3.2), by :func:`expm`'s method applied to that block matrix --
+    (Higham, Functions of Matrices, 3.2), by scaling and squaring applied to that block matrix --
     the Taylor series of the block scaled by ``2^-s`` (``s`` from its 1-norm bound
     ``|X|_1 + max_c |Es[c]|_1``, down to 1/2) summed until its terms fall below ``1e-18``, then ``s``
     squarings -- written on the blocks: term ``k`` is ``[[T_k, U_k], [0, T_k]]`` with
@@ -1023,82 +1033,157 @@ def ad_batch(G, mats, proj, cplx, out):
 
 
 def ad_table(mats, proj):
-    """``(adt, adc)``: ``Ad(g)`` of :func:`ad_batch` as a sparse sum for :func:`ad_sparse`, built once
-    per representation (numpy). ``Ad_ab = sum proj[a, (i, j)] part(G_ik E_b[k, l] G^-1_lj)`` over the
-    nonzero entries of ``proj`` (real part, then imaginary part) and of ``E_b = mats[b]``: grouped by
-    the product ``z = G_ik G^-1_lj`` (one per distinct ``(i, k, l, j)``), each term ``Re(c z)`` with
-    ``c = p e`` (real part) or ``-1j p e`` (imaginary part), the coefficients of a shared ``(a, b)``
-    summed. ``adt`` (int64): ``[Q, then per product i, k, l, j, count, then count pairs a, b]``,
-    ``adc`` (``mats``' dtype) the ``c`` in that order. ``adt = [-1]`` where the sum has more terms than
-    the dense route's multiply-adds (:func:`ad_batch` then runs; an unusual basis whose ``proj`` is
-    dense)."""
+    """``(adt, adc)``: the sparsity of ``E_b = mats[b]`` and of ``proj`` for :func:`ad_sparse`, built
+    once per representation (numpy). ``adt`` (int64): ``[Q, offset of the entries, then per b: the
+    count and the ``(k, l)`` of the nonzero ``E_b[k, l]`` (row-major), the count and the indices of
+    its nonzero columns (ascending); then the ``Q`` entries ``(i, j)`` that ``proj`` reads
+    (row-major), each with the count and the rows ``a`` of its nonzero real-part coefficients, then
+    of its imaginary-part ones]``; ``adc`` (``mats``' dtype): those ``E_b[k, l]``, then the
+    coefficients of ``proj`` (real numbers) in the same order. ``adt = [-1]`` where the sparse route
+    has no fewer products than the dense one (a dense basis: :func:`ad_batch` runs)."""
     mats = np.asarray(mats)
     proj = np.asarray(proj)
     n, r, _ = mats.shape
     rr = r * r
     cplx = np.iscomplexobj(mats)
-    quads: dict = {}
-    for a, q in zip(*np.nonzero(proj)):
-        part, ij = divmod(int(q), rr)
-        i, j = divmod(ij, r)
-        p = proj[a, q]
-        for b, k, l in zip(*np.nonzero(mats)):
-            c = p * mats[b, k, l] * (-1j if part else 1)
-            d = quads.setdefault((i, int(k), int(l), j), {})
-            d[(int(a), int(b))] = d.get((int(a), int(b)), 0) + c
-    n_terms = len(quads) + sum(len(d) for d in quads.values())
-    dense = n * (2 * r**3 + n * rr * (2 if cplx else 1))
-    if n_terms > dense:
+    adt, ev = [0, 0], []
+    work = 0
+    for b in range(n):
+        nz = [(k, l) for k in range(r) for l in range(r) if mats[b, k, l] != 0]
+        cols = sorted({l for _, l in nz})
+        adt += [len(nz)] + [v for kl in nz for v in kl] + [len(cols)] + cols
+        ev += [mats[b, k, l] for k, l in nz]
+        work += r * len(nz)
+    adt[1] = len(adt)
+    pv = []
+    for q in range(rr):
+        re = [a for a in range(n) if proj[a, q] != 0]
+        im = [a for a in range(n) if cplx and proj[a, rr + q] != 0]
+        if re or im:
+            adt[0] += 1
+            adt += [q // r, q % r, len(re)] + re + [len(im)] + im
+            pv += [proj[a, q] for a in re] + [proj[a, rr + q] for a in im]
+    ncols = sum(
+        len({l for k in range(r) for l in range(r) if mats[b, k, l] != 0}) for b in range(n)
+    )
+    work += adt[0] * ncols + len(pv) * n
+    empty = any(not np.any(mats[b]) for b in range(n))
+    if empty or work >= n * (2 * r**3 + n * rr * (2 if cplx else 1)):
         return np.array([-1], dtype=np.int64), np.zeros(1, dtype=mats.dtype)
-    adt, adc = [len(quads)], []
-    for (i, k, l, j), d in sorted(quads.items()):
-        adt += [i, k, l, j, len(d)]
-        for (a, b), c in sorted(d.items()):
-            adt += [a, b]
-            adc.append(c)
-    return np.array(adt, dtype=np.int64), np.array(adc, dtype=mats.dtype)
+    return np.array(adt, dtype=np.int64), np.array(ev + pv, dtype=mats.dtype)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _ad_proj_start(adt, n):
+    """The index in ``adc`` of :func:`ad_table`'s first ``proj`` coefficient (after every ``E_b``)."""
+    pos = 2
+    t = 0
+    for _ in range(n):
+        t += adt[pos]
+        pos += 1 + 2 * adt[pos]
+        pos += 1 + adt[pos]
+    return t
+
+
+AD_NO_OVERFLOW = 1e300
+""":func:`ad_sparse` gives NaN where ``r^2 max|G| max|E_b| max|G^-1|`` reaches this (``kappa(G)``
+near 1e300: ``Ad(g)`` then has no correct digit in float64): below it no entry of ``G E_b`` or of
+``G E_b G^-1`` can overflow, so the entries it skips (those ``proj`` does not read) are finite, as
+their exact-zero contributions to the dense route's sums."""
 
 
 @njit(cache=True, nogil=True)
 def ad_sparse(G, adt, adc, out):
-    """:func:`ad_batch` by the sparse sum of :func:`ad_table` (``adt[0] >= 0``): ``out[N] = Ad(g)``,
-    NaN where ``G`` is not finite or singular or ``G^-1`` not finite (one inverse per matrix). Its
-    terms are the dense route's products, summed in another order: they agree to the rounding of
-    sums of at most ``2 r^2`` products of ``|proj| |E| |G| |G^-1|`` (tests/test_full_state_kernel_log.py)."""
+    """:func:`ad_batch` over the nonzero entries of :func:`ad_table` (``adt[0] >= 0``): ``out[N] =
+    Ad(g)``, ``W = G E_b`` over the nonzero ``E_b[k, l]``, ``X = W G^-1`` at the entries ``proj``
+    reads over the nonzero columns of ``W``, projected over the nonzero coefficients of ``proj`` --
+    the dense route's sums, in its order (``G E_b`` first: on an ill-conditioned ``G`` that order
+    keeps ``Ad`` accurate, where summing the products ``G_ik G^-1_lj`` did not), without its terms
+    that are exact zeros: bitwise the dense route's ``Ad`` wherever ``G`` and ``G^-1`` are finite
+    (and :data:`AD_NO_OVERFLOW`). NaN where ``G`` is not finite, singular, ``G^-1`` not finite, or
+    past :data:`AD_NO_OVERFLOW` (the dense route: NaN, or an ``Ad`` without a correct digit)."""
     N, r, _ = G.shape
     n = out.shape[1]
     Gi = np.empty((r, r), dtype=G.dtype)
+    W = np.zeros((r, r), dtype=G.dtype)
     ws = np.empty((r, 2 * r), dtype=G.dtype)
+    emax = 0.0
+    pstart = _ad_proj_start(adt, n)  # the first proj coefficient in adc
+    pos = 2
+    t = 0
+    for b in range(n):  # the largest |E_b[k, l]|
+        ne = adt[pos]
+        for _ in range(ne):
+            emax = max(emax, abs(adc[t]))
+            t += 1
+        pos += 1 + 2 * ne
+        pos += 1 + adt[pos]
     for it in range(N):
         Gt = G[it]
         o = out[it]
         chk = 0.0  # 0.0 * v is NaN iff v is not finite
+        gmax = 0.0
         for i in range(r):
             for j in range(r):
                 z = Gt[i, j]
                 chk += 0.0 * (z.real + z.imag)
+                gmax = max(gmax, abs(z))
         good = chk == 0.0 and _inverse_det(Gt, Gi, ws) >= 0.0
+        gimax = 0.0
         if good:
             for i in range(r):
                 for j in range(r):
                     z = Gi[i, j]
                     chk += 0.0 * (z.real + z.imag)
-            good = chk == 0.0
-        for a in range(n):
-            for b in range(n):
-                o[a, b] = 0.0 if good else np.nan
+                    gimax = max(gimax, abs(z))
+            good = chk == 0.0 and r * r * gmax * emax * gimax < AD_NO_OVERFLOW
         if not good:
+            for a in range(n):
+                for b in range(n):
+                    o[a, b] = np.nan
             continue
-        pos = 1
+        pos = 2
         t = 0
-        for _ in range(adt[0]):
-            z = Gt[adt[pos], adt[pos + 1]] * Gi[adt[pos + 2], adt[pos + 3]]
-            cnt = adt[pos + 4]
-            pos += 5
-            for _ in range(cnt):
-                o[adt[pos], adt[pos + 1]] += (adc[t] * z).real
-                pos += 2
-                t += 1
+        for b in range(n):
+            ne = adt[pos]
+            pe = pos + 1
+            te = t
+            pos += 1 + 2 * ne
+            nc = adt[pos]
+            pc = pos + 1
+            pos += 1 + nc
+            t += ne
+            for c in range(nc):  # W = G E_b (its nonzero columns; _matmul's order over k)
+                l = adt[pc + c]
+                for i in range(r):
+                    W[i, l] = 0.0
+            for e in range(ne):
+                k = adt[pe + 2 * e]
+                l = adt[pe + 2 * e + 1]
+                v = adc[te + e]
+                for i in range(r):
+                    W[i, l] += Gt[i, k] * v
+            for a in range(n):
+                o[a, b] = 0.0
+            qp = adt[1]
+            tp = pstart
+            for _ in range(adt[0]):  # X[i, j] = sum over W's nonzero columns, then projected
+                i = adt[qp]
+                j = adt[qp + 1]
+                x = W[i, adt[pc]] * Gi[adt[pc], j]
+                for c in range(1, nc):
+                    l = adt[pc + c]
+                    x += W[i, l] * Gi[l, j]
+                nre = adt[qp + 2]
+                for m in range(nre):
+                    o[adt[qp + 3 + m], b] += adc[tp + m].real * x.real
+                qp += 3 + nre
+                tp += nre
+                nim = adt[qp]
+                for m in range(nim):
+                    o[adt[qp + 1 + m], b] += adc[tp + m].real * x.imag
+                qp += 1 + nim
+                tp += nim
 
 
 @njit(cache=True, nogil=True, inline="always")

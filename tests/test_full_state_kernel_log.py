@@ -242,50 +242,59 @@ def _mp_ad(G, mats, proj):
 AD_NAMES = ["se(3)", "su(3)", "so(4)", "sl(3,R)", "h(5)", "Bianchi VI0", "se(2)", "su(2)", "aff(1)"]
 
 
-@pytest.mark.parametrize("name", AD_NAMES)
-def test_sparse_ad_against_mpmath(name):
-    """:func:`ad_sparse` (the pair's and the residual's ``Ad``) and the dense :func:`ad_batch` against
-    ``Ad(g)`` at 40 digits. Error model (any backward-stable route): ``G^-1`` is the inverse of a
-    matrix within a few ``r eps |G|`` of ``G`` (Gauss-Jordan with pivoting), which moves it by ``r eps
-    kappa(G) |G^-1|`` (``kappa = |G|_1 |G^-1|_1``); every entry of ``Ad`` is a sum of the products
-    ``|c| |G_ik| |G^-1_lj|`` of :func:`ad_table` (``S``, their magnitudes summed in numpy), each and
-    their sum rounded to ``(terms + 4) eps`` of ``S``: bound ``10 r^2 eps kappa S`` with margin."""
-    alg = catalogue(name)
-    rep = representation_for(alg)
-    mats = np.ascontiguousarray(rep.mats)
-    n, r, _ = mats.shape
+def _ad_cases(name):
+    """``(mats, proj, G)``: three exponentials of random elements at two scales in ``name``'s faithful
+    representation, by mpmath, and on Bianchi III one of ``x = (0, 0, 12)`` (a 2 x 2 block with
+    eigenvalues ``e^12`` and 1 nearly parallel rows after a shear: ``kappa(G)`` ~1e10, ``Ad``
+    entries of order 1 from sums of order 1e10)."""
+    alg = catalogue(name) if name != "Bianchi III" else bianchi("III")
+    mats = np.ascontiguousarray(representation_for(alg).mats)
+    n = mats.shape[0]
     proj = np.ascontiguousarray(fs_mod._projector(mats))
-    adt, adc = fk.ad_table(mats, proj)
-    assert adt[0] >= 0  # the catalogue's bases are sparse: the sum is the cheaper route
     rng = np.random.default_rng(7)
-    for scale in (0.3, 1.5):
-        x = scale * rng.standard_normal((3, n))
-        G = np.ascontiguousarray(np.stack([_mp_expm(np.einsum("a,aij->ij", v, mats)) for v in x]))
-        G = G if np.iscomplexobj(mats) else np.ascontiguousarray(G.real)
-        sparse, dense = np.empty((3, n, n)), np.empty((3, n, n))
-        fk.ad_sparse(G, adt, adc, sparse)
-        fk.ad_batch(G, mats, proj, np.iscomplexobj(mats), dense)
-        for k in range(3):
-            exact = _mp_ad(G[k], mats, proj)
-            Gi = np.linalg.inv(G[k])
-            kappa = np.linalg.norm(G[k], 1) * np.linalg.norm(Gi, 1)
-            S = np.zeros((n, n))  # the magnitudes of the sum's terms, read from the table
-            pos, t = 1, 0
-            for _ in range(adt[0]):
-                i, kk, ll, j, cnt = adt[pos : pos + 5]
-                z = abs(G[k, i, kk]) * abs(Gi[ll, j])
-                pos += 5
-                for _ in range(cnt):
-                    S[adt[pos], adt[pos + 1]] += abs(adc[t]) * z
-                    pos, t = pos + 2, t + 1
-            bound = 10 * r * r * EPS * kappa * max(1.0, S.max())
-            for got in (sparse[k], dense[k]):
-                assert np.all(np.isfinite(got))
-                assert np.max(np.abs(got - exact)) <= bound, (
-                    name,
-                    np.max(np.abs(got - exact)),
-                    bound,
-                )
+    xs = [s * rng.standard_normal(n) for s in (0.3, 0.3, 0.3, 1.5, 1.5, 1.5)]
+    if name == "Bianchi III":
+        xs.append(np.array([6.0, 0.5, 12.0]))
+    G = np.stack([_mp_expm(np.einsum("a,aij->ij", v, mats)) for v in xs])
+    G = np.ascontiguousarray(G if np.iscomplexobj(mats) else G.real)
+    return mats, proj, G
+
+
+@pytest.mark.parametrize("name", [*AD_NAMES, "Bianchi III"])
+def test_sparse_ad_is_the_dense_ad_and_within_its_error_model(name):
+    """:func:`ad_sparse` (the pair's and the residual's ``Ad``) is the dense :func:`ad_batch` bit for
+    bit (the same sums in the same order without their exact-zero terms), and both are ``Ad(g)`` at 40
+    digits within the error model of a backward-stable route: ``G^-1`` is the inverse of a matrix
+    within a few ``r eps |G|`` of ``G`` (Gauss-Jordan with pivoting), which moves it by ``r eps
+    kappa(G) |G^-1|`` (``kappa = |G|_1 |G^-1|_1``), and every entry of ``Ad`` is a sum of at most
+    ``2 r^2`` products bounded by ``S = |proj| vec(|G| |E_b| |G^-1|)`` (numpy), each and their sum
+    rounded to a few ``eps``: bound ``10 r^2 eps kappa max(1, S)``."""
+    mats, proj, G = _ad_cases(name)
+    n, r, _ = mats.shape
+    adt, adc = fk.ad_table(mats, proj)
+    assert adt[0] >= 0  # the catalogue's bases are sparse: the sparse route runs
+    N = G.shape[0]
+    sparse, dense = np.empty((N, n, n)), np.empty((N, n, n))
+    fk.ad_sparse(G, adt, adc, sparse)
+    fk.ad_batch(G, mats, proj, np.iscomplexobj(mats), dense)
+    assert np.all(np.isfinite(sparse))
+    assert np.array_equal(sparse, dense)
+    for k in range(N):
+        exact = _mp_ad(G[k], mats, proj)
+        Gi = np.linalg.inv(G[k])
+        kappa = np.linalg.norm(G[k], 1) * np.linalg.norm(Gi, 1)
+        mag = np.stack([np.abs(G[k]) @ np.abs(mats[b]) @ np.abs(Gi) for b in range(n)])
+        vec = mag.reshape(n, -1)
+        if np.iscomplexobj(mats):
+            vec = np.concatenate([vec, vec], axis=1)
+        S = np.abs(proj) @ vec.T  # (a, b)
+        bound = 10 * r * r * EPS * kappa * max(1.0, S.max())
+        assert np.max(np.abs(sparse[k] - exact)) <= bound, (
+            name,
+            k,
+            np.max(np.abs(sparse[k] - exact)),
+            bound,
+        )
 
 
 @pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
@@ -308,12 +317,26 @@ def test_sparse_ad_of_a_non_finite_or_singular_g_is_nan(bad):
         assert np.all(np.isnan(out[k])), (k, out[k])
 
 
-def test_ad_table_falls_back_to_the_dense_route_on_a_dense_basis():
-    """so(4) in a random basis (every ``E_b`` and every row of ``proj`` dense): the sum would have more
-    terms than the dense products, so :func:`ad_table` says -1 and the pair runs :func:`ad_batch`."""
-    rep = representation_for(catalogue("so(4)"))
+@pytest.mark.parametrize("name", ["so(4)", "sl(3,R)"])
+def test_sparse_ad_on_a_dense_basis(name):
+    """A random basis (every ``E_b`` and every row of ``proj`` dense): where :func:`ad_table` keeps the
+    sparse route (so(4): its zero diagonal still saves products) it is :func:`ad_batch` bit for bit;
+    where it would take as many products as the dense route (sl(3, R): no zero entry) it says -1 and
+    the pair runs :func:`ad_batch`."""
+    rep = representation_for(catalogue(name))
     mats = np.asarray(rep.mats.real)
-    T = np.random.default_rng(5).standard_normal((6, 6))
+    n = mats.shape[0]
+    T = np.random.default_rng(5).standard_normal((n, n))
     mats = np.ascontiguousarray(np.einsum("ab,bij->aij", T, mats))
-    adt, _ = fk.ad_table(mats, fs_mod._projector(mats))
-    assert adt.tolist() == [-1]
+    proj = np.ascontiguousarray(fs_mod._projector(mats))
+    adt, adc = fk.ad_table(mats, proj)
+    if name == "sl(3,R)":
+        assert adt.tolist() == [-1]
+        return
+    assert adt[0] >= 0
+    x = 0.4 * np.random.default_rng(6).standard_normal((4, n))
+    G = np.ascontiguousarray(np.stack([_mp_expm(np.einsum("a,aij->ij", v, mats)).real for v in x]))
+    sparse, dense = np.empty((4, n, n)), np.empty((4, n, n))
+    fk.ad_sparse(G, adt, adc, sparse)
+    fk.ad_batch(G, mats, proj, False, dense)
+    assert np.all(np.isfinite(sparse)) and np.array_equal(sparse, dense)
