@@ -482,10 +482,10 @@ def full_state(model, abelian=None) -> FullState:
             fs.mats, fs.cplx, fs.abelian_tables[3] if fs.refine else None
         )
         # _fk.start's arguments after (x0, pi0) and before its output
-        fs.start_consts = (fs.mats, fs.proj, fs.cplx, *fs.gidx, fs.gamma, fs.gravity, fs.Pab)
-        # Ad(g) as a sparse sum (_fk.ad_table, _fk.ad_sparse) and fs.log_pair's arguments between
-        # (A, B) and its outputs
+        # (Ad(g) over the nonzero entries of rho and of proj: _fk.ad_table, _fk.ad_sparse)
         fs.adt, fs.adc = _fk.ad_table(fs.mats, fs.proj)
+        fs.start_consts = (fs.mats, fs.adt, fs.adc, *fs.gidx, fs.gamma, fs.gravity, fs.Pab)
+        # fs.log_pair's arguments between (A, B) and its outputs
         if fs.refine:
             fs.log_args = (fs.n, *fs.gidx, fs.mats, fs.proj, fs.adt, fs.adc, *fs.abelian_tables, ABELIAN_RTOL)  # fmt: skip
         else:
@@ -526,7 +526,7 @@ def _unpack_G(fs: FullState, y) -> np.ndarray:
 def _ad_of(fs: FullState, G) -> np.ndarray:
     """``Ad(g)`` (N, n, n) from ``G = rho(g)``: ``G E_b G^-1 = Ad_ab E_a`` projected on the ``E_a``."""
     out = np.empty((G.shape[0], fs.n, fs.n))
-    _fk.ad_batch(np.ascontiguousarray(G, dtype=fs.mats.dtype), fs.mats, fs.proj, fs.cplx, out)
+    _fk.ad_sparse(np.ascontiguousarray(G, dtype=fs.mats.dtype), fs.adt, fs.adc, out)
     return out
 
 
@@ -573,7 +573,7 @@ def _log_complete(fs: FullState, B, G, Ad, xs, ok, resid) -> None:
                 dev = np.max(np.abs(fs.abelian.P @ xs[j] - sj))
                 if dev > ABELIAN_RTOL * max(1.0, float(np.max(np.abs(sj)))):
                     xs[j] = fs.abelian.refine(fs.rep, G[j], xs[j], sj)
-    _fk.log_residual(xs, fs.mats, fs.proj, fs.cplx, Ad, resid)
+    _fk.log_residual(xs, fs.mats, fs.adt, fs.adc, Ad, resid)
     bad = ~np.isfinite(resid)
     if bad.any():
         xbad = ~np.all(np.isfinite(xs), axis=1)
@@ -684,9 +684,7 @@ def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None)):
     (n,), finite: else refused by name, :func:`refimpl._flow_checks.finite_one`), the same computation,
     without its dictionary and with the constants of the call looked up once, when the runner is built (issue 25: the Python around one trajectory;
     :func:`refimpl.flows._fast._flow_one` keeps it per model and ``tol``). The start is checked as it
-    is read (:func:`refimpl._flow_checks.load_point`; on the first pair's route read and started in one
-    compiled call, :func:`refimpl._full_state_kernel.load_start`, whose entry point takes C-contiguous,
-    aligned, writeable arrays: others are copied first): ``run`` returns None where an entry is not
+    is read (:func:`refimpl._flow_checks.load_point`): ``run`` returns None where an entry is not
     finite with ``|v| <= MAX_MAGNITUDE``, and calls ``rates(pi0, t, max |pi0|)`` of ``limits = (free,
     rates)`` where ``max |pi0| > free`` (the caller's rates check; default never). Where :func:`_solve`
     runs a first pair (:func:`_protocol_pair`), the runner runs it into work arrays it keeps between
@@ -709,26 +707,25 @@ def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None)):
 
         return run
 
-    pair, pool, load = _pair_of(fs), [], None
+    pair, pool = _pair_of(fs), []
 
     def run(x0, pi0, t):
-        nonlocal load
+        nonlocal start
         t = float(t)  # the entry points take the types of the first call
         try:
             w = pool.pop()
         except IndexError:  # none free (the first call, or one running in another thread)
-            s = _scratch(fs)  # with the views of x and pi of B, and load_start's last arguments
-            w = (s, s[9][0], s[2][0, :n], (MAX_MAGNITUDE, *consts, s[0]))
-        s, xv, pv, tail = w
-        y0 = s[0]
-        if not (x0.flags.carray and pi0.flags.carray):  # the entry point's types (C, aligned,
-            x0, pi0 = np.array(x0), np.array(pi0)  # writeable); a view or a read-only array: copies
-        if load is None:  # the first call: the entry point of the types it used
-            _fk.load_start(x0, pi0, *tail)
-            load = entry_point(_fk.load_start, (x0, pi0, *tail))
-        if not admitted(load(x0, pi0, *tail), pi0, t, limits):
+            s, X, P = _scratch(fs), np.empty((n, 1)), np.empty((n, 1))
+            # with the views of x and pi of B, and start's whole argument tuple (built once)
+            w = (s, X, P, s[9][0], s[2][0, :n], (X, P, *consts, s[0]))
+        s, X, P, xv, pv, args = w
+        if not admitted(load_point(x0, pi0, X, P, MAX_MAGNITUDE), pi0, t, limits):
             pool.append(w)
             return None
+        start(*args)
+        if start is _fk.start:  # the first call: the entry point of the types it used
+            start = entry_point(_fk.start, args)
+        y0 = s[0]
         e, final = pair(y0, t, s)
         if e <= tol:
             x, pi = xv.copy(), pv.copy()

@@ -30,8 +30,6 @@ import math
 
 import numpy as np
 
-from ._flow_checks import point_max
-
 try:
     from numba import njit
 except ImportError:  # pragma: no cover - the plain-Python path
@@ -1039,21 +1037,19 @@ def ad_table(mats, proj):
     its nonzero columns (ascending); then the ``Q`` entries ``(i, j)`` that ``proj`` reads
     (row-major), each with the count and the rows ``a`` of its nonzero real-part coefficients, then
     of its imaginary-part ones]``; ``adc`` (``mats``' dtype): those ``E_b[k, l]``, then the
-    coefficients of ``proj`` (real numbers) in the same order. ``adt = [-1]`` where the sparse route
-    has no fewer products than the dense one (a dense basis: :func:`ad_batch` runs)."""
+    coefficients of ``proj`` (real numbers) in the same order. On a dense basis (no zero entries) it
+    lists every entry: the dense route's products, read through the tables."""
     mats = np.asarray(mats)
     proj = np.asarray(proj)
     n, r, _ = mats.shape
     rr = r * r
     cplx = np.iscomplexobj(mats)
     adt, ev = [0, 0], []
-    work = 0
     for b in range(n):
         nz = [(k, l) for k in range(r) for l in range(r) if mats[b, k, l] != 0]
         cols = sorted({l for _, l in nz})
         adt += [len(nz)] + [v for kl in nz for v in kl] + [len(cols)] + cols
         ev += [mats[b, k, l] for k, l in nz]
-        work += r * len(nz)
     adt[1] = len(adt)
     pv = []
     for q in range(rr):
@@ -1063,13 +1059,8 @@ def ad_table(mats, proj):
             adt[0] += 1
             adt += [q // r, q % r, len(re)] + re + [len(im)] + im
             pv += [proj[a, q] for a in re] + [proj[a, rr + q] for a in im]
-    ncols = sum(
-        len({l for k in range(r) for l in range(r) if mats[b, k, l] != 0}) for b in range(n)
-    )
-    work += adt[0] * ncols + len(pv) * n
-    empty = any(not np.any(mats[b]) for b in range(n))
-    if empty or work >= n * (2 * r**3 + n * rr * (2 if cplx else 1)):
-        return np.array([-1], dtype=np.int64), np.zeros(1, dtype=mats.dtype)
+    if any(not np.any(mats[b]) for b in range(n)):
+        raise ValueError("ad_table: a basis element of the representation is zero (not faithful)")
     return np.array(adt, dtype=np.int64), np.array(ev + pv, dtype=mats.dtype)
 
 
@@ -1094,7 +1085,7 @@ their exact-zero contributions to the dense route's sums."""
 
 @njit(cache=True, nogil=True)
 def ad_sparse(G, adt, adc, out):
-    """:func:`ad_batch` over the nonzero entries of :func:`ad_table` (``adt[0] >= 0``): ``out[N] =
+    """:func:`ad_batch` over the nonzero entries of :func:`ad_table`: ``out[N] =
     Ad(g)``, ``W = G E_b`` over the nonzero ``E_b[k, l]``, ``X = W G^-1`` at the entries ``proj``
     reads over the nonzero columns of ``W``, projected over the nonzero coefficients of ``proj`` --
     the dense route's sums, in its order (``G E_b`` first: on an ill-conditioned ``G`` that order
@@ -1184,15 +1175,6 @@ def ad_sparse(G, adt, adc, out):
                     o[adt[qp + 1 + m], b] += adc[tp + m].real * x.imag
                 qp += 1 + nim
                 tp += nim
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _ad_any(G, mats, proj, cplx, adt, adc, out):
-    """:func:`ad_sparse` where :func:`ad_table` built the sum, else :func:`ad_batch`."""
-    if adt[0] >= 0:
-        ad_sparse(G, adt, adc, out)
-    else:
-        ad_batch(G, mats, proj, cplx, out)
 
 
 @njit(cache=True, nogil=True)
@@ -1298,8 +1280,8 @@ def estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, adt, adc, cplx, GB, 
     AdA = np.zeros((N, n, n))
     unpack_G(A, gpart, gi, gj, off, GA, unit)
     unpack_G(B, gpart, gi, gj, off, GB, unit)
-    _ad_any(GA, mats, proj, cplx, adt, adc, AdA)
-    _ad_any(GB, mats, proj, cplx, adt, adc, AdB)
+    ad_sparse(GA, adt, adc, AdA)
+    ad_sparse(GB, adt, adc, AdB)
     for it in range(N):
         m = 0.0
         chk = 0.0  # 0.0 * v is NaN iff v is not finite: max() would drop a NaN
@@ -1484,7 +1466,7 @@ def abelian_batch(G, xs, s, P, Ppinv, D, Dr, mats, rtol):
 # they replace cost ~10 us of call overhead apiece on one trajectory; the same formulas as
 # refimpl._full_state._pack and ._log_complete, which stay the documentation).
 @njit(cache=True, nogil=True)
-def start(X, Pi, mats, proj, cplx, gpart, gi, gj, off, gamma, grav, Pab, y0):
+def start(X, Pi, mats, adt, adc, gpart, gi, gj, off, gamma, grav, Pab, y0):
     """``y0[N] = (pi, [Gamma,] G entries, [s])`` from ``X``, ``Pi`` (n, N): ``G = exp(rho(x))``,
     ``Gamma_b = sum_m Ad(g)_mb gamma_m`` (``grav``), ``s = Pab x`` (``Pab`` (k, n), k = 0 without an
     abelian part)."""
@@ -1506,7 +1488,7 @@ def start(X, Pi, mats, proj, cplx, gpart, gi, gj, off, gamma, grav, Pab, y0):
     exp_batch(xr, mats, G)
     if grav:
         Ad = np.empty((N, n, n))
-        ad_batch(G, mats, proj, cplx, Ad)
+        ad_sparse(G, adt, adc, Ad)
         for j in range(N):
             for b in range(n):
                 acc = 0.0
@@ -1517,26 +1499,7 @@ def start(X, Pi, mats, proj, cplx, gpart, gi, gj, off, gamma, grav, Pab, y0):
 
 
 @njit(cache=True, nogil=True)
-def load_start(x0, pi0, bound, mats, proj, cplx, gpart, gi, gj, off, gamma, grav, Pab, y0):
-    """One trajectory's start read from the caller's 1-D ``x0``, ``pi0`` in one call:
-    :func:`refimpl._flow_checks.point_max` (``max |pi0|``, or -1.0 where an entry is not finite or
-    beyond ``bound``: ``y0`` then not written), else :func:`start` of that point into ``y0`` (1, d).
-    Returns that ``pmax`` (issue 25: one compiled call where :func:`refimpl._flow_checks.load_point`
-    and :func:`start` were two)."""
-    pmax = point_max(x0, pi0, bound)
-    if pmax >= 0.0:
-        n = x0.shape[0]
-        X = np.empty((n, 1))
-        P = np.empty((n, 1))
-        for i in range(n):
-            X[i, 0] = x0[i]
-            P[i, 0] = pi0[i]
-        start(X, P, mats, proj, cplx, gpart, gi, gj, off, gamma, grav, Pab, y0)
-    return pmax
-
-
-@njit(cache=True, nogil=True)
-def log_residual(xs, mats, proj, cplx, Ad, out):
+def log_residual(xs, mats, adt, adc, Ad, out):
     """``out[N] = max |Ad(exp(rho(x))) - Ad|`` for the rows of ``xs`` (N, n) (inf when not finite):
     how far the logarithm's ``x`` moves what the user reads from ``Ad(g)``."""
     N, n = xs.shape
@@ -1544,7 +1507,7 @@ def log_residual(xs, mats, proj, cplx, Ad, out):
     G = np.empty((N, r, r), dtype=mats.dtype)
     exp_batch(xs, mats, G)
     Adx = np.empty((N, n, n))
-    ad_batch(G, mats, proj, cplx, Adx)
+    ad_sparse(G, adt, adc, Adx)
     for it in range(N):
         m = 0.0
         chk = 0.0  # 0.0 * v is NaN iff v is not finite: max() would drop a NaN
@@ -1564,7 +1527,7 @@ def _residual_final(Ex, mats, proj, adt, adc, cplx, Ad, resid):
     N = Ex.shape[0]
     n = mats.shape[0]
     Adx = np.empty((N, n, n))
-    _ad_any(Ex, mats, proj, cplx, adt, adc, Adx)
+    ad_sparse(Ex, adt, adc, Adx)
     for it in range(N):
         m = 0.0
         chk = 0.0  # 0.0 * v is NaN iff v is not finite: max() would drop a NaN

@@ -252,37 +252,6 @@ def test_load_point_copies_the_start_and_refuses_unbounded_entries():
                 assert fn(x0, pb, np.empty((3, 1)), np.empty((3, 1)), 1e300) == -1.0
 
 
-def test_load_start_is_load_point_then_start():
-    """``_full_state_kernel.load_start`` (the one-trajectory runner's compiled read and start): on
-    Bianchi VI0 with its abelian part, the rows ``start`` writes from ``load_point``'s columns, bit for
-    bit, and ``max |pi0|``; -1.0 for NaN, +-inf and ``|v|`` past the bound in either array, ``y0`` then
-    not written."""
-    from tstarg.refimpl import _full_state as fs_mod
-    from tstarg.refimpl import _full_state_kernel as fk
-    from tstarg.refimpl._flow_checks import load_point
-    from tstarg.refimpl.flows import cached_model
-    from tstarg.refimpl.flows._common import _AbelianPart
-
-    f = catalogue("Bianchi VI0").f
-    z = np.zeros((3, 3))
-    fs = fs_mod.full_state(cached_model(f, z, z, np.diag([1.0, 2.0, 3.0]), None), _AbelianPart)
-    x0, pi0 = np.array([0.3, -0.2, 0.7]), np.array([1.0, -2.5, 0.5])
-    X, P = np.empty((3, 1)), np.empty((3, 1))
-    assert load_point(x0, pi0, X, P, 1e300) == 2.5
-    want = np.empty((1, fs.d))
-    fk.start(X, P, *fs.start_consts, want)
-    y0 = np.full((1, fs.d), 7.0)
-    assert fk.load_start(x0, pi0, 1e300, *fs.start_consts, y0) == 2.5
-    assert np.array_equal(y0, want)
-    for bad in (np.nan, np.inf, -np.inf, -1.0000000000000001e301):
-        for k in range(3):
-            for xb, pb in ((x0.copy(), pi0), (x0, pi0.copy())):
-                (xb if xb is not x0 else pb)[k] = bad
-                y0 = np.full((1, fs.d), 7.0)
-                assert fk.load_start(xb, pb, 1e300, *fs.start_consts, y0) == -1.0
-                assert np.all(y0 == 7.0)
-
-
 @pytest.mark.parametrize("name", ["h(3)", "su(2)"])
 def test_one_trajectory_call_reads_any_1d_layout_and_refuses_bad_points_by_name(name):
     """The protocol call of one trajectory (1-D points, ``_fast._flow_one``: the start copied into
