@@ -293,11 +293,24 @@ def _finish_py(A, B, n, est, x):
     _log_py(B, x)
 
 
-def _finish_one_py(A, B, n, est, x, sA, sB):
+def _finish_one_py(A, B, n, est, x, pi, sA, sB, prop, tol):
     if sA[0] < 0 or sB[0] < 0:
         return 1
-    _finish_py(A, B, n, est, x)
-    return 0 if np.all(np.isfinite(B[0, :n])) and np.all(np.isfinite(x[:, 0])) else 2
+    x2 = np.empty((n, 1))
+    _finish_py(A, B, n, est, x2)
+    x[:] = x2[:, 0]
+    pi[:] = B[0, :n]
+    if not (np.all(np.isfinite(pi)) and np.all(np.isfinite(x))):
+        return 2
+    return 0 if _passes(est[0], prop, tol) else 3
+
+
+def _passes(d, prop, tol):
+    """:func:`first_estimate` ``<= tol`` of one pair's ``d = |A - B|``, its constants ``prop`` (the
+    factor ``PROP eps_B / eps_A`` where the proportional form applies at these tolerances, else 0.0)
+    looked up once per runner: the same operations, so the same verdict."""
+    e = min(d, prop * d) if prop > 0.0 and d <= PROP_MAX_D else d
+    return e <= tol
 
 
 if _ct.HAVE_NUMBA:
@@ -358,12 +371,17 @@ if _ct.HAVE_NUMBA:
             est[j] = m if math.isfinite(m) else np.inf
 
     @njit(cache=True, nogil=True, inline="always")
+    def _log_fac(w, a, b, c):  # pragma: no cover - compiled
+        """The factor of ``x = fac (a, b, c)`` of :func:`quat_to_x` for the quaternion ``(w, a, b, c)``."""
+        s = math.sqrt(a * a + b * b + c * c)
+        return 2.0 * math.atan2(s, w) / s if s > 0 else 2.0
+
+    @njit(cache=True, nogil=True, inline="always")
     def _log(B, x):  # pragma: no cover - compiled; same as _log_py
         d = B.shape[1]
         for j in range(B.shape[0]):
             w, a, b, c = B[j, d - 4], B[j, d - 3], B[j, d - 2], B[j, d - 1]
-            s = math.sqrt(a * a + b * b + c * c)
-            fac = 2.0 * math.atan2(s, w) / s if s > 0 else 2.0
+            fac = _log_fac(w, a, b, c)
             x[0, j], x[1, j], x[2, j] = a * fac, b * fac, c * fac
 
     @njit(cache=True, nogil=True)
@@ -372,17 +390,27 @@ if _ct.HAVE_NUMBA:
         _log(B, x)
 
     @njit(cache=True, nogil=True)
-    def _finish_one(A, B, n, est, x, sA, sB):  # pragma: no cover - compiled; as _finish_one_py
-        """:func:`_finish` of one trajectory's pair with the checks around it: 1 where a run
-        diverged (steps < 0; nothing computed), 2 where ``B``'s ``pi`` or ``x`` is not finite, else 0."""
+    def _finish_one(A, B, n, est, x, pi, sA, sB, prop, tol):  # pragma: no cover - as _finish_one_py
+        """:func:`_finish` of one trajectory's pair with the checks and the verdict around it, the
+        answer written into the 1-D ``x`` (the logarithm) and ``pi`` (``B``'s): 1 where a run
+        diverged (steps < 0; nothing computed), 2 where ``pi`` or ``x`` is not finite, 3 where the
+        pair's estimate is over ``tol`` (:func:`_passes`), else 0."""
         if sA[0] < 0 or sB[0] < 0:
             return 1
         _estimate(A, B, n, est)
-        _log(B, x)
-        for c in range(n):
-            if not (math.isfinite(B[0, c]) and math.isfinite(x[c, 0])):
+        d = B.shape[1]
+        w, a, b, c = B[0, d - 4], B[0, d - 3], B[0, d - 2], B[0, d - 1]
+        fac = _log_fac(w, a, b, c)
+        x[0], x[1], x[2] = a * fac, b * fac, c * fac
+        for k in range(n):
+            pi[k] = B[0, k]
+        for k in range(n):
+            if not (math.isfinite(pi[k]) and math.isfinite(x[k])):
                 return 2
-        return 0
+        e = est[0]
+        if prop > 0.0 and e <= PROP_MAX_D:  # _passes, compiled
+            e = min(e, prop * e)
+        return 0 if e <= tol else 3
 
 else:  # pragma: no cover - exercised only where numba is missing
     _start, _estimate, _log = _start_py, _estimate_py, _log_py
@@ -397,8 +425,8 @@ else:  # pragma: no cover - exercised only where numba is missing
         _estimate(A, B, n, est)
         _log(B, x)
 
-    def _finish_one(A, B, n, est, x, sA, sB):
-        return _finish_one_py(A, B, n, est, x, sA, sB)
+    def _finish_one(A, B, n, est, x, pi, sA, sB, prop, tol):
+        return _finish_one_py(A, B, n, est, x, pi, sA, sB, prop, tol)
 
 
 def _full_field(model) -> _ct.CompiledField:
@@ -565,6 +593,8 @@ def _one_runner(model, tol, eps_a, eps_b, pair, qcoef, lcoef, limits):
     pool = []
     empty, i64 = np.empty, np.int64
     pair_, finish = pair, _finish_one
+    # first_estimate's constants at these tolerances (_passes): its factor where it scales d
+    prop = PROP * (eps_b / eps_a) if eps_a >= PROP_MIN_A and eps_b >= PROP_MIN_B else 0.0
 
     def run(x0, pi0, t):
         nonlocal pair_, finish
@@ -585,19 +615,18 @@ def _one_runner(model, tol, eps_a, eps_b, pair, qcoef, lcoef, limits):
             pool.append(s)
             return None
         pair_(y0, t, eps_a, eps_b, MAX_STEPS, qcoef, lcoef, A, B, sA, sB)
-        x = empty((n, 1))
-        status = finish(A, B, n, est, x, sA, sB)
+        x, pi = empty(n), empty(n)
+        status = finish(A, B, n, est, x, pi, sA, sB, prop, tol)
         if finish is _finish_one:  # the first call: the entry points of the types it used
             pair_ = entry_point(pair, (y0, t, eps_a, eps_b, MAX_STEPS, qcoef, lcoef, A, B, sA, sB))
-            finish = entry_point(_finish_one, (A, B, n, est, x, sA, sB))
+            finish = entry_point(_finish_one, (A, B, n, est, x, pi, sA, sB, prop, tol))
+        if status == 0:  # the pair passes (first_estimate <= tol, as _pair_run)
+            pool.append(s)
+            return x, pi  # finite (_finish_one)
         if status == 1:  # a run diverged: named
             _diverged(sA if sA[0] < 0 else sB, t)
         if status == 2:  # B's pi or x not finite: refused by name
-            finite_one(x[:, 0], B[0, :n], t)
-        if first_estimate(est.item(), eps_a, eps_b, PROP_MIN_B, PROP_MAX_D) <= tol:  # as _pair_run
-            pi = B[0, :n].copy()
-            pool.append(s)
-            return x[:, 0], pi  # finite (_finish_one)
+            finite_one(x, pi, t)
         out = _go_on(model, y0, t, eps_a, n, tol, (A, B, sB), True)  # s stays with this call
         return finite_one(out["x"][:, 0], out["pi"][:, 0], t)
 

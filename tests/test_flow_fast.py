@@ -349,10 +349,12 @@ def test_one_trajectory_call_off_su2_refuses_too_fast_points_as_the_batch(t):
 
 def test_su2_finish_of_one_pair_checks_steps_and_finiteness():
     """``_flow_compiled._finish_one`` (the su(2) runner's one compiled call after the pair) and its
-    plain-Python twin: 0 with ``_finish``'s estimate and logarithm (bit for bit compiled; the twin's
-    numpy sqrt/arctan2 within 8 eps of |x| <= 2 pi, 4 eps of the estimate); 1 where either run's step
-    count is negative (a diverged run); 2 where ``B``'s ``pi`` or the logarithm ``x`` is not finite."""
-    from tstarg.refimpl._flow_compiled import _finish, _finish_one, _finish_one_py
+    plain-Python twin: ``_finish``'s estimate and logarithm (bit for bit compiled; the twin's numpy
+    sqrt/arctan2 within 8 eps of |x| <= 2 pi, 4 eps of the estimate), ``B``'s ``pi``, and the verdict:
+    0 where the first pair's estimate ``d`` (``min(d, prop d)`` for a factor ``prop > 0`` while ``d <=
+    PROP_MAX_D``, else ``d``) is at most ``tol``, 3 where it is over; 1 where either run's step count is
+    negative (a diverged run); 2 where ``B``'s ``pi`` or the logarithm ``x`` is not finite."""
+    from tstarg.refimpl._flow_compiled import PROP_MAX_D, _finish, _finish_one, _finish_one_py
 
     rng = np.random.default_rng(4)
     q = rng.standard_normal(4)
@@ -360,19 +362,32 @@ def test_su2_finish_of_one_pair_checks_steps_and_finiteness():
     A = B + 1e-9 * rng.standard_normal(B.shape)
     est0, x0 = np.empty(1), np.empty((3, 1))
     _finish(A, B, 3, est0, x0)
+    d = float(est0[0])
+    assert 0.0 < d <= PROP_MAX_D
     ok, bad = np.array([5]), np.array([-1])
     for fn in (_finish_one, _finish_one_py):
-        est, x = np.empty(1), np.empty((3, 1))
-        assert fn(A, B, 3, est, x, ok, ok) == 0
+        est, x, pi = np.empty(1), np.empty(3), np.empty(3)
+        assert fn(A, B, 3, est, x, pi, ok, ok, 0.0, np.inf) == 0
         if fn is _finish_one:
-            assert np.array_equal(est, est0) and np.array_equal(x, x0)
-        np.testing.assert_allclose(x, x0, rtol=0, atol=8 * EPS * 2 * np.pi)
+            assert np.array_equal(est, est0) and np.array_equal(x, x0[:, 0])
+        np.testing.assert_allclose(x, x0[:, 0], rtol=0, atol=8 * EPS * 2 * np.pi)
         np.testing.assert_allclose(est, est0, rtol=4 * EPS, atol=0)
-        assert fn(A, B, 3, est, x, bad, ok) == 1 and fn(A, B, 3, est, x, ok, bad) == 1
+        assert np.array_equal(pi, B[0, :3])
+        # the verdict: d itself (prop 0), or d scaled by prop = 1e-3 (under PROP_MAX_D)
+        assert fn(A, B, 3, est, x, pi, ok, ok, 0.0, 2 * d) == 0
+        assert fn(A, B, 3, est, x, pi, ok, ok, 0.0, d / 2) == 3
+        assert fn(A, B, 3, est, x, pi, ok, ok, 1e-3, d / 2) == 0
+        assert fn(A, B, 3, est, x, pi, ok, ok, 1e-3, d / 1e4) == 3
+        Af = B.copy()  # |A - B| over PROP_MAX_D: the proportional form no longer applies
+        Af[0, 0] += 10 * PROP_MAX_D
+        assert fn(Af, B, 3, est, x, pi, ok, ok, 1e-6, 5 * PROP_MAX_D) == 3
+        assert fn(Af, B, 3, est, x, pi, ok, ok, 1e-6, 20 * PROP_MAX_D) == 0
+        assert fn(A, B, 3, est, x, pi, bad, ok, 0.0, np.inf) == 1
+        assert fn(A, B, 3, est, x, pi, ok, bad, 0.0, np.inf) == 1
         for k, v in ((1, np.nan), (2, np.inf), (4, np.nan)):  # pi entries, then the quaternion
             Bb = B.copy()
             Bb[0, k] = v
-            assert fn(A, Bb, 3, np.empty(1), np.empty((3, 1)), ok, ok) == 2
+            assert fn(A, Bb, 3, np.empty(1), np.empty(3), np.empty(3), ok, ok, 0.0, np.inf) == 2
 
 
 def test_full_state_floor_of_one_trajectory_is_inf_for_an_unknown_size():

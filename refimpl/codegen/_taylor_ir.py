@@ -9,10 +9,13 @@ kernel's LLVM function with llvmlite, in the order and with the flags the Python
 
 * every floating-point operation carries ``contract`` (the kernels' ``fastmath={'contract'}``: LLVM may
   fuse a multiply and an add into one FMA, never reassociates), so the compensated (Kahan) update and
-  the summation trees stay as written;
-* sums are the balanced trees of :func:`refimpl.codegen.taylor.tree_sum` (single trajectory) or the
-  chains of :func:`refimpl.codegen.taylor.chain_sum` (the lanes of the batch kernel), the same
-  operation for operation as the Python expressions those functions write;
+  the summation trees stay as written; in the recurrence of the one-trajectory and pair kernels
+  (:func:`_coefficients_packed`) every multiply-add is an explicit ``llvm.fmuladd`` instead, so that
+  a run's coefficients are the same whether it is computed alone or on a lane beside another;
+* the Cauchy products of the one-trajectory and pair kernels are computed in packs of monomials side
+  by side (:func:`pack_groups`: one vector lane per monomial and run), each product's sum a chain;
+  the components' sums are the balanced trees of :func:`refimpl.codegen.taylor.tree_sum`; the batch
+  kernel's lanes sum as the chains of :func:`refimpl.codegen.taylor.chain_sum`;
 * ``max`` is numba's (``select(v > acc, v, acc)``), ``abs`` LLVM's ``fabs``.
 
 The state and the coefficients travel as tuples of float64 (LLVM aggregates that SROA splits into
@@ -46,7 +49,7 @@ __all__ = [
     "update_intrinsic",
 ]
 
-IR_VERSION = "1"
+IR_VERSION = "2"
 _F64 = None if ir is None else ir.DoubleType()
 _FLAGS = ("contract",)
 
@@ -148,6 +151,64 @@ class _Ops:
         return acc
 
 
+class _Mul:
+    """A product ``a b`` not yet built: the sum that takes it as a term fuses it (:class:`_FOps`)."""
+
+    __slots__ = ("a", "b")
+
+    def __init__(self, a, b):
+        self.a, self.b = a, b
+
+
+class _FOps(_Ops):
+    """:class:`_Ops` with the multiply-adds of the order bodies written as ``llvm.fmuladd`` calls.
+
+    Why: with only the ``contract`` flag the back end chooses which ``fmul`` of a sum it fuses into
+    the ``fadd`` (of ``a b + c d``: either ``fma(a, b, c d)`` or ``fma(c, d, a b)``), and it chose
+    differently on the scalar body and on the vector body of the same sum (measured: the two-lane
+    first pair's lanes and the single kernel apart by 1 ulp at some order on 125 of 2000 random
+    Bianchi III + cocycle states; lane B of the pair 3.5e-13 from the single run at ``T = 40``). Here
+    the IR fixes each fusion, the same for one lane or many: a sum's term that is a product (a
+    :class:`_Mul`) is fused into the addition that takes it, the left one when both are; no ``fmul``
+    is left as an operand of an ``fadd`` or ``fsub`` for the back end to fuse."""
+
+    def fma(self, a, b, c):
+        """``a b + c`` as ``llvm.fmuladd``: one rounding where the target has fast FMA (x86 with
+        FMA3: every lane count alike), else a multiply and an add -- never a libm ``fma`` call
+        (``llvm.fma`` on a target without FMA would be one)."""
+        name = "llvm.fmuladd." + ("f64" if self.lanes == 1 else f"v{self.lanes}f64")
+        fn = cgutils.get_or_insert_function(
+            self.b.module, ir.FunctionType(self.ty, [self.ty] * 3), name
+        )
+        return self.b.call(fn, [a, b, c])
+
+    def val(self, x):
+        """The value of a term (a :class:`_Mul` built as its product)."""
+        return self.mul(x.a, x.b) if isinstance(x, _Mul) else x
+
+    def add2(self, x, y):
+        """``x + y`` of two terms, a product among them fused (the left one when both are)."""
+        if isinstance(x, _Mul):
+            return self.fma(x.a, x.b, self.val(y))
+        if isinstance(y, _Mul):
+            return self.fma(y.a, y.b, x)
+        return self.add(x, y)
+
+    def ftree(self, v):
+        """:meth:`_Ops.tree`'s sum (the same balanced tree) of terms that may be :class:`_Mul`; a
+        single term is returned as it is (a :class:`_Mul` stays one)."""
+        if len(v) == 1:
+            return v[0]()
+        half = (len(v) + 1) // 2
+        return self.add2(self.ftree(v[:half]), self.ftree(v[half:]))
+
+    def neg(self, x):
+        """``-x`` (exact; of a product, the product of ``-a`` and ``b``)."""
+        if isinstance(x, _Mul):
+            return _Mul(self.sub(self.const(-0.0), x.a), x.b)
+        return self.sub(self.const(-0.0), x)
+
+
 def _coefficients(ops: _Ops, sp, y0, qv, lv, chain: bool) -> list:
     """The Taylor coefficients ``k = 1..P`` of the variable components, component ``vi``'s ``k`` at
     ``vi * P + k - 1`` (the recurrence of :mod:`refimpl._compiled_taylor`'s docstring,
@@ -196,6 +257,151 @@ def _coefficients(ops: _Ops, sp, y0, qv, lv, chain: bool) -> list:
                 if not z(lidx[t], k)
             ]
             y[c, k + 1] = ops.mul(summ(terms), inv) if terms else ops.zero
+    return [y[c, k] for c in variable_components(sp) for k in range(1, P + 1)]
+
+
+def _fops(builder, lanes: int = 1):
+    """The fused operations of :class:`_FOps` (every multiply-add an
+    explicit ``llvm.fmuladd``, the same fusions on any lane count) on ``lanes`` float64."""
+    return _FOps(builder, lanes)
+
+
+def _kind(sp, m: int) -> tuple:
+    """What decides the shape of monomial ``m``'s Cauchy-product sum at every order: square or not,
+    and which factors are constant (their terms ``k >= 1`` dropped)."""
+    i, j = sp[2][m]
+    const = set(sp[3])
+    return (i == j, i in const, j in const)
+
+
+def pack_groups(sp, R: int, width: int) -> list[tuple[int, ...]]:
+    """The monomials in packs of ``max(1, width // R)`` of one :func:`_kind` each (in the monomial order,
+    the last pack of a kind possibly shorter): one pack's Cauchy products are one vector of
+    ``len(pack) R`` lanes (monomial ``g[q]``'s run ``r`` on lane ``q R + r``)."""
+    G = max(1, width // R)
+    by: dict[tuple, list[int]] = {}
+    for m in range(len(sp[2])):
+        by.setdefault(_kind(sp, m), []).append(m)
+    return [tuple(ms[s : s + G]) for ms in by.values() for s in range(0, len(ms), G)]
+
+
+def _mask(idx):
+    return ir.Constant(ir.VectorType(ir.IntType(32), len(idx)), list(idx))
+
+
+def _concat(b, vs, R: int):
+    """The vectors ``vs`` of ``R`` lanes each, end to end, as one vector (shuffles only)."""
+    if len(vs) == 1:
+        return vs[0]
+    if len(vs) == 2:
+        return b.shuffle_vector(vs[0], vs[1], _mask(range(2 * R)))
+    h = (len(vs) + 1) // 2
+    lo, hi = _concat(b, vs[:h], R), _concat(b, vs[h:], R)
+    nl, nh = h * R, (len(vs) - h) * R
+    if nh < nl:  # widen the shorter half to the longer one's lanes (undefined lanes dropped below)
+        hi = b.shuffle_vector(hi, ir.Constant(hi.type, None), _mask(range(nl)))
+    return b.shuffle_vector(lo, hi, _mask([*range(nl), *range(nl, nl + nh)]))
+
+
+def _part(b, v, q: int, R: int, n: int):
+    """Lanes ``q R .. q R + R - 1`` of ``v`` (``n R`` lanes): one value, or ``v`` itself when whole."""
+    if n == 1:
+        return v
+    if R == 1:
+        return b.extract_element(v, ir.Constant(ir.IntType(32), q))
+    return b.shuffle_vector(v, ir.Constant(v.type, None), _mask(range(q * R, q * R + R)))
+
+
+def _coefficients_packed(ops, sp, y0, qv, lv, R: int, width: int) -> list:
+    """:func:`_coefficients` (the same recurrence) with the Cauchy products of :func:`pack_groups`'s
+    packs computed side by side, one lane per monomial and run (``R`` runs: the lanes of ``ops``).
+
+    Each lane's operations are those of the one-monomial sum whatever the pack, so a run's
+    coefficients are the same, bit for bit, at any ``R`` and in any pack: every multiply-add is an
+    explicit ``llvm.fmuladd`` (``ops`` and the packs' operations are :func:`_fops`'s; with only the
+    ``contract`` flag the back end may fuse a scalar and a vector body differently). A product's sum
+    is a chain, ``a = 0..k`` in order (one fused multiply-add per term: the packs and the components
+    supply the independent work a balanced tree would expose; rounding ``(m - 1) eps`` relative to the
+    sum of magnitudes, Higham 2002, section 4.2); a square sums its ``a < k - a`` terms so and doubles
+    them (exact), its middle term fused into that; the components' sums stay balanced trees
+    (:meth:`_Ops.tree`'s order), their products fused as :class:`_FOps`
+    does. A pack's factors of order ``a`` are gathered into one vector once, when first used (each
+    serves every order ``k >= a``); the products are then taken apart for the components' sums."""
+    d, P, mons, const, qptr, qmon, lptr, lidx = sp
+    const = set(const)
+    b = ops.b
+    y = {(c, 0): y0[c] for c in range(d)}
+    wide: dict[int, object] = {}
+
+    def wops(n):
+        if n not in wide:
+            wide[n] = _fops(b, n)
+        return wide[n]
+
+    def z(c, k):
+        return k >= 1 and c in const
+
+    packs = pack_groups(sp, R, width)
+    fac: dict[tuple, object] = {}
+
+    def factor(g, side, a):  # the pack's factors (side 0: i, 1: j) of order a, one vector
+        key = (g, side, a)
+        if key not in fac:
+            vs = [y[mons[m][side], a] for m in packs[g]]
+            if R == 1:
+                fac[key] = wops(len(vs)).pack(vs)
+            else:
+                fac[key] = _concat(b, vs, R)
+        return fac[key]
+
+    def mulf(g, a, side_b, bb):
+        return lambda: _Mul(factor(g, 0, a), factor(g, side_b, bb))
+
+    def chain(w, terms):  # ((t0 + t1) + t2) + ...: the first product, then one fused step per term
+        acc = terms[0]()
+        for t in terms[1:]:
+            x = t()
+            acc = w.fma(x.a, x.b, w.val(acc))
+        return acc
+
+    for k in range(P):
+        mv = [None] * len(mons)
+        for g, pack in enumerate(packs):
+            w = wops(len(pack) * R)
+            i, j = mons[pack[0]]
+            e = None
+            if i == j:
+                pairs = [(a, k - a) for a in range((k + 1) // 2) if not z(i, a) and not z(i, k - a)]
+                if len(pairs) == 1:  # (2 y_a) y_b: no rounding in 2 y_a
+                    ((a, bb),) = pairs
+                    e = _Mul(w.mul(w.const(2.0), factor(g, 0, a)), factor(g, 0, bb))
+                elif pairs:
+                    e = _Mul(w.const(2.0), w.val(chain(w, [mulf(g, a, 0, bb) for a, bb in pairs])))
+                if k % 2 == 0 and not z(i, k // 2):
+                    sq = _Mul(factor(g, 0, k // 2), factor(g, 0, k // 2))
+                    e = sq if e is None else w.add2(e, sq)
+            else:
+                pairs = [(a, k - a) for a in range(k + 1) if not z(i, a) and not z(j, k - a)]
+                if pairs:
+                    e = chain(w, [mulf(g, a, 1, bb) for a, bb in pairs])
+            if e is None:
+                for m in pack:
+                    mv[m] = ops.zero
+                continue
+            v = w.val(e)
+            for q, m in enumerate(pack):
+                mv[m] = _part(b, v, q, R, len(pack))
+        inv = ops.const(1.0 / (k + 1))
+        for c in range(d):
+            if c in const:
+                continue
+            terms = [(lambda t=t: _Mul(qv[t], mv[qmon[t]])) for t in range(qptr[c], qptr[c + 1])]
+            terms += [
+                (lambda t=t: _Mul(lv[t], y[lidx[t], k]))
+                for t in range(lptr[c], lptr[c + 1])
+                if not z(lidx[t], k)
+            ]
+            y[c, k + 1] = ops.mul(ops.val(ops.ftree(terms)), inv) if terms else ops.zero
     return [y[c, k] for c in variable_components(sp) for k in range(1, P + 1)]
 
 
@@ -253,11 +459,12 @@ def _check_floats(name, *tys):
             raise TypeError(f"{name}: expects tuples of float64, got {ty}")
 
 
-def coefficients_intrinsic(sp):
+def coefficients_intrinsic(sp, width: int):
     """The intrinsic ``C = coefficients(Y, Q, L)``: ``Y`` the state (``d`` floats), ``Q`` and ``L`` the
     field's quadratic and linear numbers (``cf.qcoef``, ``cf.lcoef`` as tuples); ``C`` the
     ``nv * P + 3`` floats of :func:`_coefficients` (component ``vi``'s coefficient ``k`` at
-    ``vi * P + k - 1``), sums as balanced trees."""
+    ``vi * P + k - 1``) and the three norms of :func:`_norms`, computed as
+    :func:`_coefficients_packed` computes them (the Cauchy products in packs of ``width`` lanes)."""
     d, P = sp[0], sp[1]
     nq, nl = len(sp[5]), len(sp[7])
     nout = len(variable_components(sp)) * P + 3
@@ -269,8 +476,9 @@ def coefficients_intrinsic(sp):
 
         def codegen(context, builder, sig, args):
             y, q, l = args
-            ops, y0 = _Ops(builder), _unpack(builder, y, d)
-            C = _coefficients(ops, sp, y0, _unpack(builder, q, nq), _unpack(builder, l, nl), False)
+            ops, y0 = _fops(builder), _unpack(builder, y, d)
+            qv, lv = _unpack(builder, q, nq), _unpack(builder, l, nl)
+            C = _coefficients_packed(ops, sp, y0, qv, lv, 1, width)
             return context.make_tuple(builder, ret, C + _norms(ops, sp, y0, C))
 
         return ret(Y, Q, L), codegen
@@ -314,13 +522,13 @@ def update_intrinsic(sp):
     return update
 
 
-def lanes_coefficients_intrinsic(sp, W: int):
+def lanes_coefficients_intrinsic(sp, W: int, width: int):
     """The intrinsic ``C = coefficients(Y, Q, L)`` of :func:`coefficients_intrinsic` on ``W``
     trajectories at once, one per lane of a vector (the pair kernel: the checking run and the answer
     side by side). ``Y``: ``W d`` floats, trajectory ``i``'s state at ``Y[i d:(i + 1) d]``; ``C``:
     trajectory ``i``'s coefficients at ``i nv P + vi P + k - 1``, then the three norms of each
-    trajectory in turn (from ``W nv P``). Each lane's values are the scalar intrinsic's: the same
-    operations in the same order, element by element."""
+    trajectory in turn (from ``W nv P``). Each lane's values are the one-trajectory intrinsic's, bit
+    for bit (:func:`_coefficients_packed` with ``R = W`` runs, packs of ``width`` lanes)."""
     d, P = sp[0], sp[1]
     nq, nl = len(sp[5]), len(sp[7])
     n1 = len(variable_components(sp)) * P
@@ -331,12 +539,12 @@ def lanes_coefficients_intrinsic(sp, W: int):
         ret = types.UniTuple(types.float64, W * (n1 + 3))
 
         def codegen(context, builder, sig, args):
-            ops = _Ops(builder, W)
+            ops = _fops(builder, W)
             ys = _unpack(builder, args[0], W * d)
             y0 = [ops.pack([ys[i * d + c] for i in range(W)]) for c in range(d)]
             qv = [ops.splat(v) for v in _unpack(builder, args[1], nq)]
             lv = [ops.splat(v) for v in _unpack(builder, args[2], nl)]
-            C = _coefficients(ops, sp, y0, qv, lv, False)
+            C = _coefficients_packed(ops, sp, y0, qv, lv, W, width)
             norms = _norms(ops, sp, y0, C)
             out = [ops.lane(v, i) for i in range(W) for v in C]
             out += [ops.lane(v, i) for i in range(W) for v in norms]
