@@ -1095,9 +1095,9 @@ def ad_sparse(G, adt, adc, out):
     past :data:`AD_NO_OVERFLOW` (the dense route: NaN, or an ``Ad`` without a correct digit)."""
     N, r, _ = G.shape
     n = out.shape[1]
-    Gi = np.empty((r, r), dtype=G.dtype)
-    W = np.zeros((r, r), dtype=G.dtype)
-    ws = np.empty((r, 2 * r), dtype=G.dtype)
+    buf = np.empty((4, r, r), dtype=G.dtype)  # one allocation: G^-1, W, the inverse's workspace
+    Gi, W = buf[0], buf[1]
+    ws = buf[2:].reshape((r, 2 * r))
     emax = 0.0
     pstart = _ad_proj_start(adt, n)  # the first proj coefficient in adc
     pos = 2
