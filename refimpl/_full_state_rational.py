@@ -23,6 +23,13 @@ What is shared
     full_state_rational_source` (the nonzero patterns of ``f``, ``I^-1``, ``Theta``, ``Upsilon``,
     ``G_L`` and of the ``E_b``; the numbers are array arguments).
 
+One trajectory (the protocol call, issue 25)
+    :func:`one_trajectory` (every algebra but su(2)) and :func:`one_trajectory_su2` (the quaternion
+    state of :mod:`refimpl._compiled_rational`) are the runners of :func:`refimpl.flows._fast._flow_one`
+    for ``Upsilon != 0``: the start read and checked in compiled code (:func:`start_check`), the first
+    pair of the two-run control run and estimated without the control's Python, the control entered
+    only from a pair that does not pass; the answers are those of the general route bit for bit.
+
 The degenerate set (vier12)
     As the su(2) rational kernel, with the measure of docs/conventions.md: at every step the
     sensitivity of the solve ``||Psi_0^-1||_inf (1 + ||S_0||_inf ||Upsilon||_inf)`` (at least
