@@ -204,7 +204,9 @@ def _coefficients(ops: _Ops, sp, y0, qv, lv, chain: bool) -> list:
 
 def _fops(builder, lanes: int = 1):
     """The fused operations of :class:`refimpl.codegen._full_state_ir._FOps` (every multiply-add an
-    explicit ``llvm.fmuladd``, the same fusions on any lane count) on ``lanes`` float64."""
+    explicit ``llvm.fmuladd``, the same fusions on any lane count) on ``lanes`` float64. The kernels
+    built here depend on them: a change to ``_FOps``'s operations must bump :data:`IR_VERSION` too
+    (the generated modules' cache key names this module's version only)."""
     from ._full_state_ir import _FOps  # that module imports this one: imported when first used
 
     return _FOps(builder, lanes)
