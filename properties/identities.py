@@ -157,6 +157,8 @@ def _exact_size(v: sympy.Expr) -> float:
     :meth:`sympy.Expr.equals`. A nonzero value is then evaluated to 30 digits: only its size
     matters (which identity is worst), never its sign.
     """
+    if not isinstance(v, sympy.Basic):  # never sympify: a string would be evaluated as code
+        raise TypeError(f"_exact_size: expects a sympy number, got {type(v).__name__}")
     v = sympy.expand(v)
     if v.is_Rational:
         return float(abs(v))

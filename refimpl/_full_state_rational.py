@@ -36,12 +36,20 @@ The degenerate set (vier12)
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from . import _compiled_rational as _cr
 from . import _compiled_taylor as _ct
+from . import _fast_kernels as _fast
+from . import _flow_compiled as _fc
 from . import _full_state as _fs
+from . import _full_state_kernel as _fsk
 from . import _full_state_rational_kernel as _fk
+from ._flow_checks import admitted, finite_one, load_point
+from ._flow_compiled import PROP_MAX_D, _eps_b, entry_point, first_estimate, local_tolerances
+from ._validate import MAX_MAGNITUDE
 from .codegen import import_source
 from .codegen.full_state_rational import full_state_rational_source
 
@@ -51,6 +59,8 @@ __all__ = [
     "ORDER_BIAS",
     "RationalFullState",
     "applies",
+    "one_trajectory",
+    "one_trajectory_su2",
     "rational_full_state",
     "rational_full_state_flow",
     "use_generated",
@@ -209,8 +219,8 @@ class RationalFullState:
             )  # fmt: skip
         else:
             _fk.adaptive(
-                y, float(T), float(tol), P, int(max_steps), *self.tables(), cmax, out, steps,
-                tend, conds,
+                y, float(T), np.full(N, float(tol)), np.full(N, P, dtype=np.int64),
+                int(max_steps), *self.tables(), cmax, out, steps, tend, conds,
             )  # fmt: skip
         return out, steps, tend, conds
 
@@ -252,3 +262,203 @@ def rational_full_state_flow(model, x0, pi0, t: float, tol: float, *, abelian=No
         )
     rfs = rational_full_state(model, abelian)
     return _fs.full_state_flow(model, x0, pi0, t, tol, abelian=abelian, run=_runner(rfs))
+
+
+def start_check(model, fixed_types: bool = False):
+    """``degenerate(p) -> bool`` for one start ``pi = p`` (1-D float64) of ``model`` (``Upsilon != 0``): the
+    flows' start check (:func:`refimpl._fast_kernels.start_degenerate`, the rule of
+    :func:`refimpl.flows._fast._check_start`) compiled for one point
+    (:func:`refimpl._full_state_rational_kernel.start_degenerate`, its su(2) closed form
+    :func:`refimpl._full_state_rational_kernel.start_degenerate_su2`), the model's arrays bound once.
+    The refusal itself stays the caller's (its message, by the numpy rule). ``fixed_types``: every
+    ``p`` has the type of the first (a runner's own work array), whose entry point is then taken
+    (:func:`refimpl._flow_compiled.entry_point`, which does not check types); else numba dispatches."""
+    n = model.n
+    th = np.ascontiguousarray(model.theta, dtype=float)
+    ups = np.ascontiguousarray(model.upsilon, dtype=float)
+    if _fast._is_su2(np.asarray(model.f)):
+        xi = _fast._su2_theta_to_xi(th)
+        xi = np.zeros(3) if xi is None else np.ascontiguousarray(xi, dtype=float)
+        tau = np.array(_fast._su2_upsilon_to_tau(ups), dtype=float)
+        args = (xi, tau, 1.0 / (3 * _fast.C_P * _fast.EPS))
+        kernel = _fk.start_degenerate_su2
+    else:
+        f = np.ascontiguousarray(model.f, dtype=float)
+        args = (f, th, ups, math.sqrt(np.vdot(ups, ups)), n * _fast.C_P * _fast.EPS)
+        kernel = _fk.start_degenerate
+    fn = kernel
+
+    def degenerate(p) -> bool:
+        nonlocal fn
+        out = fn(p, *args)
+        if fn is kernel and fixed_types:  # the first call: the entry point of the types it used
+            fn = entry_point(kernel, (p, *args))
+        return out
+
+    return degenerate
+
+
+def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None), refuse=None):
+    """``run(x0, pi0, t) -> (x, pi)`` at ``tol`` on ``model`` (``Upsilon != 0``, :func:`applies`):
+    :func:`rational_full_state_flow` of one trajectory (``x0``, ``pi0`` 1-D float64 of shape (n,),
+    ``t`` a float; ``x``, ``pi`` fresh arrays of shape (n,), finite: else refused by name,
+    :func:`refimpl._flow_checks.finite_one`), the same computation with the constants of the call
+    looked up once, when the runner is built (issue 25: the Python around one protocol call; as
+    :func:`refimpl._full_state.one_trajectory` for ``Upsilon = 0``).
+
+    The start is read by :func:`refimpl._flow_checks.load_point` (``run`` returns None where an entry
+    is not finite with ``|v| <= MAX_MAGNITUDE``; ``rates(pi0, t, max |pi0|)`` of ``limits = (free,
+    rates)`` where ``max |pi0| > free``), then checked off the degenerate set by :func:`start_check`;
+    on that set ``refuse(P)`` (``P`` the start as a column) raises the caller's refusal. The first pair
+    of :func:`refimpl._flow_compiled._control` (``A`` at ``local_tolerances(tol)[0]``, ``B`` at
+    :data:`refimpl._full_state.B_MAX_RATIONAL` or tighter, each at its kernel order) runs as the two
+    rows of one call of :func:`refimpl._full_state_rational_kernel.adaptive` (each row's run that of the
+    kernel alone; a separate compiled function calling it twice cost 1.5-2.5 s more on modified
+    su(3)'s fully cold first call: numba re-optimises the callee inside it), a failed run raises as
+    :func:`_runner`'s, and the pair is estimated as the control's
+    first pair (:func:`first_estimate` with :data:`refimpl._full_state.PROP_MIN_B_RATIONAL`, plus the
+    rounding floor and the logarithm's residual of :func:`refimpl._full_state._floor_one`, measured by
+    one compiled call as :class:`refimpl._full_state._Answer` does). Only when it does not pass does
+    the call enter the control (:func:`refimpl._full_state._go_on` from that pair). Work arrays are
+    kept between calls in a pool (concurrent calls never share them; never returned). A call whose
+    ``N |t|`` takes the generated kernel (:func:`use_generated`) runs :func:`rational_full_state_flow`."""
+    rfs = rational_full_state(model, abelian)
+    fs = rfs.fs
+    n, consts, start = fs.n, fs.start_consts, _fsk.start
+    eps_a = local_tolerances(tol)[0]
+    eps_b = _eps_b(eps_a, _fs.B_MAX_RATIONAL)
+    tols = np.array([eps_a, eps_b])
+    orders = np.array([_ct.adaptive_order(e) + ORDER_BIAS for e in (eps_a, eps_b)], dtype=np.int64)
+    tables, cmax, kernel = rfs.tables(), float(_cr.COND_MAX), _fk.adaptive
+    degenerate = start_check(model, fixed_types=True)  # P[:, 0] of the pool's (n, 1) arrays
+    log = fs.log_pair  # as _Answer.measure calls it
+    largs = getattr(fs, "log_args", None)  # the logarithm's constant arguments, where fs keeps them
+    if largs is None:
+        if fs.refine:
+            largs = (n, *fs.gidx, fs.mats, fs.proj, *fs.abelian_tables, _fs.ABELIAN_RTOL)
+        else:
+            largs = (n, *fs.gidx, fs.unit, fs.mats, fs.proj, fs.cplx, fs.ab_mode)
+    pmin, floor_one, max_steps = _fs.PROP_MIN_B_RATIONAL, _fs._floor_one, _fs.MAX_STEPS
+    pool = []
+    kernel_, log_, start_ = kernel, log, start
+    gen_from = GENERATED_MIN_WORK if fs.n_products <= GENERATED_MAX_PRODUCTS else math.inf
+
+    def run(x0, pi0, t):
+        nonlocal kernel_, log_, start_
+        t = float(t)  # the entry points take the types of the first call
+        try:
+            s, X, P, ends = pool.pop()
+        except IndexError:  # none free (the first call, or one running in another thread)
+            s, X, P = _fs._scratch(fs), np.empty((n, 1)), np.empty((n, 1))
+            ends = (np.empty(2), np.empty(2))  # the time reached and the sensitivity of A and B
+        if not admitted(load_point(x0, pi0, X, P, MAX_MAGNITUDE), pi0, t, limits):
+            pool.append((s, X, P, ends))
+            return None
+        if degenerate(P[:, 0]) and refuse is not None:
+            refuse(P)  # raises: the start on the degenerate set, named as the general route does
+        if abs(t) >= gen_from:  # the generated kernel's span (use_generated): the general route
+            out = rational_full_state_flow(model, X, P, t, tol, abelian=abelian)
+            pool.append((s, X, P, ends))
+            return finite_one(out["x"][:, 0], out["pi"][:, 0], t)
+        y0, A, B, sB = s[0], s[1], s[2], s[4]
+        G, Ad, est, size, xs, ok, resid = s[5:12]
+        start_(X, P, *consts, y0)
+        AB, steps, (te, co) = s[12], s[13], ends
+        kargs = (y0, t, tols, orders, max_steps, *tables, cmax, AB, steps, te, co)
+        kernel_(*kargs)  # A and B, each row as adaptive runs it alone
+        for i in (0, 1):
+            if steps[i] < 0:  # A first, as the control names it
+                j = slice(i, i + 1)
+                _cr._raise_failed(AB[j], steps[j], te[j], co[j], t, _cr.COND_MAX, SENSITIVITY)
+        if not log_(A, B, *largs, G, Ad, est, size, xs, ok, resid):
+            _fs._log_complete(fs, B, G, Ad, xs, ok, resid)
+        if kernel_ is kernel:  # the first call: the entry points of the types it used
+            start_ = entry_point(start, (X, P, *consts, y0))
+            kernel_ = entry_point(kernel, kargs)
+            log_ = entry_point(log, (A, B, *largs, G, Ad, est, size, xs, ok, resid))
+        dv = est.item()
+        e = first_estimate(dv, eps_a, eps_b, pmin, PROP_MAX_D)
+        if e + floor_one(sB.item(), n, size.item(), dv / eps_a, resid.item()) <= tol:
+            x, pi = xs[0].copy(), B[0, :n].copy()
+            pool.append((s, X, P, ends))
+            return finite_one(x, pi, t)
+        # the control from this pair (s stays with this call's results)
+        res, _, _, ans = _fs._go_on(fs, model, y0, t, tol, s, _runner(rfs))
+        return finite_one(ans.all[2][0].copy(), res[0, :n].copy(), t)
+
+    return run
+
+
+def one_trajectory_su2(model, tol: float, limits=(math.inf, None), refuse=None):
+    """``run(x0, pi0, t) -> (x, pi)`` at ``tol`` for one su(2)/so(3) trajectory with ``Upsilon != 0``
+    (``x0``, ``pi0`` 1-D float64 of shape (3,), ``t`` a float; ``x``, ``pi`` fresh arrays, finite: else
+    refused by name): :func:`refimpl._flow_compiled.compiled_taylor_flow` of that trajectory, the same
+    computation with the constants of the call looked up once (issue 25: the Python around the
+    protocol call; the ``Upsilon = 0`` runner is :func:`refimpl._flow_compiled.one_trajectory`).
+
+    The start is read and checked as that runner reads it (``_load_start``: None where an entry is not
+    finite with ``|v| <= MAX_MAGNITUDE``; ``rates(pi0, t, max |pi0|)`` of ``limits = (free, rates)``
+    where ``max |pi0| > free``), then off the degenerate set
+    (:func:`start_check`; on it ``refuse(P)``, ``P`` the start as a column,
+    raises the caller's refusal). The first pair of :func:`refimpl._flow_compiled._control` (``A`` at
+    ``local_tolerances(tol)[0]``, ``B`` at its ``eps_B``, each at Jorba-Zou's order, as
+    :func:`rational_run` runs them) on the structure's kernel, failed runs raised as there, then the
+    estimate and logarithm in one compiled call (``_finish_one``) and the control's first estimate
+    (:func:`refimpl._flow_compiled.first_estimate`); only a pair that does not pass enters the control
+    (``_go_on`` from that pair). Work arrays are kept between calls in a pool (never returned)."""
+    if not (model.su2 and not model.upsilon_zero):
+        raise ValueError("compiled rational one_trajectory: for su(2)/so(3) with Upsilon != 0")
+    rf = _cr._field(model, quat=True)
+    kernel = _cr.rational_kernel(rf).adaptive
+    n, d, grav = model.n, rf.d, bool(model.gravity)
+    gamma = model.gamma if grav else _fc._NO_GAMMA
+    eps_a, eps_b = _fc.local_tolerances(tol)
+    pa, pb = _ct.adaptive_order(eps_a), _ct.adaptive_order(eps_b)
+    fargs, cmax, max_steps = (
+        rf.args(),
+        float(_cr.COND_MAX),
+        10_000_000,
+    )  # rational_taylor_adaptive's
+    pmin, pmax_d = _fc.PROP_MIN_B, _fc.PROP_MAX_D  # _control's defaults (compiled_taylor_flow)
+    degenerate = start_check(model, fixed_types=True)  # y0[0, :n] of the pool's (1, d) arrays
+    load, finish = _fc._load_start, _fc._finish_one
+    pool = []
+    empty, i64 = np.empty, np.int64
+    kernel_, finish_ = kernel, finish
+
+    def run(x0, pi0, t):
+        nonlocal kernel_, finish_
+        t = float(t)  # the entry points take the types of the first call
+        try:
+            s = pool.pop()
+        except IndexError:  # none free (the first call, or one running in another thread)
+            s = (empty((1, d)), empty((1, d)), empty((1, d)), empty(1, i64), empty(1, i64))
+            s += tuple(empty(1) for _ in range(5))
+        y0, A, B, sA, sB, tA, cA, tB, cB, est = s
+        if not admitted(load(x0, pi0, gamma, grav, y0, MAX_MAGNITUDE), pi0, t, limits):
+            pool.append(s)
+            return None
+        if degenerate(y0[0, :n]) and refuse is not None:  # y0's pi is pi0 (read by _load_start)
+            refuse(y0[0, :n].reshape(n, 1).copy())  # raises, named as the general route does
+        kernel_(y0, t, eps_a, pa, max_steps, *fargs, cmax, A, sA, tA, cA)
+        kernel_(y0, t, eps_b, pb, max_steps, *fargs, cmax, B, sB, tB, cB)
+        for Y, st, te, co in ((A, sA, tA, cA), (B, sB, tB, cB)):
+            if st[0] < 0:
+                _cr._raise_failed(Y, st, te, co, t, _cr.COND_MAX)
+        x = empty((n, 1))
+        status = finish_(A, B, n, est, x, sA, sB)
+        if kernel_ is kernel:  # the first call: the entry points of the types it used
+            kernel_ = entry_point(
+                kernel, (y0, t, eps_a, pa, max_steps, *fargs, cmax, A, sA, tA, cA)
+            )
+            finish_ = entry_point(finish, (A, B, n, est, x, sA, sB))
+        if status == 2:  # B's pi or x not finite: refused by name
+            finite_one(x[:, 0], B[0, :n], t)
+        if first_estimate(est.item(), eps_a, eps_b, pmin, pmax_d) <= tol:
+            pi = B[0, :n].copy()
+            pool.append(s)
+            return x[:, 0], pi
+        out = _fc._go_on(model, y0, t, eps_a, n, tol, (A, B, sB), False)  # s stays with this call
+        return finite_one(out["x"][:, 0], out["pi"][:, 0], t)
+
+    return run

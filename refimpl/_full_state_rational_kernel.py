@@ -59,7 +59,7 @@ except ImportError:  # pragma: no cover - the plain-Python path
         return (lambda fn: fn) if not a else a[0]
 
 
-__all__ = ["adaptive", "invert_cond"]
+__all__ = ["adaptive", "invert_cond", "start_degenerate", "start_degenerate_su2"]
 
 
 @njit(cache=True, nogil=True)
@@ -112,24 +112,32 @@ _order = rational_order()
 
 @njit(cache=True, nogil=True, fastmath={"contract"})
 def adaptive(y0, T, tol, P, max_steps, grav, th, U, Ii, GL, UGL, tm, ta, tb, fv, svm, svb, sv_of, stm, sta, st_of, gpa, gpm, gp_of, ng, mptr, mb, mc, pu, pw, pconst, gvar, gptr, gprod, gsign, Pab, cond_max, out, nsteps, tend, conds):  # fmt: skip
-    """Adaptive Taylor over ``[0, T]`` for every row ``(pi, [Gamma,] G entries, [s])`` of ``y0`` (N, d):
-    ``out`` the end states, ``nsteps`` the steps (negative: the status), ``tend`` the time reached,
-    ``conds`` the largest sensitivity seen."""
-    N, d = y0.shape
+    """Adaptive Taylor over ``[0, T]`` for every row ``(pi, [Gamma,] G entries, [s])`` of ``y0`` (N, d),
+    row ``i`` at the local tolerance ``tol[i]`` and the order ``P[i]`` (arrays of N; a ``y0`` of one row
+    starts every row): ``out`` the end states, ``nsteps`` the steps (negative: the status), ``tend``
+    the time reached, ``conds`` the largest sensitivity seen. Each row's run is the same whatever the
+    other rows are (the work arrays are sized for the largest order; a row reads only its own
+    orders' coefficients, written before they are read): one trajectory's pair ``A``, ``B`` is one call."""
+    N = tol.shape[0]
+    n0 = y0.shape[0]
     n = th.shape[0]
+    Pmax = 2
+    for it in range(N):
+        Pmax = max(Pmax, P[it])
+    P1 = Pmax + 1
     ns = Pab.shape[0]
     nm = mptr.shape[0] - 1
     nvar = gvar.shape[0]
     goff = 2 * n if grav else n
     soff = goff + ng
-    PI = np.zeros((n, P + 1))
-    GA = np.zeros((n, P + 1))
-    OM = np.zeros((n, P + 1))
-    DK = np.zeros((n, P + 1))
-    W = np.zeros((n, P + 1))
-    GG = np.zeros((max(ng, 1), P + 1))
-    MM = np.zeros((max(nm, 1), P + 1))
-    SS = np.zeros((max(ns, 1), P + 1))
+    PI = np.zeros((n, P1))
+    GA = np.zeros((n, P1))
+    OM = np.zeros((n, P1))
+    DK = np.zeros((n, P1))
+    W = np.zeros((n, P1))
+    GG = np.zeros((max(ng, 1), P1))
+    MM = np.zeros((max(nm, 1), P1))
+    SS = np.zeros((max(ns, 1), P1))
     S0 = np.zeros((n, n))
     Psi = np.zeros((n, n))
     Mi = np.zeros((n, n))
@@ -146,9 +154,6 @@ def adaptive(y0, T, tol, P, max_steps, grav, th, U, Ii, GL, UGL, tm, ta, tb, fv,
     comp = np.zeros(nrow)
     sgn = 1.0 if T >= 0 else -1.0
     Tabs = abs(T)
-    damp = math.exp(-0.7 / (P - 1))
-    e1 = 1.0 / (P - 1)
-    e2 = 1.0 / P
     stall = STALL
     unorm = 0.0
     for a in range(n):
@@ -162,14 +167,20 @@ def adaptive(y0, T, tol, P, max_steps, grav, th, U, Ii, GL, UGL, tm, ta, tb, fv,
     mats = (Mi, Ii, U, UGL, th, GL, Pab)
     tabs = (tm, ta, tb, fv, svm, svb, sv_of, stm, sta, st_of, gpa, gpm, gp_of, mptr, mb, mc, pu, pw, pconst, gvar, gptr, gprod, gsign)  # fmt: skip
     for it in range(N):
+        Pi = P[it]
+        tl = tol[it]
+        damp = math.exp(-0.7 / (Pi - 1))
+        e1 = 1.0 / (Pi - 1)
+        e2 = 1.0 / Pi
+        i0 = it if n0 > 1 else 0
         for a in range(n):
-            PI[a, 0] = y0[it, a]
+            PI[a, 0] = y0[i0, a]
             if grav:
-                GA[a, 0] = y0[it, n + a]
+                GA[a, 0] = y0[i0, n + a]
         for v in range(ng):
-            GG[v, 0] = y0[it, goff + v]
+            GG[v, 0] = y0[i0, goff + v]
         for ell in range(ns):
-            SS[ell, 0] = y0[it, soff + ell]
+            SS[ell, 0] = y0[i0, soff + ell]
         for c in range(nrow):
             comp[c] = 0.0
         t = 0.0
@@ -209,7 +220,7 @@ def adaptive(y0, T, tol, P, max_steps, grav, th, U, Ii, GL, UGL, tm, ta, tb, fv,
                 cond_seen = cnd
                 break
             cond_seen = max(cond_seen, cnd)
-            for k in range(P):  # the order-k body: LLVM IR (codegen._full_state_ir.rational_order)
+            for k in range(Pi):  # the order-k body: LLVM IR (codegen._full_state_ir.rational_order)
                 _order(k, grav, series, work, mats, tabs)
             # ---- the step (Jorba-Zou on pi, Gamma and the varying G)
             xn = 0.0
@@ -217,18 +228,18 @@ def adaptive(y0, T, tol, P, max_steps, grav, th, U, Ii, GL, UGL, tm, ta, tb, fv,
             a2 = 0.0
             for a in range(n):
                 xn = max(xn, abs(PI[a, 0]))
-                a1 = max(a1, abs(PI[a, P - 1]))
-                a2 = max(a2, abs(PI[a, P]))
+                a1 = max(a1, abs(PI[a, Pi - 1]))
+                a2 = max(a2, abs(PI[a, Pi]))
                 if grav:
                     xn = max(xn, abs(GA[a, 0]))
-                    a1 = max(a1, abs(GA[a, P - 1]))
-                    a2 = max(a2, abs(GA[a, P]))
+                    a1 = max(a1, abs(GA[a, Pi - 1]))
+                    a2 = max(a2, abs(GA[a, Pi]))
             for c in range(nvar):
                 v = gvar[c]
                 xn = max(xn, abs(GG[v, 0]))
-                a1 = max(a1, abs(GG[v, P - 1]))
-                a2 = max(a2, abs(GG[v, P]))
-            s = tol * max(1.0, xn)
+                a1 = max(a1, abs(GG[v, Pi - 1]))
+                a2 = max(a2, abs(GG[v, Pi]))
+            s = tl * max(1.0, xn)
             h = np.inf
             if a1 > 0.0:
                 h = (s / a1) ** e1
@@ -261,8 +272,8 @@ def adaptive(y0, T, tol, P, max_steps, grav, th, U, Ii, GL, UGL, tm, ta, tb, fv,
                     cnt = ns
                 for i0 in range(cnt):
                     i = gvar[i0] if blk == 2 else i0
-                    z = X[i, P]
-                    for kk in range(P - 1, 0, -1):
+                    z = X[i, Pi]
+                    for kk in range(Pi - 1, 0, -1):
                         z = z * hs + X[i, kk]
                     z = z * hs - comp[c]
                     w = X[i, 0] + z
@@ -289,3 +300,67 @@ def adaptive(y0, T, tol, P, max_steps, grav, th, U, Ii, GL, UGL, tm, ta, tb, fv,
         nsteps[it] = nst if status == 0 else status
         tend[it] = sgn * t
         conds[it] = cond_seen
+
+
+@njit(cache=True, nogil=True)
+def start_degenerate(p, f, th, U, n_ups, c):
+    """Whether the start ``pi = p`` (1-D, ``x = 0``) lies on the degenerate set: the rule of
+    :func:`refimpl._fast_kernels._degenerate_at_origin` (the flows' start check) compiled for one
+    point. ``S_aj = p_i f^i_aj - Theta_aj``, ``Psi = 1 + Upsilon S``; with Frobenius norms ``cond =
+    ||Psi|| ||Psi^-1|| / n`` and ``sens = ||Psi^-1|| (1 + ||S|| ||Upsilon||) / sqrt(n)``
+    (:func:`refimpl._fast_kernels._psi_cond_sens`; ``n_ups = ||Upsilon||``), the point is degenerate
+    unless ``cond c < 1`` and ``sens c < 1`` (``c = n C_P eps``); an exactly singular ``Psi`` (a zero
+    pivot) or a NaN is degenerate."""
+    n = th.shape[0]
+    S = np.empty((n, n))
+    Psi = np.empty((n, n))
+    Pi = np.empty((n, n))
+    GJ = np.empty((n, 2 * n))
+    fs = 0.0
+    for a in range(n):
+        for j in range(n):
+            acc = 0.0
+            for i in range(n):
+                acc += p[i] * f[i, a, j]
+            acc -= th[a, j]
+            S[a, j] = acc
+            fs += acc * acc
+    fp = 0.0
+    for a in range(n):
+        for b in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += U[a, k] * S[k, b]
+            if a == b:
+                acc += 1.0
+            Psi[a, b] = acc
+            fp += acc * acc
+    if not invert_cond(Psi, Pi, GJ) < np.inf:  # a zero pivot (or NaN): exactly singular
+        return True
+    fi = 0.0
+    for a in range(n):
+        for b in range(n):
+            fi += Pi[a, b] * Pi[a, b]
+    fi = math.sqrt(fi)
+    cond = math.sqrt(fp) * fi / n
+    sens = fi * (1.0 + math.sqrt(fs) * n_ups) / math.sqrt(n)
+    return not (cond * c < 1.0 and sens * c < 1.0)
+
+
+@njit(cache=True, nogil=True)
+def start_degenerate_su2(p, xi, tau, lim):
+    """The same for su(2) (``f = eps``) by its closed form, the rule of the su(2) Poisson kernel
+    (:func:`refimpl._fast_kernels._su2_poisson_chunk` at ``x = 0``): ``q = p + xi`` (``Theta = -xi.f``),
+    ``Upsilon^mn = tau_l eps_lmn``, ``C1 = 1 - q.tau``, ``sens = sqrt(3 - 2 q.tau + |tau|^2 |q|^2)
+    (1 + 2 |q| |tau|) / (|C1| sqrt(3))``; degenerate unless ``sens < lim`` (``1 / (3 C_P eps)``) and
+    ``C1 != 0``."""
+    q0, q1, q2 = p[0] + xi[0], p[1] + xi[1], p[2] + xi[2]
+    qt = tau[0] * q0 + tau[1] * q1 + tau[2] * q2
+    c1 = 1.0 - qt
+    if c1 == 0.0:
+        return True
+    tn2 = tau[0] * tau[0] + tau[1] * tau[1] + tau[2] * tau[2]
+    qn2 = q0 * q0 + q1 * q1 + q2 * q2
+    ni2 = qn2 * tn2 - 2.0 * qt + 3.0
+    g = (1.0 + math.sqrt(qn2) * (2.0 * math.sqrt(tn2))) * (abs(1.0 / c1) * (1.0 / math.sqrt(3.0)))
+    return not (math.sqrt(ni2) * g < lim)

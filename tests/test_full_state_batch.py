@@ -498,7 +498,7 @@ def test_pair_kernel_equals_two_single_runs(fs, monkeypatch):
 def test_pair_lanes_bitwise_on_long_runs(fs):
     """Lane by lane the pair kernel is the single kernel bitwise also over hundreds of steps, where a
     one-ulp difference of any order's coefficient would grow to many ulps: the order bodies fix every
-    multiply-add's fusion in the IR (:class:`refimpl.codegen._full_state_ir._FOps`), the same on one
+    multiply-add's fusion in the IR (:class:`refimpl.codegen._taylor_ir._FOps`), the same on one
     lane and on two. (Left to the back end's contraction, the two bodies fused different products of
     a sum: on these starts the lanes ended up to 1e-12 from the single runs.)"""
     model, f = fs

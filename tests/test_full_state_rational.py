@@ -236,3 +236,122 @@ def test_applies_refuses_other_models():
     assert not fr.applies(model)
     with pytest.raises(ValueError, match="Upsilon = 0: True"):
         fr.rational_full_state_flow(model, np.zeros((6, 1)), np.ones((6, 1)), 1.0, 1e-10)
+
+
+# ---- the one-trajectory runners of the protocol call (issue 25, Upsilon != 0)
+#
+# Independent route: the general route of the same call (refimpl._full_state_rational.
+# rational_full_state_flow, refimpl._flow_compiled.compiled_taylor_flow: the Python control from its
+# start). The runners claim the same computation (the same kernel runs, estimate and logarithm), so
+# the answers agree bit for bit; no error model is involved.
+
+RUNNER_CASES = [
+    ("se(2)", False, 3.0),
+    ("Bianchi III + cocycle", False, -2.0),
+    ("se(3)", True, 1.0),
+    ("su(2)", False, 10.0),
+    ("su(2)", True, -3.0),
+]
+
+
+def _general(model, x0, pi0, T, tol):
+    X, P = x0.reshape(-1, 1).copy(), pi0.reshape(-1, 1).copy()
+    if model.su2:
+        from tstarg.refimpl._flow_compiled import compiled_taylor_flow
+
+        out = compiled_taylor_flow(model, X, P, T, tol)
+    else:
+        out = fr.rational_full_state_flow(model, X, P, T, tol, abelian=_AbelianPart)
+    return out["x"][:, 0], out["pi"][:, 0]
+
+
+@needs_numba
+@pytest.mark.parametrize("name, grav, T", RUNNER_CASES)
+@pytest.mark.parametrize("tol, force", [(1e-10, False), (1e-12, False), (1e-10, True)])
+def test_runner_is_the_general_route(name, grav, T, tol, force, monkeypatch):
+    """The runner of ``_flow_one`` (routes 2 and 3 with ``Upsilon != 0``) returns the general route's
+    answer bit for bit where its first pair passes, and where it does not (``force``: the first
+    pair's estimate made infinite, in the runner and in the general route's control alike, so both
+    go on from that pair through the control's loop); fresh arrays, the caller's never written."""
+    from tstarg.refimpl import _flow_compiled, _full_state
+    from tstarg.refimpl.flows import _fast
+
+    args = _model(name, seed=7, grav=grav)
+    model = cached_model(*args[:5])
+    x0, pi0 = np.array(args[5]), np.array(args[6])
+    keep = (x0.copy(), pi0.copy())
+    calls = []
+    mod = _flow_compiled if model.su2 else _full_state
+    go_on = mod._go_on
+    monkeypatch.setattr(mod, "_go_on", lambda *a, **k: calls.append(1) or go_on(*a, **k))
+    if force:
+        for m in (_flow_compiled, fr):
+            monkeypatch.setattr(m, "first_estimate", lambda *a: np.inf)
+    run = _fast._one_runner(model, tol)
+    x, pi = run(x0, pi0, T)
+    assert len(calls) == (1 if force else 0), calls  # the control entered only from a failed pair
+    x2, pi2 = run(x0, pi0, T)  # the second call runs on the entry points and the pooled arrays
+    assert np.array_equal(x0, keep[0]) and np.array_equal(pi0, keep[1])
+    xg, pig = _general(model, x0, pi0, T, tol)
+    for a, b in ((x, xg), (pi, pig), (x2, xg), (pi2, pig)):
+        assert a.shape == (model.n,) and np.array_equal(a, b), (a, b)
+    assert not np.shares_memory(x, x2) and not np.shares_memory(pi, pi2)
+
+
+@needs_numba
+@pytest.mark.parametrize("name", ["su(2)", "se(2)", "so(4)", "aff(1)", "Bianchi III + cocycle"])
+def test_compiled_start_check_is_the_numpy_rule(name):
+    """The runners' compiled start check flags the points that the flows' numpy check
+    (refimpl._fast_kernels.start_degenerate: the su(2) closed form, else the generic conditioning)
+    flags: random points, points on ``det(1 + Upsilon S) = 0`` (a real root ``s`` of ``p = s v``) and
+    next to it, every point outside a factor-4 band around the rule's threshold (where rounding of
+    the two inversions may decide either way)."""
+    from tstarg.refimpl import _fast_kernels as fk
+
+    rng = np.random.default_rng(11)
+    for k in range(6):
+        alg, theta, ups = _model(name, seed=k, ups=0.3)[:3]
+        model = cached_model(alg, theta, ups, np.eye(alg.f.shape[0]), None)
+        f, n = np.asarray(model.f, float), model.n
+        check = fr.start_check(model)
+        points = [rng.standard_normal(n) * s for s in (0.1, 1.0, 10.0)]
+        v = rng.standard_normal(n)
+        US = ups @ np.einsum("m,mab->ab", v, f)
+        for lam in np.linalg.eigvals(US):
+            if abs(lam.imag) < 1e-12 and abs(lam.real) > 1e-6:  # 1 + s lam = 0: det = 0
+                s = -1.0 / lam.real
+                points += [s * v, s * (1 + 1e-15) * v, s * (1 + 1e-9) * v]
+        for p in points:
+            p = np.ascontiguousarray(p, dtype=float)
+            S = np.einsum("m,mab->ab", p, f) - model.theta
+            Psi = np.eye(n) + ups @ S
+            with np.errstate(all="ignore"):  # the rule's measure, max(cond, sens), by the SVD
+                sv = np.linalg.svd(Psi, compute_uv=False)
+                fi = np.sqrt(np.sum(sv**-2.0))
+                eff = max(
+                    np.linalg.norm(Psi) * fi / n,
+                    fi * (1 + np.linalg.norm(S) * np.linalg.norm(ups)) / np.sqrt(n),
+                )
+            band = 0.25 <= eff * n * fk.C_P * fk.EPS <= 4.0
+            if band:
+                continue
+            want = bool(fk.start_degenerate(f, model.theta, model.upsilon, p[None, :])[0])
+            assert check(p) == want, (name, k, p, want)
+
+
+@needs_numba
+def test_runner_refuses_start_on_the_degenerate_set():
+    """One trajectory (the runners' route) starting where ``Delta = 0`` exactly is refused with the
+    start check's message, on su(2) (``pi.tau = 1``, ``C1 = 0``) and on aff(1) (``Upsilon = u J``,
+    ``pi_1 = 1/u``: ``Phi = 0``); a start off the set flows."""
+    F = np.asarray(catalogue("su(2)").f, float)
+    tau = np.array([0.0, 0.0, 0.5])
+    U = np.einsum("l,lmn->mn", tau, F)
+    z = np.zeros((3, 3))
+    with pytest.raises(ValueError, match=r"initial point\(s\) \[0\] lie on the degenerate set"):
+        fast_flow(F, z, U, np.eye(3), None, np.zeros(3), np.array([0.3, 0.1, 2.0]), 1.0)
+    args = _aff1(0.5, [0.3, 2.0])
+    with pytest.raises(ValueError, match=r"initial point\(s\) \[0\] lie on the degenerate set"):
+        fast_flow(*args, 0.5, tol=1e-10)
+    x, pi = fast_flow(*_aff1(0.5, [0.3, 0.2]), 0.5, tol=1e-10)
+    assert np.all(np.isfinite(x)) and np.all(np.isfinite(pi))

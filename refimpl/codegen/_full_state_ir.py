@@ -16,6 +16,12 @@ kernel's runs bitwise):
 * the general Cauchy products ``p = sum_{a=0..k} V[u, a] V[w, k - a]``, side by side in loops over
   ``a`` of at most :data:`refimpl.codegen.full_state.PRODUCT_CHUNK` products (each accumulated in the
   order ``a = 0..k``; each distinct factor loaded once per ``a``);
+  In the single kernel and the pair kernel the general products are packed into vectors
+  (:func:`pack_plan`, :func:`_packed_products`): ``W`` products (the pair kernel: ``W / 2`` products
+  on its two runs' lanes) per vector, their factors' coefficients packed into operand buffers ``B``
+  as each order's become known, each lane the same chain ``acc = fmuladd(u[a], w[k - a], acc)``,
+  ``a = 0..k``, as the scalar loop (bitwise: end states hash-identical to the scalar chunks' on the
+  bench structures and the sweep's), one vector multiply-add for ``W`` products;
 * the products with a constant factor (``k``-th coefficient times the other's ``0``-th; both
   constant: their product at ``k = 0``, else 0);
 * the state rows ``V[v, k + 1] = (sum of terms) * (1 / (k + 1))``, terms ``p``, ``-p``, ``C[ci] p``,
@@ -47,7 +53,7 @@ try:  # only the generated kernels use the intrinsics
 except ImportError:  # pragma: no cover - exercised only where numba is missing
     ir = types = cgutils = intrinsic = None
 
-from ._taylor_ir import _F64, _Ops, _unpack
+from ._taylor_ir import _F64, _FOps, _Mul, _Ops, _unpack
 
 __all__ = [
     "IR_VERSION",
@@ -55,75 +61,19 @@ __all__ = [
     "lanes_order_intrinsic",
     "load_intrinsic",
     "order_intrinsic",
+    "pack_plan",
+    "pack_streams",
     "packed_order",
     "rational_order",
     "update_intrinsic",
 ]
 
-IR_VERSION = "3"
+IR_VERSION = "4"
 
 # the kinds of a state row's term (the spec's ``(kind, ci, x)``; ``x`` a product or a row)
 PLUS, MINUS, SCALED, LIN_CONST, LIN = range(5)
 # the classes of a product with a constant factor (the spec's ``(p, u, w, cls)``)
 U_CONST, W_CONST, BOTH_CONST = 1, 2, 3
-
-
-class _Mul:
-    """A product ``a b`` not yet built: the sum that takes it as a term fuses it (:class:`_FOps`)."""
-
-    __slots__ = ("a", "b")
-
-    def __init__(self, a, b):
-        self.a, self.b = a, b
-
-
-class _FOps(_Ops):
-    """:class:`_Ops` with the multiply-adds of the order bodies written as ``llvm.fmuladd`` calls.
-
-    Why: with only the ``contract`` flag the back end chooses which ``fmul`` of a sum it fuses into
-    the ``fadd`` (of ``a b + c d``: either ``fma(a, b, c d)`` or ``fma(c, d, a b)``), and it chose
-    differently on the scalar body and on the vector body of the same sum (measured: the two-lane
-    first pair's lanes and the single kernel apart by 1 ulp at some order on 125 of 2000 random
-    Bianchi III + cocycle states; lane B of the pair 3.5e-13 from the single run at ``T = 40``). Here
-    the IR fixes each fusion, the same for one lane or many: a sum's term that is a product (a
-    :class:`_Mul`) is fused into the addition that takes it, the left one when both are; no ``fmul``
-    is left as an operand of an ``fadd`` or ``fsub`` for the back end to fuse."""
-
-    def fma(self, a, b, c):
-        """``a b + c`` as ``llvm.fmuladd``: one rounding where the target has fast FMA (x86 with
-        FMA3: every lane count alike), else a multiply and an add -- never a libm ``fma`` call
-        (``llvm.fma`` on a target without FMA would be one)."""
-        name = "llvm.fmuladd." + ("f64" if self.lanes == 1 else f"v{self.lanes}f64")
-        fn = cgutils.get_or_insert_function(
-            self.b.module, ir.FunctionType(self.ty, [self.ty] * 3), name
-        )
-        return self.b.call(fn, [a, b, c])
-
-    def val(self, x):
-        """The value of a term (a :class:`_Mul` built as its product)."""
-        return self.mul(x.a, x.b) if isinstance(x, _Mul) else x
-
-    def add2(self, x, y):
-        """``x + y`` of two terms, a product among them fused (the left one when both are)."""
-        if isinstance(x, _Mul):
-            return self.fma(x.a, x.b, self.val(y))
-        if isinstance(y, _Mul):
-            return self.fma(y.a, y.b, x)
-        return self.add(x, y)
-
-    def ftree(self, v):
-        """:meth:`_Ops.tree`'s sum (the same balanced tree) of terms that may be :class:`_Mul`; a
-        single term is returned as it is (a :class:`_Mul` stays one)."""
-        if len(v) == 1:
-            return v[0]()
-        half = (len(v) + 1) // 2
-        return self.add2(self.ftree(v[:half]), self.ftree(v[half:]))
-
-    def neg(self, x):
-        """``-x`` (exact; of a product, the product of ``-a`` and ``b``)."""
-        if isinstance(x, _Mul):
-            return _Mul(self.sub(self.const(-0.0), x.a), x.b)
-        return self.sub(self.const(-0.0), x)
 
 
 def _check_array(name, V, ndim):
@@ -169,7 +119,140 @@ def _check_order_args(V, k, C, ncoef: int, ndim: int) -> None:
         raise TypeError(f"order: expects (V, int, {ncoef} float64), got ({V}, {k}, {C})")
 
 
-def _order_body(builder, ops, c, sp, kk, kp1, handle, load, store, preload: bool) -> None:
+def pack_plan(chunks, W: int, per_loop: int):
+    """The general products ``chunks`` (``((p, u, w), ...)`` per chunk, as the spec's) packed into
+    vectors of ``W`` lanes for :func:`order_intrinsic`: ``(loops, streams)``. ``streams``: the
+    distinct lane tuples of factor rows ``(r_0, .., r_{W-1})`` that are not one row on every lane,
+    each a packed operand buffer ``B[s, a, lane] = V[r_lane, a]``; ``loops``: the groups in loops of at
+    most ``per_loop`` groups, a group ``(ps, su, sw)`` with ``ps`` its products (``None`` on a padding
+    lane) and ``su``, ``sw`` its factors as ``("s", stream)`` or ``("r", row)`` (one row broadcast).
+    The products in the spec's order (sorted by their second factor: groups of one ``w`` broadcast it),
+    ``W`` consecutive ones a group; padding lanes repeat the group's first product's factors. From the
+    structure only (deterministic)."""
+    prods = [t for ch in chunks for t in ch]
+    streams: dict[tuple, int] = {}
+
+    def operand(rows):
+        if all(r == rows[0] for r in rows):
+            return ("r", rows[0])
+        return ("s", streams.setdefault(rows, len(streams)))
+
+    groups = []
+    for g0 in range(0, len(prods), W):
+        grp = prods[g0 : g0 + W]
+        pad = [grp[0]] * (W - len(grp))
+        us = tuple(u for _, u, _ in grp + pad)
+        ws = tuple(w for _, _, w in grp + pad)
+        ps = tuple(p for p, _, _ in grp) + (None,) * len(pad)
+        groups.append((ps, operand(us), operand(ws)))
+    nloop = -(-len(groups) // per_loop)  # the fewest loops of at most per_loop, sizes within one
+    cuts = [len(groups) * i // max(nloop, 1) for i in range(nloop + 1)]
+    loops = [tuple(groups[cuts[i] : cuts[i + 1]]) for i in range(nloop)]
+    inv = sorted(streams, key=streams.get)
+    return tuple(loops), tuple(inv)
+
+
+class _Pack:
+    """Vectors of ``Q`` products on ``L`` lanes each (``W = Q L`` float64, the lane of product ``j``
+    and run ``l`` at ``j L + l``; ``L = 1``: the single kernel's scalars, ``L = 2``: the pair kernel's
+    two runs), built from and taken apart into the order body's values (a float64 for ``L = 1``,
+    else a vector of ``L``)."""
+
+    def __init__(self, builder, Q: int, L: int):
+        if Q & (Q - 1):
+            raise ValueError(f"pack: Q must be a power of two, got {Q}")
+        self.b, self.Q, self.L = builder, Q, L
+        self.ops = _FOps(builder, Q * L)
+        i32 = ir.IntType(32)
+        self.idx = [ir.Constant(i32, i) for i in range(Q * L)]
+
+    def pack(self, xs):
+        """The vector of the ``Q`` values ``xs`` (each ``L`` lanes; ``L > 1``: joined by shuffles)."""
+        if self.L == 1:
+            v = ir.Constant(self.ops.ty, None)
+            for j, x in enumerate(xs):
+                v = self.b.insert_element(v, x, self.idx[j])
+            return v
+        while len(xs) > 1:  # pairwise joins: 2 L lanes, 4 L, ... (Q a power of two)
+            n = 2 * xs[0].type.count
+            mask = ir.Constant(ir.VectorType(ir.IntType(32), n), list(range(n)))
+            xs = [self.b.shuffle_vector(a, c, mask) for a, c in zip(xs[::2], xs[1::2])]
+        return xs[0]
+
+    def part(self, v, j):
+        """Product ``j``'s ``L`` lanes of the vector ``v``."""
+        if self.L == 1:
+            return self.b.extract_element(v, self.idx[j])
+        mask = ir.Constant(
+            ir.VectorType(ir.IntType(32), self.L), list(range(j * self.L, (j + 1) * self.L))
+        )
+        return self.b.shuffle_vector(v, ir.Constant(v.type, None), mask)
+
+
+def _packed_products(builder, pk, plan, kk, kp1, row_at, fresh, bat, prod) -> None:
+    """The general products of one order as vectors of products (:func:`pack_plan`, :class:`_Pack`
+    ``pk``): the order-``k`` coefficients of every stream's rows packed into ``B[s, k]``, then per
+    loop of groups ``acc_g = fmuladd(U_g[a], W_g[k - a], acc_g)`` for ``a = 0..k`` from ``0.0`` (the
+    term ``a = 0`` before the loop, its order-``k`` operand from registers) -- on each lane the
+    scalar chain of the chunk loop (same operands, same order, same fusions: bitwise its sum), one
+    vector load (or one broadcast row) per operand and ``a``. ``row_at(row, col)``: the value
+    ``V[row, col]`` (``L`` lanes) loaded; ``fresh``: the rows' values of order ``k`` computed in this
+    order (used instead of loads); ``bat(s, col)``: the vector pointer ``&B[s, col, :]``; the sums
+    go to ``prod[p]``."""
+    loops, streams = plan
+    ops = pk.ops
+    seen = dict(fresh)
+    packed_k = {}
+    for s, rows in enumerate(streams):
+        vals = []
+        for r in rows:
+            if r not in seen:
+                seen[r] = row_at(r, kk)
+            vals.append(seen[r])
+        packed_k[s] = pk.pack(vals)
+        builder.store(packed_k[s], bat(s, kk), align=8)
+    zero = ir.Constant(ir.IntType(64), 0)
+
+    def at_k(op):  # an operand's order-k vector
+        kind, x = op
+        if kind == "s":
+            return packed_k[x]
+        if x not in seen:
+            seen[x] = row_at(x, kk)
+        return pk.pack([seen[x]] * pk.Q)
+
+    def get(cache, op, col, key):
+        if (key, op) not in cache:
+            kind, x = op
+            if kind == "s":
+                cache[(key, op)] = builder.load(bat(x, col), align=8)
+            else:
+                cache[(key, op)] = pk.pack([row_at(x, col)] * pk.Q)
+        return cache[(key, op)]
+
+    for loop_groups in loops:
+        c0: dict = {}
+        accs = [
+            cgutils.alloca_once_value(builder, ops.fma(get(c0, su, zero, "a"), at_k(sw), ops.zero))
+            for _, su, sw in loop_groups
+        ]
+        with cgutils.for_range(builder, kp1, start=ir.Constant(ir.IntType(64), 1)) as loop:
+            ia = loop.index
+            ib = builder.sub(kk, ia)
+            cache: dict = {}
+            for (_, su, sw), acc in zip(loop_groups, accs):
+                u, w = get(cache, su, ia, "a"), get(cache, sw, ib, "b")
+                builder.store(ops.fma(u, w, builder.load(acc)), acc)
+        for (ps, _, _), acc in zip(loop_groups, accs):
+            v = builder.load(acc)
+            for j, p in enumerate(ps):
+                if p is not None:
+                    prod[p] = pk.part(v, j)
+
+
+def _order_body(
+    builder, ops, c, sp, kk, kp1, handle, load, store, preload: bool, packed=None
+) -> None:
     """The IR of one order ``k`` of the recurrence, the one body of :func:`order_intrinsic` (one
     trajectory) and :func:`lanes_order_intrinsic` (``W`` lanes): they differ only in addressing and
     share every operation and its order, which keeps a lane bitwise the single kernel's run.
@@ -181,11 +264,21 @@ def _order_body(builder, ops, c, sp, kk, kp1, handle, load, store, preload: bool
     zero = ir.Constant(ir.IntType(64), 0)  # order 0: column 0, offset 0
     hk, hk1 = handle(kk), handle(kp1)
     # derived rows: Omega_k, then M_k
+    fresh = {}  # the derived rows' values of order k (used where they are read again, not loaded)
+
+    def kval(row):  # V[row, k]
+        return fresh[row] if row in fresh else load(row, hk)
+
     for row, terms in derived:
-        v = ops.ftree([lambda ci=ci, s=s: _Mul(c[ci], load(s, hk)) for ci, s in terms])
-        store(ops.val(v), row, hk)
-    # general products, a loop over a per chunk, each distinct factor loaded once per a
+        v = ops.ftree([lambda ci=ci, s=s: _Mul(c[ci], kval(s)) for ci, s in terms])
+        fresh[row] = ops.val(v)
+        store(fresh[row], row, hk)
+    # general products, a loop over a per chunk, each distinct factor loaded once per a (or packed
+    # in vectors of products: packed(prod))
     prod: dict[int, object] = {}
+    if packed is not None:
+        packed(prod, fresh)
+        chunks = ()
     for chunk in chunks:
         accs = [cgutils.alloca_once_value(builder, ops.zero) for _ in chunk]
         with cgutils.for_range(builder, kp1) as loop:
@@ -214,9 +307,9 @@ def _order_body(builder, ops, c, sp, kk, kp1, handle, load, store, preload: bool
         if cls == BOTH_CONST:
             prod[p] = builder.select(is0, ops.mul(load(u, zero), load(w, zero)), ops.zero)
         elif cls == U_CONST:
-            prod[p] = _Mul(load(u, zero), load(w, hk))
+            prod[p] = _Mul(load(u, zero), kval(w))
         else:
-            prod[p] = _Mul(load(u, hk), load(w, zero))
+            prod[p] = _Mul(kval(u), load(w, zero))
     ik = ops.splat(  # 1.0 / (k + 1)
         builder.fdiv(ir.Constant(_F64, 1.0), builder.sitofp(kp1, _F64), flags=("contract",))
     )
@@ -231,7 +324,7 @@ def _order_body(builder, ops, c, sp, kk, kp1, handle, load, store, preload: bool
         if kind == LIN_CONST:
             return lambda: builder.select(is0, ops.mul(c[ci], load(x, zero)), ops.zero)
         if kind == LIN:
-            return lambda: _Mul(c[ci], load(x, hk))
+            return lambda: _Mul(c[ci], kval(x))
         raise ValueError(f"order: term kind {kind}")
 
     for row, terms in state:
@@ -239,14 +332,39 @@ def _order_body(builder, ops, c, sp, kk, kp1, handle, load, store, preload: bool
         store(ops.mul(v, ik), row, hk1)
 
 
-def order_intrinsic(sp):
-    """The intrinsic ``order(V, k, C)``: the order-``k`` body of the recurrence (module docstring) on
-    the coefficient rows ``V`` (``(rows, P + 1)``, C order), ``C`` the tuple of :func:`load_intrinsic`.
+def _buffer_at(context, builder, bty, bval, vty):
+    """``bat(s, col)``: the vector pointer ``&B[s, col, :]`` of the packed operand buffers ``B``
+    (``(streams, P + 1, W)``, C order, the ``W`` lanes one vector of type ``vty``)."""
+    i64 = ir.IntType(64)
+    W = vty.count
+    barr = context.make_array(bty)(context, builder, bval)
+    bdata = barr.data
+    sstride = builder.mul(cgutils.unpack_tuple(builder, barr.shape, 3)[1], ir.Constant(i64, W))
+    vptr = ir.PointerType(vty)
+
+    def bat(s, col):
+        off = builder.add(
+            builder.mul(ir.Constant(i64, s), sstride), builder.mul(col, ir.Constant(i64, W))
+        )
+        return builder.bitcast(builder.gep(bdata, [off], inbounds=True), vptr)
+
+    return bat
+
+
+def order_intrinsic(sp, W: int = 1, per_loop: int = 8):
+    """The intrinsic ``order(V, k, C)`` (``W = 1``) or ``order(V, B, k, C)`` (``W > 1``): the
+    order-``k`` body of the recurrence (module docstring) on the coefficient rows ``V`` (``(rows, P +
+    1)``, C order), ``C`` the tuple of :func:`load_intrinsic`.
 
     ``sp = (ncoef, derived, chunks, consts, state)`` (literal in the generated text):
     ``derived``: ``(row, ((ci, src), ...))`` in order; ``chunks``: the general products, each chunk
     ``((p, u, w), ...)`` one loop over ``a``; ``consts``: ``(p, u, w, cls)``; ``state``: ``(row,
-    ((kind, ci, x), ...))`` (kinds :data:`PLUS` ...)."""
+    ((kind, ci, x), ...))`` (kinds :data:`PLUS` ...).
+
+    ``W > 1``: the general products packed ``W`` to a vector (:func:`pack_plan`, loops of at most
+    ``per_loop`` vectors; ``B``: ``(max(1, len(streams)), P + 1, W)`` C order, the packed operand
+    buffers, written before read): each product the same chain of multiply-adds as with ``W = 1``
+    (bitwise), ``W`` of them per instruction."""
     ncoef, derived, chunks, consts, state = sp
     nrows = 1 + max(
         [r for r, t in derived for r in (r, *(x for _, x in t))]
@@ -254,94 +372,163 @@ def order_intrinsic(sp):
         + [r for _, u, w, _ in consts for r in (u, w)]
         + [r for r, t in state for r in (r, *(x for kd, _, x in t if kd >= LIN_CONST))]
     )
+    plan = pack_plan(chunks, W, per_loop) if W > 1 else None
 
-    @intrinsic
-    def order(typingctx, V, k, C):
-        _check_order_args(V, k, C, ncoef, 2)
+    def codegen(context, builder, sig, args):
+        i64 = ir.IntType(64)
+        arr = context.make_array(sig.args[0])(context, builder, args[0])
+        data = arr.data
+        ncol = cgutils.unpack_tuple(builder, arr.shape, 2)[1]
+        kk = context.cast(builder, args[-2], sig.args[-2], types.int64)
+        c = _unpack(builder, args[-1], ncoef)
+        # each row's offset computed once, before the loops (a value made inside a loop body
+        # would not dominate its uses after it)
+        base = {r: builder.mul(ir.Constant(i64, r), ncol) for r in range(nrows)}
 
-        def codegen(context, builder, sig, args):
-            i64 = ir.IntType(64)
-            arr = context.make_array(sig.args[0])(context, builder, args[0])
-            data = arr.data
-            ncol = cgutils.unpack_tuple(builder, arr.shape, 2)[1]
-            kk = context.cast(builder, args[1], sig.args[1], types.int64)
-            c = _unpack(builder, args[2], ncoef)
-            # each row's offset computed once, before the loops (a value made inside a loop body
-            # would not dominate its uses after it)
-            base = {r: builder.mul(ir.Constant(i64, r), ncol) for r in range(nrows)}
+        def at(row, col):  # &V[row, col]
+            return builder.gep(data, [builder.add(base[row], col)], inbounds=True)
 
-            def at(row, col):  # &V[row, col]
-                return builder.gep(data, [builder.add(base[row], col)], inbounds=True)
+        packed = None
+        kp1 = builder.add(kk, ir.Constant(i64, 1))
+        if plan is not None:
+            pk = _Pack(builder, W, 1)
+            bat = _buffer_at(context, builder, sig.args[1], args[1], pk.ops.ty)
 
-            _order_body(
-                builder,
-                _FOps(builder),
-                c,
-                sp,
-                kk,
-                builder.add(kk, ir.Constant(i64, 1)),
-                handle=lambda kv: kv,  # the column of order kv
-                load=lambda row, col: builder.load(at(row, col)),
-                store=lambda v, row, col: builder.store(v, at(row, col)),
-                preload=True,
-            )
-            return context.get_dummy_value()
+            def packed(prod, fresh):
+                _packed_products(
+                    builder,
+                    pk,
+                    plan,
+                    kk,
+                    kp1,
+                    lambda row, col: builder.load(at(row, col)),
+                    fresh,
+                    bat,
+                    prod,
+                )
 
-        return types.none(V, k, C), codegen
+        _order_body(
+            builder,
+            _FOps(builder),
+            c,
+            sp,
+            kk,
+            kp1,
+            handle=lambda kv: kv,  # the column of order kv
+            load=lambda row, col: builder.load(at(row, col)),
+            store=lambda v, row, col: builder.store(v, at(row, col)),
+            preload=True,
+            packed=packed,
+        )
+        return context.get_dummy_value()
+
+    if plan is None:
+
+        @intrinsic
+        def order(typingctx, V, k, C):
+            _check_order_args(V, k, C, ncoef, 2)
+            return types.none(V, k, C), codegen
+
+    else:
+
+        @intrinsic
+        def order(typingctx, V, B, k, C):
+            _check_order_args(V, k, C, ncoef, 2)
+            _check_array("order", B, 3)
+            return types.none(V, B, k, C), codegen
 
     return order
 
 
-def lanes_order_intrinsic(sp, W: int):
-    """The intrinsic ``order(V, k, C)`` of the lane-batched kernel
-    (:func:`refimpl.codegen.full_state_batch.batch_source`): the order-``k`` body of the recurrence
-    on ``W`` trajectories at once, ``V[k, row, lane]`` (``(P + 1, rows, W)``, C order: the ``W`` lanes
-    of one coefficient are contiguous and move as one vector of ``W`` float64), each lane's
-    operations those of the scalar body, element by element.
+def pack_streams(sp, W: int, per_loop: int = 8) -> int:
+    """The packed operand buffers :func:`order_intrinsic` ``(sp, W, per_loop)`` needs (at least 1)."""
+    return max(1, len(pack_plan(sp[2], W, per_loop)[1]))
+
+
+def lanes_order_intrinsic(sp, W: int, Q: int = 1, per_loop: int = 8):
+    """The intrinsic ``order(V, k, C)`` (``Q = 1``) or ``order(V, B, k, C)`` (``Q > 1``) of the
+    lane-batched kernel (:func:`refimpl.codegen.full_state_batch.batch_source`) and of the pair
+    kernel: the order-``k`` body of the recurrence on ``W`` trajectories at once, ``V[k, row, lane]``
+    (``(P + 1, rows, W)``, C order: the ``W`` lanes of one coefficient are contiguous and move as one
+    vector of ``W`` float64), each lane's operations those of the scalar body, element by element.
 
     ``sp = (ncoef, derived, groups, consts, state)`` as :func:`order_intrinsic`'s ``spec`` (the lane
     kernel's: the terms of the state rows' products all :data:`SCALED`; the pair kernel of
     :func:`refimpl.codegen.full_state.full_state_source` passes the single kernel's own spec, its
     chunks as groups), ``groups`` the general products summed
     side by side in one loop over ``a`` (each distinct factor row loaded once per ``a``). The products
-    stay values (never stored into ``V``)."""
+    stay values (never stored into ``V``). ``Q > 1``: the general products ``Q`` to a vector of ``Q W``
+    lanes (:func:`pack_plan`, :class:`_Pack`; ``B``: ``(max(1, len(streams)), P + 1, Q W)``), each
+    lane's chain the same (bitwise)."""
     ncoef = sp[0]
+    plan = pack_plan(sp[2], Q, per_loop) if Q > 1 else None
 
-    @intrinsic
-    def order(typingctx, V, k, C):
-        _check_order_args(V, k, C, ncoef, 3)
+    def codegen(context, builder, sig, args):
+        ops = _FOps(builder, W)
+        i64 = ir.IntType(64)
+        vptr = ir.PointerType(ops.ty)
+        arr = context.make_array(sig.args[0])(context, builder, args[0])
+        data = arr.data
+        nrow = cgutils.unpack_tuple(builder, arr.shape, 3)[1]
+        kk = context.cast(builder, args[-2], sig.args[-2], types.int64)
+        kp1 = builder.add(kk, ir.Constant(i64, 1))
+        c = [ops.splat(x) for x in _unpack(builder, args[-1], ncoef)]
+        stride = builder.mul(nrow, ir.Constant(i64, W))  # one order's floats
 
-        def codegen(context, builder, sig, args):
-            ops = _FOps(builder, W)
-            i64 = ir.IntType(64)
-            vptr = ir.PointerType(ops.ty)
-            arr = context.make_array(sig.args[0])(context, builder, args[0])
-            data = arr.data
-            nrow = cgutils.unpack_tuple(builder, arr.shape, 3)[1]
-            kk = context.cast(builder, args[1], sig.args[1], types.int64)
-            kp1 = builder.add(kk, ir.Constant(i64, 1))
-            c = [ops.splat(x) for x in _unpack(builder, args[2], ncoef)]
-            stride = builder.mul(nrow, ir.Constant(i64, W))  # one order's floats
+        def at(row, off):  # the W lanes of V[., row, :] (off: base of the order)
+            p = builder.gep(data, [builder.add(off, ir.Constant(i64, row * W))], inbounds=True)
+            return builder.bitcast(p, vptr)
 
-            def at(row, off):  # the W lanes of V[., row, :] (off: base of the order)
-                p = builder.gep(data, [builder.add(off, ir.Constant(i64, row * W))], inbounds=True)
-                return builder.bitcast(p, vptr)
+        def handle(kv):  # offset of V[kv, 0, 0]
+            return builder.mul(kv, stride)
 
-            _order_body(
-                builder,
-                ops,
-                c,
-                sp,
-                kk,
-                kp1,
-                handle=lambda kv: builder.mul(kv, stride),  # offset of V[kv, 0, 0]
-                load=lambda row, off: builder.load(at(row, off), align=8),
-                store=lambda v, row, off: builder.store(v, at(row, off), align=8),
-                preload=False,
-            )
-            return context.get_dummy_value()
+        packed = None
+        if plan is not None:
+            pk = _Pack(builder, Q, W)
+            bat = _buffer_at(context, builder, sig.args[1], args[1], pk.ops.ty)
 
-        return types.none(V, k, C), codegen
+            def packed(prod, fresh):
+                _packed_products(
+                    builder,
+                    pk,
+                    plan,
+                    kk,
+                    kp1,
+                    lambda row, col: builder.load(at(row, handle(col)), align=8),
+                    fresh,
+                    bat,
+                    prod,
+                )
+
+        _order_body(
+            builder,
+            ops,
+            c,
+            sp,
+            kk,
+            kp1,
+            handle=handle,
+            load=lambda row, off: builder.load(at(row, off), align=8),
+            store=lambda v, row, off: builder.store(v, at(row, off), align=8),
+            preload=False,
+            packed=packed,
+        )
+        return context.get_dummy_value()
+
+    if plan is None:
+
+        @intrinsic
+        def order(typingctx, V, k, C):
+            _check_order_args(V, k, C, ncoef, 3)
+            return types.none(V, k, C), codegen
+
+    else:
+
+        @intrinsic
+        def order(typingctx, V, B, k, C):
+            _check_order_args(V, k, C, ncoef, 3)
+            _check_array("order", B, 3)
+            return types.none(V, B, k, C), codegen
 
     return order
 

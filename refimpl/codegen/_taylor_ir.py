@@ -151,6 +151,64 @@ class _Ops:
         return acc
 
 
+class _Mul:
+    """A product ``a b`` not yet built: the sum that takes it as a term fuses it (:class:`_FOps`)."""
+
+    __slots__ = ("a", "b")
+
+    def __init__(self, a, b):
+        self.a, self.b = a, b
+
+
+class _FOps(_Ops):
+    """:class:`_Ops` with the multiply-adds of the order bodies written as ``llvm.fmuladd`` calls.
+
+    Why: with only the ``contract`` flag the back end chooses which ``fmul`` of a sum it fuses into
+    the ``fadd`` (of ``a b + c d``: either ``fma(a, b, c d)`` or ``fma(c, d, a b)``), and it chose
+    differently on the scalar body and on the vector body of the same sum (measured: the two-lane
+    first pair's lanes and the single kernel apart by 1 ulp at some order on 125 of 2000 random
+    Bianchi III + cocycle states; lane B of the pair 3.5e-13 from the single run at ``T = 40``). Here
+    the IR fixes each fusion, the same for one lane or many: a sum's term that is a product (a
+    :class:`_Mul`) is fused into the addition that takes it, the left one when both are; no ``fmul``
+    is left as an operand of an ``fadd`` or ``fsub`` for the back end to fuse."""
+
+    def fma(self, a, b, c):
+        """``a b + c`` as ``llvm.fmuladd``: one rounding where the target has fast FMA (x86 with
+        FMA3: every lane count alike), else a multiply and an add -- never a libm ``fma`` call
+        (``llvm.fma`` on a target without FMA would be one)."""
+        name = "llvm.fmuladd." + ("f64" if self.lanes == 1 else f"v{self.lanes}f64")
+        fn = cgutils.get_or_insert_function(
+            self.b.module, ir.FunctionType(self.ty, [self.ty] * 3), name
+        )
+        return self.b.call(fn, [a, b, c])
+
+    def val(self, x):
+        """The value of a term (a :class:`_Mul` built as its product)."""
+        return self.mul(x.a, x.b) if isinstance(x, _Mul) else x
+
+    def add2(self, x, y):
+        """``x + y`` of two terms, a product among them fused (the left one when both are)."""
+        if isinstance(x, _Mul):
+            return self.fma(x.a, x.b, self.val(y))
+        if isinstance(y, _Mul):
+            return self.fma(y.a, y.b, x)
+        return self.add(x, y)
+
+    def ftree(self, v):
+        """:meth:`_Ops.tree`'s sum (the same balanced tree) of terms that may be :class:`_Mul`; a
+        single term is returned as it is (a :class:`_Mul` stays one)."""
+        if len(v) == 1:
+            return v[0]()
+        half = (len(v) + 1) // 2
+        return self.add2(self.ftree(v[:half]), self.ftree(v[half:]))
+
+    def neg(self, x):
+        """``-x`` (exact; of a product, the product of ``-a`` and ``b``)."""
+        if isinstance(x, _Mul):
+            return _Mul(self.sub(self.const(-0.0), x.a), x.b)
+        return self.sub(self.const(-0.0), x)
+
+
 def _coefficients(ops: _Ops, sp, y0, qv, lv, chain: bool) -> list:
     """The Taylor coefficients ``k = 1..P`` of the variable components, component ``vi``'s ``k`` at
     ``vi * P + k - 1`` (the recurrence of :mod:`refimpl._compiled_taylor`'s docstring,
@@ -203,12 +261,11 @@ def _coefficients(ops: _Ops, sp, y0, qv, lv, chain: bool) -> list:
 
 
 def _fops(builder, lanes: int = 1):
-    """The fused operations of :class:`refimpl.codegen._full_state_ir._FOps` (every multiply-add an
-    explicit ``llvm.fmuladd``, the same fusions on any lane count) on ``lanes`` float64. The kernels
-    built here depend on them: a change to ``_FOps``'s operations must bump :data:`IR_VERSION` too
-    (the generated modules' cache key names this module's version only)."""
-    from ._full_state_ir import _FOps  # that module imports this one: imported when first used
-
+    """The fused operations of :class:`_FOps` (every multiply-add an explicit ``llvm.fmuladd``, the
+    same fusions on any lane count) on ``lanes`` float64. The kernels built here depend on them: a
+    change to ``_FOps``'s operations changes both emitters' IR, so it bumps :data:`IR_VERSION` and
+    :data:`refimpl.codegen._full_state_ir.IR_VERSION` (each generated module's cache key names its
+    emitter's version only)."""
     return _FOps(builder, lanes)
 
 
@@ -270,11 +327,9 @@ def _coefficients_packed(ops, sp, y0, qv, lv, R: int, width: int) -> list:
     supply the independent work a balanced tree would expose; rounding ``(m - 1) eps`` relative to the
     sum of magnitudes, Higham 2002, section 4.2); a square sums its ``a < k - a`` terms so and doubles
     them (exact), its middle term fused into that; the components' sums stay balanced trees
-    (:meth:`_Ops.tree`'s order), their products fused as :class:`refimpl.codegen._full_state_ir._FOps`
+    (:meth:`_Ops.tree`'s order), their products fused as :class:`_FOps`
     does. A pack's factors of order ``a`` are gathered into one vector once, when first used (each
     serves every order ``k >= a``); the products are then taken apart for the components' sums."""
-    from ._full_state_ir import _Mul
-
     d, P, mons, const, qptr, qmon, lptr, lidx = sp
     const = set(const)
     b = ops.b

@@ -52,6 +52,32 @@ compile time unchanged (su(3) 3.9-4.0 s). So ordered, 8, 16 or 32 per loop are a
 same multiply-adds in the same order)."""
 
 
+PACK_LANES = 4
+"""General products per vector in the single kernel's order body (:func:`refimpl.codegen.
+_full_state_ir.order_intrinsic`, :func:`refimpl.codegen._full_state_ir.pack_plan`); the pair
+kernel's vectors hold ``PACK_LANES // 2`` products on its two runs' lanes. Four float64: one 256-bit
+register. Measured against eight (``/work/scratch_s8/parts.py``, a machine-local script; CPU, best
+of 3000, load 2.6): B alone (2e-15, order 20) bianchiVI0_T3 10.3 us (4) against 12.5 (8), se2_T10
+10.5 against 12.9, so4_T1 3.6 against 3.9-4.9; the pair 12.2 against 16.1, 12.8-13.7 against
+14.5-14.9, 4.9 against 4.3.
+
+Why it pays: at each order every product is a chain of ``k + 1`` dependent multiply-adds. With few
+products (n = 3: twelve) the step is bound by that chain's latency, not by the multiply-adds' count,
+so packing gains only what it saves around the chain (the order-``k`` operand from registers, the
+first term before the loop); with many (so(4): 72) it is bound by their count and the loads, and
+packing four to a vector cuts both (so4_T1 B alone 5.7 -> 3.6 us, su3_T1 13.0 -> 7.2)."""
+
+PACK_LOOP = 8
+"""Vectors of products summed side by side in one loop over ``a`` in the single kernel (one vector
+accumulator each; the groups split into the fewest loops, sizes within one)."""
+
+PAIR_LOOP = 12
+"""The same for the pair kernel. Compile time of the pair kernel (what a first call compiles), so(5)
+(330 vectors): 3.1 s at 8 per loop against 2.6 at 12 or more (7069b34's unpacked pair: 2.6-2.8);
+runtime alike at 8, 12 and 16 within this machine's placement noise (the same machine code read
+8.9-10.7 us on se3_T1 in fresh processes)."""
+
+
 def spec(fs) -> tuple:
     """The structure of ``fs``'s recurrence as the literal ``SPEC`` of the order intrinsic
     (:func:`refimpl.codegen._full_state_ir.order_intrinsic`) and the kernel's rows: ``(SPEC, nv, VR,
@@ -121,6 +147,8 @@ def full_state_source(fs) -> str:
     ``fs`` (a :class:`refimpl._full_state.FullState`)."""
     sp, nv, vrows, srows = spec(fs)
     I1, I2, I3, I4 = ("    " * i for i in range(1, 5))
+    W, per_loop = PACK_LANES, PACK_LOOP
+    ns1 = ir.pack_streams(sp, W, per_loop)
 
     def amax(k):  # max |V[row, k]| over the step rows: one loop over the table SR
         # order 0 as the run-time K0, not a literal: numba types a literal 0 as Literal[int] and
@@ -151,10 +179,10 @@ def full_state_source(fs) -> str:
         f"# the structure (refimpl.codegen.full_state.spec, IR version {ir.IR_VERSION}): ncoef,",
         "# derived rows, product chunks, products with a constant factor, state rows",
         f"SPEC = {sp!r}",
-        "_order = _full_state_ir.order_intrinsic(SPEC)",
+        f"_order = _full_state_ir.order_intrinsic(SPEC, {W}, {per_loop})",
         f"_load = _full_state_ir.load_intrinsic({sp[0]})",
         f"_update = _full_state_ir.update_intrinsic({tuple(vrows)!r})",
-        "_order2 = _full_state_ir.lanes_order_intrinsic(SPEC, 2)",
+        f"_order2 = _full_state_ir.lanes_order_intrinsic(SPEC, 2, {W // 2}, {PAIR_LOOP})",
         f"_update2 = _full_state_ir.lane_update_intrinsic({tuple(vrows)!r}, 2)",
         "",
         "",
@@ -176,6 +204,7 @@ def full_state_source(fs) -> str:
         I1 + "C = _load(c)",
         I1 + "N = y0.shape[0]",
         I1 + f"V = np.zeros(({nv}, P + 1))",
+        I1 + f"B = np.empty(({ns1}, P + 1, {W}))",
         I1 + f"comp = np.zeros({nvar})",
         I1 + "sgn = 1.0 if T >= 0 else -1.0",
         I1 + "Tabs = abs(T)",
@@ -193,7 +222,7 @@ def full_state_source(fs) -> str:
         I2 + "status = 0",
         I2 + "while t < Tabs:",
         I3 + "for k in range(P):",
-        I4 + "_order(V, k, C)",
+        I4 + "_order(V, B, k, C)",
     ]
     src += [I3 + x for x in step]
     src += [
@@ -210,8 +239,9 @@ def pair_lines(fs, sp, nv: int, vrows: list, srows: list) -> list[str]:
     """The kernel ``pair(y0, T, tol_a, tol_b, P_a, P_b, max_steps, c, out, nsteps)``: the runs A
     (``tol_a``, order ``P_a``) and B (``tol_b``, ``P_b``) from the one start ``y0[0]`` side by side,
     as the two lanes of one vector (the order body
-    :func:`refimpl.codegen._full_state_ir.lanes_order_intrinsic` on this kernel's own spec: each
-    lane's operations those of :func:`order_intrinsic`), the series computed to ``max(P_a, P_b)`` for
+    :func:`refimpl.codegen._full_state_ir.lanes_order_intrinsic` on this kernel's own spec, its
+    general products :data:`PACK_LANES` ``// 2`` to a vector of both lanes: each lane's operations
+    those of :func:`order_intrinsic`), the series computed to ``max(P_a, P_b)`` for
     both; each lane its own step (from its order's last two coefficients), time, step count, carries
     and status, its Horner update to its own order (:func:`refimpl.codegen._full_state_ir.
     lane_update_intrinsic`, the single kernel's update on one lane) -- so lane A is the single kernel's run at
@@ -230,6 +260,8 @@ def pair_lines(fs, sp, nv: int, vrows: list, srows: list) -> list[str]:
         I1 + "C = _load(c)",
         I1 + "Pm = max(P_a, P_b)",
         I1 + f"V = np.zeros((Pm + 1, {nv}, 2))",
+        I1
+        + f"B = np.empty(({ir.pack_streams(sp, PACK_LANES // 2, PAIR_LOOP)}, Pm + 1, {PACK_LANES}))",
         I1 + f"comp = np.zeros(({max(len(vrows), 1)}, 2))",
         I1 + "PL = np.array([P_a, P_b], dtype=np.int64)",
         I1 + "tl = np.array([tol_a, tol_b])",
@@ -246,7 +278,7 @@ def pair_lines(fs, sp, nv: int, vrows: list, srows: list) -> list[str]:
         I3 + "live[l] = False",
         I1 + "while live[0] or live[1]:",
         I2 + "for k in range(Pm):",
-        I3 + "_order2(V, k, C)",
+        I3 + "_order2(V, B, k, C)",
         I2 + "for l in range(2):",
         I3 + "if not live[l]:",
         I4 + "continue",

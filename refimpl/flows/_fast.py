@@ -13,6 +13,7 @@ trajectory given as 1-D float64 points with the default method (the protocol cal
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 
@@ -274,6 +275,13 @@ def _one_runner(model: NumpyModel, tol: float):
         if route == 3
         else None
     )
+    if run is None and route and not model.upsilon_zero:  # Upsilon != 0: the rational runners
+        refuse = functools.partial(_check_start, model)  # the start check's refusal, by name
+        run = (
+            _full_state_rational.one_trajectory(model, tol, _AbelianPart, limits, refuse)
+            if route == 2
+            else _full_state_rational.one_trajectory_su2(model, tol, limits, refuse)
+        )
     if run is not None or not route:
         return run
     n = model.n
