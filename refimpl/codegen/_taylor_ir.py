@@ -261,8 +261,11 @@ def _coefficients(ops: _Ops, sp, y0, qv, lv, chain: bool) -> list:
 
 
 def _fops(builder, lanes: int = 1):
-    """The fused operations of :class:`_FOps` (every multiply-add an
-    explicit ``llvm.fmuladd``, the same fusions on any lane count) on ``lanes`` float64."""
+    """The fused operations of :class:`_FOps` (every multiply-add an explicit ``llvm.fmuladd``, the
+    same fusions on any lane count) on ``lanes`` float64. The kernels built here depend on them: a
+    change to ``_FOps``'s operations changes both emitters' IR, so it bumps :data:`IR_VERSION` and
+    :data:`refimpl.codegen._full_state_ir.IR_VERSION` (each generated module's cache key names its
+    emitter's version only)."""
     return _FOps(builder, lanes)
 
 

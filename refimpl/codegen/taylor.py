@@ -116,6 +116,13 @@ def chain_sum(terms: list[str]) -> str:
 # of two, never less accurate); no reassociation, so the compensated sums and the summation trees stay
 # as written.
 _JIT = "@njit(cache=True, nogil=True, fastmath={'contract'})"
+_JIT1 = "@njit(cache=True, nogil=True, fastmath={'contract'}, _nrt=False)"
+"""The decorator of :func:`unrolled_source`'s kernels: :data:`_JIT` without numba's reference counting
+(``_nrt=False``, as numba's own allocation-free helpers use it): they allocate nothing, and with it
+numba wrote a reference-count walk over every member of each tuple of the state and the ~10^2
+coefficients at every use (a third of the su(2) pair kernel's IR, dead code LLVM then removed).
+Measured (issue 25, the off-diagonal heavy top's order-16 module, fresh caches, load 5.6-5.8): the
+pair's first call 3.15-3.53 -> 2.88-3.05 s, ``adaptive``'s 1.26-1.36 -> 0.94-1.09 s."""
 
 
 def _kernel_prologue(cf, P: int) -> list[str]:
@@ -222,22 +229,18 @@ def unrolled_source(cf, P: int) -> str:
     ]
     store_ok = [f"out[n, {c}] = Y[{c}]" for c in range(d)]
     I1, I2, I3, I4 = "    ", "        ", "            ", "                "
-    src = head + ["", "", _JIT] + _alone_lines(cf, P, var)
-    src += ["", "", _JIT, "def adaptive(y0, T, tol, max_steps, q, l, out, nsteps):"]
+    src = head + ["", "", _JIT1, "def adaptive(y0, T, tol, max_steps, q, l, out, nsteps):"]
     src += [I1 + x for x in _kernel_prologue(cf, P)] + [I1 + "for n in range(N):"]
     src += [I2 + x for x in unpack]
-    src += [
-        I2 + "k = 0",
-        I2 + "t = 0.0",
-        I2 + "Y, k, ok = _alone(Y, E, t, k, Tabs, sgn, tol, max_steps, Q, L)",
-    ]
+    src += [I2 + "t = 0.0", I2 + "k = 0", I2 + "ok = True"]
+    src += [I2 + x for x in _run_lines(P, var)]
     src += [I2 + "if ok:"] + [I3 + x for x in store_ok]
     src += [I2 + "else:", I3 + "for c in range(y0.shape[1]):", I4 + "out[n, c] = np.nan"]
     src += [
         I2 + "nsteps[n] = k if ok else -1",
         "",
         "",
-        _JIT,
+        _JIT1,
         "def fixed(y0, h, nsteps, q, l, out):",
     ]
     src += [I1 + x for x in _loads(cf)]
@@ -247,40 +250,37 @@ def unrolled_source(cf, P: int) -> str:
         I3 + "Y, E = _update(Y, E, _coefs(Y, Q, L), h)",
     ]
     src += [I2 + x for x in store_ok]
-    src += ["", "", _JIT] + _pair_lines(cf, P, var)
+    src += ["", "", _JIT1] + _pair_lines(cf, P, var)
     return "\n".join(src) + "\n"
 
 
-def _alone_lines(cf, P: int, var: list[int]) -> list[str]:
-    """``_alone(Y, E, t, k, Tabs, sgn, tol, max_steps, Q, L) -> (Y, k, ok)``: one run of the adaptive
-    kernel from the state ``Y`` and carries ``E`` at time ``t`` after ``k`` steps on to ``Tabs``
-    (direction ``sgn``): the loop of ``adaptive``, and the pair's run left over, written once for
-    both (a function of its own; LLVM may still inline it into each)."""
-    I1, I2, I3 = ("    " * i for i in range(1, 4))
-    nv = len(var)
-    K = nv * P
-    fin = " and ".join(f"math.isfinite(Y[{c}])" for c in var) or "True"
-    src = ["def _alone(Y, E, t, k, Tabs, sgn, tol, max_steps, Q, L):"]
-    src += [I1 + f"damp = {math.exp(-0.7 / (P - 1))!r}", I1 + "ok = True", I1 + "while t < Tabs:"]
-    src += [I2 + "C = _coefs(Y, Q, L)"]
+def _run_lines(P: int, var: list[int], Y="Y", E="E", t="t", k="k", ok="ok", tol="tol") -> list[str]:
+    """The loop of one run of the adaptive kernel (``_coefs``, ``_update``): the state ``Y`` and carries
+    ``E`` at time ``t`` after ``k`` steps on to ``Tabs`` (direction ``sgn``) at the local tolerance
+    ``tol``; ``ok`` False where it fails (a step not positive, a state not finite, over
+    ``max_steps``). Written once for ``adaptive`` and the pair's run left over (each with its own
+    names; the pair has one copy, for whichever run is left)."""
+    I1, I2 = "    ", "        "
+    K = len(var) * P
+    fin = " and ".join(f"math.isfinite({Y}[{c}])" for c in var) or "True"
+    src = [f"while {t} < Tabs:", I1 + f"C = _coefs({Y}, Q, L)"]
     src += [
-        I2 + x
+        I1 + x
         for x in _step_size_lines(
-            P, f"C[{K}]", f"C[{K + 1}]", f"C[{K + 2}]", ["ok = False", "break"]
+            P, f"C[{K}]", f"C[{K + 1}]", f"C[{K + 2}]", [f"{ok} = False", "break"], tol=tol
         )
     ]
     src += [
-        I2 + "if t + h >= Tabs:",
-        I3 + "h = Tabs - t",
-        I3 + "t = Tabs",
-        I2 + "else:",
-        I3 + "t += h",
-        I2 + "Y, E = _update(Y, E, C, sgn * h)",
-        I2 + "k += 1",
-        I2 + f"if not ({fin}) or k > max_steps:",
-        I3 + "ok = False",
-        I3 + "break",
-        I1 + "return Y, k, ok",
+        I1 + f"if {t} + h >= Tabs:",
+        I2 + f"h = Tabs - {t}",
+        I2 + f"{t} = Tabs",
+        I1 + "else:",
+        I2 + f"{t} += h",
+        I1 + f"{Y}, {E} = _update({Y}, {E}, C, sgn * h)",
+        I1 + f"{k} += 1",
+        I1 + f"if not ({fin}) or {k} > max_steps:",
+        I2 + f"{ok} = False",
+        I2 + "break",
     ]
     return src
 
@@ -344,23 +344,37 @@ def _pair_lines(cf, P: int, var: list[int]) -> list[str]:
             I4 + f"ok{x} = False",
             I4 + f"t{x} = Tabs",
         ]
-    # the run left over, alone: adaptive's loop (_alone) from its lane's state and carries
-    for x, yo, eo in (("a", 0, 0), ("b", d, nv)):
-        src += [
-            I2 + f"if t{x} < Tabs:",
-            I3
-            + f"Z, k{x}, ok{x} = _alone("
-            + _tuple([f"Y[{yo + c}]" for c in range(d)])
-            + ", "
-            + _tuple([f"E[{eo + vi}]" for vi in range(nv)])
-            + f", t{x}, k{x}, Tabs, sgn, tol_{x}, max_steps, Q, L)",
-            I3 + f"if ok{x}:",
-        ]
-        src += [I4 + f"out_{x}[n, {c}] = Z[{c}]" for c in range(d)]
+    # the run left over (at most one), alone on adaptive's loop from its lane's state and carries
+    za = _tuple([f"Y[{c}]" for c in range(d)])
+    fa = _tuple([f"E[{vi}]" for vi in range(nv)])
+    zb = _tuple([f"Y[{d + c}]" for c in range(d)])
+    fb = _tuple([f"E[{nv + vi}]" for vi in range(nv)])
+    src += [
+        I2 + "left = 1 if ta < Tabs else (2 if tb < Tabs else 0)",
+        I2 + f"Z = {za}",
+        I2 + f"F = {fa}",
+        I2 + "if left != 0:",
+        I3 + "t1, k1, tol1 = ta, ka, tol_a",
+        I3 + "if left == 2:",
+        I4 + f"Z = {zb}",
+        I4 + f"F = {fb}",
+        I4 + "t1, k1, tol1 = tb, kb, tol_b",
+        I3 + "ok1 = True",
+    ]
+    src += [I3 + x for x in _run_lines(P, var, "Z", "F", "t1", "k1", "ok1", "tol1")]
+    src += [
+        I3 + "if left == 1:",
+        I4 + "ka, oka = k1, ok1",
+        I3 + "else:",
+        I4 + "kb, okb = k1, ok1",
+    ]
+    for x, yo, w in (("a", 0, 1), ("b", d, 2)):
+        src += [I2 + f"if ok{x} and left == {w}:"]
+        src += [I3 + f"out_{x}[n, {c}] = Z[{c}]" for c in range(d)]
         src += [I2 + f"elif ok{x}:"]
         src += [I3 + f"out_{x}[n, {c}] = Y[{yo + c}]" for c in range(d)]
         src += [
-            I2 + f"if not ok{x}:",
+            I2 + "else:",
             I3 + f"for c in range({d}):",
             I4 + f"out_{x}[n, c] = np.nan",
             I2 + f"steps_{x}[n] = k{x} if ok{x} else -1",
