@@ -512,7 +512,10 @@ def start_degenerate(f, theta, upsilon, p) -> np.ndarray:
     """The degenerate flags of the Poisson tensor at ``x = 0`` for the points ``p`` (N, n): the flows'
     start check (:func:`refimpl.flows._fast._check_start`). su(2): its closed form
     (:meth:`FastCore.poisson_batch_validated`); any other algebra :func:`_degenerate_at_origin`, which
-    compiles nothing (the generic kernel costs ~4 s per dimension on a cold cache, issue 25)."""
+    compiles nothing (the generic kernel costs ~4 s per dimension on a cold cache, issue 25). The
+    one-trajectory runners of ``Upsilon != 0`` check one point by the same rules compiled
+    (:func:`refimpl._full_state_rational.start_check`; tests/test_full_state_rational.py checks that
+    both flag the same points) and refuse through this one."""
     if _is_su2(f):
         return FastCore().poisson_batch_validated(f, theta, upsilon, np.zeros_like(p), p).degenerate
     return _degenerate_at_origin(f, theta, upsilon, p)

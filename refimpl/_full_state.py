@@ -482,7 +482,14 @@ def full_state(model, abelian=None) -> FullState:
             fs.mats, fs.cplx, fs.abelian_tables[3] if fs.refine else None
         )
         # _fk.start's arguments after (x0, pi0) and before its output
-        fs.start_consts = (fs.mats, fs.proj, fs.cplx, *fs.gidx, fs.gamma, fs.gravity, fs.Pab)
+        # (Ad(g) over the nonzero entries of rho and of proj: _fk.ad_table, _fk.ad_sparse)
+        fs.adt, fs.adc = _fk.ad_table(fs.mats, fs.proj)
+        fs.start_consts = (fs.mats, fs.adt, fs.adc, *fs.gidx, fs.gamma, fs.gravity, fs.Pab)
+        # fs.log_pair's arguments between (A, B) and its outputs
+        if fs.refine:
+            fs.log_args = (fs.n, *fs.gidx, fs.mats, fs.proj, fs.adt, fs.adc, *fs.abelian_tables, ABELIAN_RTOL)  # fmt: skip
+        else:
+            fs.log_args = (fs.n, *fs.gidx, fs.unit, fs.mats, fs.proj, fs.adt, fs.adc, fs.cplx, fs.ab_mode)  # fmt: skip
         model.__dict__["_full_state"] = fs
     return fs
 
@@ -519,7 +526,7 @@ def _unpack_G(fs: FullState, y) -> np.ndarray:
 def _ad_of(fs: FullState, G) -> np.ndarray:
     """``Ad(g)`` (N, n, n) from ``G = rho(g)``: ``G E_b G^-1 = Ad_ab E_a`` projected on the ``E_a``."""
     out = np.empty((G.shape[0], fs.n, fs.n))
-    _fk.ad_batch(np.ascontiguousarray(G, dtype=fs.mats.dtype), fs.mats, fs.proj, fs.cplx, out)
+    _fk.ad_sparse(np.ascontiguousarray(G, dtype=fs.mats.dtype), fs.adt, fs.adc, out)
     return out
 
 
@@ -566,7 +573,7 @@ def _log_complete(fs: FullState, B, G, Ad, xs, ok, resid) -> None:
                 dev = np.max(np.abs(fs.abelian.P @ xs[j] - sj))
                 if dev > ABELIAN_RTOL * max(1.0, float(np.max(np.abs(sj)))):
                     xs[j] = fs.abelian.refine(fs.rep, G[j], xs[j], sj)
-    _fk.log_residual(xs, fs.mats, fs.proj, fs.cplx, Ad, resid)
+    _fk.log_residual(xs, fs.mats, fs.adt, fs.adc, Ad, resid)
     bad = ~np.isfinite(resid)
     if bad.any():
         xbad = ~np.all(np.isfinite(xs), axis=1)
@@ -602,16 +609,7 @@ class _Answer:
         G = np.empty((M, fs.r, fs.r), dtype=fs.mats.dtype)
         Ad = np.empty((M, fs.n, fs.n))
         size, xs, ok, resid = np.empty(M), np.empty((M, fs.n)), np.empty(M, np.bool_), np.empty(M)
-        if fs.refine:
-            done = fs.log_pair(
-                A, B, fs.n, *fs.gidx, fs.mats, fs.proj, *fs.abelian_tables, ABELIAN_RTOL,
-                G, Ad, est, size, xs, ok, resid,
-            )  # fmt: skip
-        else:
-            done = fs.log_pair(
-                A, B, fs.n, *fs.gidx, fs.unit, fs.mats, fs.proj, fs.cplx, fs.ab_mode,
-                G, Ad, est, size, xs, ok, resid,
-            )  # fmt: skip
+        done = fs.log_pair(A, B, *fs.log_args, G, Ad, est, size, xs, ok, resid)
         if not done:
             _log_complete(fs, B, G, Ad, xs, ok, resid)
         self.B, self.G, self.Ad, self.size, self.xs, self.resid = B, G, Ad, size, xs, resid
@@ -715,20 +713,26 @@ def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None)):
         nonlocal start
         t = float(t)  # the entry points take the types of the first call
         try:
-            s, X, P = pool.pop()
+            w = pool.pop()
         except IndexError:  # none free (the first call, or one running in another thread)
             s, X, P = _scratch(fs), np.empty((n, 1)), np.empty((n, 1))
+            # with the views of x and pi of B, and start's whole argument tuple (built once)
+            w = (s, X, P, s[9][0], s[2][0, :n], (X, P, *consts, s[0]))
+        s, X, P, xv, pv, args = w
         if not admitted(load_point(x0, pi0, X, P, MAX_MAGNITUDE), pi0, t, limits):
-            pool.append((s, X, P))
+            pool.append(w)
             return None
-        y0 = s[0]
-        start(X, P, *consts, y0)
+        start(*args)
         if start is _fk.start:  # the first call: the entry point of the types it used
-            start = entry_point(_fk.start, (X, P, *consts, y0))
-        if pair(y0, t, s) <= tol:
-            x, pi = s[9][0].copy(), s[2][0, :n].copy()
-            pool.append((s, X, P))
-            return finite_one(x, pi, t)
+            start = entry_point(_fk.start, args)
+        y0 = s[0]
+        e, final = pair(y0, t, s)
+        if e <= tol:
+            x, pi = xv.copy(), pv.copy()
+            pool.append(w)
+            # final: the compiled log accepted x (finite) and e <= tol says pi is (the estimate is inf
+            # where B is not finite); else _log_complete's x may be NaN, refused by name here
+            return (x, pi) if final else finite_one(x, pi, t)
         B, _, _, ans = _go_on(fs, model, y0, t, tol, s)  # s stays with this call's results
         return finite_one(ans.all[2][0], B[0, :n].copy(), t)
 
@@ -749,17 +753,14 @@ def _protocol_pair(fs: FullState, tol: float, t: float = 0.0) -> bool:
 
 def _scratch(fs: FullState):
     """The arrays of one trajectory's first pair (:func:`_pair_of`): ``(y0, A, B, steps of A, steps
-    of B, G, Ad(g), |A - B|, size, x, ok, residual, (A; B), (steps of A; of B))``, as the pair kernel
-    and :func:`refimpl._full_state_kernel.pair_log` fill them (``A``, ``B`` and their steps: the rows
-    of the last two)."""
+    of B, G, Ad(g), |A - B|, size, x, ok, residual, (A; B), (steps of A; of B), the log's arguments)``,
+    as the pair kernel and :func:`refimpl._full_state_kernel.pair_log` fill them (``A``, ``B`` and
+    their steps: the rows of ``(A; B)`` and of its steps; the last, ``fs.log_pair``'s whole argument
+    tuple on these arrays, built once: a call spelled out with ``*fs.log_args`` in it builds its 20
+    arguments again every time, 0.14 us)."""
     n, d, r = fs.n, fs.d, fs.r
     AB, steps = np.empty((2, d)), np.empty(2, dtype=np.int64)
-    return (
-        np.empty((1, d)),
-        AB[:1],
-        AB[1:],
-        steps[:1],
-        steps[1:],
+    outs = (
         np.empty((1, r, r), dtype=fs.mats.dtype),
         np.empty((1, n, n)),
         np.empty(1),
@@ -767,20 +768,32 @@ def _scratch(fs: FullState):
         np.empty((1, n)),
         np.empty(1, dtype=np.bool_),
         np.empty(1),
+    )
+    A, B = AB[:1], AB[1:]
+    return (
+        np.empty((1, d)),
+        A,
+        B,
+        steps[:1],
+        steps[1:],
+        *outs,
         AB,
         steps,
+        (A, B, *fs.log_args, *outs),
     )
 
 
 def _pair_of(fs: FullState):
-    """``pair(y0, t, s) -> estimate``: one trajectory's first pair, ``A`` at :data:`A_LOOSE` and ``B``
+    """``pair(y0, t, s) -> (estimate, final)``: one trajectory's first pair, ``A`` at :data:`A_LOOSE` and ``B``
     at :data:`EPS_B_FIRST` (orders :data:`_FIRST_ORDERS`), on the two lanes of the generated module's
     pair kernel (:func:`refimpl._full_state_batch.pair_first`: each lane bit for bit the generated
     single kernel's run at its tolerance and order, for about the cost of the longer one), into the
     arrays ``s`` of :func:`_scratch`, estimated as :func:`_control`'s first pair
     (:func:`first_estimate` of ``|A - B|`` plus :class:`_Answer`'s floor, :func:`_floor_one`), with
     ``G``, ``Ad(g)``, ``x`` and the residual of ``B`` in ``s`` (:class:`_Answer`'s ``measure``: one
-    compiled call). Without the general route's per-call Python (issue 25); built once per structure
+    compiled call; ``final``: whether that call completed ``x`` and the residual itself, so that ``x``
+    is finite, else :func:`_log_complete` did). Without the general route's per-call Python (issue
+    25); built once per structure
     (kept on ``fs``). Measured (A/B of the protocol call, single kernel twice against the pair, see
     the commit): Bianchi VI0 + cocycle, se(3), so(4), su(3), se(2)."""
     pair = fs.__dict__.get("_pair")
@@ -789,31 +802,29 @@ def _pair_of(fs: FullState):
     kernel, coef, n = fs.module().pair, fs.coef, fs.n
     order_a, order_b = _FIRST_ORDERS
     log = fs.log_pair  # this representation's pair and logarithm (as _Answer.measure calls it)
-    if fs.refine:
-        args = (n, *fs.gidx, fs.mats, fs.proj, *fs.abelian_tables, ABELIAN_RTOL)
-    else:
-        args = (n, *fs.gidx, fs.unit, fs.mats, fs.proj, fs.cplx, fs.ab_mode)
 
     kernel_, log_ = kernel, log
 
     def pair(y0, t, s):
         nonlocal kernel_, log_
-        _, A, B, sA, sB, G, Ad, est, size, xs, ok, resid, AB, steps = s
+        _, _, B, sA, sB, G, Ad, est, size, xs, ok, resid, AB, steps, log_args = s
         kernel_(y0, t, A_LOOSE, EPS_B_FIRST, order_a, order_b, MAX_STEPS, coef, AB, steps)
-        if sA[0] < 0:
+        steps_a, steps_b = steps.tolist()
+        if steps_a < 0:
             _check_steps(sA, t)
-        if sB[0] < 0:
+        if steps_b < 0:
             _check_steps(sB, t)
-        if not log_(A, B, *args, G, Ad, est, size, xs, ok, resid):
+        final = log_(*log_args)
+        if not final:
             _log_complete(fs, B, G, Ad, xs, ok, resid)
         if kernel_ is kernel:  # the first call: the entry points of the types it used
             kernel_ = entry_point(
                 kernel, (y0, t, A_LOOSE, EPS_B_FIRST, order_a, order_b, MAX_STEPS, coef, AB, steps)
             )
-            log_ = entry_point(log, (A, B, *args, G, Ad, est, size, xs, ok, resid))
+            log_ = entry_point(log, log_args)
         d = est.item()
         e = first_estimate(d, A_LOOSE, EPS_B_FIRST, PROP_MIN_B, PROP_MAX_D)
-        return e + _floor_one(sB.item(), n, size.item(), d / A_LOOSE, resid.item())
+        return e + _floor_one(steps_b, n, size.item(), d / A_LOOSE, resid.item()), final
 
     fs._pair = pair
     return pair
@@ -879,8 +890,8 @@ def _solve(fs: FullState, model, y0, t, tol: float, run):
     N = y0.shape[0]
     if N == 1 and run is None and _protocol_pair(fs, tol, t):
         t = float(t)
-        s = (y0, *_scratch(fs)[1:])
-        e = _pair_of(fs)(y0, t, s)
+        s = (y0, *_scratch(fs)[1:])  # the log's arguments do not hold y0
+        e, _ = _pair_of(fs)(y0, t, s)
         if e <= tol:
             return s[2], np.array([e]), s[4], _measured(fs, s)
         return _go_on(fs, model, y0, t, tol, s)

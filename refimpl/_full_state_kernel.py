@@ -200,10 +200,18 @@ def _norm1(A):
     return m
 
 
+_INV_FACT = np.array([1.0 / math.factorial(k) for k in range(17)])
+"""``1 / k!`` for ``k <= 16``, the Taylor coefficients of :func:`expm` (correctly rounded)."""
+
+
 @njit(cache=True, nogil=True)
 def expm(X, E):
-    """``E = exp(X)``: Taylor series of ``X / 2^s`` (``||X / 2^s||_1 <= 1/2``, summed until the terms
-    fall below ``1e-18`` of the sum), squared ``s`` times."""
+    """``E = exp(X)``: the Taylor polynomial of degree 16 of ``Y = X / 2^s`` (``||Y||_1 <= 1/2``:
+    truncation ``<= 0.5^17 / 17! e^0.5 < 4e-20`` of ``|exp Y| >= e^-0.5``), by Paterson and
+    Stockmeyer's scheme (``Y^2, Y^3, Y^4``, then Horner in ``Y^4`` over blocks of four terms: six
+    products of ``r x r`` matrices, where summing the series term by term to ``1e-18`` took up to
+    sixteen), squared ``s`` times. Error model: tests/test_compiled_any_algebra.py's helper check
+    (``100 eps exp(|X|_1) max(1, |exp X|)`` against mpmath)."""
     r = X.shape[0]
     nrm = _norm1(X)
     s = 0
@@ -211,24 +219,26 @@ def expm(X, E):
         nrm *= 0.5
         s += 1
     sc = 0.5**s
-    T = np.zeros_like(X)
-    W = np.zeros_like(X)
+    ws = np.empty((5,) + X.shape, dtype=X.dtype)
+    Y, Y2, Y3, Y4, W = ws[0], ws[1], ws[2], ws[3], ws[4]
     for i in range(r):
         for j in range(r):
-            E[i, j] = 0.0
-            T[i, j] = 0.0
-        E[i, i] = 1.0
-        T[i, i] = 1.0
-    for k in range(1, 40):
-        _matmul(T, X, W)
-        tmax = 0.0
+            Y[i, j] = X[i, j] * sc
+    _matmul(Y, Y, Y2)
+    _matmul(Y2, Y, Y3)
+    _matmul(Y2, Y2, Y4)
+    c = _INV_FACT
+    for i in range(r):  # E = B_3 + c_16 Y^4, B_j = c_4j I + c_4j+1 Y + c_4j+2 Y^2 + c_4j+3 Y^3
+        for j in range(r):
+            E[i, j] = c[13] * Y[i, j] + c[14] * Y2[i, j] + c[15] * Y3[i, j] + c[16] * Y4[i, j]
+        E[i, i] += c[12]
+    for blk in range(2, -1, -1):  # E = B_blk + Y^4 E
+        _matmul(Y4, E, W)
+        k = 4 * blk
         for i in range(r):
             for j in range(r):
-                T[i, j] = W[i, j] * (sc / k)
-                E[i, j] += T[i, j]
-                tmax = max(tmax, abs(T[i, j]))
-        if tmax <= 1e-18:
-            break
+                E[i, j] = W[i, j] + c[k + 1] * Y[i, j] + c[k + 2] * Y2[i, j] + c[k + 3] * Y3[i, j]
+            E[i, i] += c[k]
     for _ in range(s):
         _matmul(E, E, W)
         for i in range(r):
@@ -240,7 +250,7 @@ def expm(X, E):
 def expm_frechet(X, Es, E, L):
     """``E = exp(X)`` and ``L[c] = L(X, Es[c])``, the Frechet derivatives of ``exp`` at ``X`` in the
     directions ``Es[c]`` (m, r, r): the blocks of ``exp([[X, Es[c]], [0, X]]) = [[E, L[c]], [0, E]]``
-    (Higham, Functions of Matrices, 3.2), by :func:`expm`'s method applied to that block matrix --
+    (Higham, Functions of Matrices, 3.2), by scaling and squaring applied to that block matrix --
     the Taylor series of the block scaled by ``2^-s`` (``s`` from its 1-norm bound
     ``|X|_1 + max_c |Es[c]|_1``, down to 1/2) summed until its terms fall below ``1e-18``, then ``s``
     squarings -- written on the blocks: term ``k`` is ``[[T_k, U_k], [0, T_k]]`` with
@@ -1020,6 +1030,153 @@ def ad_batch(G, mats, proj, cplx, out):
                 out[it, a, b] = col[a]
 
 
+def ad_table(mats, proj):
+    """``(adt, adc)``: the sparsity of ``E_b = mats[b]`` and of ``proj`` for :func:`ad_sparse`, built
+    once per representation (numpy). ``adt`` (int64): ``[Q, offset of the entries, then per b: the
+    count and the ``(k, l)`` of the nonzero ``E_b[k, l]`` (row-major), the count and the indices of
+    its nonzero columns (ascending); then the ``Q`` entries ``(i, j)`` that ``proj`` reads
+    (row-major), each with the count and the rows ``a`` of its nonzero real-part coefficients, then
+    of its imaginary-part ones]``; ``adc`` (``mats``' dtype): those ``E_b[k, l]``, then the
+    coefficients of ``proj`` (real numbers) in the same order. On a dense basis (no zero entries) it
+    lists every entry: the dense route's products, read through the tables."""
+    mats = np.asarray(mats)
+    proj = np.asarray(proj)
+    n, r, _ = mats.shape
+    rr = r * r
+    cplx = np.iscomplexobj(mats)
+    adt, ev = [0, 0], []
+    for b in range(n):
+        nz = [(k, l) for k in range(r) for l in range(r) if mats[b, k, l] != 0]
+        cols = sorted({l for _, l in nz})
+        adt += [len(nz)] + [v for kl in nz for v in kl] + [len(cols)] + cols
+        ev += [mats[b, k, l] for k, l in nz]
+    adt[1] = len(adt)
+    pv = []
+    for q in range(rr):
+        re = [a for a in range(n) if proj[a, q] != 0]
+        im = [a for a in range(n) if cplx and proj[a, rr + q] != 0]
+        if re or im:
+            adt[0] += 1
+            adt += [q // r, q % r, len(re)] + re + [len(im)] + im
+            pv += [proj[a, q] for a in re] + [proj[a, rr + q] for a in im]
+    if any(not np.any(mats[b]) for b in range(n)):
+        raise ValueError("ad_table: a basis element of the representation is zero (not faithful)")
+    return np.array(adt, dtype=np.int64), np.array(ev + pv, dtype=mats.dtype)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _ad_proj_start(adt, n):
+    """The index in ``adc`` of :func:`ad_table`'s first ``proj`` coefficient (after every ``E_b``)."""
+    pos = 2
+    t = 0
+    for _ in range(n):
+        t += adt[pos]
+        pos += 1 + 2 * adt[pos]
+        pos += 1 + adt[pos]
+    return t
+
+
+AD_NO_OVERFLOW = 1e300
+""":func:`ad_sparse` gives NaN where ``r^2 max|G| max|E_b| max|G^-1|`` reaches this (``kappa(G)``
+near 1e300: ``Ad(g)`` then has no correct digit in float64): below it no entry of ``G E_b`` or of
+``G E_b G^-1`` can overflow, so the entries it skips (those ``proj`` does not read) are finite, as
+their exact-zero contributions to the dense route's sums."""
+
+
+@njit(cache=True, nogil=True)
+def ad_sparse(G, adt, adc, out):
+    """:func:`ad_batch` over the nonzero entries of :func:`ad_table`: ``out[N] =
+    Ad(g)``, ``W = G E_b`` over the nonzero ``E_b[k, l]``, ``X = W G^-1`` at the entries ``proj``
+    reads over the nonzero columns of ``W``, projected over the nonzero coefficients of ``proj`` --
+    the dense route's sums, in its order (``G E_b`` first: on an ill-conditioned ``G`` that order
+    keeps ``Ad`` accurate, where summing the products ``G_ik G^-1_lj`` did not), without its terms
+    that are exact zeros: bitwise the dense route's ``Ad`` wherever ``G`` and ``G^-1`` are finite
+    (and :data:`AD_NO_OVERFLOW`). NaN where ``G`` is not finite, singular, ``G^-1`` not finite, or
+    past :data:`AD_NO_OVERFLOW` (the dense route: NaN, or an ``Ad`` without a correct digit)."""
+    N, r, _ = G.shape
+    n = out.shape[1]
+    Gi = np.empty((r, r), dtype=G.dtype)
+    W = np.zeros((r, r), dtype=G.dtype)
+    ws = np.empty((r, 2 * r), dtype=G.dtype)
+    emax = 0.0
+    pstart = _ad_proj_start(adt, n)  # the first proj coefficient in adc
+    pos = 2
+    t = 0
+    for b in range(n):  # the largest |E_b[k, l]|
+        ne = adt[pos]
+        for _ in range(ne):
+            emax = max(emax, abs(adc[t]))
+            t += 1
+        pos += 1 + 2 * ne
+        pos += 1 + adt[pos]
+    for it in range(N):
+        Gt = G[it]
+        o = out[it]
+        chk = 0.0  # 0.0 * v is NaN iff v is not finite
+        gmax = 0.0
+        for i in range(r):
+            for j in range(r):
+                z = Gt[i, j]
+                chk += 0.0 * (z.real + z.imag)
+                gmax = max(gmax, abs(z))
+        good = chk == 0.0 and _inverse_det(Gt, Gi, ws) >= 0.0
+        gimax = 0.0
+        if good:
+            for i in range(r):
+                for j in range(r):
+                    z = Gi[i, j]
+                    chk += 0.0 * (z.real + z.imag)
+                    gimax = max(gimax, abs(z))
+            good = chk == 0.0 and r * r * gmax * emax * gimax < AD_NO_OVERFLOW
+        if not good:
+            for a in range(n):
+                for b in range(n):
+                    o[a, b] = np.nan
+            continue
+        pos = 2
+        t = 0
+        for b in range(n):
+            ne = adt[pos]
+            pe = pos + 1
+            te = t
+            pos += 1 + 2 * ne
+            nc = adt[pos]
+            pc = pos + 1
+            pos += 1 + nc
+            t += ne
+            for c in range(nc):  # W = G E_b (its nonzero columns; _matmul's order over k)
+                l = adt[pc + c]
+                for i in range(r):
+                    W[i, l] = 0.0
+            for e in range(ne):
+                k = adt[pe + 2 * e]
+                l = adt[pe + 2 * e + 1]
+                v = adc[te + e]
+                for i in range(r):
+                    W[i, l] += Gt[i, k] * v
+            for a in range(n):
+                o[a, b] = 0.0
+            qp = adt[1]
+            tp = pstart
+            for _ in range(adt[0]):  # X[i, j] = sum over W's nonzero columns, then projected
+                i = adt[qp]
+                j = adt[qp + 1]
+                x = W[i, adt[pc]] * Gi[adt[pc], j]
+                for c in range(1, nc):
+                    l = adt[pc + c]
+                    x += W[i, l] * Gi[l, j]
+                nre = adt[qp + 2]
+                for m in range(nre):
+                    o[adt[qp + 3 + m], b] += adc[tp + m].real * x.real
+                qp += 3 + nre
+                tp += nre
+                nim = adt[qp]
+                for m in range(nim):
+                    o[adt[qp + 1 + m], b] += adc[tp + m].real * x.imag
+                qp += 1 + nim
+                tp += nim
+
+
 @njit(cache=True, nogil=True)
 def log_batch(G, mats, proj, cplx, out, ok):
     """``out[N]``: the coordinates of the principal logarithm of ``G[N]`` on the ``E_a``; ``ok[N]``
@@ -1114,7 +1271,7 @@ def unpack_G(y, gpart, gi, gj, off, G, unit):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, size):
+def estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, adt, adc, cplx, GB, AdB, est, size):
     """Per row: ``est = max(|pi_A - pi_B|, |Ad(g_A) - Ad(g_B)|)`` (inf when not finite); ``GB``, ``AdB``
     the group element and ``Ad`` of ``B``; ``size = max(|pi_B|, |Ad(g_B)|)``."""
     N = A.shape[0]
@@ -1123,8 +1280,8 @@ def estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, 
     AdA = np.zeros((N, n, n))
     unpack_G(A, gpart, gi, gj, off, GA, unit)
     unpack_G(B, gpart, gi, gj, off, GB, unit)
-    ad_batch(GA, mats, proj, cplx, AdA)
-    ad_batch(GB, mats, proj, cplx, AdB)
+    ad_sparse(GA, adt, adc, AdA)
+    ad_sparse(GB, adt, adc, AdB)
     for it in range(N):
         m = 0.0
         chk = 0.0  # 0.0 * v is NaN iff v is not finite: max() would drop a NaN
@@ -1309,7 +1466,7 @@ def abelian_batch(G, xs, s, P, Ppinv, D, Dr, mats, rtol):
 # they replace cost ~10 us of call overhead apiece on one trajectory; the same formulas as
 # refimpl._full_state._pack and ._log_complete, which stay the documentation).
 @njit(cache=True, nogil=True)
-def start(X, Pi, mats, proj, cplx, gpart, gi, gj, off, gamma, grav, Pab, y0):
+def start(X, Pi, mats, adt, adc, gpart, gi, gj, off, gamma, grav, Pab, y0):
     """``y0[N] = (pi, [Gamma,] G entries, [s])`` from ``X``, ``Pi`` (n, N): ``G = exp(rho(x))``,
     ``Gamma_b = sum_m Ad(g)_mb gamma_m`` (``grav``), ``s = Pab x`` (``Pab`` (k, n), k = 0 without an
     abelian part)."""
@@ -1331,7 +1488,7 @@ def start(X, Pi, mats, proj, cplx, gpart, gi, gj, off, gamma, grav, Pab, y0):
     exp_batch(xr, mats, G)
     if grav:
         Ad = np.empty((N, n, n))
-        ad_batch(G, mats, proj, cplx, Ad)
+        ad_sparse(G, adt, adc, Ad)
         for j in range(N):
             for b in range(n):
                 acc = 0.0
@@ -1342,7 +1499,7 @@ def start(X, Pi, mats, proj, cplx, gpart, gi, gj, off, gamma, grav, Pab, y0):
 
 
 @njit(cache=True, nogil=True)
-def log_residual(xs, mats, proj, cplx, Ad, out):
+def log_residual(xs, mats, adt, adc, Ad, out):
     """``out[N] = max |Ad(exp(rho(x))) - Ad|`` for the rows of ``xs`` (N, n) (inf when not finite):
     how far the logarithm's ``x`` moves what the user reads from ``Ad(g)``."""
     N, n = xs.shape
@@ -1350,7 +1507,7 @@ def log_residual(xs, mats, proj, cplx, Ad, out):
     G = np.empty((N, r, r), dtype=mats.dtype)
     exp_batch(xs, mats, G)
     Adx = np.empty((N, n, n))
-    ad_batch(G, mats, proj, cplx, Adx)
+    ad_sparse(G, adt, adc, Adx)
     for it in range(N):
         m = 0.0
         chk = 0.0  # 0.0 * v is NaN iff v is not finite: max() would drop a NaN
@@ -1363,14 +1520,14 @@ def log_residual(xs, mats, proj, cplx, Ad, out):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _residual_final(Ex, mats, proj, cplx, Ad, resid):
+def _residual_final(Ex, mats, proj, adt, adc, cplx, Ad, resid):
     """:func:`log_residual` from ``Ex[N] = exp(rho(x))`` already computed (every row has its
     logarithm here): inf where ``Ad(exp x)`` or ``Ad(g_B)`` is not finite, so that the estimate refuses
     the row (a NaN ``Ad(g_B)`` of an overflowing ``G`` had become 0 and passed, issue 25)."""
     N = Ex.shape[0]
     n = mats.shape[0]
     Adx = np.empty((N, n, n))
-    ad_batch(Ex, mats, proj, cplx, Adx)
+    ad_sparse(Ex, adt, adc, Adx)
     for it in range(N):
         m = 0.0
         chk = 0.0  # 0.0 * v is NaN iff v is not finite: max() would drop a NaN
@@ -1383,7 +1540,7 @@ def _residual_final(Ex, mats, proj, cplx, Ad, resid):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def log_state(G, Ad, mats, proj, cplx, ab_mode, xs, ok, resid, kind):
+def log_state(G, Ad, mats, proj, adt, adc, cplx, ab_mode, xs, ok, resid, kind):
     """The answer's logarithm and its residual in one call: :func:`log_batch` of ``G`` (N, r, r) into
     ``xs`` and, when it accepted every row and no abelian part is to be refined (``ab_mode`` 0; 2: a
     complex representation with an abelian part, refined by the caller), ``resid`` by
@@ -1396,12 +1553,12 @@ def log_state(G, Ad, mats, proj, cplx, ab_mode, xs, ok, resid, kind):
             return False
     if ab_mode != 0:
         return False
-    _residual_final(Ex, mats, proj, cplx, Ad, resid)
+    _residual_final(Ex, mats, proj, adt, adc, cplx, Ad, resid)
     return True
 
 
 @njit(cache=True, nogil=True, inline="always")
-def log_state_abelian(B, G, Ad, mats, proj, Ppinv, Dr, xs, ok, resid):
+def log_state_abelian(B, G, Ad, mats, proj, adt, adc, Ppinv, Dr, xs, ok, resid):
     """:func:`log_state_refined` on a representation where :func:`derived_in_translations`: the
     refine's answer in closed form (:func:`log_from_abelian`, ``s`` the last ``k = Ppinv.shape[1]``
     entries of the states ``B``), accepted as :func:`log_batch`'s, then ``resid``; neither the
@@ -1430,7 +1587,7 @@ def log_state_abelian(B, G, Ad, mats, proj, Ppinv, Dr, xs, ok, resid):
         )
         done = done and ok[j]
     if done:
-        _residual_final(Ex, mats, proj, cplx, Ad, resid)
+        _residual_final(Ex, mats, proj, adt, adc, cplx, Ad, resid)
     return done
 
 
@@ -1451,7 +1608,7 @@ def derived_annihilates(mats, Dr):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def log_state_central(B, G, Ad, mats, proj, Ppinv, D, Dr, xs, ok, resid):
+def log_state_central(B, G, Ad, mats, proj, adt, adc, Ppinv, D, Dr, xs, ok, resid):
     """:func:`log_state_refined` on a representation where :func:`derived_annihilates`: the refine's
     answer in closed form. ``x = x0 + D w`` with ``x0 = pinv(P) s`` (``s`` the last ``k`` entries of
     the states ``B``); ``exp(rho(x)) = exp(rho(x0)) + rho(D w)``, so ``w`` minimising
@@ -1516,12 +1673,12 @@ def log_state_central(B, G, Ad, mats, proj, Ppinv, D, Dr, xs, ok, resid):
         ok[jr] = _accept_log(L, G[jr], mats, proj, cplx, x0, Xa, Ex[jr], xs[jr])
         done = done and ok[jr]
     if done:
-        _residual_final(Ex, mats, proj, cplx, Ad, resid)
+        _residual_final(Ex, mats, proj, adt, adc, cplx, Ad, resid)
     return done
 
 
 @njit(cache=True, nogil=True, inline="always")
-def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid, kind):
+def log_state_refined(B, G, Ad, mats, proj, adt, adc, P, Ppinv, D, Dr, rtol, xs, ok, resid, kind):
     """:func:`log_state` of a real representation with an abelian part: after :func:`log_batch` (when
     it accepted every row) :func:`abelian_batch` with ``s`` the last ``k = P.shape[0]`` entries of the
     states ``B`` (N, d), then ``resid``. ``kind``: :func:`log_batch_exp`'s. Returns whether ``xs`` and
@@ -1575,7 +1732,7 @@ def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid
             xs[j, a] = out[a]
         if moved:  # exp(rho(x)) of the refined row again (exp_batch's arithmetic)
             _exp_rho(out, mats, X, Ex[j])
-    _residual_final(Ex, mats, proj, cplx, Ad, resid)
+    _residual_final(Ex, mats, proj, adt, adc, cplx, Ad, resid)
     return True
 
 
@@ -1583,65 +1740,65 @@ def log_state_refined(B, G, Ad, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid
 # inlined level of its own cost se(3)'s fully cold pair_log 2.95 -> 3.40 s (one run each, load 2.3;
 # written out: 3.03).
 @njit(cache=True, nogil=True)
-def pair_log(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+def pair_log(A, B, n, gpart, gi, gj, off, unit, mats, proj, adt, adc, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`estimate` of the pair ``(A, B)`` and :func:`log_state` of ``B`` in one call (one dispatch
     instead of four on the common protocol call), by :func:`logm`. Returns :func:`log_state`'s flag."""
-    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, size)
-    return log_state(GB, AdB, mats, proj, cplx, ab_mode, xs, ok, resid, LOG_GENERAL)
+    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, adt, adc, cplx, GB, AdB, est, size)
+    return log_state(GB, AdB, mats, proj, adt, adc, cplx, ab_mode, xs, ok, resid, LOG_GENERAL)
 
 
 @njit(cache=True, nogil=True)
-def pair_log_small(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+def pair_log_small(A, B, n, gpart, gi, gj, off, unit, mats, proj, adt, adc, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`pair_log` by :func:`log_small` (its representations: :func:`pair_log_for`)."""
-    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, size)
-    return log_state(GB, AdB, mats, proj, cplx, ab_mode, xs, ok, resid, LOG_SMALL)
+    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, adt, adc, cplx, GB, AdB, est, size)
+    return log_state(GB, AdB, mats, proj, adt, adc, cplx, ab_mode, xs, ok, resid, LOG_SMALL)
 
 
 @njit(cache=True, nogil=True)
-def pair_log_so4(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+def pair_log_so4(A, B, n, gpart, gi, gj, off, unit, mats, proj, adt, adc, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`pair_log` by :func:`_log_so4` (:data:`SHAPE_SO4`: :func:`pair_log_for`)."""
-    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, size)
-    return log_state(GB, AdB, mats, proj, cplx, ab_mode, xs, ok, resid, LOG_SO4)
+    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, adt, adc, cplx, GB, AdB, est, size)
+    return log_state(GB, AdB, mats, proj, adt, adc, cplx, ab_mode, xs, ok, resid, LOG_SO4)
 
 
 @njit(cache=True, nogil=True)
-def pair_log_central(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+def pair_log_central(A, B, n, gpart, gi, gj, off, mats, proj, adt, adc, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`pair_log_refined` by :func:`log_state_central` (neither :func:`logm` nor the refine)."""
     cplx = proj.shape[1] != mats.shape[1] * mats.shape[2]
-    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, cplx, GB, AdB, est, size)
-    return log_state_central(B, GB, AdB, mats, proj, Ppinv, D, Dr, xs, ok, resid)
+    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, adt, adc, cplx, GB, AdB, est, size)
+    return log_state_central(B, GB, AdB, mats, proj, adt, adc, Ppinv, D, Dr, xs, ok, resid)
 
 
 @njit(cache=True, nogil=True)
-def pair_log_so3(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+def pair_log_so3(A, B, n, gpart, gi, gj, off, unit, mats, proj, adt, adc, cplx, ab_mode, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`pair_log` by :func:`_log_so3` (:data:`SHAPE_SO3`: :func:`pair_log_for`)."""
-    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, cplx, GB, AdB, est, size)
-    return log_state(GB, AdB, mats, proj, cplx, ab_mode, xs, ok, resid, LOG_SO3)
+    estimate(A, B, n, gpart, gi, gj, off, unit, mats, proj, adt, adc, cplx, GB, AdB, est, size)
+    return log_state(GB, AdB, mats, proj, adt, adc, cplx, ab_mode, xs, ok, resid, LOG_SO3)
 
 
 @njit(cache=True, nogil=True)
-def pair_log_refined(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+def pair_log_refined(A, B, n, gpart, gi, gj, off, mats, proj, adt, adc, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`pair_log` with :func:`log_state_refined` (a real representation with an abelian part)."""
     # False, not a literal (see log_state_refined)
     cplx = proj.shape[1] != mats.shape[1] * mats.shape[2]
-    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, cplx, GB, AdB, est, size)
-    return log_state_refined(B, GB, AdB, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid, LOG_GENERAL)  # fmt: skip
+    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, adt, adc, cplx, GB, AdB, est, size)
+    return log_state_refined(B, GB, AdB, mats, proj, adt, adc, P, Ppinv, D, Dr, rtol, xs, ok, resid, LOG_GENERAL)  # fmt: skip
 
 
 @njit(cache=True, nogil=True)
-def pair_log_refined_small(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+def pair_log_refined_small(A, B, n, gpart, gi, gj, off, mats, proj, adt, adc, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`pair_log_refined` by :func:`log_small`."""
     cplx = proj.shape[1] != mats.shape[1] * mats.shape[2]
-    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, cplx, GB, AdB, est, size)
-    return log_state_refined(B, GB, AdB, mats, proj, P, Ppinv, D, Dr, rtol, xs, ok, resid, LOG_SMALL)  # fmt: skip
+    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, adt, adc, cplx, GB, AdB, est, size)
+    return log_state_refined(B, GB, AdB, mats, proj, adt, adc, P, Ppinv, D, Dr, rtol, xs, ok, resid, LOG_SMALL)  # fmt: skip
 
 
 @njit(cache=True, nogil=True)
-def pair_log_abelian(A, B, n, gpart, gi, gj, off, mats, proj, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
+def pair_log_abelian(A, B, n, gpart, gi, gj, off, mats, proj, adt, adc, P, Ppinv, D, Dr, rtol, GB, AdB, est, size, xs, ok, resid):  # fmt: skip
     """:func:`pair_log_refined` by :func:`log_from_abelian` (neither :func:`logm` nor the refine)."""
     cplx = proj.shape[1] != mats.shape[1] * mats.shape[2]
-    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, cplx, GB, AdB, est, size)
-    return log_state_abelian(B, GB, AdB, mats, proj, Ppinv, Dr, xs, ok, resid)
+    estimate(A, B, n, gpart, gi, gj, off, 0.0, mats, proj, adt, adc, cplx, GB, AdB, est, size)
+    return log_state_abelian(B, GB, AdB, mats, proj, adt, adc, Ppinv, Dr, xs, ok, resid)
 
 
 def pair_log_for(mats, cplx, Dr=None):

@@ -23,6 +23,13 @@ What is shared
     full_state_rational_source` (the nonzero patterns of ``f``, ``I^-1``, ``Theta``, ``Upsilon``,
     ``G_L`` and of the ``E_b``; the numbers are array arguments).
 
+One trajectory (the protocol call, issue 25)
+    :func:`one_trajectory` (every algebra but su(2)) and :func:`one_trajectory_su2` (the quaternion
+    state of :mod:`refimpl._compiled_rational`) are the runners of :func:`refimpl.flows._fast._flow_one`
+    for ``Upsilon != 0``: the start read and checked in compiled code (:func:`start_check`), the first
+    pair of the two-run control run and estimated without the control's Python, the control entered
+    only from a pair that does not pass; the answers are those of the general route bit for bit.
+
 The degenerate set (vier12)
     As the su(2) rational kernel, with the measure of docs/conventions.md: at every step the
     sensitivity of the solve ``||Psi_0^-1||_inf (1 + ||S_0||_inf ||Upsilon||_inf)`` (at least
@@ -403,7 +410,7 @@ def one_trajectory_su2(model, tol: float, limits=(math.inf, None), refuse=None):
     raises the caller's refusal). The first pair of :func:`refimpl._flow_compiled._control` (``A`` at
     ``local_tolerances(tol)[0]``, ``B`` at its ``eps_B``, each at Jorba-Zou's order, as
     :func:`rational_run` runs them) on the structure's kernel, failed runs raised as there, then the
-    estimate and logarithm in one compiled call (``_finish_one``) and the control's first estimate
+    estimate and logarithm in one compiled call (``_finish``) and the control's first estimate
     (:func:`refimpl._flow_compiled.first_estimate`); only a pair that does not pass enters the control
     (``_go_on`` from that pair). Work arrays are kept between calls in a pool (never returned)."""
     if not (model.su2 and not model.upsilon_zero):
@@ -421,7 +428,7 @@ def one_trajectory_su2(model, tol: float, limits=(math.inf, None), refuse=None):
     )  # rational_taylor_adaptive's
     pmin, pmax_d = _fc.PROP_MIN_B, _fc.PROP_MAX_D  # _control's defaults (compiled_taylor_flow)
     degenerate = start_check(model, fixed_types=True)  # y0[0, :n] of the pool's (1, d) arrays
-    load, finish = _fc._load_start, _fc._finish_one
+    load, finish = _fc._load_start, _fc._finish  # |A - B| and the logarithm, one compiled call
     pool = []
     empty, i64 = np.empty, np.int64
     kernel_, finish_ = kernel, finish
@@ -446,18 +453,16 @@ def one_trajectory_su2(model, tol: float, limits=(math.inf, None), refuse=None):
             if st[0] < 0:
                 _cr._raise_failed(Y, st, te, co, t, _cr.COND_MAX)
         x = empty((n, 1))
-        status = finish_(A, B, n, est, x, sA, sB)
+        finish_(A, B, n, est, x)
         if kernel_ is kernel:  # the first call: the entry points of the types it used
             kernel_ = entry_point(
                 kernel, (y0, t, eps_a, pa, max_steps, *fargs, cmax, A, sA, tA, cA)
             )
-            finish_ = entry_point(finish, (A, B, n, est, x, sA, sB))
-        if status == 2:  # B's pi or x not finite: refused by name
-            finite_one(x[:, 0], B[0, :n], t)
+            finish_ = entry_point(finish, (A, B, n, est, x))
         if first_estimate(est.item(), eps_a, eps_b, pmin, pmax_d) <= tol:
             pi = B[0, :n].copy()
             pool.append(s)
-            return x[:, 0], pi
+            return finite_one(x[:, 0], pi, t)  # B's pi or x not finite: refused by name
         out = _fc._go_on(model, y0, t, eps_a, n, tol, (A, B, sB), False)  # s stays with this call
         return finite_one(out["x"][:, 0], out["pi"][:, 0], t)
 

@@ -66,6 +66,7 @@ from ._errors import DegeneratePointError
 from ._fast_kernels import C_P, FastCore, FieldBatch, PoissonBatch
 from ._protocol import Implementation
 from .flows import fast_flow
+from .flows._fast import flow_one
 
 __all__ = ["Fast", "implementation", "PoissonBatch", "FieldBatch", "DegeneratePointError", "C_P"]
 
@@ -82,8 +83,13 @@ class Fast(FastCore, Implementation):
     domain = {"negative_t": True}  # flows run backwards too: certified for t < 0, a refusal fails
 
     def flow(self, f, theta, upsilon, inertia, potential, x0, pi0, t):
-        """Protocol method 3: ``(x, pi)`` at time ``t``, batched (:func:`refimpl.flows.fast_flow`)."""
-        return fast_flow(f, theta, upsilon, inertia, potential, x0, pi0, t, tol=self.flow_tolerance)
+        """Protocol method 3: ``(x, pi)`` at time ``t``, batched (:func:`refimpl.flows.fast_flow`; one
+        trajectory first through its protocol call, :func:`refimpl.flows._fast.flow_one`, the same)."""
+        tol = self.flow_tolerance
+        one = flow_one(f, theta, upsilon, inertia, potential, x0, pi0, t, tol)
+        if one is not None:
+            return one
+        return fast_flow(f, theta, upsilon, inertia, potential, x0, pi0, t, tol=tol)
 
 
 implementation = Fast()

@@ -521,3 +521,52 @@ def test_pair_lanes_bitwise_on_long_runs(fs):
             assert s1[0] > 100 and st[0] == s1[0], (i, st, s1)
             assert np.all(np.isfinite(out))
             np.testing.assert_array_equal(got, out)
+
+
+@pytest.mark.parametrize("W", [2, 4, 8])
+@pytest.mark.parametrize("per_loop", [1, 3, 8])
+def test_pack_plan_covers_each_product_once_with_its_factors(W, per_loop):
+    """:func:`refimpl.codegen._full_state_ir.pack_plan` on random product lists (any rows, repeated
+    factors, lengths not multiples of ``W``, none): every product on exactly one lane, that lane's two
+    operands its own factor rows (through a packed stream or a broadcast row), padding lanes marked
+    ``None``, streams never one row on every lane, the groups in loops of at most ``per_loop`` whose
+    sizes differ by at most one and which keep the products' order (the order the state rows read
+    them in does not matter, but the plan must be deterministic)."""
+    from tstarg.refimpl.codegen._full_state_ir import pack_plan
+
+    rng = np.random.default_rng(11)
+    for n in (0, 1, W - 1, W, 3 * W + 1, 37):
+        chunks, p = [], 0
+        while p < n:
+            m = int(rng.integers(1, 6))
+            chunks.append(
+                tuple(
+                    (q, int(rng.integers(0, 5)), int(rng.integers(5, 9)))
+                    for q in range(p, min(p + m, n))
+                )
+            )
+            p += m
+        prods = [t for ch in chunks for t in ch]
+        loops, streams = pack_plan(tuple(chunks), W, per_loop)
+        assert all(len(set(rows)) > 1 and len(rows) == W for rows in streams)
+        groups = [g for lp in loops for g in lp]
+        assert all(1 <= len(lp) <= per_loop for lp in loops)
+        if loops:
+            assert max(map(len, loops)) - min(map(len, loops)) <= 1
+        assert len(groups) == -(-n // W)
+
+        def rows(op):
+            kind, x = op
+            return streams[x] if kind == "s" else (x,) * W
+
+        seen = []
+        for ps, su, sw in groups:
+            assert len(ps) == W
+            for lane, q in enumerate(ps):
+                if q is None:
+                    continue
+                seen.append(q)
+                _, u, w = prods[q]
+                assert (rows(su)[lane], rows(sw)[lane]) == (u, w)
+        assert seen == [q for q, _, _ in prods]
+        assert pack_plan(tuple(chunks), W, per_loop) == (loops, streams)

@@ -163,11 +163,12 @@ def test_refined_log_reaches_the_exponentials_rounding(closed, xy, s):
     xs, ok, resid = np.empty((1, 3)), np.empty(1, np.bool_), np.empty(1)
     if closed:
         done = fk.log_state_abelian(
-            B, G, Ad, fs.mats, fs.proj, *fs.abelian_tables[1::2], xs, ok, resid
+            B, G, Ad, fs.mats, fs.proj, fs.adt, fs.adc, *fs.abelian_tables[1::2], xs, ok, resid
         )
     else:
         done = fk.log_state_refined(
-            B, G, Ad, fs.mats, fs.proj, *fs.abelian_tables, fs_mod.ABELIAN_RTOL, xs, ok, resid,
+            B, G, Ad, fs.mats, fs.proj, fs.adt, fs.adc, *fs.abelian_tables, fs_mod.ABELIAN_RTOL,
+            xs, ok, resid,
             fk.LOG_GENERAL,
         )  # fmt: skip
     assert done and ok[0]
@@ -203,7 +204,7 @@ def test_closed_form_abelian_log_hands_an_inconsistent_row_to_the_caller():
     B[0, fs.d - 1] = x_true[2] + 1e-6
     xs, ok, resid = np.empty((1, 3)), np.empty(1, np.bool_), np.empty(1)
     assert not fk.log_state_abelian(
-        B, G, Ad, fs.mats, fs.proj, *fs.abelian_tables[1::2], xs, ok, resid
+        B, G, Ad, fs.mats, fs.proj, fs.adt, fs.adc, *fs.abelian_tables[1::2], xs, ok, resid
     )
     assert not ok[0]
     fs_mod._log_complete(fs, B, G[0:1], Ad, xs, ok, resid)
@@ -215,3 +216,120 @@ def test_closed_form_abelian_log_hands_an_inconsistent_row_to_the_caller():
     assert np.isfinite(resid[0])
     assert miss <= resid[0] + 100 * EPS * max(1.0, np.max(np.abs(Ad))), (miss, resid[0])
     assert np.max(np.abs(xs[0] - x_true)) <= 1e-9  # G's logarithm, not the 1e-6-off s
+
+
+# ---------------------------------------------------------------------- Ad(g) as a sparse sum
+def _mp_ad(G, mats, proj):
+    """``Ad(g)`` at 40 digits: ``G E_b G^-1`` (mpmath's inverse) projected by ``proj`` (real parts,
+    then imaginary parts), rounded to float64 at the end."""
+    n, r, _ = mats.shape
+    cplx = proj.shape[1] == 2 * r * r
+    with mpmath.workdps(40):
+        Gm = mpmath.matrix(G.tolist())
+        Gi = Gm**-1
+        out = np.empty((n, n))
+        for b in range(n):
+            X = Gm * mpmath.matrix(mats[b].tolist()) * Gi
+            v = [X[i, j] for i in range(r) for j in range(r)]
+            vec = [mpmath.re(z) for z in v] + ([mpmath.im(z) for z in v] if cplx else [])
+            for a in range(n):
+                out[a, b] = float(
+                    mpmath.fsum(mpmath.mpf(float(p)) * z for p, z in zip(proj[a], vec))
+                )
+    return out
+
+
+AD_NAMES = ["se(3)", "su(3)", "so(4)", "sl(3,R)", "h(5)", "Bianchi VI0", "se(2)", "su(2)", "aff(1)"]
+
+
+def _ad_cases(name):
+    """``(mats, proj, G)``: three exponentials of random elements at two scales in ``name``'s faithful
+    representation, by mpmath, and on Bianchi III one of ``x = (0, 0, 12)`` (a 2 x 2 block with
+    eigenvalues ``e^12`` and 1 nearly parallel rows after a shear: ``kappa(G)`` ~1e10, ``Ad``
+    entries of order 1 from sums of order 1e10)."""
+    alg = catalogue(name) if name != "Bianchi III" else bianchi("III")
+    mats = np.ascontiguousarray(representation_for(alg).mats)
+    n = mats.shape[0]
+    proj = np.ascontiguousarray(fs_mod._projector(mats))
+    rng = np.random.default_rng(7)
+    xs = [s * rng.standard_normal(n) for s in (0.3, 0.3, 0.3, 1.5, 1.5, 1.5)]
+    if name == "Bianchi III":
+        xs.append(np.array([6.0, 0.5, 12.0]))
+    G = np.stack([_mp_expm(np.einsum("a,aij->ij", v, mats)) for v in xs])
+    G = np.ascontiguousarray(G if np.iscomplexobj(mats) else G.real)
+    return mats, proj, G
+
+
+@pytest.mark.parametrize("name", [*AD_NAMES, "Bianchi III"])
+def test_sparse_ad_is_the_dense_ad_and_within_its_error_model(name):
+    """:func:`ad_sparse` (the pair's and the residual's ``Ad``) is the dense :func:`ad_batch` bit for
+    bit (the same sums in the same order without their exact-zero terms), and both are ``Ad(g)`` at 40
+    digits within the error model of a backward-stable route: ``G^-1`` is the inverse of a matrix
+    within a few ``r eps |G|`` of ``G`` (Gauss-Jordan with pivoting), which moves it by ``r eps
+    kappa(G) |G^-1|`` (``kappa = |G|_1 |G^-1|_1``), and every entry of ``Ad`` is a sum of at most
+    ``2 r^2`` products bounded by ``S = |proj| vec(|G| |E_b| |G^-1|)`` (numpy), each and their sum
+    rounded to a few ``eps``: bound ``10 r^2 eps kappa max(1, S)``."""
+    mats, proj, G = _ad_cases(name)
+    n, r, _ = mats.shape
+    adt, adc = fk.ad_table(mats, proj)
+    N = G.shape[0]
+    sparse, dense = np.empty((N, n, n)), np.empty((N, n, n))
+    fk.ad_sparse(G, adt, adc, sparse)
+    fk.ad_batch(G, mats, proj, np.iscomplexobj(mats), dense)
+    assert np.all(np.isfinite(sparse))
+    assert np.array_equal(sparse, dense)
+    for k in range(N):
+        exact = _mp_ad(G[k], mats, proj)
+        Gi = np.linalg.inv(G[k])
+        kappa = np.linalg.norm(G[k], 1) * np.linalg.norm(Gi, 1)
+        mag = np.stack([np.abs(G[k]) @ np.abs(mats[b]) @ np.abs(Gi) for b in range(n)])
+        vec = mag.reshape(n, -1)
+        if np.iscomplexobj(mats):
+            vec = np.concatenate([vec, vec], axis=1)
+        S = np.abs(proj) @ vec.T  # (a, b)
+        bound = 10 * r * r * EPS * kappa * max(1.0, S.max())
+        assert np.max(np.abs(sparse[k] - exact)) <= bound, (
+            name,
+            k,
+            np.max(np.abs(sparse[k] - exact)),
+            bound,
+        )
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_sparse_ad_of_a_non_finite_or_singular_g_is_nan(bad):
+    """A ``G`` with one entry NaN or infinite (one the sum never reads among them), or singular: every
+    ``Ad`` entry NaN (so the estimate and the residual refuse the row), as the dense route gives for
+    a failed inverse."""
+    rep = representation_for(catalogue("Bianchi VI0"))
+    mats = np.ascontiguousarray(rep.mats.real)
+    proj = np.ascontiguousarray(fs_mod._projector(mats))
+    adt, adc = fk.ad_table(mats, proj)
+    G = np.stack([np.eye(3)] * 11)
+    for k in range(9):
+        G[k, k // 3, k % 3] = bad
+    G[9] = 0.0  # singular
+    G[10, 2, 2] = 1e-320  # a subnormal pivot
+    out = np.zeros((11, 3, 3))
+    fk.ad_sparse(np.ascontiguousarray(G), adt, adc, out)
+    for k in range(11):  # the subnormal pivot's inverse overflows: G^-1 not finite
+        assert np.all(np.isnan(out[k])), (k, out[k])
+
+
+@pytest.mark.parametrize("name", ["so(4)", "sl(3,R)"])
+def test_sparse_ad_on_a_dense_basis(name):
+    """A random basis (every ``E_b`` and every row of ``proj`` dense, sl(3, R) without a zero entry):
+    :func:`ad_sparse` through its tables is :func:`ad_batch` bit for bit."""
+    rep = representation_for(catalogue(name))
+    mats = np.asarray(rep.mats.real)
+    n = mats.shape[0]
+    T = np.random.default_rng(5).standard_normal((n, n))
+    mats = np.ascontiguousarray(np.einsum("ab,bij->aij", T, mats))
+    proj = np.ascontiguousarray(fs_mod._projector(mats))
+    adt, adc = fk.ad_table(mats, proj)
+    x = 0.4 * np.random.default_rng(6).standard_normal((4, n))
+    G = np.ascontiguousarray(np.stack([_mp_expm(np.einsum("a,aij->ij", v, mats)).real for v in x]))
+    sparse, dense = np.empty((4, n, n)), np.empty((4, n, n))
+    fk.ad_sparse(G, adt, adc, sparse)
+    fk.ad_batch(G, mats, proj, False, dense)
+    assert np.all(np.isfinite(sparse)) and np.array_equal(sparse, dense)

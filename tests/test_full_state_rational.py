@@ -249,9 +249,8 @@ RUNNER_CASES = [
     ("se(2)", False, 3.0),
     ("Bianchi III + cocycle", False, -2.0),
     ("se(3)", True, 1.0),
-    ("su(2)", False, 10.0),
-    ("su(2)", True, -3.0),
-]
+    ("su(2)", False, -10.0),
+]  # one su(2) structure: each compiles its own rational kernel (about 10 s of CPU from a cold cache)
 
 
 def _general(model, x0, pi0, T, tol):

@@ -333,8 +333,9 @@ def test_log_state_central_recovers_x(x):
     xs, ok, resid = np.empty((1, 5)), np.empty(1, np.bool_), np.empty(1)
     Ppinv = np.ascontiguousarray(np.linalg.pinv(ab.P))
     D = np.ascontiguousarray(ab.D)
+    adt, adc = fk.ad_table(mats, proj)
     assert fk.log_state_central(
-        B, np.ascontiguousarray(G), Ad, mats, proj, Ppinv, D, Dr, xs, ok, resid
+        B, np.ascontiguousarray(G), Ad, mats, proj, adt, adc, Ppinv, D, Dr, xs, ok, resid
     )
     assert ok[0]
     assert np.max(np.abs(ab.P @ xs[0] - B[0])) <= 10 * EPS * max(1.0, np.max(np.abs(B)))
@@ -364,8 +365,9 @@ def _pair_case(kind):
     ij = np.array([(i, j) for i in range(r) for j in range(r)], dtype=np.int64)
     gidx = (np.zeros(r * r, np.int64), ij[:, 0].copy(), ij[:, 1].copy(), n)
     entry = getattr(fk, kind)
+    adt, adc = fk.ad_table(mats, proj)
     if kind in ("pair_log", "pair_log_small", "pair_log_so4", "pair_log_so3"):
-        return entry, (n, *gidx, 0.0, mats, proj, False, 0), mats, n, r
+        return entry, (n, *gidx, 0.0, mats, proj, adt, adc, False, 0), mats, n, r
     ab = _AbelianPart.of(f, 1)
     D = np.ascontiguousarray(ab.D)
     tables = (
@@ -374,7 +376,7 @@ def _pair_case(kind):
         D,
         np.ascontiguousarray(np.einsum("ak,aij->kij", D, mats)),
     )
-    return entry, (n, *gidx, mats, proj, *tables, 1e-13), mats, n, r, ab
+    return entry, (n, *gidx, mats, proj, adt, adc, *tables, 1e-13), mats, n, r, ab
 
 
 KINDS = [
@@ -470,6 +472,7 @@ def test_log_state_residual_of_a_non_finite_ad_is_inf(kind, bad):
     x = 0.3 * rng.standard_normal(n)
     G = np.ascontiguousarray(scipy.linalg.expm(np.einsum("a,aij->ij", x, mats))[None])
     proj = args[7] if ab is None else args[6]
+    adt, adc = fk.ad_table(mats, proj)
     Ad = np.empty((1, n, n))
     fk.ad_batch(G, mats, proj, False, Ad)
     Ad[0, 0, n - 1] = bad
@@ -478,18 +481,22 @@ def test_log_state_residual_of_a_non_finite_ad_is_inf(kind, bad):
         if ab is None:
             k = {"pair_log": fk.LOG_GENERAL, "pair_log_small": fk.LOG_SMALL}.get(kind)
             k = {"pair_log_so4": fk.LOG_SO4, "pair_log_so3": fk.LOG_SO3}.get(kind, k)
-            done = fk.log_state(G, Ad, mats, proj, False, 0, xs, ok, resid, k)
+            done = fk.log_state(G, Ad, mats, proj, adt, adc, False, 0, xs, ok, resid, k)
         else:
-            P, Ppinv, D, Dr = args[7:11]
+            P, Ppinv, D, Dr = args[9:13]
             B = np.zeros((1, n + r * r + P.shape[0]))
             B[0, n + r * r :] = P @ x
             if kind == "pair_log_abelian":
-                done = fk.log_state_abelian(B, G, Ad, mats, proj, Ppinv, Dr, xs, ok, resid)
+                done = fk.log_state_abelian(
+                    B, G, Ad, mats, proj, adt, adc, Ppinv, Dr, xs, ok, resid
+                )
             elif kind == "pair_log_central":
-                done = fk.log_state_central(B, G, Ad, mats, proj, Ppinv, D, Dr, xs, ok, resid)
+                done = fk.log_state_central(
+                    B, G, Ad, mats, proj, adt, adc, Ppinv, D, Dr, xs, ok, resid
+                )
             else:
                 k = fk.LOG_GENERAL if kind == "pair_log_refined" else fk.LOG_SMALL
                 done = fk.log_state_refined(
-                    B, G, Ad, mats, proj, P, Ppinv, D, Dr, 1e-13, xs, ok, resid, k
+                    B, G, Ad, mats, proj, adt, adc, P, Ppinv, D, Dr, 1e-13, xs, ok, resid, k
                 )
     assert not (done and ok[0] and np.isfinite(resid[0])), (kind, resid[0])

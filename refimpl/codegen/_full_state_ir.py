@@ -68,7 +68,7 @@ __all__ = [
     "update_intrinsic",
 ]
 
-IR_VERSION = "4"
+IR_VERSION = "5"
 
 # the kinds of a state row's term (the spec's ``(kind, ci, x)``; ``x`` a product or a row)
 PLUS, MINUS, SCALED, LIN_CONST, LIN = range(5)
@@ -251,20 +251,24 @@ def _packed_products(builder, pk, plan, kk, kp1, row_at, fresh, bat, prod) -> No
 
 
 def _order_body(
-    builder, ops, c, sp, kk, kp1, handle, load, store, preload: bool, packed=None
-) -> None:
+    builder, ops, c, sp, kk, kp1, handle, load, store, preload: bool, packed=None, carry=None
+) -> dict:
     """The IR of one order ``k`` of the recurrence, the one body of :func:`order_intrinsic` (one
     trajectory) and :func:`lanes_order_intrinsic` (``W`` lanes): they differ only in addressing and
     share every operation and its order, which keeps a lane bitwise the single kernel's run.
     ``handle(kv)``: the address base of order ``kv``; ``load(row, h)`` / ``store(value, row, h)``: a
     row's value (or vector of lanes) at order base ``h``; ``c``: the coefficients (splat on lanes).
     ``preload``: a chunk's factors all loaded before its multiply-adds (else each as first needed;
-    the loads' order only, not the arithmetic)."""
+    the loads' order only, not the arithmetic). ``carry``: the state rows' values of order ``k``
+    already in registers (used instead of loads). Returns the state rows' values of order ``k + 1``
+    (also stored)."""
     _, derived, chunks, consts, state = sp
     zero = ir.Constant(ir.IntType(64), 0)  # order 0: column 0, offset 0
     hk, hk1 = handle(kk), handle(kp1)
     # derived rows: Omega_k, then M_k
-    fresh = {}  # the derived rows' values of order k (used where they are read again, not loaded)
+    # the values of order k in registers (carried state rows; derived rows once computed): used
+    # where they are read again, not loaded
+    fresh = dict(carry or {})
 
     def kval(row):  # V[row, k]
         return fresh[row] if row in fresh else load(row, hk)
@@ -327,9 +331,29 @@ def _order_body(
             return lambda: _Mul(c[ci], kval(x))
         raise ValueError(f"order: term kind {kind}")
 
+    out = {}
     for row, terms in state:
         v = ops.val(ops.ftree([term(*t) for t in terms])) if terms else ops.zero
-        store(ops.mul(v, ik), row, hk1)
+        out[row] = ops.mul(v, ik)
+        store(out[row], row, hk1)
+    return out
+
+
+def _orders_loop(builder, ty, rows, P, load0, body) -> None:
+    """``for k in range(P): carry = body(k, k + 1, carry)``, the carried values (the state ``rows``'
+    coefficients of the current order, from ``load0(row)`` at ``k = 0``) kept in registers across
+    orders (allocas that LLVM promotes): the next order reads them without a store-to-load round
+    trip through ``V``."""
+    i64 = ir.IntType(64)
+    cur = {r: cgutils.alloca_once(builder, ty) for r in rows}
+    for r in rows:
+        builder.store(load0(r), cur[r])
+    with cgutils.for_range(builder, P) as loop:
+        kk = loop.index
+        carry = {r: builder.load(cur[r]) for r in rows}
+        new = body(kk, builder.add(kk, ir.Constant(i64, 1)), carry)
+        for r in rows:
+            builder.store(new[r], cur[r])
 
 
 def _buffer_at(context, builder, bty, bval, vty):
@@ -351,7 +375,7 @@ def _buffer_at(context, builder, bty, bval, vty):
     return bat
 
 
-def order_intrinsic(sp, W: int = 1, per_loop: int = 8):
+def order_intrinsic(sp, W: int = 1, per_loop: int = 8, loop: bool = False):
     """The intrinsic ``order(V, k, C)`` (``W = 1``) or ``order(V, B, k, C)`` (``W > 1``): the
     order-``k`` body of the recurrence (module docstring) on the coefficient rows ``V`` (``(rows, P +
     1)``, C order), ``C`` the tuple of :func:`load_intrinsic`.
@@ -364,7 +388,11 @@ def order_intrinsic(sp, W: int = 1, per_loop: int = 8):
     ``W > 1``: the general products packed ``W`` to a vector (:func:`pack_plan`, loops of at most
     ``per_loop`` vectors; ``B``: ``(max(1, len(streams)), P + 1, W)`` C order, the packed operand
     buffers, written before read): each product the same chain of multiply-adds as with ``W = 1``
-    (bitwise), ``W`` of them per instruction."""
+    (bitwise), ``W`` of them per instruction.
+
+    ``loop``: the intrinsic ``orders(V, B, P, C)``, the orders ``k = 0 .. P - 1`` in one loop of IR,
+    the state rows' newest coefficients carried in registers from one order to the next
+    (:func:`_orders_loop`; the same operations)."""
     ncoef, derived, chunks, consts, state = sp
     nrows = 1 + max(
         [r for r, t in derived for r in (r, *(x for _, x in t))]
@@ -388,38 +416,48 @@ def order_intrinsic(sp, W: int = 1, per_loop: int = 8):
         def at(row, col):  # &V[row, col]
             return builder.gep(data, [builder.add(base[row], col)], inbounds=True)
 
-        packed = None
-        kp1 = builder.add(kk, ir.Constant(i64, 1))
         if plan is not None:
             pk = _Pack(builder, W, 1)
             bat = _buffer_at(context, builder, sig.args[1], args[1], pk.ops.ty)
 
-            def packed(prod, fresh):
-                _packed_products(
-                    builder,
-                    pk,
-                    plan,
-                    kk,
-                    kp1,
-                    lambda row, col: builder.load(at(row, col)),
-                    fresh,
-                    bat,
-                    prod,
-                )
+        def one(kk, kp1, carry):
+            packed = None
+            if plan is not None:
 
-        _order_body(
-            builder,
-            _FOps(builder),
-            c,
-            sp,
-            kk,
-            kp1,
-            handle=lambda kv: kv,  # the column of order kv
-            load=lambda row, col: builder.load(at(row, col)),
-            store=lambda v, row, col: builder.store(v, at(row, col)),
-            preload=True,
-            packed=packed,
-        )
+                def packed(prod, fresh):
+                    _packed_products(
+                        builder,
+                        pk,
+                        plan,
+                        kk,
+                        kp1,
+                        lambda row, col: builder.load(at(row, col)),
+                        fresh,
+                        bat,
+                        prod,
+                    )
+
+            return _order_body(
+                builder,
+                _FOps(builder),
+                c,
+                sp,
+                kk,
+                kp1,
+                handle=lambda kv: kv,  # the column of order kv
+                load=lambda row, col: builder.load(at(row, col)),
+                store=lambda v, row, col: builder.store(v, at(row, col)),
+                preload=True,
+                packed=packed,
+                carry=carry,
+            )
+
+        if loop:
+            zero = ir.Constant(i64, 0)
+            rows = [r for r, _ in state]
+            _orders_loop(builder, _F64, rows, kk, lambda r: builder.load(at(r, zero)), one)
+        else:
+            one(kk, builder.add(kk, ir.Constant(i64, 1)), None)
         return context.get_dummy_value()
 
     if plan is None:
@@ -445,7 +483,7 @@ def pack_streams(sp, W: int, per_loop: int = 8) -> int:
     return max(1, len(pack_plan(sp[2], W, per_loop)[1]))
 
 
-def lanes_order_intrinsic(sp, W: int, Q: int = 1, per_loop: int = 8):
+def lanes_order_intrinsic(sp, W: int, Q: int = 1, per_loop: int = 8, loop: bool = False):
     """The intrinsic ``order(V, k, C)`` (``Q = 1``) or ``order(V, B, k, C)`` (``Q > 1``) of the
     lane-batched kernel (:func:`refimpl.codegen.full_state_batch.batch_source`) and of the pair
     kernel: the order-``k`` body of the recurrence on ``W`` trajectories at once, ``V[k, row, lane]``
@@ -459,7 +497,8 @@ def lanes_order_intrinsic(sp, W: int, Q: int = 1, per_loop: int = 8):
     side by side in one loop over ``a`` (each distinct factor row loaded once per ``a``). The products
     stay values (never stored into ``V``). ``Q > 1``: the general products ``Q`` to a vector of ``Q W``
     lanes (:func:`pack_plan`, :class:`_Pack`; ``B``: ``(max(1, len(streams)), P + 1, Q W)``), each
-    lane's chain the same (bitwise)."""
+    lane's chain the same (bitwise). ``loop``: ``orders(V, B, P, C)``, the orders ``k = 0 .. P - 1``
+    in one loop of IR as :func:`order_intrinsic`'s."""
     ncoef = sp[0]
     plan = pack_plan(sp[2], Q, per_loop) if Q > 1 else None
 
@@ -482,37 +521,49 @@ def lanes_order_intrinsic(sp, W: int, Q: int = 1, per_loop: int = 8):
         def handle(kv):  # offset of V[kv, 0, 0]
             return builder.mul(kv, stride)
 
-        packed = None
         if plan is not None:
             pk = _Pack(builder, Q, W)
             bat = _buffer_at(context, builder, sig.args[1], args[1], pk.ops.ty)
 
-            def packed(prod, fresh):
-                _packed_products(
-                    builder,
-                    pk,
-                    plan,
-                    kk,
-                    kp1,
-                    lambda row, col: builder.load(at(row, handle(col)), align=8),
-                    fresh,
-                    bat,
-                    prod,
-                )
+        def one(kk, kp1, carry):
+            packed = None
+            if plan is not None:
 
-        _order_body(
-            builder,
-            ops,
-            c,
-            sp,
-            kk,
-            kp1,
-            handle=handle,
-            load=lambda row, off: builder.load(at(row, off), align=8),
-            store=lambda v, row, off: builder.store(v, at(row, off), align=8),
-            preload=False,
-            packed=packed,
-        )
+                def packed(prod, fresh):
+                    _packed_products(
+                        builder,
+                        pk,
+                        plan,
+                        kk,
+                        kp1,
+                        lambda row, col: builder.load(at(row, handle(col)), align=8),
+                        fresh,
+                        bat,
+                        prod,
+                    )
+
+            return _order_body(
+                builder,
+                ops,
+                c,
+                sp,
+                kk,
+                kp1,
+                handle=handle,
+                load=lambda row, off: builder.load(at(row, off), align=8),
+                store=lambda v, row, off: builder.store(v, at(row, off), align=8),
+                preload=False,
+                packed=packed,
+                carry=carry,
+            )
+
+        if loop:
+            zero = ir.Constant(i64, 0)
+            rows = [r for r, _ in sp[4]]
+            load0 = lambda r: builder.load(at(r, zero), align=8)  # noqa: E731
+            _orders_loop(builder, ops.ty, rows, kk, load0, one)
+        else:
+            one(kk, kp1, None)
         return context.get_dummy_value()
 
     if plan is None:

@@ -179,10 +179,10 @@ def full_state_source(fs) -> str:
         f"# the structure (refimpl.codegen.full_state.spec, IR version {ir.IR_VERSION}): ncoef,",
         "# derived rows, product chunks, products with a constant factor, state rows",
         f"SPEC = {sp!r}",
-        f"_order = _full_state_ir.order_intrinsic(SPEC, {W}, {per_loop})",
+        f"_orders = _full_state_ir.order_intrinsic(SPEC, {W}, {per_loop}, True)",
         f"_load = _full_state_ir.load_intrinsic({sp[0]})",
         f"_update = _full_state_ir.update_intrinsic({tuple(vrows)!r})",
-        f"_order2 = _full_state_ir.lanes_order_intrinsic(SPEC, 2, {W // 2}, {PAIR_LOOP})",
+        f"_orders2 = _full_state_ir.lanes_order_intrinsic(SPEC, 2, {W // 2}, {PAIR_LOOP}, True)",
         f"_update2 = _full_state_ir.lane_update_intrinsic({tuple(vrows)!r}, 2)",
         "",
         "",
@@ -221,8 +221,7 @@ def full_state_source(fs) -> str:
         I2 + "nst = 0",
         I2 + "status = 0",
         I2 + "while t < Tabs:",
-        I3 + "for k in range(P):",
-        I4 + "_order(V, B, k, C)",
+        I3 + "_orders(V, B, P, C)",
     ]
     src += [I3 + x for x in step]
     src += [
@@ -277,8 +276,7 @@ def pair_lines(fs, sp, nv: int, vrows: list, srows: list) -> list[str]:
         I2 + "if not (t[l] < Tabs):",
         I3 + "live[l] = False",
         I1 + "while live[0] or live[1]:",
-        I2 + "for k in range(Pm):",
-        I3 + "_order2(V, B, k, C)",
+        I2 + "_orders2(V, B, Pm, C)",
         I2 + "for l in range(2):",
         I3 + "if not live[l]:",
         I4 + "continue",

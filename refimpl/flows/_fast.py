@@ -140,11 +140,19 @@ def cached_model(f, theta, upsilon, inertia, potential) -> NumpyModel:
         and upsilon.dtype is _F64
         and inertia.dtype is _F64
     ):
-        arrays = f.tobytes() + theta.tobytes() + upsilon.tobytes() + inertia.tobytes()
-        shapes = (f.shape, theta.shape, upsilon.shape, inertia.shape)
+        # one flat tuple of the shapes and the bytes (no concatenation: 0.83 -> 0.54 us per call)
         key = None
         if potential is None:
-            key = (shapes, arrays)
+            key = (
+                f.shape,
+                theta.shape,
+                upsilon.shape,
+                inertia.shape,
+                f.tobytes(),
+                theta.tobytes(),
+                upsilon.tobytes(),
+                inertia.tobytes(),
+            )
         elif type(potential) is dict and len(potential) == 3:  # a gravity dict of float64 arrays
             kind, L, gamma = potential.get("kind"), potential.get("L"), potential.get("gamma")
             if (
@@ -154,7 +162,21 @@ def cached_model(f, theta, upsilon, inertia, potential) -> NumpyModel:
                 and L.dtype is _F64
                 and gamma.dtype is _F64
             ):
-                key = (shapes, arrays, kind, L.shape, gamma.shape, L.tobytes() + gamma.tobytes())
+                key = (
+                    f.shape,
+                    theta.shape,
+                    upsilon.shape,
+                    inertia.shape,
+                    f.tobytes(),
+                    theta.tobytes(),
+                    upsilon.tobytes(),
+                    inertia.tobytes(),
+                    kind,
+                    L.shape,
+                    gamma.shape,
+                    L.tobytes(),
+                    gamma.tobytes(),
+                )
         if key is not None:
             last = _LAST[0]  # the same inputs as the last call: compared, not hashed (issue 25)
             if last is not None and last[0] == key:
@@ -341,6 +363,24 @@ def _flow_one(model: NumpyModel, x0, pi0, tv: float, tol: float):
     return run(x0, pi0, tv)  # None: an entry not finite, or beyond MAX_MAGNITUDE (issue 30)
 
 
+def flow_one(f, theta, upsilon, inertia, potential, x0, pi0, t, tol):
+    """:func:`fast_flow`'s protocol call of one trajectory (issue 25), default method and steps:
+    :func:`_flow_one` where ``t`` is a float (or numpy float64) with ``0 < |t| < 256`` and ``tol`` a
+    float in ``[MIN_FLOW_TOL, inf)``, else None (as where :func:`_flow_one` says None: the general
+    route then checks and refuses). Positional, so that :meth:`refimpl.fast.Fast.flow` calls it
+    without :func:`fast_flow`'s keyword binding first."""
+    if (
+        (type(t) is float or type(t) is _NP_F64)
+        and type(tol) is float
+        and 0.0 < abs(t) < 256.0
+        and MIN_FLOW_TOL <= tol < math.inf
+    ):
+        return _flow_one(
+            cached_model(f, theta, upsilon, inertia, potential), x0, pi0, float(t), tol
+        )
+    return None
+
+
 def fast_flow(
     f,
     theta,
@@ -374,16 +414,8 @@ def fast_flow(
     degenerate set (naming them), trajectories that reach it, and algebras whose representation
     cannot be built (:class:`refimpl._representation.RepresentationError`).
     """
-    if (  # the protocol call of one trajectory (issue 25): t, tol as _flow_one takes them
-        steps is None
-        and method_name is None
-        and not return_group
-        and (type(t) is float or type(t) is _NP_F64)
-        and type(tol) is float
-        and 0.0 < abs(t) < 256.0
-        and MIN_FLOW_TOL <= tol < math.inf
-    ):
-        one = _flow_one(cached_model(f, theta, upsilon, inertia, potential), x0, pi0, float(t), tol)
+    if steps is None and method_name is None and not return_group:
+        one = flow_one(f, theta, upsilon, inertia, potential, x0, pi0, t, tol)
         if one is not None:  # None: not that call (the general route below checks and refuses)
             return one
     # plain float t: the exact conversion of check_time is the identity (the same checks, no mpmath)

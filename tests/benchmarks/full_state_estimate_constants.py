@@ -91,7 +91,7 @@ def first_pair(p, order_a: int):
         s = FS._scratch(fs)
         X, P = p.x0[:, None].copy(), p.pi0[:, None].copy()
         fk.start(X, P, *fs.start_consts, s[0])
-        e = FS._pair_of(fs)(s[0], float(p.T), s)
+        e, _ = FS._pair_of(fs)(s[0], float(p.T), s)
     finally:
         FS._FIRST_ORDERS = keep
         fs.__dict__.pop("_pair", None)
