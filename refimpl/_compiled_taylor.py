@@ -259,9 +259,9 @@ def unrolled_adaptive(cf: CompiledField, order: int):
 def unrolled_pair(cf: CompiledField, order: int):
     """The unrolled pair kernel ``pair(y0, T, tol_a, tol_b, max_steps, q, l, out_a, out_b, steps_a,
     steps_b)`` of ``cf`` at ``order`` (:func:`refimpl.codegen.taylor.unrolled_source`: the kernel
-    ``adaptive`` at two local tolerances, the two runs on the two lanes of one vector; each run's result
-    and steps those of ``adaptive`` at its tolerance), or None as :func:`unrolled_adaptive`; called as
-    it is, without checks."""
+    ``adaptive`` at two local tolerances, the two runs on the lanes of one vector while both go on, the
+    one left over alone; each run's result and steps those of ``adaptive`` at its tolerance, bit for
+    bit), or None as :func:`unrolled_adaptive`; called as it is, without checks."""
     mod = _unrolled_module(cf, int(order))
     return None if mod is None else mod.pair
 

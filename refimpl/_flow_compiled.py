@@ -84,8 +84,8 @@ A_LOOSE_FROM = 1e-10  # from here on 30 kappa 1e-13 <= tol for amplifications ka
 A_LOOSE_FULL = A_LOOSE
 """``A``'s local tolerance for ``tol >= A_LOOSE_FROM`` on the su(2) quaternion full state with
 ``Upsilon = 0`` (:func:`compiled_taylor_flow`), now :data:`A_LOOSE` (issue 25, session 6; it was 1e-6,
-measured below). One trajectory runs ``A`` and ``B`` on the two lanes of one vector (the pair kernel,
-:func:`_first_pair`), where ``A`` costs nothing while it takes fewer steps than ``B``: its tolerance is
+measured below). One trajectory runs ``A`` and ``B`` on the lanes of one vector while both go on (the
+pair kernel, :func:`_first_pair`), where ``A`` costs little while it takes fewer steps than ``B``: its tolerance is
 chosen for the estimate, and at 1e-8 the first pair fails far less often (2000 starts around each
 problem, reports._bench_protocol.batch_initial, T = 100: the fraction whose first pair's estimate is
 over the default ``tol = 1e-10``, A at 1e-6 / 1e-7 / 1e-8, B at Jorba-Zou's order 16 where
@@ -524,9 +524,9 @@ def _pair_kernel(cf, eps_b: float):
 def _first_pair(model, y0, t, eps_a, eps_b, n, tol):
     """One trajectory, ``Upsilon = 0``: the first pair of :func:`_control` (``A`` at ``eps_a`` and ``B`` at
     ``eps_b``, both at ``B``'s order as :func:`_run_cf` runs them) in one call of the unrolled pair
-    kernel (:func:`refimpl._compiled_taylor.unrolled_pair`: the two runs on the two lanes of one vector,
-    each run's result that of the single kernel at its tolerance; heavy top T = 100: 295.6 against
-    390.1 us for the two runs, best of 30 interleaved, load 1.5), and its estimate and logarithm in
+    kernel (:func:`refimpl._compiled_taylor.unrolled_pair`: the two runs on the lanes of one vector
+    while both go on, then the one left over alone, each run's result that of the single kernel at
+    its tolerance, bit for bit), and its estimate and logarithm in
     one compiled call (``_finish``), with none of the per-call checks of the general path (about 25
     us of Python on the protocol call). Returns ``(B, steps of B, x,
     estimate)`` when the pair passes (the estimate of :func:`_control`'s first pair: ``|A - B|`` or its

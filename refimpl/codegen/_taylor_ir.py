@@ -49,7 +49,7 @@ __all__ = [
     "update_intrinsic",
 ]
 
-IR_VERSION = "2"
+IR_VERSION = "3"
 _F64 = None if ir is None else ir.DoubleType()
 _FLAGS = ("contract",)
 
@@ -348,9 +348,10 @@ def _coefficients_packed(ops, sp, y0, qv, lv, R: int, width: int) -> list:
     fac: dict[tuple, object] = {}
 
     def factor(g, side, a):  # the pack's factors (side 0: i, 1: j) of order a, one vector
-        key = (g, side, a)
+        comps = tuple(mons[m][side] for m in packs[g])
+        key = (comps, a)  # packs with the same components on a side share that vector
         if key not in fac:
-            vs = [y[mons[m][side], a] for m in packs[g]]
+            vs = [y[c, a] for c in comps]
             if R == 1:
                 fac[key] = wops(len(vs)).pack(vs)
             else:
