@@ -39,6 +39,10 @@ SKIP_FUNCTIONS = {
     "tstarg.refimpl.codegen._loader.import_source": "imports generated kernel source",
     "tstarg.refimpl.codegen.define": "executes generated kernel source",
     "tstarg.refimpl.codegen.import_source": "imports generated kernel source",
+    # they write the package's own shipped paper index (oracles/paper_index.json) by default: a walk
+    # with a string for the paper's text replaced the repository's index (found after a slow run)
+    "tstarg.oracles.paper_index.write_index": "writes the shipped index into the package",
+    "tstarg.oracles.paper_index.main": "writes the shipped index into the package",
     # suite runners: (max_examples, seed), no model numbers; walked once (no string ran), they run
     # the whole suite with max_examples = 1 whatever the seed (20 min under load): left out
     "tstarg.oracles.oracle_checks.oracle_checks": "runs the oracle suite",
