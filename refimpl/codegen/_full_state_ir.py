@@ -108,6 +108,28 @@ def load_intrinsic(ncoef: int):
     return load
 
 
+def _order_of(codegen, ncoef: int, ndim: int, packed: bool):
+    """The intrinsic of ``codegen`` with its argument checks: ``order(V, k, C)``, or ``order(V, B, k,
+    C)`` where the products are ``packed`` (``B`` the packed factor streams, 3-d); ``V`` ``ndim``-d
+    (2: one trajectory, 3: lanes)."""
+    if not packed:
+
+        @intrinsic
+        def order(typingctx, V, k, C):
+            _check_order_args(V, k, C, ncoef, ndim)
+            return types.none(V, k, C), codegen
+
+        return order
+
+    @intrinsic
+    def order(typingctx, V, B, k, C):
+        _check_order_args(V, k, C, ncoef, ndim)
+        _check_array("order", B, 3)
+        return types.none(V, B, k, C), codegen
+
+    return order
+
+
 def _check_order_args(V, k, C, ncoef: int, ndim: int) -> None:
     _check_array("order", V, ndim)
     if not (
@@ -460,22 +482,7 @@ def order_intrinsic(sp, W: int = 1, per_loop: int = 8, loop: bool = False):
             one(kk, builder.add(kk, ir.Constant(i64, 1)), None)
         return context.get_dummy_value()
 
-    if plan is None:
-
-        @intrinsic
-        def order(typingctx, V, k, C):
-            _check_order_args(V, k, C, ncoef, 2)
-            return types.none(V, k, C), codegen
-
-    else:
-
-        @intrinsic
-        def order(typingctx, V, B, k, C):
-            _check_order_args(V, k, C, ncoef, 2)
-            _check_array("order", B, 3)
-            return types.none(V, B, k, C), codegen
-
-    return order
+    return _order_of(codegen, ncoef, 2, plan is not None)
 
 
 def pack_streams(sp, W: int, per_loop: int = 8) -> int:
@@ -566,22 +573,7 @@ def lanes_order_intrinsic(sp, W: int, Q: int = 1, per_loop: int = 8, loop: bool 
             one(kk, kp1, None)
         return context.get_dummy_value()
 
-    if plan is None:
-
-        @intrinsic
-        def order(typingctx, V, k, C):
-            _check_order_args(V, k, C, ncoef, 3)
-            return types.none(V, k, C), codegen
-
-    else:
-
-        @intrinsic
-        def order(typingctx, V, B, k, C):
-            _check_order_args(V, k, C, ncoef, 3)
-            _check_array("order", B, 3)
-            return types.none(V, B, k, C), codegen
-
-    return order
+    return _order_of(codegen, ncoef, 3, plan is not None)
 
 
 def _horner_update(builder, ops, nrows, at, cat, h, pp):

@@ -142,17 +142,18 @@ def cached_model(f, theta, upsilon, inertia, potential) -> NumpyModel:
     ):
         # one flat tuple of the shapes and the bytes (no concatenation: 0.83 -> 0.54 us per call)
         key = None
+        base = (
+            f.shape,
+            theta.shape,
+            upsilon.shape,
+            inertia.shape,
+            f.tobytes(),
+            theta.tobytes(),
+            upsilon.tobytes(),
+            inertia.tobytes(),
+        )
         if potential is None:
-            key = (
-                f.shape,
-                theta.shape,
-                upsilon.shape,
-                inertia.shape,
-                f.tobytes(),
-                theta.tobytes(),
-                upsilon.tobytes(),
-                inertia.tobytes(),
-            )
+            key = base
         elif type(potential) is dict and len(potential) == 3:  # a gravity dict of float64 arrays
             kind, L, gamma = potential.get("kind"), potential.get("L"), potential.get("gamma")
             if (
@@ -162,15 +163,7 @@ def cached_model(f, theta, upsilon, inertia, potential) -> NumpyModel:
                 and L.dtype is _F64
                 and gamma.dtype is _F64
             ):
-                key = (
-                    f.shape,
-                    theta.shape,
-                    upsilon.shape,
-                    inertia.shape,
-                    f.tobytes(),
-                    theta.tobytes(),
-                    upsilon.tobytes(),
-                    inertia.tobytes(),
+                key = base + (
                     kind,
                     L.shape,
                     gamma.shape,
