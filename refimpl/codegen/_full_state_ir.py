@@ -108,6 +108,26 @@ def load_intrinsic(ncoef: int):
     return load
 
 
+def _packer(context, builder, sig, args, plan, Q: int, W: int, load_col):
+    """``packed_at(kk, kp1)``: :func:`_order_body`'s ``packed`` hook at order ``kk`` (None where
+    ``plan`` is None: no packing), the general products ``Q`` to a vector of ``Q W`` lanes
+    (:class:`_Pack`) from the packed operand buffers ``B`` (the intrinsic's second argument);
+    ``load_col(row, col)``: a row's value (or lanes) at the order ``col``. The one hook of the single
+    and the lane bodies, which differ only in addressing and vector shape."""
+    if plan is None:
+        return lambda kk, kp1: None
+    pk = _Pack(builder, Q, W)
+    bat = _buffer_at(context, builder, sig.args[1], args[1], pk.ops.ty)
+
+    def packed_at(kk, kp1):
+        def packed(prod, fresh):
+            _packed_products(builder, pk, plan, kk, kp1, load_col, fresh, bat, prod)
+
+        return packed
+
+    return packed_at
+
+
 def _order_of(codegen, ncoef: int, ndim: int, packed: bool):
     """The intrinsic of ``codegen`` with its argument checks: ``order(V, k, C)``, or ``order(V, B, k,
     C)`` where the products are ``packed`` (``B`` the packed factor streams, 3-d); ``V`` ``ndim``-d
@@ -438,27 +458,12 @@ def order_intrinsic(sp, W: int = 1, per_loop: int = 8, loop: bool = False):
         def at(row, col):  # &V[row, col]
             return builder.gep(data, [builder.add(base[row], col)], inbounds=True)
 
-        if plan is not None:
-            pk = _Pack(builder, W, 1)
-            bat = _buffer_at(context, builder, sig.args[1], args[1], pk.ops.ty)
+        packed_at = _packer(
+            context, builder, sig, args, plan, W, 1, lambda row, col: builder.load(at(row, col))
+        )
 
         def one(kk, kp1, carry):
-            packed = None
-            if plan is not None:
-
-                def packed(prod, fresh):
-                    _packed_products(
-                        builder,
-                        pk,
-                        plan,
-                        kk,
-                        kp1,
-                        lambda row, col: builder.load(at(row, col)),
-                        fresh,
-                        bat,
-                        prod,
-                    )
-
+            packed = packed_at(kk, kp1)
             return _order_body(
                 builder,
                 _FOps(builder),
@@ -528,27 +533,19 @@ def lanes_order_intrinsic(sp, W: int, Q: int = 1, per_loop: int = 8, loop: bool 
         def handle(kv):  # offset of V[kv, 0, 0]
             return builder.mul(kv, stride)
 
-        if plan is not None:
-            pk = _Pack(builder, Q, W)
-            bat = _buffer_at(context, builder, sig.args[1], args[1], pk.ops.ty)
+        packed_at = _packer(
+            context,
+            builder,
+            sig,
+            args,
+            plan,
+            Q,
+            W,
+            lambda row, col: builder.load(at(row, handle(col)), align=8),
+        )
 
         def one(kk, kp1, carry):
-            packed = None
-            if plan is not None:
-
-                def packed(prod, fresh):
-                    _packed_products(
-                        builder,
-                        pk,
-                        plan,
-                        kk,
-                        kp1,
-                        lambda row, col: builder.load(at(row, handle(col)), align=8),
-                        fresh,
-                        bat,
-                        prod,
-                    )
-
+            packed = packed_at(kk, kp1)
             return _order_body(
                 builder,
                 ops,
