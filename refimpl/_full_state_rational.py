@@ -339,12 +339,6 @@ def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None), ref
     tables, cmax, kernel = rfs.tables(), float(_cr.COND_MAX), _fk.adaptive
     degenerate = start_check(model, fixed_types=True)  # P[:, 0] of the pool's (n, 1) arrays
     log = fs.log_pair  # as _Answer.measure calls it
-    largs = getattr(fs, "log_args", None)  # the logarithm's constant arguments, where fs keeps them
-    if largs is None:
-        if fs.refine:
-            largs = (n, *fs.gidx, fs.mats, fs.proj, *fs.abelian_tables, _fs.ABELIAN_RTOL)
-        else:
-            largs = (n, *fs.gidx, fs.unit, fs.mats, fs.proj, fs.cplx, fs.ab_mode)
     pmin, floor_one, max_steps = _fs.PROP_MIN_B_RATIONAL, _fs._floor_one, _fs.MAX_STEPS
     pool = []
     kernel_, log_, start_ = kernel, log, start
@@ -367,7 +361,7 @@ def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None), ref
             out = rational_full_state_flow(model, X, P, t, tol, abelian=abelian)
             pool.append((s, X, P, ends))
             return finite_one(out["x"][:, 0], out["pi"][:, 0], t)
-        y0, A, B, sB = s[0], s[1], s[2], s[4]
+        y0, B, sB = s[0], s[2], s[4]
         G, Ad, est, size, xs, ok, resid = s[5:12]
         start_(X, P, *consts, y0)
         AB, steps, (te, co) = s[12], s[13], ends
@@ -377,12 +371,12 @@ def one_trajectory(model, tol: float, abelian=None, limits=(math.inf, None), ref
             if steps[i] < 0:  # A first, as the control names it
                 j = slice(i, i + 1)
                 _cr._raise_failed(AB[j], steps[j], te[j], co[j], t, _cr.COND_MAX, SENSITIVITY)
-        if not log_(A, B, *largs, G, Ad, est, size, xs, ok, resid):
+        if not log_(*s[14]):  # the scratch's whole argument tuple (refimpl._full_state._scratch)
             _fs._log_complete(fs, B, G, Ad, xs, ok, resid)
         if kernel_ is kernel:  # the first call: the entry points of the types it used
             start_ = entry_point(start, (X, P, *consts, y0))
             kernel_ = entry_point(kernel, kargs)
-            log_ = entry_point(log, (A, B, *largs, G, Ad, est, size, xs, ok, resid))
+            log_ = entry_point(log, s[14])
         dv = est.item()
         e = first_estimate(dv, eps_a, eps_b, pmin, PROP_MAX_D)
         if e + floor_one(sB.item(), n, size.item(), dv / eps_a, resid.item()) <= tol:
